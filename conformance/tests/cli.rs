@@ -1,0 +1,118 @@
+//! The `pmacwd` command line as a user meets it: exit codes, and errors that name
+//! file:line:col for a broken spec directory.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn pmacwd() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_pmacwd"))
+}
+
+fn specs_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../specs")
+}
+
+/// A copy of the shipped spec files in a fresh temporary directory, with `edit` applied to
+/// one of them.
+fn broken_specs(name: &str, file: &str, edit: impl Fn(&str) -> String) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("pmacwd-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for f in pmacwd_specs::Spec::file_names() {
+        let text = std::fs::read_to_string(specs_dir().join(f)).unwrap();
+        let text = if f == file { edit(&text) } else { text };
+        assert!(f != file || text != std::fs::read_to_string(specs_dir().join(f)).unwrap(), "the edit changed nothing");
+        std::fs::write(dir.join(f), text).unwrap();
+    }
+    dir
+}
+
+fn line_of(text: &str, needle: &str) -> usize {
+    text.lines().position(|l| l.contains(needle)).expect("needle present") + 1
+}
+
+#[test]
+fn check_of_the_embedded_specs_passes_and_prints_its_figures() {
+    let out = pmacwd().args(["check", "--configuration", "lockout", "--profile", "um-215"]).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("states, depth"), "{stdout}");
+    assert!(
+        stdout.contains("holds    always    a locked I-variable never changes through an I-variable write"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("every property holds"), "{stdout}");
+}
+
+#[test]
+fn check_of_the_shipped_spec_directory_from_disk_passes() {
+    let out = pmacwd().args(["check", "--configuration", "lockout"]).arg("--specs").arg(specs_dir()).output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stdout));
+}
+
+#[test]
+fn a_misspelled_key_is_rejected_with_file_line_column_and_exit_2() {
+    let dir = broken_specs("misspelled", "variables.yaml", |t| {
+        t.replacen("    units: servo cycles\n", "    unit: servo cycles\n", 1)
+    });
+    let text = std::fs::read_to_string(dir.join("variables.yaml")).unwrap();
+    let line = line_of(&text, "    unit: servo cycles");
+    let out = pmacwd().arg("check").arg("--specs").arg(&dir).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&format!("variables.yaml:{line}:5: ")), "{stderr}");
+    assert!(stderr.contains("unknown field `unit`"), "{stderr}");
+}
+
+#[test]
+fn a_duplicated_status_bit_is_rejected_at_the_second_occurrence() {
+    // Give bit 21 of the first word the key of bit 22: two `22:` entries in one word.
+    let dir = broken_specs("dupbit", "status.yaml", |t| {
+        let at = t.find("      21:").expect("bit 21 of the first word");
+        format!("{}      22:{}", &t[..at], &t[at + "      21:".len()..])
+    });
+    let text = std::fs::read_to_string(dir.join("status.yaml")).unwrap();
+    let second = text.lines().enumerate().filter(|(_, l)| l.starts_with("      22:")).nth(1).unwrap().0 + 1;
+    let out = pmacwd().arg("check").arg("--specs").arg(&dir).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&format!("status.yaml:{second}:7: duplicate key `22`")), "{stderr}");
+}
+
+#[test]
+fn an_i40_range_beyond_16_bits_is_rejected_at_the_range() {
+    let dir =
+        broken_specs("i40range", "variables.yaml", |t| t.replacen("{min: 0, max: 65535}", "{min: 0, max: 70000}", 1));
+    let text = std::fs::read_to_string(dir.join("variables.yaml")).unwrap();
+    let line = line_of(&text, "max: 70000");
+    let out = pmacwd().arg("check").arg("--specs").arg(&dir).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "variables.yaml:{line}:5: I40: range 0..=70000 is outside what I40 can hold (0..=65535)"
+        )),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn an_unknown_profile_or_a_missing_directory_is_unusable_input() {
+    let out = pmacwd().args(["check", "--profile", "no-such-profile"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no profile named `no-such-profile`"));
+    let out = pmacwd().args(["check", "--specs", "/nonexistent/specs"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn a_host_command_the_model_cannot_represent_is_rejected_in_check_yaml() {
+    let dir = broken_specs("badcmd", "check.yaml", |t| t.replacen("\"RHX:$1080\"", "\"RHX:$1234\"", 1));
+    let text = std::fs::read_to_string(dir.join("check.yaml")).unwrap();
+    let line = line_of(&text, "RHX:$1234");
+    let out = pmacwd().arg("check").arg("--specs").arg(&dir).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&format!("check.yaml:{line}:")), "{stderr}");
+    assert!(stderr.contains("no register at X:$001234"), "{stderr}");
+}

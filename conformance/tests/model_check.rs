@@ -1,0 +1,120 @@
+//! The model check as CI runs it: every profile at the embedded configurations, with the
+//! state counts pinned so that any change to the semantics or the state shows up here first.
+
+use pmacwd_conformance::check::{planned_runs, run, Selection};
+use pmacwd_model::checker::{Canary, WatchdogModel};
+use pmacwd_model::config::ModelConfig;
+use pmacwd_model::properties::Expectation;
+use pmacwd_specs::Spec;
+use std::collections::{BTreeMap, BTreeSet};
+
+/// (configuration, profile) -> unique states. Update deliberately, saying why in the commit.
+const PINNED_STATES: &[(&str, &str, usize)] = &[
+    ("timing", "um-215", 57_536),
+    ("timing", "srm-57", 59_968),
+    ("timing", "srm-57-sticky-bit9", 65_464),
+    ("timing", "um-215-4095", 57_536),
+    ("timing", "um-215-50hz", 57_536),
+    ("timing", "um-215-literal-plc", 57_536),
+    ("timing", "um-215-m83", 57_536),
+    ("status", "um-215", 26_019),
+    ("status", "srm-57", 31_731),
+    ("status", "srm-57-sticky-bit9", 31_731),
+    ("status", "um-215-4095", 26_019),
+    ("status", "um-215-50hz", 26_019),
+    ("status", "um-215-literal-plc", 26_019),
+    ("status", "um-215-m83", 26_019),
+    ("lockout", "um-215", 3_408),
+    ("lockout", "srm-57", 4_176),
+    ("lockout", "srm-57-sticky-bit9", 4_176),
+    ("lockout", "um-215-4095", 3_408),
+    ("lockout", "um-215-50hz", 3_408),
+    ("lockout", "um-215-literal-plc", 3_408),
+    ("lockout", "um-215-m83", 3_408),
+    ("i40-zero", "um-215", 3_578),
+    ("i40-zero", "srm-57", 17_840),
+    ("i40-zero", "um-215-4095", 3_668),
+    ("i40-zero", "um-215-50hz", 3_578),
+];
+
+#[test]
+fn every_property_holds_for_every_profile_and_the_state_counts_are_the_pinned_ones() {
+    let spec = Spec::embedded().unwrap();
+    let runs = planned_runs(&spec, &Selection::default()).unwrap();
+    assert_eq!(runs.len(), PINNED_STATES.len(), "a run was added or removed: pin its state count");
+    let mut reached: BTreeMap<String, BTreeSet<&'static str>> = BTreeMap::new();
+    for cfg in runs {
+        let report = run(cfg, 2);
+        for p in &report.properties {
+            assert!(
+                p.holds,
+                "{} / {}: `{}` fails; run `pmacwd check --configuration {} --profile {}`",
+                report.configuration, report.profile, p.name, report.configuration, report.profile
+            );
+            if p.expectation == Expectation::Sometimes && p.applicable {
+                reached.entry(report.profile.clone()).or_default().insert(p.name);
+            }
+        }
+        let pinned = PINNED_STATES
+            .iter()
+            .find(|(c, p, _)| *c == report.configuration && *p == report.profile)
+            .unwrap_or_else(|| panic!("no pinned count for {} / {}", report.configuration, report.profile));
+        assert_eq!(report.states, pinned.2, "state count of {} / {} changed", report.configuration, report.profile);
+    }
+    // A `sometimes` property that no configuration of a profile reaches would be reported as
+    // "n/a" everywhere and prove nothing: each must be reached somewhere, under every profile.
+    let all: BTreeSet<&str> = pmacwd_model::checker::property_table()
+        .iter()
+        .filter(|p| p.expectation == Expectation::Sometimes)
+        .map(|p| p.name)
+        .collect();
+    for profile in spec.profiles.profiles.keys() {
+        let missing: Vec<_> = all.difference(reached.get(profile).unwrap_or(&BTreeSet::new())).copied().collect();
+        assert!(missing.is_empty(), "profile {profile}: never reached {missing:?}");
+    }
+}
+
+#[test]
+fn there_are_at_least_25_named_properties_each_with_a_citation() {
+    let table = pmacwd_model::checker::property_table();
+    assert!(table.len() >= 25, "{} properties", table.len());
+    let names: BTreeSet<_> = table.iter().map(|p| p.name).collect();
+    assert_eq!(names.len(), table.len(), "property names are unique");
+    for p in &table {
+        pmacwd_specs::cite::Cite::parse(p.cite.split(';').next().unwrap())
+            .unwrap_or_else(|e| panic!("{}: {e}", p.name));
+        assert!(!p.sentence.is_empty());
+    }
+}
+
+fn canary(canary: Canary, configuration: &str) -> pmacwd_model::checker::RunReport {
+    let spec = Spec::embedded().unwrap();
+    let cfg = ModelConfig::from_spec(&spec, configuration, &spec.profiles.default_profile()).unwrap();
+    WatchdogModel { cfg, canary: Some(canary) }.check(2)
+}
+
+#[test]
+fn canary_a_model_that_ignores_i41_is_caught_with_the_shortest_counterexample() {
+    // The checker must be able to fail: a model whose locked writes take effect.
+    let report = canary(Canary::LockoutIgnored, "lockout");
+    let p = report
+        .properties
+        .iter()
+        .find(|p| p.name == "a locked I-variable never changes through an I-variable write")
+        .unwrap();
+    assert!(!p.holds);
+    let path = p.path.as_ref().expect("a counterexample is reported");
+    let events: Vec<String> = path.iter().map(|s| s.event.to_string()).collect();
+    // Shortest: lock motor setup, then write a motor-setup variable.
+    assert_eq!(events, ["host sends `I41=1`", "host sends `I130=1`"]);
+}
+
+#[test]
+fn canary_a_model_whose_trip_is_not_latched_is_caught() {
+    // A good supply alone must not undo an undervoltage trip (UM p.215: latched).
+    let report = canary(Canary::SupplyRestoreUntrips, "timing");
+    let p = report.properties.iter().find(|p| p.name == "a trip is undone only by INIT/ or a power cycle").unwrap();
+    assert!(!p.holds);
+    let events: Vec<String> = p.path.as_ref().unwrap().iter().map(|s| s.event.to_string()).collect();
+    assert_eq!(events, ["supply 4.500 V", "supply 5.000 V"]);
+}

@@ -1,0 +1,582 @@
+//! The controller as the manuals describe it, one event at a time.
+//!
+//! This is the reference semantics: plain, tick-by-tick, every rule next to its citation.
+//! Time is counted in servo cycles. [`Controller::apply`] takes one [`Event`] and returns what
+//! a host or an instrument could observe afterwards.
+//!
+//! Modelling choices the manuals leave open are marked `MODEL:` and explained where made.
+
+use crate::command::{Buffer, HostCommand, Register};
+use crate::config::ModelConfig;
+use crate::event::{Event, Reply};
+use pmacwd_specs::check::{ChecksumTarget, Load, ResetEvent, ResetKind};
+use pmacwd_specs::profiles::{Bit12Meaning, RtiWarningLatch, StrobeStop, Strober};
+use pmacwd_specs::status::WordId;
+use std::collections::BTreeMap;
+
+/// Why the hardware timer tripped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum TripCause {
+    /// Supply below about 4.75 V (UM p.215).
+    Undervoltage,
+    /// No strobe edge for longer than the hardware delay (UM p.215: under-frequency).
+    StrobeTimeout,
+}
+
+/// The status conditions the model drives; the words are built from these by name
+/// ([`Controller::status_words`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct StatusFlags {
+    /// X bit 22: an RTI came while the previous RTI tasks still ran; sticky (SRM p.289).
+    pub rti_reentry: bool,
+    /// X bit 9: an RTI task set took more than one RTI period (SRM p.290).
+    pub rti_warning: bool,
+    /// X bit 20: the servo routines could not complete (SRM p.289).
+    pub servo_error: bool,
+    /// X bit 11: the reset-time DPRAM check failed (SRM p.289).
+    pub dpram_error: bool,
+    /// X bit 10: reading saved data from flash at reset failed its checksum (SRM p.289).
+    pub flash_error: bool,
+    /// Y bit 17: a PLC buffer is open (GlobalStatus.py).
+    pub plc_buffer_open: bool,
+    /// Y bit 19: a motion program buffer is open (GlobalStatus.py).
+    pub motion_buffer_open: bool,
+}
+
+/// The background checksum engine of UM p.217: it alternates between the firmware and the
+/// user-program area, one step per background cycle, and stops for good on a mismatch.
+///
+/// MODEL: the model does not sum real memory. Each area's contents and its reference are
+/// small tokens; an injected fault changes the contents, closing a buffer copies the program
+/// contents into its reference (X:$1090), and a pass compares the two. X:$1080 is represented
+/// by the engine's position, which changes every background cycle while the engine runs and
+/// stays put once it stops: the only property of X:$1080 the manuals state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ChecksumEngine {
+    pub area: ChecksumTarget,
+    /// Background cycles done in the current pass.
+    pub position: u8,
+    /// The area whose mismatch stopped the engine (UM p.217), if any.
+    pub error: Option<ChecksumTarget>,
+    pub firmware: u8,
+    pub firmware_reference: u8,
+    pub program: u8,
+    /// X:$001090: the program checksum computed when a buffer was last closed (UM p.217).
+    pub program_reference: u8,
+}
+
+impl ChecksumEngine {
+    fn fresh() -> Self {
+        ChecksumEngine {
+            area: ChecksumTarget::Firmware,
+            position: 0,
+            error: None,
+            firmware: 0,
+            firmware_reference: 0,
+            program: 0,
+            program_reference: 0,
+        }
+    }
+
+    /// X:$001080 as the model represents it.
+    pub fn running_value(&self) -> u32 {
+        let area = match self.area {
+            ChecksumTarget::Firmware => 0,
+            ChecksumTarget::UserProgram => 1,
+        };
+        (area << 8) | u32::from(self.position)
+    }
+}
+
+/// Bookkeeping that no rule reads; it exists so properties can be stated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Ghost {
+    /// Servo cycles since the last background cycle (or reset).
+    pub cycles_since_background: u32,
+    /// The value the counter was last loaded with.
+    pub last_reload: i32,
+    /// How the card last left a tripped state, for the recovery witnesses.
+    pub recovered_by: Option<ResetKind>,
+}
+
+/// The whole controller state.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Controller {
+    /// The hardware watchdog has tripped: latched reset state (UM p.215).
+    pub trip: Option<TripCause>,
+    pub supply_low: bool,
+    /// Started in bootstrap mode: `???` answers `BOOTSTRAP PROM` (SRM p.289).
+    pub bootstrap: bool,
+    /// Y:$000025.
+    pub counter: i32,
+    /// X:$000025.
+    pub counter_min: i32,
+    /// Servo cycles since the last strobe edge reached the hardware timer.
+    pub cycles_since_strobe: u32,
+    /// Servo cycles since the last RTI (0..=I8).
+    pub rti_phase: u16,
+    /// CPU units of the current RTI task set not yet done.
+    pub rti_remaining: u32,
+    /// CPU units the background has had toward its current cycle (capped at its cost).
+    pub background_credit: u32,
+    pub load: Load,
+    pub i8: u8,
+    pub i40: u16,
+    pub i41: u8,
+    /// Every other I-variable written since reset (all read 0 otherwise).
+    pub other_i_variables: BTreeMap<u16, i64>,
+    pub status: StatusFlags,
+    pub checksum: ChecksumEngine,
+    /// X:$000000, masked to the configured width.
+    pub servo_cycles: u32,
+    pub ghost: Ghost,
+}
+
+/// What one servo cycle did, for monitors and traces.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CycleReport {
+    pub rti_started: bool,
+    pub rti_overrun: bool,
+    pub strobed: bool,
+}
+
+impl Controller {
+    /// The card after power-up with the configured saved I-variables and first load.
+    pub fn power_on(cfg: &ModelConfig) -> Controller {
+        let mut c = Controller {
+            trip: None,
+            supply_low: false,
+            bootstrap: false,
+            counter: 0,
+            counter_min: 0,
+            cycles_since_strobe: 0,
+            rti_phase: 0,
+            rti_remaining: 0,
+            background_credit: 0,
+            load: cfg.loads[0],
+            i8: cfg.saved.i8,
+            i40: cfg.saved.i40,
+            i41: cfg.saved.i41,
+            other_i_variables: BTreeMap::new(),
+            status: StatusFlags::default(),
+            checksum: ChecksumEngine::fresh(),
+            servo_cycles: 0,
+            ghost: Ghost { cycles_since_background: 0, last_reload: 0, recovered_by: None },
+        };
+        c.restart(cfg, ResetEvent { kind: ResetKind::Power, dpram_fault: false, flash_fault: false, bootstrap: false });
+        c
+    }
+
+    pub fn tripped(&self) -> bool {
+        self.trip.is_some()
+    }
+
+    /// Applies one event and returns the reply it produced (for host commands).
+    pub fn apply(&mut self, cfg: &ModelConfig, event: &Event) -> Reply {
+        match event {
+            Event::Servo { cycles } => {
+                for _ in 0..*cycles {
+                    self.servo_cycle(cfg);
+                }
+                Reply::None
+            }
+            Event::Background => {
+                self.background_cycle(cfg);
+                Reply::None
+            }
+            Event::Load(load) => {
+                self.load = *load;
+                Reply::None
+            }
+            Event::Command(cmd) => self.host_command(cfg, cmd),
+            Event::Supply { millivolts } => {
+                self.supply(cfg, *millivolts);
+                Reply::None
+            }
+            Event::Reset(reset) => {
+                self.reset(cfg, *reset);
+                Reply::None
+            }
+            Event::ChecksumFault(area) => {
+                self.inject_checksum_fault(*area);
+                Reply::None
+            }
+            Event::ClearRtiReentry => {
+                // SRM p.289: bit 22 "stays at 1 until the card is reset, or until this bit is
+                // manually changed to 0" (a memory write or an M-variable assignment).
+                if !self.tripped() {
+                    self.status.rti_reentry = false;
+                }
+                Reply::None
+            }
+        }
+    }
+
+    // ---------------------------------------------------------------- foreground: servo + RTI
+
+    /// One servo interrupt, with the RTI that follows it when one is due.
+    pub fn servo_cycle(&mut self, cfg: &ModelConfig) -> CycleReport {
+        let mut report = CycleReport::default();
+        // UM p.215: "The processor stops operating" once tripped. MODEL: the bootstrap firmware
+        // runs no servo or RTI tasks, and keeps the watchdog satisfied while it waits for a download.
+        if self.tripped() || self.bootstrap {
+            return report;
+        }
+        self.servo_cycles = self.servo_cycles.wrapping_add(1) & cfg.servo_counter_mask;
+        self.ghost.cycles_since_background = self.ghost.cycles_since_background.saturating_add(1);
+
+        // Servo update: about 1% of the CPU per motor at 2.25 kHz (UM p.236). If it needs more
+        // than the cycle has, "Turbo PMAC could not properly complete its servo routines" (SRM p.289, bit 20).
+        let cycle = u32::from(cfg.cpu.cycle_units);
+        let servo_units = u32::from(self.load.motors) * u32::from(cfg.cpu.servo_units_per_motor);
+        self.status.servo_error = servo_units > cycle;
+        let mut free = cycle.saturating_sub(servo_units);
+
+        // Watchdog counter, in the servo interrupt.
+        let strobe_allowed = match cfg.profile.choices.strobe_stop {
+            // UM p.215: "the servo-interrupt routine decrements a counter (as long as the counter
+            // is greater than zero), causing the least significant bit of the timer to toggle."
+            StrobeStop::AtZero => {
+                if self.counter > 0 {
+                    self.counter -= 1;
+                    true
+                } else {
+                    false
+                }
+            }
+            // SRM p.57: "Each servo interrupt cycle, Turbo PMAC decrements this counter by 1 ...
+            // and if the counter becomes less than 0, the real-time interrupt task will no longer
+            // strobe the watchdog circuit."
+            StrobeStop::BelowZero => {
+                self.counter -= 1;
+                self.counter >= 0
+            }
+        };
+        // SRM p.57, UM p.240: X:$25 holds the lowest value the counter has reached since reset.
+        self.counter_min = self.counter_min.min(self.counter);
+
+        // RTI: every I8+1 servo cycles, right after the servo update (UM p.236).
+        let rti_due = self.rti_phase >= u16::from(self.i8);
+        self.rti_phase = if rti_due { 0 } else { self.rti_phase + 1 };
+        if rti_due {
+            if self.rti_remaining > 0 {
+                // SRM p.289: bit 22 is 1 "if a real-time interrupt task has taken long enough so
+                // that it was still executing when the next real-time interrupt came"; SRM p.290:
+                // bit 9 when an RTI task "took more than one interrupt period". UM p.236: PLC 0
+                // runs every RTI "as long as the tasks from the previous RTI have been completed",
+                // so no new task set starts.
+                self.status.rti_reentry = true;
+                self.status.rti_warning = true;
+                report.rti_overrun = true;
+            } else {
+                if cfg.profile.choices.rti_warning_latch == RtiWarningLatch::Level {
+                    // MODEL (profile reading rti_warning_latch = level): the previous task set
+                    // finished within its period, so the warning no longer holds.
+                    self.status.rti_warning = false;
+                }
+                // UM p.236: move planning and PLC 0 / PLCC 0 run at the RTI.
+                self.rti_remaining = u32::from(self.load.plc0_units) + u32::from(cfg.cpu.move_planning_units);
+                report.rti_started = true;
+            }
+        }
+        // RTI tasks have priority over the background (UM p.236): the background gets what
+        // is left of the cycle.
+        let rti_work = free.min(self.rti_remaining);
+        self.rti_remaining -= rti_work;
+        free -= rti_work;
+        self.background_credit = (self.background_credit + free).min(u32::from(self.load.background_units));
+
+        // Who toggles the strobe: the servo routine (UM p.215) or the RTI task (SRM p.57).
+        let strobe = strobe_allowed
+            && match cfg.profile.choices.strober {
+                Strober::ServoInterrupt => true,
+                Strober::RealTimeInterrupt => rti_due,
+            };
+        report.strobed = strobe;
+        if strobe {
+            self.cycles_since_strobe = 0;
+        } else {
+            self.cycles_since_strobe = self.cycles_since_strobe.saturating_add(1);
+            // UM p.215: the timer must see a square wave above about 25 Hz, or it trips.
+            if self.cycles_since_strobe > cfg.hardware_delay_cycles {
+                self.trip_now(TripCause::StrobeTimeout);
+            }
+        }
+        report
+    }
+
+    // ---------------------------------------------------------------- background
+
+    /// Whether a background cycle can complete now: the card runs and the background has had
+    /// the CPU time one cycle costs (UM p.236: the background runs "in the time not taken by
+    /// any of the higher-priority tasks").
+    pub fn background_possible(&self) -> bool {
+        !self.tripped() && !self.bootstrap && self.background_credit >= u32::from(self.load.background_units)
+    }
+
+    /// The end of one background cycle. Callers check [`Self::background_possible`] first.
+    pub fn background_cycle(&mut self, cfg: &ModelConfig) {
+        if !self.background_possible() {
+            return;
+        }
+        self.background_credit = 0;
+        // UM p.215: "At the end of each background cycle, the CPU resets the counter value to a
+        // maximum value set by variable I40"; SRM p.57: "reset each background cycle".
+        self.counter = cfg.reset_value(self.i40);
+        // MODEL: X:$25 tracks every value the counter holds, reloads included, so that it is
+        // "never above any value Y:$25 held since reset" even when I40 was lowered: a reload to a
+        // new, smaller I40 is a value "the counter has reached" (SRM p.57).
+        self.counter_min = self.counter_min.min(self.counter);
+        self.ghost.cycles_since_background = 0;
+        self.ghost.last_reload = self.counter;
+        // UM p.217: the checksums are computed "as a background task".
+        self.checksum_step(cfg);
+    }
+
+    fn checksum_step(&mut self, cfg: &ModelConfig) {
+        let engine = &mut self.checksum;
+        // UM p.217: after a mismatch Turbo PMAC "stops performing any checksum operations",
+        // "freezing the running checksum value in X:$001080".
+        if engine.error.is_some() {
+            return;
+        }
+        engine.position += 1;
+        let pass = match engine.area {
+            ChecksumTarget::Firmware => cfg.pass_cycles.firmware,
+            ChecksumTarget::UserProgram => cfg.pass_cycles.user_program,
+        };
+        if engine.position < pass {
+            return;
+        }
+        let mismatch = match engine.area {
+            // UM p.217: the firmware checksum is compared with the reference register.
+            ChecksumTarget::Firmware => engine.firmware != engine.firmware_reference,
+            // UM p.217: the user-program checksum is compared with X:$001090.
+            ChecksumTarget::UserProgram => engine.program != engine.program_reference,
+        };
+        if mismatch {
+            engine.error = Some(engine.area);
+        } else {
+            engine.position = 0;
+            engine.area = match engine.area {
+                ChecksumTarget::Firmware => ChecksumTarget::UserProgram,
+                ChecksumTarget::UserProgram => ChecksumTarget::Firmware,
+            };
+        }
+    }
+
+    fn inject_checksum_fault(&mut self, area: ChecksumTarget) {
+        if self.tripped() {
+            return;
+        }
+        match area {
+            ChecksumTarget::Firmware => self.checksum.firmware ^= 1,
+            ChecksumTarget::UserProgram => self.checksum.program ^= 1,
+        }
+    }
+
+    // ---------------------------------------------------------------- host commands
+
+    /// A host command. Commands are answered by the background's command processing (UM
+    /// p.236); MODEL: the model answers at once and does not model reply latency.
+    pub fn host_command(&mut self, cfg: &ModelConfig, cmd: &HostCommand) -> Reply {
+        // UM p.215: a tripped card "will not communicate".
+        if self.tripped() {
+            return Reply::Silence;
+        }
+        if self.bootstrap {
+            // SRM p.289: in bootstrap mode the reply to ??? "will simply be BOOTSTRAP PROM".
+            // MODEL: the bootstrap firmware answers nothing else of this command set.
+            return match cmd {
+                HostCommand::GlobalStatus => Reply::Bootstrap,
+                _ => Reply::Error(3),
+            };
+        }
+        match cmd {
+            HostCommand::GlobalStatus => {
+                let (x, y) = self.status_words(cfg);
+                Reply::Status { x, y }
+            }
+            HostCommand::ReadI(n) => Reply::Value(self.i_variable(*n)),
+            HostCommand::WriteI(n, v) => self.write_i_variable(cfg, *n, *v),
+            HostCommand::ReadHex(r) => Reply::Hex(self.register(cfg, *r)),
+            HostCommand::Reset => {
+                // `$$$`: a full card reset, as INIT/ does but commanded from the host.
+                self.restart(
+                    cfg,
+                    ResetEvent { kind: ResetKind::Init, dpram_fault: false, flash_fault: false, bootstrap: false },
+                );
+                Reply::None
+            }
+            HostCommand::Open(buffer) => {
+                match buffer {
+                    Buffer::Plc(_) => self.status.plc_buffer_open = true,
+                    Buffer::Program(_) => self.status.motion_buffer_open = true,
+                }
+                Reply::Ack
+            }
+            HostCommand::Close => {
+                self.status.plc_buffer_open = false;
+                self.status.motion_buffer_open = false;
+                // UM p.217: X:$001090 holds "the checksum value that was computed the last time
+                // one of these buffers was closed".
+                self.checksum.program_reference = self.checksum.program;
+                Reply::Ack
+            }
+            // Facts s.3: ERR003, "data error or unrecognized command".
+            HostCommand::Unrecognized(_) => Reply::Error(3),
+        }
+    }
+
+    pub fn i_variable(&self, n: u16) -> i64 {
+        match n {
+            8 => i64::from(self.i8),
+            40 => i64::from(self.i40),
+            41 => i64::from(self.i41),
+            _ => self.other_i_variables.get(&n).copied().unwrap_or(0),
+        }
+    }
+
+    fn write_i_variable(&mut self, cfg: &ModelConfig, n: u16, v: i64) -> Reply {
+        // SRM p.57: with the controlling I41 bit set, "the command is ignored (no error is
+        // generated)". I41 itself lies in no locked range, so it is always writable.
+        if let Some(bit) = cfg.lockout_bit(n) {
+            if self.i41 & (1 << bit) != 0 {
+                return Reply::Ack;
+            }
+        }
+        let in_range = |r: (i64, i64)| r.0 <= v && v <= r.1;
+        match n {
+            // MODEL: a value outside the variable's documented range is refused with ERR003
+            // rather than truncated; the manuals do not say which the firmware does.
+            8 if in_range(cfg.i8_range) => self.i8 = v as u8,
+            40 if in_range(cfg.i40_range) => self.i40 = v as u16,
+            41 if in_range(cfg.i41_range) => self.i41 = v as u8,
+            8 | 40 | 41 => return Reply::Error(3),
+            _ => {
+                if v == 0 {
+                    self.other_i_variables.remove(&n);
+                } else {
+                    self.other_i_variables.insert(n, v);
+                }
+            }
+        }
+        Reply::Ack
+    }
+
+    /// A register as a 24-bit word.
+    pub fn register(&self, cfg: &ModelConfig, r: Register) -> u32 {
+        let word = |v: i32| (v as u32) & 0xFF_FFFF;
+        match r {
+            Register::ServoCycles => self.servo_cycles,
+            Register::StatusX => self.status_words(cfg).0,
+            Register::StatusY => self.status_words(cfg).1,
+            Register::WatchdogCounter => word(self.counter),
+            Register::WatchdogMinimum => word(self.counter_min),
+            Register::RunningChecksum => self.checksum.running_value(),
+            Register::ProgramChecksumReference => u32::from(self.checksum.program_reference),
+        }
+    }
+
+    /// X:$000006 and Y:$000006, built bit by bit from the named positions of `status.yaml`.
+    pub fn status_words(&self, cfg: &ModelConfig) -> (u32, u32) {
+        let l = &cfg.layout;
+        let engine = &self.checksum;
+        // SRM p.289 / UM p.217: bit 13 is any checksum error.
+        let checksum_error = engine.error.is_some();
+        let bit12 = match cfg.profile.choices.bit12_meaning {
+            // SRM p.289: 1 while evaluating the firmware checksum (13 = 0) or after a firmware
+            // error (13 = 1); 0 while evaluating the user program or after its error.
+            Bit12Meaning::PromChecksumActive => match engine.error {
+                Some(area) => area == ChecksumTarget::Firmware,
+                None => engine.area == ChecksumTarget::Firmware,
+            },
+            // M83: the firmware checksum error bit.
+            Bit12Meaning::FirmwareChecksumError => engine.error == Some(ChecksumTarget::Firmware),
+        };
+        let s = &self.status;
+        let mut words = [0u32; 2];
+        for (on, (word, bit)) in [
+            (s.rti_reentry, l.rti_reentry),
+            (s.servo_error, l.servo_error),
+            (checksum_error, l.checksum_error),
+            (bit12, l.prom_checksum_active),
+            (s.dpram_error, l.dpram_error),
+            (s.flash_error, l.flash_error),
+            (s.rti_warning, l.rti_warning),
+            (s.motion_buffer_open, l.motion_buffer_open),
+            (s.plc_buffer_open, l.plc_buffer_open),
+        ] {
+            if on {
+                words[match word {
+                    WordId::X => 0,
+                    WordId::Y => 1,
+                }] |= 1 << bit;
+            }
+        }
+        (words[0], words[1])
+    }
+
+    // ---------------------------------------------------------------- supply, trips, resets
+
+    fn supply(&mut self, cfg: &ModelConfig, millivolts: u32) {
+        self.supply_low = millivolts < cfg.supply_min_millivolts;
+        // UM p.215: "If the supply voltage is below this value, the circuit's relay will trip and
+        // the card will shut down."
+        if self.supply_low && !self.tripped() {
+            self.trip_now(TripCause::Undervoltage);
+        }
+    }
+
+    fn trip_now(&mut self, cause: TripCause) {
+        // UM p.215: "the system is latched into a reset state"; the observations of a tripped
+        // card (LED, FEFCO/, relay, outputs, silence) follow from `trip` (see observe.rs).
+        self.trip = Some(cause);
+        self.ghost.recovered_by = None;
+    }
+
+    fn reset(&mut self, cfg: &ModelConfig, reset: ResetEvent) {
+        let was_tripped = self.tripped();
+        if reset.kind == ResetKind::Power {
+            // MODEL: power comes back at a good supply voltage.
+            self.supply_low = false;
+        }
+        // UM p.215: "power to the Turbo PMAC must be cycled off and on, or the INIT/ hardware
+        // reset line must be taken low, then high, to restore normal functioning".
+        self.restart(cfg, reset);
+        if self.supply_low {
+            // The undervoltage condition is still there: the circuit trips again at once.
+            self.trip_now(TripCause::Undervoltage);
+        } else if was_tripped {
+            self.ghost.recovered_by = Some(reset.kind);
+        }
+    }
+
+    /// Re-initialisation from saved settings, common to power-up, INIT/ and `$$$`.
+    fn restart(&mut self, cfg: &ModelConfig, reset: ResetEvent) {
+        let recovered_by = self.ghost.recovered_by;
+        self.trip = None;
+        self.bootstrap = reset.bootstrap;
+        // MODEL: a reset reloads the saved I-variables; unsaved writes are lost.
+        self.i8 = cfg.saved.i8;
+        self.i40 = cfg.saved.i40;
+        self.i41 = cfg.saved.i41;
+        self.other_i_variables.clear();
+        self.counter = cfg.reset_value(self.i40);
+        // SRM p.57: X:$25 is the lowest value "since the last power-on/reset".
+        self.counter_min = self.counter;
+        self.cycles_since_strobe = 0;
+        self.rti_phase = 0;
+        self.rti_remaining = 0;
+        self.background_credit = 0;
+        // SRM p.289: bits 11 and 10 report the reset-time DPRAM check and flash read; every
+        // other driven bit starts clear (bit 22 "until the card is reset").
+        self.status =
+            StatusFlags { dpram_error: reset.dpram_fault, flash_error: reset.flash_fault, ..StatusFlags::default() };
+        // MODEL: the reset reloads firmware and user program from flash, so an injected fault
+        // (a corruption in RAM) is gone and the checksum engine starts over.
+        self.checksum = ChecksumEngine::fresh();
+        self.servo_cycles = 0;
+        self.ghost = Ghost { cycles_since_background: 0, last_reload: self.counter, recovered_by };
+    }
+}

@@ -1,0 +1,99 @@
+//! The vocabulary: everything that can happen to a controller, and what it can answer.
+
+use crate::command::HostCommand;
+use pmacwd_specs::check::{ChecksumTarget, Load, ResetEvent, ResetKind};
+use std::fmt;
+
+/// One event from the closed set of the design notes.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Event {
+    /// `cycles` servo interrupts (each followed by its RTI when due), with no background
+    /// cycle completing in between.
+    Servo { cycles: u32 },
+    /// A background cycle completes (possible only when the load leaves it CPU time).
+    Background,
+    /// The CPU load changes (motors, PLC 0 cost, background cycle cost).
+    Load(Load),
+    /// A host command line.
+    Command(HostCommand),
+    /// The logic supply changes.
+    Supply { millivolts: u32 },
+    /// INIT/ pulse or power cycle, with what the reset-time checks find.
+    Reset(ResetEvent),
+    /// Memory corruption that the background checksum will find.
+    ChecksumFault(ChecksumTarget),
+    /// The host writes 0 to bit 22 of X:$000006 (memory write or M-variable).
+    ClearRtiReentry,
+}
+
+/// What a host sees in answer to a command.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Reply {
+    /// The event was not a command (or `$$$`, which resets instead of answering).
+    None,
+    /// No answer at all: the card is tripped (UM p.215).
+    Silence,
+    /// Accepted, nothing to report.
+    Ack,
+    /// `???`: the two status words.
+    Status { x: u32, y: u32 },
+    /// `???` in bootstrap mode.
+    Bootstrap,
+    /// An I-variable value.
+    Value(i64),
+    /// A 24-bit memory word (`RH`).
+    Hex(u32),
+    /// `BEL ERRnnn CR`.
+    Error(u16),
+}
+
+impl fmt::Display for Reply {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Reply::None => f.write_str("(none)"),
+            Reply::Silence => f.write_str("(silence)"),
+            Reply::Ack => f.write_str("(ack)"),
+            Reply::Status { x, y } => write!(f, "{x:06X}{y:06X}"),
+            Reply::Bootstrap => f.write_str("BOOTSTRAP PROM"),
+            Reply::Value(v) => write!(f, "{v}"),
+            Reply::Hex(v) => write!(f, "{v:06X}"),
+            Reply::Error(n) => write!(f, "ERR{n:03}"),
+        }
+    }
+}
+
+impl fmt::Display for Event {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Event::Servo { cycles: 1 } => f.write_str("servo interrupt"),
+            Event::Servo { cycles } => write!(f, "{cycles} servo interrupts"),
+            Event::Background => f.write_str("background cycle completes"),
+            Event::Load(l) => write!(
+                f,
+                "load: {} motors, PLC 0 {} units, background {} units",
+                l.motors, l.plc0_units, l.background_units
+            ),
+            Event::Command(c) => write!(f, "host sends `{c}`"),
+            Event::Supply { millivolts } => write!(f, "supply {}.{:03} V", millivolts / 1000, millivolts % 1000),
+            Event::Reset(r) => {
+                f.write_str(match r.kind {
+                    ResetKind::Init => "INIT/ pulsed",
+                    ResetKind::Power => "power cycled",
+                })?;
+                if r.dpram_fault {
+                    f.write_str(", DPRAM check fails")?;
+                }
+                if r.flash_fault {
+                    f.write_str(", flash read fails")?;
+                }
+                if r.bootstrap {
+                    f.write_str(", bootstrap jumper on")?;
+                }
+                Ok(())
+            }
+            Event::ChecksumFault(ChecksumTarget::Firmware) => f.write_str("firmware memory corrupted"),
+            Event::ChecksumFault(ChecksumTarget::UserProgram) => f.write_str("user program memory corrupted"),
+            Event::ClearRtiReentry => f.write_str("host clears bit 22"),
+        }
+    }
+}

@@ -1,0 +1,25 @@
+//! # The reference model of the Turbo PMAC watchdog, reset latch and global status
+//!
+//! Laid out like its sources: [`controller`] is the semantics, rule by rule with citations
+//! (UM = Turbo PMAC User Manual, SRM = Software Reference); [`monitor`] and [`properties`] are
+//! the checked sentences; [`checker`] is the stateright [`stateright::Model`] with the
+//! environment's choices. Facts and readings come from `specs/` through [`config`].
+//!
+//! ```
+//! use pmacwd_model::{config::ModelConfig, controller::Controller, event::{Event, Reply}, command::HostCommand};
+//! let spec = pmacwd_specs::Spec::embedded().unwrap();
+//! let profile = spec.profiles.default_profile();
+//! let cfg = ModelConfig::from_spec(&spec, "timing", &profile).unwrap();
+//! let mut card = Controller::power_on(&cfg);
+//! let reply = card.apply(&cfg, &Event::Command(HostCommand::parse("???").unwrap()));
+//! assert!(matches!(reply, Reply::Status { .. }));
+//! ```
+
+pub mod checker;
+pub mod command;
+pub mod config;
+pub mod controller;
+pub mod event;
+pub mod monitor;
+pub mod observe;
+pub mod properties;

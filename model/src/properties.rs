@@ -1,0 +1,384 @@
+//! The named properties the checker verifies, each with the sentence it encodes.
+//!
+//! - `always` over one state: [`STATE_PROPERTIES`] with [`Expectation::Always`];
+//! - `always` over one transition: the monitors of [`crate::monitor::MONITORS`];
+//! - bounded liveness is written as `always` ("starved for longer than the reset value plus
+//!   the hardware delay implies tripped"), never with `eventually` (stateright 0.30.2's
+//!   `eventually` can miss violations on cyclic paths);
+//! - reachability as `sometimes`: a witness must exist, or the configuration is too narrow to
+//!   show the behaviour at all.
+
+use crate::checker::{State, WatchdogModel};
+use crate::command::{Buffer, HostCommand};
+use crate::config::ModelConfig;
+use crate::controller::TripCause;
+use crate::event::Reply;
+use crate::observe::Observation;
+use pmacwd_specs::check::{ChecksumTarget, ResetKind};
+use pmacwd_specs::profiles::{Bit12Meaning, StrobeStop};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Expectation {
+    Always,
+    Sometimes,
+}
+
+pub struct StateProperty {
+    pub name: &'static str,
+    pub expectation: Expectation,
+    pub cite: &'static str,
+    pub sentence: &'static str,
+    pub holds: fn(&WatchdogModel, &State) -> bool,
+    /// Whether the configuration offers the events this property needs; a `sometimes`
+    /// property that does not apply is reported as such instead of as unreachable. Every
+    /// `sometimes` property must be reached by some configuration of every profile (a test
+    /// in `conformance/` checks that).
+    pub applies: fn(&ModelConfig) -> bool,
+    /// What `applies` looks for, for the report.
+    pub needs: &'static str,
+}
+
+fn any(_: &ModelConfig) -> bool {
+    true
+}
+
+/// Some load's RTI task set is longer than its RTI period leaves it.
+fn can_overrun(cfg: &ModelConfig) -> bool {
+    cfg.loads.iter().any(|l| {
+        let free = u32::from(cfg.cpu.cycle_units)
+            .saturating_sub(u32::from(l.motors) * u32::from(cfg.cpu.servo_units_per_motor));
+        let rti = u32::from(l.plc0_units) + u32::from(cfg.cpu.move_planning_units);
+        rti > (u32::from(cfg.saved.i8) + 1) * free
+    })
+}
+
+fn can_overload_servo(cfg: &ModelConfig) -> bool {
+    cfg.loads
+        .iter()
+        .any(|l| u32::from(l.motors) * u32::from(cfg.cpu.servo_units_per_motor) > u32::from(cfg.cpu.cycle_units))
+}
+
+fn has_command(cfg: &ModelConfig, f: fn(&HostCommand) -> bool) -> bool {
+    cfg.commands.iter().any(f)
+}
+
+fn obs(m: &WatchdogModel, s: &State) -> Observation {
+    Observation::of(&s.controller, &m.cfg, Reply::None)
+}
+
+fn x_bit(m: &WatchdogModel, s: &State, bit: (pmacwd_specs::status::WordId, u8)) -> bool {
+    let (x, y) = s.controller.status_words(&m.cfg);
+    let word = match bit.0 {
+        pmacwd_specs::status::WordId::X => x,
+        pmacwd_specs::status::WordId::Y => y,
+    };
+    word & (1 << bit.1) != 0
+}
+
+fn running(s: &State) -> bool {
+    !s.controller.tripped() && !s.controller.bootstrap
+}
+
+use Expectation::{Always, Sometimes};
+
+pub const STATE_PROPERTIES: &[StateProperty] = &[
+    // ------------------------------------------------------------ what a trip does (UM p.215)
+    StateProperty {
+        name: "a tripped card forces discrete outputs off and proportional outputs to zero",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.215",
+        sentence: "All Servo, MACRO, and I/O ICs are forced into their reset states, which force discrete outputs off, and proportional outputs (DAC, PWM, PFM) to zero-level.",
+        holds: |m, s| !s.controller.tripped() || obs(m, s).outputs_forced_off,
+    },
+    StateProperty {
+        name: "a tripped card lights the red watchdog LED",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.215",
+        sentence: "the system is latched into a reset state, with a red LED indicating watchdog failure.",
+        holds: |m, s| !s.controller.tripped() || obs(m, s).led_red,
+    },
+    StateProperty {
+        name: "a tripped Turbo PMAC turns FEFCO/ on",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.215",
+        sentence: "there is a solid-state open-collector output called FEFCO/ that is turned on when the timer trips.",
+        holds: |m, s| !s.controller.tripped() || obs(m, s).fefco_on,
+    },
+    StateProperty {
+        name: "a tripped Turbo PMAC2 changes its watchdog relay over",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.215",
+        sentence: "In Turbo PMAC2 systems there is a hard-contact relay with both normally open and normally closed contacts.",
+        holds: |m, s| !s.controller.tripped() || obs(m, s).relay_tripped,
+    },
+    StateProperty {
+        name: "a running card shows no trip on its LED, FEFCO/, relay or outputs",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.215",
+        sentence: "FEFCO/ ... is turned on when the timer trips (and not otherwise).",
+        holds: |m, s| {
+            let o = obs(m, s);
+            s.controller.tripped() || !(o.led_red || o.fefco_on || o.relay_tripped || o.outputs_forced_off)
+        },
+    },
+    // ------------------------------------------------------------ hardware conditions
+    StateProperty {
+        name: "a supply below the minimum means tripped",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.215",
+        sentence: "it must see a DC voltage greater than approximately 4.75V.",
+        holds: |_, s| !s.controller.supply_low || s.controller.tripped(),
+    },
+    StateProperty {
+        name: "a strobe gap longer than the hardware delay means tripped",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.215",
+        sentence: "the timer must see a square wave input ... of a frequency greater than approximately 25 Hz.",
+        holds: |m, s| s.controller.cycles_since_strobe <= m.cfg.hardware_delay_cycles || s.controller.tripped(),
+    },
+    StateProperty {
+        name: "a background starved for longer than the reset value plus the hardware delay means tripped",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "SRM p.57",
+        sentence: "one background cycle must execute every I40 servo cycles, or the board will shut down.",
+        holds: |m, s| {
+            let c = &s.controller;
+            !running(s) || i64::from(c.ghost.cycles_since_background) <= i64::from(c.ghost.last_reload) + i64::from(m.cfg.hardware_delay_cycles)
+        },
+    },
+    // ------------------------------------------------------------ the counter and X:$25
+    StateProperty {
+        name: "X:$25 is never above the watchdog counter Y:$25",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "SRM p.57",
+        sentence: "Register X:$25 contains the lowest value that the counter has reached before being reset since the last power-on/reset.",
+        holds: |_, s| s.controller.counter_min <= s.controller.counter,
+    },
+    StateProperty {
+        name: "the counter never exceeds the value it was last loaded with",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.215",
+        sentence: "the CPU resets the counter value to a maximum value set by variable I40.",
+        holds: |_, s| s.controller.counter <= s.controller.ghost.last_reload,
+    },
+    StateProperty {
+        name: "under the at-zero reading the counter never goes below zero",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.215",
+        sentence: "the servo-interrupt routine decrements a counter (as long as the counter is greater than zero).",
+        holds: |m, s| m.cfg.profile.choices.strobe_stop != StrobeStop::AtZero || s.controller.counter >= 0,
+    },
+    // ------------------------------------------------------------ checksums (UM p.217, SRM p.289)
+    StateProperty {
+        name: "after a firmware checksum error bits 12 and 13 are set",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.217",
+        sentence: "it sets global status bits (bits 12 and 13 of X:$000006).",
+        holds: |m, s| {
+            s.controller.checksum.error != Some(ChecksumTarget::Firmware)
+                || (x_bit(m, s, m.cfg.layout.checksum_error) && x_bit(m, s, m.cfg.layout.prom_checksum_active))
+        },
+    },
+    StateProperty {
+        name: "after a user-program checksum error bit 13 is set and bit 12 clear",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "SRM p.289",
+        sentence: "It is 0 if Turbo PMAC ... has found a user program checksum error (Bit 13 = 1).",
+        holds: |m, s| {
+            s.controller.checksum.error != Some(ChecksumTarget::UserProgram)
+                || (x_bit(m, s, m.cfg.layout.checksum_error) && !x_bit(m, s, m.cfg.layout.prom_checksum_active))
+        },
+    },
+    StateProperty {
+        name: "bit 13 is set exactly when a checksum error has been found",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "SRM p.289",
+        sentence: "Bit 13 Any Memory Checksum Error: This bit is 1 if a checksum error has been detected for either the Turbo PMAC firmware or the user program buffer space.",
+        holds: |m, s| x_bit(m, s, m.cfg.layout.checksum_error) == s.controller.checksum.error.is_some(),
+    },
+    // ------------------------------------------------------------ reachability
+    StateProperty {
+        name: "bit 22 (RTI re-entry) can be set",
+        expectation: Sometimes,
+        applies: can_overrun,
+        needs: "a load whose RTI tasks outlast their period",
+        cite: "SRM p.289",
+        sentence: "This bit is 1 if a real-time interrupt task has taken long enough so that it was still executing when the next real-time interrupt came.",
+        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.rti_reentry),
+    },
+    StateProperty {
+        name: "bit 9 (RTI warning) can be set",
+        expectation: Sometimes,
+        applies: can_overrun,
+        needs: "a load whose RTI tasks outlast their period",
+        cite: "SRM p.290",
+        sentence: "an RTI task (motion program or PLC 0) took more than one interrupt period.",
+        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.rti_warning),
+    },
+    StateProperty {
+        name: "bit 20 (servo error) can be set",
+        expectation: Sometimes,
+        applies: can_overload_servo,
+        needs: "a load with more servo work than a cycle",
+        cite: "SRM p.289",
+        sentence: "This bit is 1 if Turbo PMAC could not properly complete its servo routines.",
+        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.servo_error),
+    },
+    StateProperty {
+        name: "a firmware checksum error can be found",
+        expectation: Sometimes,
+        applies: |c| c.checksum_faults.contains(&ChecksumTarget::Firmware),
+        needs: "an injected firmware fault",
+        cite: "UM p.217",
+        sentence: "If Turbo PMAC detects a mismatch between its calculated checksum and the reference checksum, it sets global status bits.",
+        holds: |_, s| running(s) && s.controller.checksum.error == Some(ChecksumTarget::Firmware),
+    },
+    StateProperty {
+        name: "a user-program checksum error can be found",
+        expectation: Sometimes,
+        applies: |c| c.checksum_faults.contains(&ChecksumTarget::UserProgram),
+        needs: "an injected user-program fault",
+        cite: "UM p.217",
+        sentence: "If Turbo PMAC detects a mismatch between these two checksums, it sets a global status bit (bit 13).",
+        holds: |_, s| running(s) && s.controller.checksum.error == Some(ChecksumTarget::UserProgram),
+    },
+    StateProperty {
+        name: "bit 12 can show a firmware pass in progress (prom_checksum_active reading)",
+        expectation: Sometimes,
+        applies: any,
+        needs: "",
+        cite: "SRM p.289",
+        sentence: "This bit is 1 if Turbo PMAC is currently evaluating a firmware checksum (Bit 13 = 0).",
+        holds: |m, s| {
+            m.cfg.profile.choices.bit12_meaning == Bit12Meaning::FirmwareChecksumError
+                || (running(s) && x_bit(m, s, m.cfg.layout.prom_checksum_active) && !x_bit(m, s, m.cfg.layout.checksum_error))
+        },
+    },
+    StateProperty {
+        name: "bit 12 can show a user-program pass in progress",
+        expectation: Sometimes,
+        applies: any,
+        needs: "",
+        cite: "SRM p.289",
+        sentence: "It is 0 if Turbo PMAC is evaluating a user program checksum (Bit 13 = 0).",
+        holds: |m, s| running(s) && s.controller.checksum.error.is_none() && s.controller.checksum.area == ChecksumTarget::UserProgram && !x_bit(m, s, m.cfg.layout.prom_checksum_active),
+    },
+    StateProperty {
+        name: "bit 11 (DPRAM error) can be set",
+        expectation: Sometimes,
+        applies: |c| c.resets.iter().any(|r| r.dpram_fault),
+        needs: "a reset that finds a DPRAM fault",
+        cite: "SRM p.289",
+        sentence: "This bit is 1 if Turbo PMAC detected an error in its automatic DPRAM check function at power-up/reset.",
+        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.dpram_error),
+    },
+    StateProperty {
+        name: "bit 10 (flash error) can be set",
+        expectation: Sometimes,
+        applies: |c| c.resets.iter().any(|r| r.flash_fault),
+        needs: "a reset that finds a flash fault",
+        cite: "SRM p.289",
+        sentence: "This bit is 1 if Turbo PMAC detected a checksum error in reading saved data from the flash memory on board reset.",
+        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.flash_error),
+    },
+    StateProperty {
+        name: "second-word bit 19 (motion buffer open) can be set",
+        expectation: Sometimes,
+        applies: |c| has_command(c, |x| matches!(x, HostCommand::Open(Buffer::Program(_)))),
+        needs: "an OPEN PROG command",
+        cite: "GlobalStatus.py",
+        sentence: "motion buffer (PROG or ROT) open.",
+        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.motion_buffer_open),
+    },
+    StateProperty {
+        name: "second-word bit 17 (PLC buffer open) can be set",
+        expectation: Sometimes,
+        applies: |c| has_command(c, |x| matches!(x, HostCommand::Open(Buffer::Plc(_)))),
+        needs: "an OPEN PLC command",
+        cite: "GlobalStatus.py",
+        sentence: "PLC buffer open.",
+        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.plc_buffer_open),
+    },
+    StateProperty {
+        name: "the card can start in bootstrap mode",
+        expectation: Sometimes,
+        applies: |c| c.resets.iter().any(|r| r.bootstrap),
+        needs: "a reset with the bootstrap jumper on",
+        cite: "SRM p.289",
+        sentence: "If the Turbo PMAC is in bootstrap mode (suitable for the downloading of new firmware) ...",
+        holds: |_, s| s.controller.bootstrap && !s.controller.tripped(),
+    },
+    StateProperty {
+        name: "the card can trip on low supply voltage",
+        expectation: Sometimes,
+        applies: |c| c.supply_millivolts.iter().any(|mv| *mv < c.supply_min_millivolts),
+        needs: "a supply voltage below the minimum",
+        cite: "UM p.215",
+        sentence: "If the supply voltage is below this value, the circuit's relay will trip and the card will shut down.",
+        holds: |_, s| s.controller.trip == Some(TripCause::Undervoltage),
+    },
+    StateProperty {
+        name: "the card can trip on a starved background",
+        expectation: Sometimes,
+        applies: any,
+        needs: "",
+        cite: "UM p.236",
+        sentence: "In the worst case, the watchdog timer will trip, shutting down the card, because the housekeeping tasks in background did not have the time to keep it updated.",
+        holds: |_, s| s.controller.trip == Some(TripCause::StrobeTimeout),
+    },
+    StateProperty {
+        name: "a tripped card can be recovered by INIT/",
+        expectation: Sometimes,
+        applies: |c| c.resets.iter().any(|r| r.kind == ResetKind::Init),
+        needs: "an INIT/ reset",
+        cite: "UM p.215",
+        sentence: "the INIT/ hardware reset line must be taken low, then high, to restore normal functioning.",
+        holds: |_, s| running(s) && s.controller.ghost.recovered_by == Some(ResetKind::Init),
+    },
+    StateProperty {
+        name: "a tripped card can be recovered by a power cycle",
+        expectation: Sometimes,
+        applies: |c| c.resets.iter().any(|r| r.kind == ResetKind::Power),
+        needs: "a power cycle",
+        cite: "UM p.215",
+        sentence: "power to the Turbo PMAC must be cycled off and on.",
+        holds: |_, s| running(s) && s.controller.ghost.recovered_by == Some(ResetKind::Power),
+    },
+    StateProperty {
+        name: "a near miss leaves X:$25 at the last strobing value on a running card",
+        expectation: Sometimes,
+        applies: any,
+        needs: "",
+        cite: "UM p.240",
+        sentence: "X:$000025 ... near 0 means the card nearly tripped.",
+        holds: |_, s| running(s) && s.controller.counter_min == 0 && s.controller.counter > 0,
+    },
+];

@@ -1,0 +1,231 @@
+//! The reference semantics on short, hand-written histories. Each test tells one sentence of
+//! the manuals as a story and checks what a host or an instrument would see.
+
+use pmacwd_model::command::HostCommand;
+use pmacwd_model::config::ModelConfig;
+use pmacwd_model::controller::{Controller, TripCause};
+use pmacwd_model::event::{Event, Reply};
+use pmacwd_specs::check::{ChecksumTarget, Load, ResetEvent, ResetKind};
+use pmacwd_specs::Spec;
+
+fn config(configuration: &str, profile: &str) -> ModelConfig {
+    let spec = Spec::embedded().expect("embedded specs load");
+    let profile = spec.profiles.get(profile).expect("profile exists");
+    ModelConfig::from_spec(&spec, configuration, &profile).expect("configuration resolves")
+}
+
+fn cmd(c: &mut Controller, cfg: &ModelConfig, text: &str) -> Reply {
+    c.apply(cfg, &Event::Command(HostCommand::parse(text).expect("command parses")))
+}
+
+fn servo(c: &mut Controller, cfg: &ModelConfig, cycles: u32) {
+    c.apply(cfg, &Event::Servo { cycles });
+}
+
+const INIT: Event =
+    Event::Reset(ResetEvent { kind: ResetKind::Init, dpram_fault: false, flash_fault: false, bootstrap: false });
+
+#[test]
+fn with_i40_zero_each_profile_reloads_its_own_reset_value() {
+    // SRM p.57 says 4095, UM p.215 says 4096: the profile decides, and the counter shows it.
+    for (profile, expected) in [("srm-57", 4095), ("um-215-4095", 4095), ("um-215", 4096)] {
+        let cfg = config("i40-zero", profile);
+        let mut card = Controller::power_on(&cfg);
+        servo(&mut card, &cfg, 10);
+        card.apply(&cfg, &Event::Background);
+        assert_eq!(card.counter, expected, "{profile}");
+    }
+}
+
+#[test]
+fn a_starved_background_trips_the_card_reset_value_plus_delay_plus_one_cycles_after_it_last_ran() {
+    // UM p.215: the strobe stops when the counter runs out, and the timer trips once it has
+    // missed the strobe for longer than its delay (45 servo cycles at 2.25 kHz and 25 Hz).
+    let cfg = config("i40-zero", "um-215");
+    assert_eq!(cfg.hardware_delay_cycles, 45);
+    let mut card = Controller::power_on(&cfg);
+    servo(&mut card, &cfg, 4096 + 45);
+    assert!(!card.tripped(), "one cycle before the deadline the card still runs");
+    servo(&mut card, &cfg, 1);
+    assert_eq!(card.trip, Some(TripCause::StrobeTimeout));
+}
+
+#[test]
+fn a_background_cycle_one_cycle_before_the_deadline_saves_the_card_and_x25_records_the_near_miss() {
+    let cfg = config("i40-zero", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    servo(&mut card, &cfg, 4096 + 45);
+    assert!(card.background_possible());
+    card.apply(&cfg, &Event::Background);
+    assert!(!card.tripped());
+    assert_eq!(card.counter, 4096);
+    // X:$25 remembers how close it came (SRM p.57, UM p.240).
+    assert_eq!(cmd(&mut card, &cfg, "RHX:$25"), Reply::Hex(0));
+    assert_eq!(cmd(&mut card, &cfg, "RHY:$25"), Reply::Hex(4096));
+}
+
+#[test]
+fn under_the_srm_reading_the_counter_goes_below_zero_and_x25_shows_it_as_a_24_bit_word() {
+    // SRM p.57: decremented every cycle; the strobe stops once the counter "becomes less than 0".
+    let cfg = config("i40-zero", "srm-57");
+    let mut card = Controller::power_on(&cfg);
+    servo(&mut card, &cfg, 4095 + 3);
+    assert_eq!(card.counter, -3);
+    assert_eq!(cmd(&mut card, &cfg, "RHX:$25"), Reply::Hex(0xFF_FFFD));
+}
+
+#[test]
+fn a_large_plc0_with_i8_small_starves_the_background_until_the_watchdog_trips() {
+    // UM p.236: PLC 0 "too long ... will starve the background tasks"; "in the worst case, the
+    // watchdog timer will trip". The starving load of `i40-zero` fills every RTI period.
+    let cfg = config("i40-zero", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    card.apply(&cfg, &Event::Load(Load { motors: 8, plc0_units: 276, background_units: 250 }));
+    for _ in 0..(4096 + 46) {
+        assert!(!card.background_possible(), "the background never gets a cycle's worth of CPU");
+        servo(&mut card, &cfg, 1);
+    }
+    assert_eq!(card.trip, Some(TripCause::StrobeTimeout));
+}
+
+#[test]
+fn an_rti_task_longer_than_its_period_sets_bits_22_and_9_and_bit_22_stays_until_cleared() {
+    let cfg = config("timing", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    // I8 = 1: an RTI every 2 servo cycles with 3 free units each; PLC 0 needs 8.
+    card.apply(&cfg, &Event::Load(Load { motors: 1, plc0_units: 8, background_units: 3 }));
+    // The first RTI comes at cycle 2 and leaves 2 units undone at cycle 4, the next RTI.
+    servo(&mut card, &cfg, 4);
+    let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!("??? answers") };
+    assert_eq!(x & (1 << 22 | 1 << 9), 1 << 22 | 1 << 9, "SRM p.289-290: both bits set; got {x:06X}");
+    // Back to a light load: bit 9 (level reading) clears once an RTI finds its predecessor done;
+    // bit 22 is sticky (SRM p.289).
+    card.apply(&cfg, &Event::Load(Load { motors: 1, plc0_units: 0, background_units: 3 }));
+    for _ in 0..8 {
+        servo(&mut card, &cfg, 1);
+        if card.background_possible() {
+            card.apply(&cfg, &Event::Background);
+        }
+    }
+    assert!(!card.tripped());
+    let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!() };
+    assert_eq!(x & (1 << 22 | 1 << 9), 1 << 22);
+    card.apply(&cfg, &Event::ClearRtiReentry);
+    let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!() };
+    assert_eq!(x & (1 << 22), 0);
+}
+
+#[test]
+fn undervoltage_trips_at_once_a_tripped_card_is_silent_and_init_restores_replies() {
+    let cfg = config("timing", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    card.apply(&cfg, &Event::Supply { millivolts: 4500 });
+    assert_eq!(card.trip, Some(TripCause::Undervoltage));
+    assert_eq!(cmd(&mut card, &cfg, "???"), Reply::Silence, "UM p.215: will not communicate");
+    // INIT/ while the supply is still low: the circuit trips again at once.
+    card.apply(&cfg, &INIT);
+    assert!(card.tripped());
+    card.apply(&cfg, &Event::Supply { millivolts: 5000 });
+    assert!(card.tripped(), "a trip is latched: a good supply alone does not undo it");
+    card.apply(&cfg, &INIT);
+    assert!(!card.tripped());
+    assert!(matches!(cmd(&mut card, &cfg, "???"), Reply::Status { .. }));
+}
+
+#[test]
+fn i41_bit_0_makes_a_motor_setup_write_a_silent_no_op_while_i5100_and_i41_stay_writable() {
+    let cfg = config("lockout", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    assert_eq!(cmd(&mut card, &cfg, "I130=7"), Reply::Ack);
+    assert_eq!(cmd(&mut card, &cfg, "I41=1"), Reply::Ack);
+    assert_eq!(cmd(&mut card, &cfg, "I130=9"), Reply::Ack, "SRM p.57: ignored, no error");
+    assert_eq!(cmd(&mut card, &cfg, "I130"), Reply::Value(7));
+    assert_eq!(cmd(&mut card, &cfg, "I5100=5"), Reply::Ack);
+    assert_eq!(cmd(&mut card, &cfg, "I5100"), Reply::Value(5));
+    assert_eq!(cmd(&mut card, &cfg, "I41=0"), Reply::Ack);
+    assert_eq!(cmd(&mut card, &cfg, "I130=9"), Reply::Ack);
+    assert_eq!(cmd(&mut card, &cfg, "I130"), Reply::Value(9));
+}
+
+#[test]
+fn a_firmware_checksum_fault_sets_bits_12_and_13_and_freezes_x1080() {
+    let cfg = config("status", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    card.apply(&cfg, &Event::ChecksumFault(ChecksumTarget::Firmware));
+    servo(&mut card, &cfg, 1);
+    card.apply(&cfg, &Event::Background); // the firmware pass ends: mismatch (UM p.217)
+    let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!() };
+    assert_eq!(x & (1 << 13 | 1 << 12), 1 << 13 | 1 << 12);
+    let frozen = cmd(&mut card, &cfg, "RHX:$1080");
+    for _ in 0..5 {
+        servo(&mut card, &cfg, 1);
+        card.apply(&cfg, &Event::Background);
+    }
+    assert_eq!(cmd(&mut card, &cfg, "RHX:$1080"), frozen, "no checksum operations after an error");
+}
+
+#[test]
+fn a_user_program_fault_sets_bit_13_with_bit_12_clear_and_closing_a_buffer_first_hides_it() {
+    let cfg = config("status", "um-215");
+    // Detected: corrupt, then let the engine reach the user-program pass.
+    let mut card = Controller::power_on(&cfg);
+    card.apply(&cfg, &Event::ChecksumFault(ChecksumTarget::UserProgram));
+    for _ in 0..2 {
+        servo(&mut card, &cfg, 1);
+        card.apply(&cfg, &Event::Background);
+    }
+    let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!() };
+    assert_eq!(x & (1 << 13 | 1 << 12), 1 << 13);
+    // Not detected: CLOSE recomputes X:$1090 from the (corrupted) program first (UM p.217).
+    let mut card = Controller::power_on(&cfg);
+    card.apply(&cfg, &Event::ChecksumFault(ChecksumTarget::UserProgram));
+    cmd(&mut card, &cfg, "CLOSE");
+    for _ in 0..2 {
+        servo(&mut card, &cfg, 1);
+        card.apply(&cfg, &Event::Background);
+    }
+    let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!() };
+    assert_eq!(x & (1 << 13), 0);
+}
+
+#[test]
+fn under_the_rti_strober_reading_a_large_i8_trips_even_a_card_whose_background_keeps_up() {
+    // SRM p.57 has the RTI task strobe: edges come only every I8+1 servo cycles, so an RTI
+    // period longer than the hardware delay looks like a missing strobe. This is a consequence
+    // of that reading worth knowing; the servo-interrupt reading (UM p.215) has no such limit.
+    let cfg = config("i40-zero", "srm-57");
+    let mut card = Controller::power_on(&cfg);
+    assert_eq!(cmd(&mut card, &cfg, "I8=60"), Reply::Ack);
+    for _ in 0..70 {
+        servo(&mut card, &cfg, 1);
+        if card.background_possible() {
+            card.apply(&cfg, &Event::Background);
+        }
+    }
+    assert_eq!(card.trip, Some(TripCause::StrobeTimeout));
+
+    let cfg = config("i40-zero", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    cmd(&mut card, &cfg, "I8=60");
+    for _ in 0..70 {
+        servo(&mut card, &cfg, 1);
+        if card.background_possible() {
+            card.apply(&cfg, &Event::Background);
+        }
+    }
+    assert!(!card.tripped());
+}
+
+#[test]
+fn bootstrap_mode_answers_bootstrap_prom_and_runs_no_servo_tasks() {
+    let cfg = config("status", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    card.apply(
+        &cfg,
+        &Event::Reset(ResetEvent { kind: ResetKind::Power, dpram_fault: false, flash_fault: false, bootstrap: true }),
+    );
+    assert_eq!(cmd(&mut card, &cfg, "???"), Reply::Bootstrap);
+    assert_eq!(Reply::Bootstrap.to_string(), "BOOTSTRAP PROM");
+    servo(&mut card, &cfg, 100);
+    assert!(!card.tripped());
+}

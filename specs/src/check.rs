@@ -1,0 +1,218 @@
+//! `check.yaml`: the bounded configurations the model checker explores, and which profiles
+//! each is checked under. These are the "embedded default configuration" of `pmacwd check`.
+//!
+//! A configuration fixes the initial I-variables, the CPU cost model, and the finite menu of
+//! environment events the checker may choose from at every state (loads, supply voltages,
+//! host commands, resets, injected faults). Host commands are kept as text here and parsed by
+//! the model, which reports a bad one at its position in this file.
+
+use crate::yaml::SourceMap;
+use crate::SpecError;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Check {
+    pub configurations: BTreeMap<String, Configuration>,
+    pub runs: Vec<Run>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Run {
+    pub configuration: String,
+    /// `all`, or a list of profile names.
+    pub profiles: ProfileSelection,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum ProfileSelection {
+    Keyword(AllKeyword),
+    Named(Vec<String>),
+}
+
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AllKeyword {
+    All,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Configuration {
+    pub summary: String,
+    /// Servo clock; used to derive the hardware delay and to print times.
+    pub servo_hz: u32,
+    /// Initial (saved) values of I8, I40, I41; INIT/ and power-up restore them.
+    pub i8: u8,
+    pub i40: u16,
+    pub i41: u8,
+    /// Servo cycles without a strobe edge after which the hardware timer trips, or `derived`
+    /// to compute it from `servo_hz` and the profile's `strobe_hz_min` reading.
+    pub hardware_delay_cycles: Delay,
+    /// Whether the checker may advance one servo cycle at a time. Without it, time advances only
+    /// to the next point where something can change, and to the cycle just before it.
+    pub single_servo_cycles: bool,
+    /// Width of the X:$000000 servo counter kept in the state (24 on the card; 0 drops it
+    /// from the checked state, since no rule reads it).
+    pub servo_counter_bits: u8,
+    pub cpu: Cpu,
+    /// Loads the environment may switch between; the first is the load at power-up.
+    pub loads: Vec<Load>,
+    /// Supply voltages the environment may apply, in millivolts.
+    pub supply_millivolts: Vec<u32>,
+    /// Host commands the environment may send, as typed at a terminal.
+    pub commands: Vec<String>,
+    pub resets: Vec<ResetEvent>,
+    #[serde(default)]
+    pub checksum_faults: Vec<ChecksumTarget>,
+    /// Background cycles one checksum pass over each area takes.
+    pub checksum_pass_cycles: PassCycles,
+    /// Whether the environment may clear bit 22 by a memory write.
+    pub clear_rti_reentry: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Delay {
+    Cycles(u16),
+    Derived,
+}
+
+impl<'de> Deserialize<'de> for Delay {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            N(u16),
+            S(String),
+        }
+        match Raw::deserialize(d)
+            .map_err(|_| serde::de::Error::custom("expected a number of servo cycles (1..=65535) or `derived`"))?
+        {
+            Raw::N(0) => {
+                Err(serde::de::Error::custom("a hardware delay of 0 cycles would trip between any two strobes"))
+            }
+            Raw::N(n) => Ok(Delay::Cycles(n)),
+            Raw::S(s) if s == "derived" => Ok(Delay::Derived),
+            Raw::S(s) => {
+                Err(serde::de::Error::custom(format!("expected a number of servo cycles or `derived`, found `{s}`")))
+            }
+        }
+    }
+}
+
+/// CPU time per servo cycle, in arbitrary units.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Hash)]
+#[serde(deny_unknown_fields)]
+pub struct Cpu {
+    /// Units of CPU time in one servo cycle.
+    pub cycle_units: u16,
+    /// Servo update cost of one motor per cycle (UM p.236: about 1% at 2.25 kHz).
+    pub servo_units_per_motor: u16,
+    /// Move-planning cost added to every RTI task set.
+    pub move_planning_units: u16,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[serde(deny_unknown_fields)]
+pub struct Load {
+    pub motors: u8,
+    /// PLC 0 cost per RTI, in CPU units.
+    pub plc0_units: u16,
+    /// CPU units one background cycle needs (housekeeping, one PLC scan, a command).
+    pub background_units: u16,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[serde(rename_all = "snake_case")]
+pub enum ResetKind {
+    /// INIT/ taken low, then high.
+    Init,
+    /// Power cycled off and on.
+    Power,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[serde(deny_unknown_fields)]
+pub struct ResetEvent {
+    pub kind: ResetKind,
+    /// The reset-time DPRAM check finds missing or defective DPRAM.
+    #[serde(default)]
+    pub dpram_fault: bool,
+    /// Reading saved data from flash at reset fails its checksum.
+    #[serde(default)]
+    pub flash_fault: bool,
+    /// The bootstrap jumper is on: the card starts in bootstrap mode.
+    #[serde(default)]
+    pub bootstrap: bool,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[serde(rename_all = "snake_case")]
+pub enum ChecksumTarget {
+    Firmware,
+    UserProgram,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Hash)]
+#[serde(deny_unknown_fields)]
+pub struct PassCycles {
+    pub firmware: u8,
+    pub user_program: u8,
+}
+
+impl Check {
+    pub(crate) fn validate(&self, map: &SourceMap, profile_names: &[String]) -> Result<(), SpecError> {
+        for (name, c) in &self.configurations {
+            let p = format!("configurations.{name}");
+            if c.servo_hz == 0 {
+                return Err(map.error(&format!("{p}.servo_hz"), "servo_hz must be positive"));
+            }
+            if c.i41 > 15 {
+                return Err(map.error(&format!("{p}.i41"), "I41 is 4 bits (0..=15)"));
+            }
+            if c.servo_counter_bits > 24 {
+                return Err(map.error(&format!("{p}.servo_counter_bits"), "X:$000000 is 24 bits"));
+            }
+            if c.cpu.cycle_units == 0 {
+                return Err(map.error(&format!("{p}.cpu.cycle_units"), "a servo cycle must have some CPU time"));
+            }
+            if c.loads.is_empty() {
+                return Err(map.error(&format!("{p}.loads"), "at least one load (the power-up load) is needed"));
+            }
+            if c.supply_millivolts.is_empty() {
+                return Err(map.error(&format!("{p}.supply_millivolts"), "at least one supply voltage is needed"));
+            }
+            if c.checksum_pass_cycles.firmware == 0 || c.checksum_pass_cycles.user_program == 0 {
+                return Err(map.error(
+                    &format!("{p}.checksum_pass_cycles"),
+                    "a checksum pass takes at least one background cycle",
+                ));
+            }
+        }
+        for (i, run) in self.runs.iter().enumerate() {
+            if !self.configurations.contains_key(&run.configuration) {
+                return Err(map.error(
+                    &format!("runs.{i}.configuration"),
+                    format!("no configuration named `{}`", run.configuration),
+                ));
+            }
+            if let ProfileSelection::Named(names) = &run.profiles {
+                for (j, n) in names.iter().enumerate() {
+                    if !profile_names.contains(n) {
+                        return Err(map.error(
+                            &format!("runs.{i}.profiles.{j}"),
+                            format!("no profile named `{n}` in profiles.yaml"),
+                        ));
+                    }
+                }
+            }
+        }
+        if self.runs.is_empty() {
+            return Err(map.error("runs", "at least one run is needed"));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,162 @@
+//! The prose-fact files: `watchdog.yaml`, `checksums.yaml`, `stop_commands.yaml` and
+//! `scheduling.yaml`. They are mostly lists of cited rules; the model cites the same pages in
+//! its code, and the few numbers the model needs (supply minimum, strobe frequency, servo
+//! clock, servo cost per motor) are read from here.
+
+use crate::cite::Cites;
+use crate::common::{unique_rule_ids, Quantity, Rule};
+use crate::yaml::SourceMap;
+use crate::SpecError;
+use serde::Deserialize;
+
+/// `watchdog.yaml`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Watchdog {
+    pub hardware: WatchdogHardware,
+    /// The counter: reset, decrement, strobe, trip.
+    pub rules: Vec<Rule>,
+    /// What a trip does (UM p.215).
+    pub trip_actions: Vec<Rule>,
+    /// The only ways out of a trip.
+    pub recovery: Vec<Rule>,
+    /// The diagnosis procedure's facts worth keeping.
+    #[serde(default)]
+    pub diagnosis: Vec<Rule>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WatchdogHardware {
+    pub supply_volts_min: Quantity,
+    /// The Turbo manual's figure; the `strobe_hz_min` reading of the profiles may replace it.
+    pub strobe_hz_min: Quantity,
+    /// How the hardware delay in servo cycles follows from the strobe frequency.
+    pub delay_rule: Rule,
+}
+
+/// `checksums.yaml`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Checksums {
+    pub firmware: Vec<Rule>,
+    pub user_program: Vec<Rule>,
+    /// Registers and bits shared by both checks.
+    pub common: Vec<Rule>,
+}
+
+/// `stop_commands.yaml`: the table of UM p.217.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StopCommands {
+    /// Why the command column is marked reconstructed.
+    pub reconstruction_note: String,
+    pub rows: Vec<StopCommand>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StopCommand {
+    pub command: String,
+    /// True when the command text was lost from the page and restored from its prose.
+    pub command_reconstructed: bool,
+    pub scope: StopScope,
+    pub begins_immediately: bool,
+    /// `yes`, `no`, or `not_applicable` (the page prints a dash).
+    pub stops_on_path: Tristate,
+    pub stops_at_program_point: bool,
+    /// Deceleration source as printed (`Ixx15`, `TA, TS`, ...), or null when the cell is empty.
+    pub decel_rate: Option<String>,
+    pub notes: Option<String>,
+    pub cite: Cites,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum StopScope {
+    Motor,
+    CoordinateSystem,
+    Global,
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Tristate {
+    Yes,
+    No,
+    NotApplicable,
+}
+
+/// `scheduling.yaml`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scheduling {
+    pub servo_clock_hz: Quantity,
+    pub servo_cost_per_motor_percent: Quantity,
+    pub phase_and_servo_load_max_percent: Quantity,
+    /// Task priorities, highest first.
+    pub priorities: Vec<Rule>,
+    pub rti: Vec<Rule>,
+    pub plc0: Vec<Rule>,
+    pub background: Vec<Rule>,
+    #[serde(default)]
+    pub registers_note: Option<String>,
+    pub cite: Cites,
+}
+
+impl Watchdog {
+    pub(crate) fn validate(&self, map: &SourceMap) -> Result<(), SpecError> {
+        unique_rule_ids(map, "rules", &self.rules)?;
+        unique_rule_ids(map, "trip_actions", &self.trip_actions)?;
+        unique_rule_ids(map, "recovery", &self.recovery)?;
+        unique_rule_ids(map, "diagnosis", &self.diagnosis)?;
+        let v = self.hardware.supply_volts_min.value;
+        if !(3.0..=6.0).contains(&v) {
+            return Err(map.error(
+                "hardware.supply_volts_min.value",
+                format!("{v} V is not a plausible 5 V logic supply minimum"),
+            ));
+        }
+        let f = self.hardware.strobe_hz_min.value;
+        if !(1.0..=1000.0).contains(&f) {
+            return Err(map.error("hardware.strobe_hz_min.value", format!("{f} Hz is not a plausible strobe minimum")));
+        }
+        Ok(())
+    }
+}
+
+impl Checksums {
+    pub(crate) fn validate(&self, map: &SourceMap) -> Result<(), SpecError> {
+        unique_rule_ids(map, "firmware", &self.firmware)?;
+        unique_rule_ids(map, "user_program", &self.user_program)?;
+        unique_rule_ids(map, "common", &self.common)
+    }
+}
+
+impl StopCommands {
+    pub(crate) fn validate(&self, map: &SourceMap) -> Result<(), SpecError> {
+        if self.rows.len() != 11 {
+            return Err(map.error("rows", format!("the UM p.217 table has 11 rows, not {}", self.rows.len())));
+        }
+        for (i, r) in self.rows.iter().enumerate() {
+            if self.rows[..i].iter().any(|o| o.command == r.command) {
+                return Err(map.error(&format!("rows.{i}.command"), format!("command `{}` is listed twice", r.command)));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Scheduling {
+    pub(crate) fn validate(&self, map: &SourceMap) -> Result<(), SpecError> {
+        unique_rule_ids(map, "priorities", &self.priorities)?;
+        unique_rule_ids(map, "rti", &self.rti)?;
+        unique_rule_ids(map, "plc0", &self.plc0)?;
+        unique_rule_ids(map, "background", &self.background)?;
+        let hz = self.servo_clock_hz.value;
+        if !(100.0..=40_000.0).contains(&hz) {
+            return Err(map.error("servo_clock_hz.value", format!("{hz} Hz is not a servo clock a Turbo PMAC runs")));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,280 @@
+//! `profiles.yaml`: the readings where the sources disagree, and named profiles that fix one
+//! option of every reading.
+//!
+//! The options of each reading are a closed set known to the model (an enum here); the YAML
+//! documents each option with its citation and must document all of them. A profile must
+//! choose an option for every reading (a missing one is an error, not a silent default), and
+//! exactly one profile is the default, with its reason.
+
+use crate::cite::Cites;
+use crate::yaml::SourceMap;
+use crate::SpecError;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+/// Counter reset value when I40 = 0.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum ResetValueWhenI40Zero {
+    /// SRM p.57 (twice), UM p.240.
+    #[serde(rename = "4095")]
+    R4095,
+    /// UM p.215, UM p.237, Brick hardware reference.
+    #[serde(rename = "4096")]
+    R4096,
+}
+
+impl ResetValueWhenI40Zero {
+    pub const ALL: [Self; 2] = [Self::R4095, Self::R4096];
+    pub fn cycles(self) -> u16 {
+        match self {
+            Self::R4095 => 4095,
+            Self::R4096 => 4096,
+        }
+    }
+}
+
+/// When the watchdog strobe stops as the counter runs down.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum StrobeStop {
+    /// UM p.215: the servo interrupt decrements only while the counter is greater than zero,
+    /// and that decrement is what toggles the strobe: strobing stops when it reaches 0.
+    AtZero,
+    /// SRM p.57: decremented every servo cycle; strobing stops once it becomes less than 0.
+    BelowZero,
+}
+
+impl StrobeStop {
+    pub const ALL: [Self; 2] = [Self::AtZero, Self::BelowZero];
+}
+
+/// Which task toggles the strobe bit.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum Strober {
+    /// UM p.215: the servo-interrupt routine, every servo cycle.
+    ServoInterrupt,
+    /// SRM p.57: the real-time interrupt task, every I8+1 servo cycles.
+    RealTimeInterrupt,
+}
+
+impl Strober {
+    pub const ALL: [Self; 2] = [Self::ServoInterrupt, Self::RealTimeInterrupt];
+}
+
+/// What bit 12 of X:$000006 reports.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum Bit12Meaning {
+    /// SRM p.289: 1 while evaluating the firmware checksum or after a firmware error.
+    PromChecksumActive,
+    /// Delta Tau suggested M-variable M83: 1 only after a firmware checksum error.
+    FirmwareChecksumError,
+}
+
+impl Bit12Meaning {
+    pub const ALL: [Self; 2] = [Self::PromChecksumActive, Self::FirmwareChecksumError];
+}
+
+/// How the encoder-loss PLC of UM p.215 clears a latched loss.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum EncoderLossClear {
+    /// The listing read literally: the clear branch needs the status already 0, so a latched
+    /// loss is never cleared.
+    Literal,
+    /// The evident intent: clear a latched loss once the motor is closed-loop and the encoder OK.
+    Intent,
+}
+
+impl EncoderLossClear {
+    pub const ALL: [Self; 2] = [Self::Literal, Self::Intent];
+}
+
+/// The lowest strobe frequency the hardware timer accepts.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum StrobeHzMin {
+    /// Turbo PMAC User Manual p.215.
+    #[serde(rename = "25")]
+    Hz25,
+    /// The older, non-Turbo PMAC manual (an RTI rate of about 50 Hz).
+    #[serde(rename = "50")]
+    Hz50,
+}
+
+impl StrobeHzMin {
+    pub const ALL: [Self; 2] = [Self::Hz25, Self::Hz50];
+    pub fn hz(self) -> u32 {
+        match self {
+            Self::Hz25 => 25,
+            Self::Hz50 => 50,
+        }
+    }
+}
+
+/// Whether bit 9 (RTI warning) stays set once an RTI task overran.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum RtiWarningLatch {
+    /// Set by an overrun, cleared at the next RTI whose previous tasks had completed.
+    Level,
+    /// Set by an overrun, cleared only by reset, like bit 22.
+    Sticky,
+}
+
+impl RtiWarningLatch {
+    pub const ALL: [Self; 2] = [Self::Level, Self::Sticky];
+}
+
+/// Documentation of one option of a reading.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OptionDoc {
+    pub statement: String,
+    pub cite: Cites,
+}
+
+/// A reading: the question, and every option documented.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[serde(bound(deserialize = "O: Deserialize<'de> + Ord"))]
+pub struct Reading<O: Ord> {
+    pub question: String,
+    pub options: BTreeMap<O, OptionDoc>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Readings {
+    pub reset_value_when_i40_zero: Reading<ResetValueWhenI40Zero>,
+    pub strobe_stop: Reading<StrobeStop>,
+    pub strober: Reading<Strober>,
+    pub bit12_meaning: Reading<Bit12Meaning>,
+    pub encoder_loss_clear: Reading<EncoderLossClear>,
+    pub strobe_hz_min: Reading<StrobeHzMin>,
+    pub rti_warning_latch: Reading<RtiWarningLatch>,
+}
+
+/// The option a profile chose for every reading. Every field is required.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[serde(deny_unknown_fields)]
+pub struct Choices {
+    pub reset_value_when_i40_zero: ResetValueWhenI40Zero,
+    pub strobe_stop: StrobeStop,
+    pub strober: Strober,
+    pub bit12_meaning: Bit12Meaning,
+    pub encoder_loss_clear: EncoderLossClear,
+    pub strobe_hz_min: StrobeHzMin,
+    pub rti_warning_latch: RtiWarningLatch,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProfileDef {
+    #[serde(default)]
+    pub default: bool,
+    pub summary: String,
+    /// Why this profile is the default; required on the default profile.
+    #[serde(default)]
+    pub reason: Option<String>,
+    pub readings: Choices,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Profiles {
+    pub readings: Readings,
+    pub profiles: BTreeMap<String, ProfileDef>,
+}
+
+/// A named profile as the model uses it.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Profile {
+    pub name: String,
+    pub choices: Choices,
+}
+
+fn all_documented<O: Ord + Copy + std::fmt::Debug>(
+    map: &SourceMap,
+    name: &str,
+    reading: &Reading<O>,
+    all: &[O],
+) -> Result<(), SpecError> {
+    for o in all {
+        if !reading.options.contains_key(o) {
+            return Err(map.error(
+                &format!("readings.{name}.options"),
+                format!("reading `{name}` does not document option {o:?}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+impl Profiles {
+    pub(crate) fn validate(&self, map: &SourceMap) -> Result<(), SpecError> {
+        let r = &self.readings;
+        all_documented(map, "reset_value_when_i40_zero", &r.reset_value_when_i40_zero, &ResetValueWhenI40Zero::ALL)?;
+        all_documented(map, "strobe_stop", &r.strobe_stop, &StrobeStop::ALL)?;
+        all_documented(map, "strober", &r.strober, &Strober::ALL)?;
+        all_documented(map, "bit12_meaning", &r.bit12_meaning, &Bit12Meaning::ALL)?;
+        all_documented(map, "encoder_loss_clear", &r.encoder_loss_clear, &EncoderLossClear::ALL)?;
+        all_documented(map, "strobe_hz_min", &r.strobe_hz_min, &StrobeHzMin::ALL)?;
+        all_documented(map, "rti_warning_latch", &r.rti_warning_latch, &RtiWarningLatch::ALL)?;
+        if self.profiles.is_empty() {
+            return Err(map.error("profiles", "at least one profile is needed"));
+        }
+        let defaults: Vec<&String> = self.profiles.iter().filter(|(_, p)| p.default).map(|(n, _)| n).collect();
+        match defaults.as_slice() {
+            [] => return Err(map.error("profiles", "no profile is marked `default: true`")),
+            [one] => {
+                if self.profiles[*one].reason.as_deref().is_none_or(|r| r.trim().is_empty()) {
+                    return Err(
+                        map.error(&format!("profiles.{one}"), format!("the default profile `{one}` needs a `reason`"))
+                    );
+                }
+            }
+            [_, second, ..] => {
+                return Err(map.error(&format!("profiles.{second}.default"), "more than one profile is the default"))
+            }
+        }
+        let mut seen: BTreeMap<Choices, &String> = BTreeMap::new();
+        for (name, p) in &self.profiles {
+            if !crate::common::is_identifier(&name.replace('-', "_")) {
+                return Err(map.error(
+                    &format!("profiles.{name}"),
+                    format!("profile name `{name}` must be lower-case words joined by `-`"),
+                ));
+            }
+            if let Some(other) = seen.insert(p.readings, name) {
+                return Err(map.error(
+                    &format!("profiles.{name}.readings"),
+                    format!("profile `{name}` makes the same choices as `{other}`"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    pub fn default_profile(&self) -> Profile {
+        let (name, p) = self.profiles.iter().find(|(_, p)| p.default).expect("validated: one default");
+        Profile { name: name.clone(), choices: p.readings }
+    }
+
+    pub fn get(&self, name: &str) -> Option<Profile> {
+        self.profiles.get(name).map(|p| Profile { name: name.to_string(), choices: p.readings })
+    }
+
+    /// Every profile, the default first.
+    pub fn all(&self) -> Vec<Profile> {
+        let d = self.default_profile();
+        let mut v = vec![d.clone()];
+        v.extend(
+            self.profiles
+                .iter()
+                .filter(|(n, _)| **n != d.name)
+                .map(|(n, p)| Profile { name: n.clone(), choices: p.readings }),
+        );
+        v
+    }
+}

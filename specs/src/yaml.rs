@@ -1,0 +1,215 @@
+//! The only module that parses YAML.
+//!
+//! serde_yaml is deprecated upstream; everything that touches it is here, so moving to a
+//! maintained fork is a change to this file alone. Parsing is two passes over the text:
+//!
+//! 1. [`SourceMap::build`] walks the YAML events (yaml-rust2) and records the position of every
+//!    key and sequence item under its dotted path (`words.X.bits.22`). It rejects duplicate
+//!    mapping keys anywhere, at the position of the second occurrence: serde_yaml would keep
+//!    only the last one when the target is a map, silently losing the first.
+//! 2. serde_yaml deserializes into the typed schema with `deny_unknown_fields`; its errors
+//!    (syntax, wrong type, unknown or missing key, a range check inside a `Deserialize` impl)
+//!    carry their own position.
+//!
+//! Checks that look at more than one value (a duplicated name, a default outside its range)
+//! run after both passes and use the source map to point at the offending key.
+
+use crate::error::{Position, SpecError};
+use serde::de::DeserializeOwned;
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+use yaml_rust2::parser::{Event, MarkedEventReceiver, Parser};
+use yaml_rust2::scanner::Marker;
+
+/// Positions of every key and sequence item of one file, by dotted path.
+#[derive(Clone, Debug, Default)]
+pub struct SourceMap {
+    file: PathBuf,
+    positions: HashMap<String, Position>,
+}
+
+impl SourceMap {
+    /// Walks the events of `text`; fails on a syntax error or a duplicated mapping key.
+    pub fn build(file: &Path, text: &str) -> Result<SourceMap, SpecError> {
+        let mut walker = Walker { file: file.to_path_buf(), stack: Vec::new(), positions: HashMap::new(), error: None };
+        let mut parser = Parser::new_from_str(text);
+        if let Err(e) = parser.load(&mut walker, false) {
+            let m = e.marker();
+            return Err(SpecError::at(file, position_of(m), format!("YAML syntax: {}", e.info())));
+        }
+        if let Some(e) = walker.error {
+            return Err(e);
+        }
+        Ok(SourceMap { file: file.to_path_buf(), positions: walker.positions })
+    }
+
+    pub fn file(&self) -> &Path {
+        &self.file
+    }
+
+    /// Position of the key or item at `path` (dotted, e.g. `profiles.um-215.readings`), or of
+    /// the nearest enclosing node that has one, or the start of the file.
+    pub fn position(&self, path: &str) -> Position {
+        let mut p = path;
+        loop {
+            if let Some(pos) = self.positions.get(p) {
+                return *pos;
+            }
+            match p.rfind('.') {
+                Some(i) => p = &p[..i],
+                None => return Position { line: 1, column: 1 },
+            }
+        }
+    }
+
+    /// An error pointing at `path`.
+    pub fn error(&self, path: &str, message: impl Into<String>) -> SpecError {
+        SpecError::at(&self.file, self.position(path), message)
+    }
+}
+
+fn position_of(m: &Marker) -> Position {
+    // yaml-rust2 counts lines from 1 and columns from 0.
+    Position { line: m.line(), column: m.col() + 1 }
+}
+
+enum Frame {
+    Map { path: String, key: Option<String>, keys: HashSet<String> },
+    Seq { path: String, index: usize },
+}
+
+struct Walker {
+    file: PathBuf,
+    stack: Vec<Frame>,
+    positions: HashMap<String, Position>,
+    error: Option<SpecError>,
+}
+
+fn join(parent: &str, child: &str) -> String {
+    if parent.is_empty() {
+        child.to_string()
+    } else {
+        format!("{parent}.{child}")
+    }
+}
+
+impl Walker {
+    /// Called for every node that is a value (scalar, alias or container start). Returns the
+    /// path of the node, or `None` when it is a mapping key (handled here) .
+    fn node(&mut self, scalar: Option<&str>, mark: Marker) -> Option<String> {
+        let pos = position_of(&mark);
+        match self.stack.last_mut() {
+            None => Some(String::new()),
+            Some(Frame::Seq { path, index }) => {
+                let p = join(path, &index.to_string());
+                *index += 1;
+                self.positions.insert(p.clone(), pos);
+                Some(p)
+            }
+            Some(Frame::Map { path, key, keys }) => match key.take() {
+                Some(k) => Some(join(path, &k)),
+                None => {
+                    let Some(k) = scalar else {
+                        if self.error.is_none() {
+                            self.error = Some(SpecError::at(&self.file, pos, "a mapping key must be a plain scalar"));
+                        }
+                        return None;
+                    };
+                    if !keys.insert(k.to_string()) && self.error.is_none() {
+                        self.error = Some(SpecError::at(
+                            &self.file,
+                            pos,
+                            format!("duplicate key `{k}` (an earlier entry has the same key)"),
+                        ));
+                    }
+                    self.positions.insert(join(path, k), pos);
+                    *key = Some(k.to_string());
+                    None
+                }
+            },
+        }
+    }
+}
+
+impl MarkedEventReceiver for Walker {
+    fn on_event(&mut self, ev: Event, mark: Marker) {
+        match ev {
+            Event::Scalar(value, ..) => {
+                self.node(Some(&value), mark);
+            }
+            Event::Alias(_) => {
+                self.node(Some("*alias"), mark);
+            }
+            Event::MappingStart(..) => {
+                let path = self.node(None, mark).unwrap_or_default();
+                self.stack.push(Frame::Map { path, key: None, keys: HashSet::new() });
+            }
+            Event::SequenceStart(..) => {
+                let path = self.node(None, mark).unwrap_or_default();
+                self.stack.push(Frame::Seq { path, index: 0 });
+            }
+            Event::MappingEnd | Event::SequenceEnd => {
+                self.stack.pop();
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Parses one file strictly into `T`, returning the source map for later checks.
+pub fn parse<T: DeserializeOwned>(file: &Path, text: &str) -> Result<(T, SourceMap), SpecError> {
+    let map = SourceMap::build(file, text)?;
+    let value: T = serde_yaml::from_str(text).map_err(|e| match e.location() {
+        Some(l) => SpecError::at(file, Position { line: l.line(), column: l.column() }, strip_location(&e)),
+        None => SpecError::whole_file(file, e.to_string()),
+    })?;
+    Ok((value, map))
+}
+
+/// serde_yaml appends " at line L column C" to its messages; we print the position up front.
+fn strip_location(e: &serde_yaml::Error) -> String {
+    let text = e.to_string();
+    match text.rfind(" at line ") {
+        Some(i) => text[..i].to_string(),
+        None => text,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn source_map_points_at_keys_and_items_with_one_based_positions() {
+        let text = "a:\n  b: 1\n  list:\n    - x\n    - y\n";
+        let map = SourceMap::build(Path::new("t.yaml"), text).unwrap();
+        assert_eq!(map.position("a"), Position { line: 1, column: 1 });
+        assert_eq!(map.position("a.b"), Position { line: 2, column: 3 });
+        assert_eq!(map.position("a.list.1"), Position { line: 5, column: 7 });
+        // Unknown paths fall back to the nearest known ancestor.
+        assert_eq!(map.position("a.b.zzz"), Position { line: 2, column: 3 });
+    }
+
+    #[test]
+    fn a_duplicated_mapping_key_is_reported_at_its_second_occurrence() {
+        // serde_yaml alone would keep only the second `22:` when deserializing into a map.
+        let text = "bits:\n  22: {name: a}\n  21: {name: b}\n  22: {name: c}\n";
+        let err = SourceMap::build(Path::new("s.yaml"), text).unwrap_err();
+        assert_eq!(err.position, Some(Position { line: 4, column: 3 }));
+        assert!(err.message.contains("duplicate key `22`"), "{}", err.message);
+    }
+
+    #[test]
+    fn serde_errors_keep_their_position_without_repeating_it() {
+        #[derive(serde::Deserialize, Debug)]
+        #[serde(deny_unknown_fields)]
+        #[allow(dead_code)]
+        struct T {
+            name: String,
+        }
+        let err = parse::<T>(Path::new("t.yaml"), "\nnmae: x\n").unwrap_err();
+        assert_eq!(err.position, Some(Position { line: 2, column: 1 }));
+        assert!(err.message.contains("unknown field `nmae`"), "{}", err.message);
+        assert!(!err.message.contains(" at line "), "{}", err.message);
+    }
+}
