@@ -507,7 +507,8 @@ mod tests {
         let spec = pmacwd_specs::Spec::embedded().unwrap();
         let cfg = ModelConfig::from_spec(&spec, "timing", &spec.profiles.default_profile()).unwrap();
         let base = State { controller: Controller::power_on(&cfg), violations: 0 };
-        let edits: Vec<(&str, fn(&mut State))> = vec![
+        type Edit = (&'static str, fn(&mut State));
+        let edits: Vec<Edit> = vec![
             ("trip", |s| s.controller.trip = Some(crate::controller::TripCause::StrobeTimeout)),
             ("supply_low", |s| s.controller.supply_low = true),
             ("bootstrap", |s| s.controller.bootstrap = true),
