@@ -160,23 +160,30 @@ impl fmt::Display for Cites {
 }
 
 impl<'de> Deserialize<'de> for Cites {
+    /// A visitor rather than an untagged enum: untagged buffering loses the position, and a
+    /// bad citation should be reported where it is written.
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        #[derive(Deserialize)]
-        #[serde(untagged)]
-        enum OneOrMany {
-            One(String),
-            Many(Vec<String>),
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = Cites;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a citation such as `UM p.215`, or a list of them")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Cites, E> {
+                Cite::parse(v).map(|c| Cites(vec![c])).map_err(E::custom)
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Cites, A::Error> {
+                let mut cites = Vec::new();
+                while let Some(text) = seq.next_element::<String>()? {
+                    cites.push(Cite::parse(&text).map_err(A::Error::custom)?);
+                }
+                if cites.is_empty() {
+                    return Err(A::Error::custom("`cite` must name at least one source"));
+                }
+                Ok(Cites(cites))
+            }
         }
-        let texts = match OneOrMany::deserialize(d)
-            .map_err(|_| D::Error::custom("`cite` must be a citation string or a list of them"))?
-        {
-            OneOrMany::One(s) => vec![s],
-            OneOrMany::Many(v) => v,
-        };
-        if texts.is_empty() {
-            return Err(D::Error::custom("`cite` must name at least one source"));
-        }
-        texts.iter().map(|t| Cite::parse(t).map_err(D::Error::custom)).collect::<Result<_, _>>().map(Cites)
+        d.deserialize_any(Visitor)
     }
 }
 

@@ -224,11 +224,14 @@ impl Profiles {
         if self.profiles.is_empty() {
             return Err(map.error("profiles", "at least one profile is needed"));
         }
-        let defaults: Vec<&String> = self.profiles.iter().filter(|(_, p)| p.default).map(|(n, _)| n).collect();
+        let mut default_paths: Vec<String> =
+            self.profiles.iter().filter(|(_, p)| p.default).map(|(n, _)| format!("profiles.{n}")).collect();
+        map.sort_by_position(&mut default_paths);
+        let defaults: Vec<&str> = default_paths.iter().map(|p| &p["profiles.".len()..]).collect();
         match defaults.as_slice() {
             [] => return Err(map.error("profiles", "no profile is marked `default: true`")),
             [one] => {
-                if self.profiles[*one].reason.as_deref().is_none_or(|r| r.trim().is_empty()) {
+                if self.profiles[*one as &str].reason.as_deref().is_none_or(|r| r.trim().is_empty()) {
                     return Err(
                         map.error(&format!("profiles.{one}"), format!("the default profile `{one}` needs a `reason`"))
                     );

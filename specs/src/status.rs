@@ -80,22 +80,12 @@ impl Status {
         if self.reply.characters != 12 {
             return Err(map.error("reply.characters", "the ??? reply has 12 hex characters (SRM p.289)"));
         }
-        let mut names: HashMap<&str, String> = HashMap::new();
         for (id, word) in [("X", &self.words.x), ("Y", &self.words.y)] {
-            for (bit, entry) in &word.bits {
-                let path = format!("words.{id}.bits.{bit}");
+            for bit in word.bits.keys() {
                 if *bit > 23 {
-                    return Err(map.error(&path, format!("a status word has bits 0..=23; there is no bit {bit}")));
-                }
-                if !crate::common::is_identifier(&entry.name) {
-                    return Err(
-                        map.error(&format!("{path}.name"), format!("`{}` is not a snake_case name", entry.name))
-                    );
-                }
-                if let Some(first) = names.insert(&entry.name, path.clone()) {
                     return Err(map.error(
-                        &format!("{path}.name"),
-                        format!("status bit name `{}` is already used by {first}", entry.name),
+                        &format!("words.{id}.bits.{bit}"),
+                        format!("a status word has bits 0..=23; there is no bit {bit}"),
                     ));
                 }
             }
@@ -108,7 +98,36 @@ impl Status {
                 ));
             }
         }
+        // Names are checked in file order, so a duplicate is reported where it is written second.
+        let mut paths: Vec<String> = [("X", &self.words.x), ("Y", &self.words.y)]
+            .iter()
+            .flat_map(|(id, word)| word.bits.keys().map(move |b| format!("words.{id}.bits.{b}")))
+            .collect();
+        map.sort_by_position(&mut paths);
+        let mut names: HashMap<&str, &str> = HashMap::new();
+        for path in &paths {
+            let entry = self.entry_at(path).expect("path built from the entries");
+            if !crate::common::is_identifier(&entry.name) {
+                return Err(map.error(&format!("{path}.name"), format!("`{}` is not a snake_case name", entry.name)));
+            }
+            if let Some(first) = names.insert(&entry.name, path) {
+                return Err(map.error(
+                    &format!("{path}.name"),
+                    format!("status bit name `{}` is already used by {first}", entry.name),
+                ));
+            }
+        }
         Ok(())
+    }
+
+    fn entry_at(&self, path: &str) -> Option<&StatusBit> {
+        let mut parts = path.split('.').skip(1);
+        let word = match parts.next()? {
+            "X" => WordId::X,
+            _ => WordId::Y,
+        };
+        let bit = parts.nth(1)?.parse().ok()?;
+        self.entry(word, bit)
     }
 
     /// Word and bit number of the bit called `name`.

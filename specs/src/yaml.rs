@@ -62,6 +62,15 @@ impl SourceMap {
         }
     }
 
+    /// Sorts dotted paths into the order they appear in the file, so that "the second one"
+    /// in an error message is the second one a reader meets.
+    pub fn sort_by_position(&self, paths: &mut [String]) {
+        paths.sort_by_key(|p| {
+            let pos = self.position(p);
+            (pos.line, pos.column)
+        });
+    }
+
     /// An error pointing at `path`.
     pub fn error(&self, path: &str, message: impl Into<String>) -> SpecError {
         SpecError::at(&self.file, self.position(path), message)

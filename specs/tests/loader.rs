@@ -1,0 +1,182 @@
+//! The spec loader: the shipped facts load and say what the manuals say, and every kind of
+//! broken input is refused with the position of the problem.
+
+use pmacwd_specs::facts::StopScope;
+use pmacwd_specs::status::{Latch, WordId};
+use pmacwd_specs::{Position, Spec, SpecError};
+use std::path::{Path, PathBuf};
+
+fn specs_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
+}
+
+/// Loads a copy of the shipped spec directory with `edit` applied to `file`.
+fn load_edited(tag: &str, file: &str, edit: impl Fn(&str) -> String) -> (Result<Spec, SpecError>, String) {
+    let dir = std::env::temp_dir().join(format!("pmacwd-specs-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut edited = String::new();
+    for f in Spec::file_names() {
+        let text = std::fs::read_to_string(specs_dir().join(f)).unwrap();
+        let text = if f == file {
+            let e = edit(&text);
+            assert_ne!(e, text, "the edit must change {file}");
+            edited = e.clone();
+            e
+        } else {
+            text
+        };
+        std::fs::write(dir.join(f), text).unwrap();
+    }
+    (Spec::load_dir(&dir), edited)
+}
+
+fn line_of(text: &str, needle: &str) -> usize {
+    text.lines().position(|l| l.contains(needle)).unwrap_or_else(|| panic!("`{needle}` not in the edited file")) + 1
+}
+
+fn expect_error(result: Result<Spec, SpecError>, line: usize, message_part: &str) -> SpecError {
+    let err = result.expect_err("the broken spec must be refused");
+    assert_eq!(err.position.map(|p| p.line), Some(line), "{err}");
+    assert!(err.message.contains(message_part), "{err}");
+    err
+}
+
+#[test]
+fn the_embedded_specs_and_the_directory_on_disk_are_the_same_and_load() {
+    let embedded = Spec::embedded().unwrap();
+    let disk = Spec::load_dir(&specs_dir()).unwrap();
+    assert_eq!(format!("{:?}", embedded.status), format!("{:?}", disk.status));
+    assert_eq!(format!("{:?}", embedded.profiles), format!("{:?}", disk.profiles));
+}
+
+#[test]
+fn the_i_variables_say_what_srm_p57_says() {
+    let spec = Spec::embedded().unwrap();
+    let iv = &spec.variables.i_variables;
+    assert_eq!((iv.i40.range.min, iv.i40.range.max, iv.i40.default), (0, 65_535, 0));
+    assert_eq!((iv.i41.range.min, iv.i41.range.max, iv.i41.default), (0, 15, 0));
+    assert_eq!((iv.i8.range.min, iv.i8.range.max), (0, 255));
+    let ranges: Vec<(u8, u16, u16)> = spec.variables.lockout.iter().map(|r| (r.bit, r.first, r.last)).collect();
+    assert_eq!(ranges, [(0, 100, 4899), (1, 5100, 6699), (2, 6800, 7999), (3, 8000, 8191)]);
+    assert_eq!(spec.variables.lockout_bit(130), Some(0));
+    assert_eq!(spec.variables.lockout_bit(41), None, "I41 never locks itself");
+}
+
+#[test]
+fn all_48_status_bits_are_described_and_the_model_driven_ones_sit_where_srm_p289_puts_them() {
+    let spec = Spec::embedded().unwrap();
+    assert_eq!(spec.status.words.x.bits.len() + spec.status.words.y.bits.len(), 48);
+    for (name, word, bit) in [
+        ("rti_reentry", WordId::X, 22),
+        ("servo_error", WordId::X, 20),
+        ("checksum_error", WordId::X, 13),
+        ("prom_checksum_active", WordId::X, 12),
+        ("dpram_error", WordId::X, 11),
+        ("flash_error", WordId::X, 10),
+        ("rti_warning", WordId::X, 9),
+        ("motion_buffer_open", WordId::Y, 19),
+        ("plc_buffer_open", WordId::Y, 17),
+    ] {
+        assert_eq!(spec.status.bit(name), Some((word, bit)), "{name}");
+    }
+    assert_eq!(spec.status.entry(WordId::X, 22).unwrap().latch, Latch::Sticky, "SRM p.289: bit 22 stays at 1");
+    assert_eq!(spec.status.reply.bootstrap_reply, "BOOTSTRAP PROM");
+}
+
+#[test]
+fn the_stop_table_has_its_11_rows_with_the_lost_commands_marked_reconstructed() {
+    let spec = Spec::embedded().unwrap();
+    let rows = &spec.stop_commands.rows;
+    let commands: Vec<&str> = rows.iter().map(|r| r.command.as_str()).collect();
+    assert_eq!(commands, ["J/", "A", "<CTRL-A>", "Q", "<CTRL-Q>", "S", "H", "<CTRL-O>", "\\", "K", "<CTRL-K>"]);
+    let reconstructed: Vec<&str> =
+        rows.iter().filter(|r| r.command_reconstructed).map(|r| r.command.as_str()).collect();
+    assert_eq!(reconstructed, ["A", "Q", "S", "H", "\\", "K"]);
+    assert!(rows.iter().filter(|r| r.command.starts_with("<CTRL")).all(|r| r.scope == StopScope::Global));
+}
+
+#[test]
+fn every_reading_of_section_6_is_covered_and_the_default_profile_gives_its_reason() {
+    let spec = Spec::embedded().unwrap();
+    let d = spec.profiles.default_profile();
+    assert_eq!(d.name, "um-215");
+    assert!(spec.profiles.profiles[&d.name].reason.as_deref().unwrap().contains("UM p.215"));
+    // Both options of every reading are chosen by some profile, so each can be checked.
+    let all = spec.profiles.all();
+    assert!(
+        all.iter().map(|p| p.choices.reset_value_when_i40_zero).collect::<std::collections::BTreeSet<_>>().len() == 2
+    );
+    assert!(all.iter().map(|p| p.choices.strobe_stop).collect::<std::collections::BTreeSet<_>>().len() == 2);
+    assert!(all.iter().map(|p| p.choices.strober).collect::<std::collections::BTreeSet<_>>().len() == 2);
+    assert!(all.iter().map(|p| p.choices.bit12_meaning).collect::<std::collections::BTreeSet<_>>().len() == 2);
+    assert!(all.iter().map(|p| p.choices.encoder_loss_clear).collect::<std::collections::BTreeSet<_>>().len() == 2);
+    assert!(all.iter().map(|p| p.choices.strobe_hz_min).collect::<std::collections::BTreeSet<_>>().len() == 2);
+    assert!(all.iter().map(|p| p.choices.rti_warning_latch).collect::<std::collections::BTreeSet<_>>().len() == 2);
+}
+
+#[test]
+fn a_profile_that_skips_a_reading_is_refused_instead_of_defaulted() {
+    let (r, text) = load_edited("skip", "profiles.yaml", |t| t.replacen("      rti_warning_latch: level\n", "", 1));
+    let err = r.unwrap_err();
+    assert!(err.message.contains("missing field `rti_warning_latch`"), "{err}");
+    assert!(err.position.is_some() && err.position.unwrap().line < line_of(&text, "srm-57:"), "{err}");
+}
+
+#[test]
+fn two_default_profiles_are_refused_at_the_second() {
+    let (r, text) =
+        load_edited("twodefaults", "profiles.yaml", |t| t.replacen("  srm-57:\n", "  srm-57:\n    default: true\n", 1));
+    let line = line_of(&text, "  srm-57:") + 1;
+    expect_error(r, line, "more than one profile is the default");
+}
+
+#[test]
+fn an_unknown_citation_source_is_refused_at_the_citation() {
+    let (r, text) = load_edited("cite", "watchdog.yaml", |t| t.replacen("cite: UM p.215", "cite: Manual p.215", 1));
+    let line = line_of(&text, "cite: Manual p.215");
+    expect_error(r, line, "unknown source `Manual`");
+}
+
+#[test]
+fn a_status_word_with_a_missing_bit_is_refused_naming_the_missing_bit() {
+    let (r, _) = load_edited("missingbit", "status.yaml", |t| {
+        let start = t.find("      18:\n").unwrap();
+        let end = t[start..].find("      17:\n").unwrap() + start;
+        format!("{}{}", &t[..start], &t[end..])
+    });
+    let err = r.unwrap_err();
+    assert!(err.message.contains("missing: 18"), "{err}");
+}
+
+#[test]
+fn a_status_bit_name_used_twice_is_refused_at_the_second_use() {
+    let (r, text) = load_edited("dupname", "status.yaml", |t| t.replacen("name: reserved_x18", "name: rti_reentry", 1));
+    let line = line_of(&text, "name: rti_reentry");
+    let second = text.lines().enumerate().filter(|(_, l)| l.contains("name: rti_reentry")).nth(1).unwrap().0 + 1;
+    assert!(second > line);
+    expect_error(r, second, "already used by words.X.bits.22");
+}
+
+#[test]
+fn a_default_outside_its_range_and_a_lockout_overlap_are_refused() {
+    let (r, text) =
+        load_edited("default", "variables.yaml", |t| t.replacen("    default: 2\n", "    default: 300\n", 1));
+    expect_error(r, line_of(&text, "default: 300"), "default 300 is outside its range");
+    let (r, text) = load_edited("overlap", "variables.yaml", |t| t.replacen("first: 5100", "first: 4800", 1));
+    expect_error(r, line_of(&text, "first: 4800"), "overlaps lockout.0");
+}
+
+#[test]
+fn a_stray_yaml_file_in_the_spec_directory_is_refused_rather_than_ignored() {
+    let dir = std::env::temp_dir().join(format!("pmacwd-specs-{}-stray", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for f in Spec::file_names() {
+        std::fs::copy(specs_dir().join(f), dir.join(f)).unwrap();
+    }
+    std::fs::write(dir.join("extra.yaml"), "a: 1\n").unwrap();
+    let err = Spec::load_dir(&dir).unwrap_err();
+    assert!(err.file.ends_with("extra.yaml") && err.message.contains("unexpected spec file"), "{err}");
+    assert_eq!(err.position, None::<Position>);
+}
