@@ -1,7 +1,9 @@
 //! The prose-fact files: `watchdog.yaml`, `checksums.yaml`, `stop_commands.yaml` and
 //! `scheduling.yaml`. They are mostly lists of cited rules; the model cites the same pages in
-//! its code, and the few numbers the model needs (supply minimum, strobe frequency, servo
-//! clock, servo cost per motor) are read from here.
+//! its code. The model reads the supply minimum from here; the strobe minimum it takes from the
+//! profile's `strobe_hz_min` reading (this file holds the Turbo manual's 25 Hz). The servo clock
+//! and the per-motor servo cost are the figures behind the `i40-zero` configuration of
+//! `check.yaml` (2,250 Hz, 1 unit of 100 per motor).
 
 use crate::cite::Cites;
 use crate::common::{unique_rule_ids, Quantity, Rule};
