@@ -1,6 +1,9 @@
 //! # pmacwd: where the reference model meets the world
 //!
 //! [`check`] runs the model checker over the configurations of `specs/check.yaml` and prints
-//! its report; the `pmacwd` binary is its command line.
+//! its report; [`trace`] is the trace format and [`runner`] runs a trace on the model; the
+//! `pmacwd` binary is the command line.
 
 pub mod check;
+pub mod runner;
+pub mod trace;

@@ -1,0 +1,177 @@
+//! Runs a trace on the reference model and compares every expected observation.
+
+use crate::trace::{Expect, LoadedTrace};
+use pmacwd_model::config::ModelConfig;
+use pmacwd_model::controller::Controller;
+use pmacwd_model::event::Event;
+use pmacwd_model::observe::Observation;
+use pmacwd_specs::check::ProfileSelection;
+use pmacwd_specs::profiles::Profile;
+use pmacwd_specs::status::WordId;
+use pmacwd_specs::{Position, Spec, SpecError};
+use std::fmt;
+
+/// The first point where the model disagrees with a trace.
+#[derive(Clone, Debug)]
+pub struct Divergence {
+    /// 0-based step index, and where the step is written.
+    pub step: usize,
+    pub position: Position,
+    pub what: String,
+    pub expected: String,
+    pub observed: String,
+    /// The events just before, oldest first, the diverging one last.
+    pub recent: Vec<String>,
+}
+
+impl fmt::Display for Divergence {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "step {} (line {}): {}: expected {}, observed {}",
+            self.step + 1,
+            self.position.line,
+            self.what,
+            self.expected,
+            self.observed
+        )?;
+        for (i, e) in self.recent.iter().enumerate() {
+            let marker = if i + 1 == self.recent.len() { "->" } else { "  " };
+            writeln!(f, "    {marker} {e}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Why a trace run did not pass.
+#[derive(Debug)]
+pub enum Failure {
+    /// The trace cannot be run: unknown configuration, profile or status bit name.
+    Unusable(SpecError),
+    Diverged(Divergence),
+}
+
+/// The profiles a trace's expectations hold under.
+pub fn profiles_of(spec: &Spec, loaded: &LoadedTrace) -> Result<Vec<Profile>, SpecError> {
+    match &loaded.trace.profiles {
+        ProfileSelection::Keyword(_) => Ok(spec.profiles.all()),
+        ProfileSelection::Named(names) => names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| {
+                spec.profiles
+                    .get(n)
+                    .ok_or_else(|| loaded.map.error(&format!("profiles.{i}"), format!("no profile named `{n}`")))
+            })
+            .collect(),
+    }
+}
+
+/// How many recent events a divergence report shows.
+const RECENT_EVENTS: usize = 5;
+
+/// Runs `loaded` on the model under `profile`; returns the number of expectations checked.
+pub fn run_on_model(spec: &Spec, loaded: &LoadedTrace, profile: &Profile) -> Result<usize, Failure> {
+    let trace = &loaded.trace;
+    let cfg = ModelConfig::from_spec(spec, &trace.configuration, profile).map_err(|_| {
+        Failure::Unusable(
+            loaded
+                .map
+                .error("configuration", format!("no configuration named `{}` in check.yaml", trace.configuration)),
+        )
+    })?;
+    let mut card = Controller::power_on(&cfg);
+    let mut recent: Vec<String> = Vec::new();
+    let mut checked = 0;
+    for (i, step) in trace.steps.iter().enumerate() {
+        recent.push(step.event.to_string());
+        if recent.len() > RECENT_EVENTS {
+            recent.remove(0);
+        }
+        let diverge = |what: &str, expected: String, observed: String| {
+            Failure::Diverged(Divergence {
+                step: i,
+                position: loaded.step_position(i),
+                what: what.to_string(),
+                expected,
+                observed,
+                recent: recent.clone(),
+            })
+        };
+        if step.event == Event::Background && !card.background_possible() {
+            let why = if card.tripped() {
+                "the card is tripped"
+            } else {
+                "the load has not yet given the background a cycle's CPU time"
+            };
+            return Err(diverge("event", "a background cycle can complete".into(), format!("it cannot: {why}")));
+        }
+        let reply = card.apply(&cfg, &step.event);
+        let obs = Observation::of(&card, &cfg, reply);
+        checked += compare(spec, loaded, i, &step.expect, &obs).map_err(|e| match e {
+            Mismatch::Unusable(err) => Failure::Unusable(err),
+            Mismatch::Field(what, expected, observed) => diverge(what, expected, observed),
+        })?;
+    }
+    Ok(checked)
+}
+
+enum Mismatch {
+    Unusable(SpecError),
+    Field(&'static str, String, String),
+}
+
+fn compare(spec: &Spec, loaded: &LoadedTrace, step: usize, e: &Expect, o: &Observation) -> Result<usize, Mismatch> {
+    let mut n = 0;
+    if let Some(r) = &e.reply {
+        n += 1;
+        if *r != o.reply.to_string() {
+            return Err(Mismatch::Field("reply", r.clone(), o.reply.to_string()));
+        }
+    }
+    for (what, expected, observed) in [
+        ("tripped", e.tripped, o.led_red),
+        ("red LED", e.led_red, o.led_red),
+        ("FEFCO/", e.fefco_on, o.fefco_on),
+        ("relay", e.relay_tripped, o.relay_tripped),
+        ("outputs forced off", e.outputs_forced_off, o.outputs_forced_off),
+    ] {
+        if let Some(x) = expected {
+            n += 1;
+            if x != observed {
+                return Err(Mismatch::Field(what, x.to_string(), observed.to_string()));
+            }
+        }
+    }
+    for (what, expected, observed) in [("Y:$25", e.counter, o.counter), ("X:$25", e.counter_min, o.counter_min)] {
+        if let Some(x) = expected {
+            n += 1;
+            if x != observed {
+                return Err(Mismatch::Field(what, x.to_string(), observed.to_string()));
+            }
+        }
+    }
+    for (list, want, field) in [(&e.status_set, true, "status_set"), (&e.status_clear, false, "status_clear")] {
+        for (j, name) in list.iter().enumerate() {
+            let Some((word, bit)) = spec.status.bit(name) else {
+                return Err(Mismatch::Unusable(loaded.map.error(
+                    &format!("steps.{step}.expect.{field}.{j}"),
+                    format!("no status bit named `{name}` in status.yaml"),
+                )));
+            };
+            let w = match word {
+                WordId::X => o.status_x,
+                WordId::Y => o.status_y,
+            };
+            n += 1;
+            if (w & (1 << bit) != 0) != want {
+                return Err(Mismatch::Field(
+                    "status bit",
+                    format!("{name} = {}", u8::from(want)),
+                    format!("{name} = {} (words {:06X} {:06X})", u8::from(!want), o.status_x, o.status_y),
+                ));
+            }
+        }
+    }
+    Ok(n)
+}

@@ -1,0 +1,301 @@
+//! Traces: a configuration, a profile selection, and a sequence of events, each optionally
+//! with the observations expected after it. The YAML form is documented in
+//! `docs/trace-format.md`; this module is its schema.
+//!
+//! Parsing goes through `pmacwd_specs::yaml`, the one YAML module of the workspace, so every
+//! error names file, line and column, and unknown keys are errors.
+
+use pmacwd_model::command::HostCommand;
+use pmacwd_model::event::Event;
+use pmacwd_specs::check::{ChecksumTarget, Load, ProfileSelection, ResetEvent};
+use pmacwd_specs::cite::Cites;
+use pmacwd_specs::yaml::SourceMap;
+use pmacwd_specs::SpecError;
+use serde::de::{self, MapAccess, Visitor};
+use serde::{Deserialize, Deserializer};
+use std::fmt;
+use std::path::Path;
+
+/// The format version this build reads and writes.
+pub const FORMAT_VERSION: u32 = 1;
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Trace {
+    /// Must be [`FORMAT_VERSION`].
+    pub version: u32,
+    /// What the trace shows, as a sentence.
+    pub description: String,
+    /// Where the behaviour is stated (scenarios) or where the capture came from.
+    #[serde(default)]
+    pub cite: Option<Cites>,
+    /// A configuration of the spec's `check.yaml`: CPU costs, hardware delay, saved I-variables.
+    pub configuration: String,
+    /// `all`, or the profiles the expectations hold under.
+    pub profiles: ProfileSelection,
+    pub steps: Vec<Step>,
+}
+
+/// One event and what should be observable after it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Step {
+    pub event: Event,
+    pub expect: Expect,
+    pub note: Option<String>,
+}
+
+/// Expected observations; every field is optional (partial observation is normal).
+#[derive(Clone, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub struct Expect {
+    /// The reply as printed: `001000000000`, `BOOTSTRAP PROM`, `ERR003`, `(silence)`, `(ack)`,
+    /// `(none)`, a decimal I-variable value, or a 6-digit hex word.
+    pub reply: Option<String>,
+    pub tripped: Option<bool>,
+    pub led_red: Option<bool>,
+    pub fefco_on: Option<bool>,
+    pub relay_tripped: Option<bool>,
+    pub outputs_forced_off: Option<bool>,
+    /// Y:$000025.
+    pub counter: Option<i32>,
+    /// X:$000025.
+    pub counter_min: Option<i32>,
+    /// Status bits (names of `status.yaml`) that must be 1.
+    #[serde(default)]
+    pub status_set: Vec<String>,
+    /// Status bits that must be 0.
+    #[serde(default)]
+    pub status_clear: Vec<String>,
+}
+
+impl Expect {
+    pub fn is_empty(&self) -> bool {
+        *self == Expect::default()
+    }
+}
+
+/// The keys a step may have besides its one event key.
+const STEP_EXTRAS: [&str; 2] = ["expect", "note"];
+/// The event keys.
+const EVENT_KEYS: [&str; 8] =
+    ["servo", "background", "load", "command", "supply_mv", "reset", "checksum_fault", "clear_rti_reentry"];
+
+impl<'de> Deserialize<'de> for Step {
+    /// A step is a bare word (`background`, `clear_rti_reentry`) or a mapping with exactly one
+    /// event key plus optional `expect` and `note`.
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct StepVisitor;
+        impl<'de> Visitor<'de> for StepVisitor {
+            type Value = Step;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                write!(
+                    f,
+                    "an event: `background`, `clear_rti_reentry`, or a mapping with one of {}",
+                    EVENT_KEYS.join(", ")
+                )
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<Step, E> {
+                let event = match v {
+                    "background" => Event::Background,
+                    "clear_rti_reentry" => Event::ClearRtiReentry,
+                    other => {
+                        return Err(E::custom(format!(
+                            "unknown event `{other}`; expected one of {}",
+                            EVENT_KEYS.join(", ")
+                        )))
+                    }
+                };
+                Ok(Step { event, expect: Expect::default(), note: None })
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Step, A::Error> {
+                let mut event: Option<Event> = None;
+                let mut expect = None;
+                let mut note = None;
+                while let Some(key) = map.next_key::<String>()? {
+                    let e = match key.as_str() {
+                        "expect" => {
+                            expect = Some(map.next_value::<Expect>()?);
+                            continue;
+                        }
+                        "note" => {
+                            note = Some(map.next_value::<String>()?);
+                            continue;
+                        }
+                        "servo" => {
+                            let cycles: u32 = map.next_value()?;
+                            if cycles == 0 {
+                                return Err(de::Error::custom("`servo` needs at least 1 cycle"));
+                            }
+                            Event::Servo { cycles }
+                        }
+                        "background" | "clear_rti_reentry" => {
+                            let n: u32 = map.next_value()?;
+                            if n != 1 {
+                                return Err(de::Error::custom(format!(
+                                    "`{key}` takes no count other than 1; write one step per occurrence"
+                                )));
+                            }
+                            if key == "background" {
+                                Event::Background
+                            } else {
+                                Event::ClearRtiReentry
+                            }
+                        }
+                        "load" => Event::Load(map.next_value::<Load>()?),
+                        "command" => {
+                            let text: String = map.next_value()?;
+                            Event::Command(HostCommand::parse(&text).map_err(|e| de::Error::custom(e.0))?)
+                        }
+                        "supply_mv" => Event::Supply { millivolts: map.next_value()? },
+                        "reset" => Event::Reset(map.next_value::<ResetEvent>()?),
+                        "checksum_fault" => Event::ChecksumFault(map.next_value::<ChecksumTarget>()?),
+                        other => {
+                            return Err(de::Error::custom(format!(
+                                "unknown key `{other}`; a step has one of {} plus optional {}",
+                                EVENT_KEYS.join(", "),
+                                STEP_EXTRAS.join(", ")
+                            )))
+                        }
+                    };
+                    if event.replace(e).is_some() {
+                        return Err(de::Error::custom("a step has exactly one event; split it into two steps"));
+                    }
+                }
+                let event = event.ok_or_else(|| {
+                    de::Error::custom(format!("a step needs one event key: {}", EVENT_KEYS.join(", ")))
+                })?;
+                Ok(Step { event, expect: expect.unwrap_or_default(), note })
+            }
+        }
+        d.deserialize_any(StepVisitor)
+    }
+}
+
+/// A parsed trace with the positions of its steps, for error messages.
+pub struct LoadedTrace {
+    pub trace: Trace,
+    pub map: SourceMap,
+}
+
+impl LoadedTrace {
+    pub fn step_position(&self, index: usize) -> pmacwd_specs::Position {
+        self.map.position(&format!("steps.{index}"))
+    }
+}
+
+/// Parses a YAML trace.
+pub fn parse_yaml(file: &Path, text: &str) -> Result<LoadedTrace, SpecError> {
+    let (trace, map): (Trace, SourceMap) = pmacwd_specs::yaml::parse(file, text)?;
+    if trace.version != FORMAT_VERSION {
+        return Err(map.error(
+            "version",
+            format!("trace format version {} is not supported (this build reads {FORMAT_VERSION})", trace.version),
+        ));
+    }
+    if trace.steps.is_empty() {
+        return Err(map.error("steps", "a trace needs at least one step"));
+    }
+    Ok(LoadedTrace { trace, map })
+}
+
+pub fn load_yaml(file: &Path) -> Result<LoadedTrace, SpecError> {
+    let text = std::fs::read_to_string(file).map_err(|e| SpecError::whole_file(file, format!("cannot read: {e}")))?;
+    parse_yaml(file, &text)
+}
+
+/// Writes a trace back as YAML in the documented form (used to save shrunk failures and to
+/// check that parsing and writing round-trip).
+pub fn to_yaml(trace: &Trace) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "version: {}", trace.version);
+    let _ = writeln!(s, "description: {}", quote(&trace.description));
+    if let Some(c) = &trace.cite {
+        let items: Vec<String> = c.0.iter().map(|c| quote(&c.to_string())).collect();
+        let _ = writeln!(s, "cite: [{}]", items.join(", "));
+    }
+    let _ = writeln!(s, "configuration: {}", quote(&trace.configuration));
+    match &trace.profiles {
+        ProfileSelection::Keyword(_) => s.push_str("profiles: all\n"),
+        ProfileSelection::Named(n) => {
+            let items: Vec<String> = n.iter().map(|p| quote(p)).collect();
+            let _ = writeln!(s, "profiles: [{}]", items.join(", "));
+        }
+    }
+    s.push_str("steps:\n");
+    for step in &trace.steps {
+        let event = match &step.event {
+            Event::Servo { cycles } => format!("servo: {cycles}"),
+            Event::Background => "background: 1".into(),
+            Event::ClearRtiReentry => "clear_rti_reentry: 1".into(),
+            Event::Load(l) => format!(
+                "load: {{motors: {}, plc0_units: {}, background_units: {}}}",
+                l.motors, l.plc0_units, l.background_units
+            ),
+            Event::Command(c) => format!("command: {}", quote(&c.to_string())),
+            Event::Supply { millivolts } => format!("supply_mv: {millivolts}"),
+            Event::Reset(r) => format!(
+                "reset: {{kind: {}, dpram_fault: {}, flash_fault: {}, bootstrap: {}}}",
+                match r.kind {
+                    pmacwd_specs::check::ResetKind::Init => "init",
+                    pmacwd_specs::check::ResetKind::Power => "power",
+                },
+                r.dpram_fault,
+                r.flash_fault,
+                r.bootstrap
+            ),
+            Event::ChecksumFault(ChecksumTarget::Firmware) => "checksum_fault: firmware".into(),
+            Event::ChecksumFault(ChecksumTarget::UserProgram) => "checksum_fault: user_program".into(),
+        };
+        let _ = writeln!(s, "  - {event}");
+        if let Some(n) = &step.note {
+            let _ = writeln!(s, "    note: {}", quote(n));
+        }
+        if !step.expect.is_empty() {
+            let e = &step.expect;
+            s.push_str("    expect:\n");
+            if let Some(v) = &e.reply {
+                let _ = writeln!(s, "      reply: {}", quote(v));
+            }
+            for (k, v) in [
+                ("tripped", e.tripped),
+                ("led_red", e.led_red),
+                ("fefco_on", e.fefco_on),
+                ("relay_tripped", e.relay_tripped),
+                ("outputs_forced_off", e.outputs_forced_off),
+            ] {
+                if let Some(v) = v {
+                    let _ = writeln!(s, "      {k}: {v}");
+                }
+            }
+            if let Some(v) = e.counter {
+                let _ = writeln!(s, "      counter: {v}");
+            }
+            if let Some(v) = e.counter_min {
+                let _ = writeln!(s, "      counter_min: {v}");
+            }
+            if !e.status_set.is_empty() {
+                let _ = writeln!(s, "      status_set: [{}]", e.status_set.join(", "));
+            }
+            if !e.status_clear.is_empty() {
+                let _ = writeln!(s, "      status_clear: [{}]", e.status_clear.join(", "));
+            }
+        }
+    }
+    s
+}
+
+/// A YAML double-quoted string.
+fn quote(s: &str) -> String {
+    let mut out = String::from("\"");
+    for c in s.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            '\n' => out.push_str("\\n"),
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}
