@@ -116,3 +116,31 @@ fn a_host_command_the_model_cannot_represent_is_rejected_in_check_yaml() {
     assert!(stderr.contains(&format!("check.yaml:{line}:")), "{stderr}");
     assert!(stderr.contains("no register at X:$001234"), "{stderr}");
 }
+
+#[test]
+fn run_passes_the_scenario_library_and_a_wrong_expectation_exits_1_with_the_step() {
+    let scenarios = specs_dir().join("scenarios");
+    let out = pmacwd().arg("run").arg(&scenarios).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert!(stdout.lines().last().unwrap().ends_with(" passed, 0 failed"), "{stdout}");
+
+    let dir = std::env::temp_dir().join(format!("pmacwd-cli-{}-run", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let wrong = dir.join("wrong.yaml");
+    std::fs::write(&wrong, "version: 1\ndescription: d\nconfiguration: timing\nprofiles: [um-215]\nsteps:\n  - servo: 1\n    expect: {counter: 3}\n").unwrap();
+    let out = pmacwd().arg("run").arg(&wrong).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{stdout}");
+    assert!(stdout.contains("step 1 (line 6): Y:$25: expected 3, observed 2"), "{stdout}");
+
+    std::fs::write(
+        &wrong,
+        "version: 1\ndescription: d\nconfiguration: timing\nprofiles: [um-215]\nsteps:\n  - srvo: 1\n",
+    )
+    .unwrap();
+    let out = pmacwd().arg("run").arg(&wrong).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("wrong.yaml:6:"), "{stderr}");
+}

@@ -40,22 +40,133 @@ enum Command {
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
     },
+    /// Run traces (YAML, docs/trace-format.md) on the reference model and compare every
+    /// expected observation, under each profile a trace names.
+    ///
+    /// PATH is a trace file or a directory of them (default: specs/scenarios). Prints one line
+    /// per trace and profile, and for a divergence the step, line, expected and observed values
+    /// and the events before it.
+    Run {
+        /// Trace files or directories.
+        #[arg(value_name = "PATH")]
+        paths: Vec<PathBuf>,
+        /// Spec directory to use instead of the embedded one.
+        #[arg(long, value_name = "DIR")]
+        specs: Option<PathBuf>,
+        /// Run only under this profile (default: the profiles each trace names).
+        #[arg(long, value_name = "NAME")]
+        profile: Option<String>,
+    },
+}
+
+fn load_spec(specs: &Option<PathBuf>) -> Result<Spec, ExitCode> {
+    match specs {
+        Some(dir) => Spec::load_dir(dir),
+        None => Spec::embedded(),
+    }
+    .map_err(|e| {
+        eprintln!("pmacwd: {e}");
+        ExitCode::from(2)
+    })
+}
+
+fn trace_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
+    let paths = if paths.is_empty() { vec![PathBuf::from("specs/scenarios")] } else { paths.to_vec() };
+    let mut files = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let entries = std::fs::read_dir(&p).map_err(|e| format!("{}: {e}", p.display()))?;
+            let mut found: Vec<PathBuf> = entries
+                .flatten()
+                .map(|e| e.path())
+                .filter(|f| f.extension().is_some_and(|x| x == "yaml" || x == "yml"))
+                .collect();
+            found.sort();
+            if found.is_empty() {
+                return Err(format!("{}: no .yaml traces in this directory", p.display()));
+            }
+            files.extend(found);
+        } else if p.is_file() {
+            files.push(p);
+        } else {
+            return Err(format!("{}: no such file or directory", p.display()));
+        }
+    }
+    Ok(files)
+}
+
+fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<String>) -> ExitCode {
+    use pmacwd_conformance::runner::{profiles_of, run_on_model, Failure};
+    let spec = match load_spec(&specs) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let files = match trace_files(&paths) {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let (mut passed, mut diverged) = (0usize, 0usize);
+    for file in &files {
+        let loaded = match pmacwd_conformance::trace::load_yaml(file) {
+            Ok(l) => l,
+            Err(e) => {
+                eprintln!("pmacwd: {e}");
+                return ExitCode::from(2);
+            }
+        };
+        let profiles = match profiles_of(&spec, &loaded) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("pmacwd: {e}");
+                return ExitCode::from(2);
+            }
+        };
+        let profiles: Vec<_> = match &profile {
+            Some(name) => match spec.profiles.get(name) {
+                Some(p) => vec![p],
+                None => {
+                    eprintln!("pmacwd: no profile named `{name}`");
+                    return ExitCode::from(2);
+                }
+            },
+            None => profiles,
+        };
+        for p in profiles {
+            match run_on_model(&spec, &loaded, &p) {
+                Ok(n) => {
+                    passed += 1;
+                    println!("ok        {} [{}] ({n} expectations)", file.display(), p.name);
+                }
+                Err(Failure::Unusable(e)) => {
+                    eprintln!("pmacwd: {e}");
+                    return ExitCode::from(2);
+                }
+                Err(Failure::Diverged(d)) => {
+                    diverged += 1;
+                    println!("DIVERGED  {} [{}]\n  {d}", file.display(), p.name);
+                }
+            }
+        }
+    }
+    println!("{passed} passed, {diverged} failed");
+    if diverged == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
+        Command::Run { paths, specs, profile } => run_traces(paths, specs, profile),
         Command::Check { specs, profile, configuration, witnesses, threads } => {
-            let spec = match &specs {
-                Some(dir) => Spec::load_dir(dir),
-                None => Spec::embedded(),
-            };
-            let spec = match spec {
+            let spec = match load_spec(&specs) {
                 Ok(s) => s,
-                Err(e) => {
-                    eprintln!("pmacwd: {e}");
-                    return ExitCode::from(2);
-                }
+                Err(code) => return code,
             };
             let runs = match planned_runs(&spec, &Selection { profile, configuration }) {
                 Ok(r) if r.is_empty() => {
