@@ -5,5 +5,6 @@
 //! `pmacwd` binary is the command line.
 
 pub mod check;
+pub mod reply_text;
 pub mod runner;
 pub mod trace;

@@ -1,0 +1,92 @@
+//! The `???` reply as text: twelve hex characters (SRM p.289), `BOOTSTRAP PROM`, or an error
+//! `BEL ERRnnn CR` (facts s.3), turned into words and back.
+
+use std::fmt;
+
+/// A decoded `???` reply.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StatusReply {
+    /// X:$000006 and Y:$000006, 24 bits each.
+    Words {
+        x: u32,
+        y: u32,
+    },
+    Bootstrap,
+    /// `BEL ERRnnn CR`.
+    Error(u16),
+}
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DecodeError(pub String);
+
+impl fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// The text a controller sends for `reply` (without the trailing CR/ACK of the protocol).
+pub fn encode(reply: StatusReply) -> String {
+    match reply {
+        // SRM p.289: the first character is bits 20-23 of the first word, the seventh bits
+        // 20-23 of the second word.
+        StatusReply::Words { x, y } => format!("{:06X}{:06X}", x & 0xFF_FFFF, y & 0xFF_FFFF),
+        StatusReply::Bootstrap => "BOOTSTRAP PROM".to_string(),
+        StatusReply::Error(n) => format!("\u{7}ERR{n:03}\r"),
+    }
+}
+
+/// Reads a reply as a host would receive it. Surrounding whitespace and a trailing ACK are
+/// ignored; hex digits may be either case.
+pub fn decode(text: &str) -> Result<StatusReply, DecodeError> {
+    let t = text.trim_end_matches('\u{6}').trim_matches(|c: char| c == '\r' || c == '\n' || c == ' ');
+    if t == "BOOTSTRAP PROM" {
+        return Ok(StatusReply::Bootstrap);
+    }
+    if let Some(rest) = t.strip_prefix('\u{7}') {
+        let digits = rest
+            .strip_prefix("ERR")
+            .ok_or_else(|| DecodeError(format!("`{}`: BEL not followed by ERRnnn", text.escape_debug())))?;
+        if digits.len() != 3 || !digits.chars().all(|c| c.is_ascii_digit()) {
+            return Err(DecodeError(format!(
+                "`{}`: an error reply is BEL ERRnnn CR with three digits",
+                text.escape_debug()
+            )));
+        }
+        return Ok(StatusReply::Error(digits.parse().expect("three digits")));
+    }
+    if t.len() != 12 {
+        return Err(DecodeError(format!(
+            "`{}`: a ??? reply has 12 hex characters, this has {}",
+            t.escape_debug(),
+            t.chars().count()
+        )));
+    }
+    if let Some(bad) = t.chars().find(|c| !c.is_ascii_hexdigit()) {
+        return Err(DecodeError(format!("`{}`: `{}` is not a hex digit", t.escape_debug(), bad.escape_debug())));
+    }
+    let x = u32::from_str_radix(&t[..6], 16).expect("six hex digits");
+    let y = u32::from_str_radix(&t[6..], 16).expect("six hex digits");
+    Ok(StatusReply::Words { x, y })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_first_character_is_bits_20_to_23_of_the_first_word() {
+        // SRM p.289: bit 22 alone is 0x400000 -> "4" first.
+        assert_eq!(encode(StatusReply::Words { x: 1 << 22, y: 1 << 19 }), "400000080000");
+        assert_eq!(decode("400000080000"), Ok(StatusReply::Words { x: 1 << 22, y: 1 << 19 }));
+    }
+
+    #[test]
+    fn malformed_replies_are_refused_with_the_reason() {
+        assert!(decode("12345").unwrap_err().0.contains("12 hex characters"));
+        assert!(decode("12345678901G").unwrap_err().0.contains("`G` is not a hex digit"));
+        assert!(decode("\u{7}ERR3\r").unwrap_err().0.contains("three digits"));
+        assert_eq!(decode("\u{7}ERR003\r"), Ok(StatusReply::Error(3)));
+        assert_eq!(decode("BOOTSTRAP PROM\r\u{6}"), Ok(StatusReply::Bootstrap));
+    }
+}
