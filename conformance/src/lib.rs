@@ -5,6 +5,7 @@
 //! `pmacwd` binary is the command line.
 
 pub mod check;
+pub mod decode;
 pub mod reply_text;
 pub mod runner;
 pub mod trace;

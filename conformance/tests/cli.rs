@@ -144,3 +144,31 @@ fn run_passes_the_scenario_library_and_a_wrong_expectation_exits_1_with_the_step
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("wrong.yaml:6:"), "{stderr}");
 }
+
+#[test]
+fn decode_names_every_set_bit_and_the_epics_hardware_problem_flag() {
+    // X bit 22 (RTI re-entry) and bit 13 (checksum error), Y bit 19 (motion buffer open).
+    let out = pmacwd().args(["decode", "402000080000"]).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("X:$000006 bit 22  rti_reentry"), "{stdout}");
+    assert!(stdout.contains("X:$000006 bit 13  checksum_error"), "{stdout}");
+    assert!(stdout.contains("Y:$000006 bit 19  motion_buffer_open"), "{stdout}");
+    assert!(stdout.contains("FLAGGED by bit 13"), "{stdout}");
+
+    let out = pmacwd().args(["decode", "400000000000", "--json"]).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("\"epics_hardware_problem\":false") && stdout.contains("\"name\":\"rti_reentry\""), "{stdout}");
+
+    let out = pmacwd().args(["decode", "BOOTSTRAP PROM"]).output().unwrap();
+    assert!(String::from_utf8_lossy(&out.stdout).contains("bootstrap mode"));
+}
+
+#[test]
+fn decode_refuses_a_malformed_reply_with_exit_2() {
+    for bad in ["12345", "40000000000G", "4000000000000"] {
+        let out = pmacwd().args(["decode", bad]).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{bad}");
+        assert!(!out.stderr.is_empty());
+    }
+}

@@ -57,6 +57,42 @@ enum Command {
         #[arg(long, value_name = "NAME")]
         profile: Option<String>,
     },
+    /// Explain a ??? reply: every set bit of both words with its name and meaning, and whether
+    /// the EPICS pmac driver's hardware-problem mask flags it.
+    ///
+    /// REPLY is 12 hex characters (e.g. 400000080000), `BOOTSTRAP PROM`, or an error reply
+    /// (BEL ERRnnn CR). A malformed reply exits 2.
+    Decode {
+        #[arg(value_name = "REPLY")]
+        reply: String,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+        /// Spec directory to take the bit descriptions from instead of the embedded one.
+        #[arg(long, value_name = "DIR")]
+        specs: Option<PathBuf>,
+    },
+}
+
+fn decode_reply(reply: &str, json: bool, specs: Option<PathBuf>) -> ExitCode {
+    let spec = match load_spec(&specs) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    match pmacwd_conformance::decode::explain(&spec, reply) {
+        Ok(d) if json => {
+            println!("{}", pmacwd_conformance::decode::to_json(&d));
+            ExitCode::SUCCESS
+        }
+        Ok(d) => {
+            print!("{}", pmacwd_conformance::decode::to_text(&d));
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            ExitCode::from(2)
+        }
+    }
 }
 
 fn load_spec(specs: &Option<PathBuf>) -> Result<Spec, ExitCode> {
@@ -163,6 +199,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Run { paths, specs, profile } => run_traces(paths, specs, profile),
+        Command::Decode { reply, json, specs } => decode_reply(&reply, json, specs),
         Command::Check { specs, profile, configuration, witnesses, threads } => {
             let spec = match load_spec(&specs) {
                 Ok(s) => s,
