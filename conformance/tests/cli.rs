@@ -158,7 +158,10 @@ fn decode_names_every_set_bit_and_the_epics_hardware_problem_flag() {
 
     let out = pmacwd().args(["decode", "400000000000", "--json"]).output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(stdout.contains("\"epics_hardware_problem\":false") && stdout.contains("\"name\":\"rti_reentry\""), "{stdout}");
+    assert!(
+        stdout.contains("\"epics_hardware_problem\":false") && stdout.contains("\"name\":\"rti_reentry\""),
+        "{stdout}"
+    );
 
     let out = pmacwd().args(["decode", "BOOTSTRAP PROM"]).output().unwrap();
     assert!(String::from_utf8_lossy(&out.stdout).contains("bootstrap mode"));
