@@ -9,3 +9,4 @@ pub mod decode;
 pub mod reply_text;
 pub mod runner;
 pub mod trace;
+pub mod trace_jsonl;

@@ -89,3 +89,29 @@ fn a_divergence_names_the_step_its_line_and_the_events_before_it() {
     assert_eq!((d.expected.as_str(), d.observed.as_str()), ("3", "1"));
     assert_eq!(d.recent, ["servo interrupt", "servo interrupt"]);
 }
+
+#[test]
+fn every_scenario_round_trips_through_json_lines() {
+    use pmacwd_conformance::trace_jsonl::{read_all, to_jsonl};
+    for file in scenario_files() {
+        let loaded = load_yaml(&file).unwrap();
+        let text = to_jsonl(&loaded.trace);
+        assert_eq!(text.lines().count(), loaded.trace.steps.len() + 1, "a header line, then one line per step");
+        let back = read_all(Path::new("t.jsonl"), text.as_bytes())
+            .unwrap_or_else(|e| panic!("{}: {e}\n{text}", file.display()));
+        assert_eq!(back.steps, loaded.trace.steps, "{}", file.display());
+        assert_eq!(back.configuration, loaded.trace.configuration);
+    }
+}
+
+#[test]
+fn a_malformed_json_lines_step_is_refused_with_its_line_and_column() {
+    use pmacwd_conformance::trace_jsonl::read_all;
+    let header = r#"{"format":"pmacwd-trace","version":1,"description":"d","configuration":"timing","profiles":"all"}"#;
+    let text = format!("{header}\n{{\"servo\":1}}\n\n{{\"servo\":1,\"expect\":{{\"trippd\":true}}}}\n");
+    let err = read_all(Path::new("c.jsonl"), text.as_bytes()).unwrap_err();
+    assert_eq!(err.position.map(|p| p.line), Some(4), "{err}");
+    assert!(err.message.contains("unknown field `trippd`"), "{err}");
+    let err = read_all(Path::new("c.jsonl"), "{\"format\":\"other\",\"version\":1,\"description\":\"d\",\"configuration\":\"timing\",\"profiles\":\"all\"}\n".as_bytes()).unwrap_err();
+    assert!(err.message.contains("expected `pmacwd-trace`"), "{err}");
+}

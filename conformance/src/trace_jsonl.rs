@@ -1,0 +1,200 @@
+//! The JSON Lines form of a trace, for long captures: a header object on the first line, then
+//! one step per line, in the same vocabulary as the YAML form (`docs/trace-format.md`).
+//! [`StepReader`] reads it one line at a time, so memory does not grow with the trace.
+
+use crate::trace::{Expect, Step, Trace, FORMAT_VERSION};
+use pmacwd_model::event::Event;
+use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetKind};
+use pmacwd_specs::cite::Cites;
+use pmacwd_specs::{Position, SpecError};
+use serde::Deserialize;
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+
+/// The first line.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Header {
+    /// Always `pmacwd-trace`: tells a trace from any other JSON Lines file.
+    pub format: String,
+    pub version: u32,
+    pub description: String,
+    #[serde(default)]
+    pub cite: Option<Cites>,
+    pub configuration: String,
+    pub profiles: ProfileSelection,
+}
+
+/// Reads steps one line at a time.
+pub struct StepReader<R: BufRead> {
+    file: PathBuf,
+    input: R,
+    line: usize,
+    buffer: String,
+    pub header: Header,
+}
+
+fn json_error(file: &Path, line: usize, e: &serde_json::Error) -> SpecError {
+    // serde_json counts lines within the text it was given: one line here.
+    let msg = e.to_string();
+    let msg = match msg.rfind(" at line ") {
+        Some(i) => msg[..i].to_string(),
+        None => msg,
+    };
+    SpecError::at(file, Position { line, column: e.column().max(1) }, msg)
+}
+
+impl<R: BufRead> StepReader<R> {
+    pub fn new(file: &Path, mut input: R) -> Result<Self, SpecError> {
+        let mut buffer = String::new();
+        let mut line = 0;
+        loop {
+            buffer.clear();
+            line += 1;
+            let n =
+                input.read_line(&mut buffer).map_err(|e| SpecError::whole_file(file, format!("cannot read: {e}")))?;
+            if n == 0 {
+                return Err(SpecError::whole_file(file, "empty trace: the first line must be the header"));
+            }
+            if !buffer.trim().is_empty() {
+                break;
+            }
+        }
+        let header: Header = serde_json::from_str(buffer.trim_end()).map_err(|e| json_error(file, line, &e))?;
+        let at = Position { line, column: 1 };
+        if header.format != "pmacwd-trace" {
+            return Err(SpecError::at(file, at, format!("`format` is `{}`, expected `pmacwd-trace`", header.format)));
+        }
+        if header.version != FORMAT_VERSION {
+            return Err(SpecError::at(
+                file,
+                at,
+                format!("trace format version {} is not supported (this build reads {FORMAT_VERSION})", header.version),
+            ));
+        }
+        Ok(StepReader { file: file.to_path_buf(), input, line, buffer, header })
+    }
+
+    /// The next step and its line number; `None` at the end. Blank lines are allowed.
+    pub fn next_step(&mut self) -> Result<Option<(usize, Step)>, SpecError> {
+        loop {
+            self.buffer.clear();
+            self.line += 1;
+            let n = self
+                .input
+                .read_line(&mut self.buffer)
+                .map_err(|e| SpecError::whole_file(&self.file, format!("cannot read: {e}")))?;
+            if n == 0 {
+                return Ok(None);
+            }
+            let text = self.buffer.trim_end();
+            if text.trim().is_empty() {
+                continue;
+            }
+            let step: Step = serde_json::from_str(text).map_err(|e| json_error(&self.file, self.line, &e))?;
+            return Ok(Some((self.line, step)));
+        }
+    }
+}
+
+/// Reads a whole JSON Lines trace into memory (for short traces and tests).
+pub fn read_all(file: &Path, input: impl BufRead) -> Result<Trace, SpecError> {
+    let mut reader = StepReader::new(file, input)?;
+    let mut steps = Vec::new();
+    while let Some((_, step)) = reader.next_step()? {
+        steps.push(step);
+    }
+    let h = reader.header;
+    Ok(Trace {
+        version: h.version,
+        description: h.description,
+        cite: h.cite,
+        configuration: h.configuration,
+        profiles: h.profiles,
+        steps,
+    })
+}
+
+/// The header line of `trace`.
+pub fn header_line(trace: &Trace) -> String {
+    let profiles = match &trace.profiles {
+        ProfileSelection::Keyword(_) => serde_json::json!("all"),
+        ProfileSelection::Named(n) => serde_json::json!(n),
+    };
+    let mut v = serde_json::json!({
+        "format": "pmacwd-trace", "version": trace.version, "description": trace.description,
+        "configuration": trace.configuration, "profiles": profiles,
+    });
+    if let Some(c) = &trace.cite {
+        v["cite"] = serde_json::json!(c.0.iter().map(|c| c.to_string()).collect::<Vec<_>>());
+    }
+    v.to_string()
+}
+
+/// One step as a line.
+pub fn step_line(step: &Step) -> String {
+    let mut v = match &step.event {
+        Event::Servo { cycles } => serde_json::json!({ "servo": cycles }),
+        Event::Background => serde_json::json!({ "background": 1 }),
+        Event::ClearRtiReentry => serde_json::json!({ "clear_rti_reentry": 1 }),
+        Event::Load(l) => {
+            serde_json::json!({ "load": { "motors": l.motors, "plc0_units": l.plc0_units, "background_units": l.background_units } })
+        }
+        Event::Command(c) => serde_json::json!({ "command": c.to_string() }),
+        Event::Supply { millivolts } => serde_json::json!({ "supply_mv": millivolts }),
+        Event::Reset(r) => serde_json::json!({ "reset": {
+            "kind": match r.kind { ResetKind::Init => "init", ResetKind::Power => "power" },
+            "dpram_fault": r.dpram_fault, "flash_fault": r.flash_fault, "bootstrap": r.bootstrap } }),
+        Event::ChecksumFault(ChecksumTarget::Firmware) => serde_json::json!({ "checksum_fault": "firmware" }),
+        Event::ChecksumFault(ChecksumTarget::UserProgram) => serde_json::json!({ "checksum_fault": "user_program" }),
+    };
+    if let Some(n) = &step.note {
+        v["note"] = serde_json::json!(n);
+    }
+    if !step.expect.is_empty() {
+        v["expect"] = expect_json(&step.expect);
+    }
+    v.to_string()
+}
+
+fn expect_json(e: &Expect) -> serde_json::Value {
+    let mut m = serde_json::Map::new();
+    if let Some(r) = &e.reply {
+        m.insert("reply".into(), serde_json::json!(r));
+    }
+    for (k, v) in [
+        ("tripped", e.tripped),
+        ("led_red", e.led_red),
+        ("fefco_on", e.fefco_on),
+        ("relay_tripped", e.relay_tripped),
+        ("outputs_forced_off", e.outputs_forced_off),
+    ] {
+        if let Some(v) = v {
+            m.insert(k.into(), serde_json::json!(v));
+        }
+    }
+    if let Some(v) = e.counter {
+        m.insert("counter".into(), serde_json::json!(v));
+    }
+    if let Some(v) = e.counter_min {
+        m.insert("counter_min".into(), serde_json::json!(v));
+    }
+    if !e.status_set.is_empty() {
+        m.insert("status_set".into(), serde_json::json!(e.status_set));
+    }
+    if !e.status_clear.is_empty() {
+        m.insert("status_clear".into(), serde_json::json!(e.status_clear));
+    }
+    serde_json::Value::Object(m)
+}
+
+/// The whole trace as JSON Lines.
+pub fn to_jsonl(trace: &Trace) -> String {
+    let mut s = header_line(trace);
+    s.push('\n');
+    for step in &trace.steps {
+        s.push_str(&step_line(step));
+        s.push('\n');
+    }
+    s
+}
