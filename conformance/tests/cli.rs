@@ -12,12 +12,41 @@ fn specs_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../specs")
 }
 
+/// A temporary directory, removed when the test is done with it.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> TempDir {
+        let dir = std::env::temp_dir().join(format!("pmacwd-cli-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+impl std::ops::Deref for TempDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for TempDir {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.as_os_str()
+    }
+}
+
 /// A copy of the shipped spec files in a fresh temporary directory, with `edit` applied to
 /// one of them.
-fn broken_specs(name: &str, file: &str, edit: impl Fn(&str) -> String) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pmacwd-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+fn broken_specs(name: &str, file: &str, edit: impl Fn(&str) -> String) -> TempDir {
+    let dir = TempDir::new(name);
     for f in pmacwd_specs::Spec::file_names() {
         let text = std::fs::read_to_string(specs_dir().join(f)).unwrap();
         let text = if f == file { edit(&text) } else { text };
@@ -125,8 +154,7 @@ fn run_passes_the_scenario_library_and_a_wrong_expectation_exits_1_with_the_step
     assert_eq!(out.status.code(), Some(0), "{stdout}");
     assert!(stdout.lines().last().unwrap().ends_with(" passed, 0 failed"), "{stdout}");
 
-    let dir = std::env::temp_dir().join(format!("pmacwd-cli-{}-run", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = TempDir::new("run");
     let wrong = dir.join("wrong.yaml");
     std::fs::write(&wrong, "version: 1\ndescription: d\nconfiguration: timing\nprofiles: [um-215]\nsteps:\n  - servo: 1\n    expect: {counter: 3}\n").unwrap();
     let out = pmacwd().arg("run").arg(&wrong).output().unwrap();

@@ -28,7 +28,9 @@ fn load_edited(tag: &str, file: &str, edit: impl Fn(&str) -> String) -> (Result<
         };
         std::fs::write(dir.join(f), text).unwrap();
     }
-    (Spec::load_dir(&dir), edited)
+    let result = Spec::load_dir(&dir);
+    let _ = std::fs::remove_dir_all(&dir);
+    (result, edited)
 }
 
 fn line_of(text: &str, needle: &str) -> usize {
@@ -177,6 +179,7 @@ fn a_stray_yaml_file_in_the_spec_directory_is_refused_rather_than_ignored() {
     }
     std::fs::write(dir.join("extra.yaml"), "a: 1\n").unwrap();
     let err = Spec::load_dir(&dir).unwrap_err();
+    let _ = std::fs::remove_dir_all(&dir);
     assert!(err.file.ends_with("extra.yaml") && err.message.contains("unexpected spec file"), "{err}");
     assert_eq!(err.position, None::<Position>);
 }
