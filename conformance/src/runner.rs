@@ -111,20 +111,27 @@ pub fn run_on_model(spec: &Spec, loaded: &LoadedTrace, profile: &Profile) -> Res
         }
         let reply = card.apply(&cfg, &step.event);
         let obs = Observation::of(&card, &cfg, reply);
-        checked += compare(spec, loaded, i, &step.expect, &obs).map_err(|e| match e {
-            Mismatch::Unusable(err) => Failure::Unusable(err),
+        checked += compare(spec, &step.expect, &obs).map_err(|e| match e {
+            Mismatch::UnknownBit(field, j, name) => Failure::Unusable(loaded.map.error(
+                &format!("steps.{i}.expect.{field}.{j}"),
+                format!("no status bit named `{name}` in status.yaml"),
+            )),
             Mismatch::Field(what, expected, observed) => diverge(what, expected, observed),
         })?;
     }
     Ok(checked)
 }
 
-enum Mismatch {
-    Unusable(SpecError),
+/// How an observation fails an expectation.
+pub enum Mismatch {
+    /// An expectation names a status bit `status.yaml` does not have: (list, index, name).
+    UnknownBit(&'static str, usize, String),
+    /// (what, expected, observed).
     Field(&'static str, String, String),
 }
 
-fn compare(spec: &Spec, loaded: &LoadedTrace, step: usize, e: &Expect, o: &Observation) -> Result<usize, Mismatch> {
+/// Compares one observation with one step's expectations; returns how many were checked.
+pub fn compare(spec: &Spec, e: &Expect, o: &Observation) -> Result<usize, Mismatch> {
     let mut n = 0;
     if let Some(r) = &e.reply {
         n += 1;
@@ -157,10 +164,7 @@ fn compare(spec: &Spec, loaded: &LoadedTrace, step: usize, e: &Expect, o: &Obser
     for (list, want, field) in [(&e.status_set, true, "status_set"), (&e.status_clear, false, "status_clear")] {
         for (j, name) in list.iter().enumerate() {
             let Some((word, bit)) = spec.status.bit(name) else {
-                return Err(Mismatch::Unusable(loaded.map.error(
-                    &format!("steps.{step}.expect.{field}.{j}"),
-                    format!("no status bit named `{name}` in status.yaml"),
-                )));
+                return Err(Mismatch::UnknownBit(field, j, name.clone()));
             };
             let w = match word {
                 WordId::X => o.status_x,

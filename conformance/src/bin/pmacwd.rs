@@ -72,6 +72,54 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         specs: Option<PathBuf>,
     },
+    /// Replay a captured trace (YAML or JSON Lines) against the model under every profile.
+    ///
+    /// Streams the capture; reports per profile whether it is consistent, the first divergence
+    /// with the events before it and the number of diverging events, then which readings of the
+    /// manuals the capture supports or rules out. Exit 0 when some profile explains the capture,
+    /// 1 when none does, 2 for unusable input.
+    Replay {
+        #[arg(value_name = "FILE")]
+        file: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
+        /// Spec directory to use instead of the embedded one.
+        #[arg(long, value_name = "DIR")]
+        specs: Option<PathBuf>,
+    },
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Format {
+    Text,
+    Json,
+}
+
+fn replay_file(file: &std::path::Path, format: Format, specs: Option<PathBuf>) -> ExitCode {
+    let spec = match load_spec(&specs) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    match pmacwd_conformance::replay::replay(&spec, file) {
+        Ok(report) => {
+            match format {
+                Format::Text => {
+                    print!("{}", pmacwd_conformance::replay::to_text(&report, &spec.profiles.default_profile().name))
+                }
+                Format::Json => println!("{}", pmacwd_conformance::replay::to_json(&report)),
+            }
+            if report.explained() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            }
+        }
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            ExitCode::from(2)
+        }
+    }
 }
 
 fn decode_reply(reply: &str, json: bool, specs: Option<PathBuf>) -> ExitCode {
@@ -200,6 +248,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Run { paths, specs, profile } => run_traces(paths, specs, profile),
         Command::Decode { reply, json, specs } => decode_reply(&reply, json, specs),
+        Command::Replay { file, format, specs } => replay_file(&file, format, specs),
         Command::Check { specs, profile, configuration, witnesses, threads } => {
             let spec = match load_spec(&specs) {
                 Ok(s) => s,

@@ -1,0 +1,83 @@
+//! `pmacwd replay` on the sample captures of `specs/captures/`: each gives the verdict its
+//! README documents, and a malformed capture is refused with its line.
+
+use pmacwd_conformance::replay::{replay, OptionVerdict};
+use pmacwd_specs::Spec;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn capture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../specs/captures").join(name)
+}
+
+fn option(report: &pmacwd_conformance::replay::ReplayReport, reading: &str, option: &str) -> OptionVerdict {
+    let r = report.readings.iter().find(|r| r.reading == reading).unwrap();
+    r.options.iter().find(|(o, _)| *o == option).unwrap().1.clone()
+}
+
+fn consistent(report: &pmacwd_conformance::replay::ReplayReport) -> Vec<String> {
+    report.profiles.iter().filter(|p| p.consistent()).map(|p| p.profile.name.clone()).collect()
+}
+
+#[test]
+fn a_reload_to_4095_is_explained_only_by_the_4095_profiles_and_rules_out_4096() {
+    let spec = Spec::embedded().unwrap();
+    let r = replay(&spec, &capture("reload-to-4095.jsonl")).unwrap();
+    assert_eq!(consistent(&r), ["srm-57", "srm-57-sticky-bit9", "um-215-4095"]);
+    assert!(matches!(option(&r, "reset_value_when_i40_zero", "4095"), OptionVerdict::Supported(3, 3)));
+    assert_eq!(
+        option(&r, "reset_value_when_i40_zero", "4096"),
+        OptionVerdict::RuledOut("um-215".into(), "um-215-4095".into())
+    );
+    // The M83 reading only occurs with 4096 here: its divergence proves nothing about bit 12.
+    assert_eq!(option(&r, "bit12_meaning", "firmware_checksum_error"), OptionVerdict::Unexplained(1));
+}
+
+#[test]
+fn a_reload_to_4096_is_explained_only_by_the_4096_profiles_and_rules_out_4095() {
+    let spec = Spec::embedded().unwrap();
+    let r = replay(&spec, &capture("reload-to-4096.yaml")).unwrap();
+    assert_eq!(consistent(&r), ["um-215", "um-215-50hz", "um-215-literal-plc", "um-215-m83"]);
+    assert_eq!(
+        option(&r, "reset_value_when_i40_zero", "4095"),
+        OptionVerdict::RuledOut("um-215-4095".into(), "um-215".into())
+    );
+}
+
+#[test]
+fn a_card_running_past_its_deadline_is_explained_by_no_profile_and_the_first_divergence_is_named() {
+    let spec = Spec::embedded().unwrap();
+    let r = replay(&spec, &capture("no-profile-explains.jsonl")).unwrap();
+    assert!(!r.explained());
+    let first = r.profiles[0].first.as_ref().unwrap();
+    assert_eq!((first.event, first.line, first.what.as_str()), (2, 3, "tripped"));
+    assert_eq!(first.recent.last().unwrap(), "line 3: host sends `???`");
+}
+
+#[test]
+fn the_command_line_exit_codes_follow_the_verdict_and_a_malformed_line_is_unusable_input() {
+    let pmacwd = env!("CARGO_BIN_EXE_pmacwd");
+    let out = Command::new(pmacwd).arg("replay").arg(capture("reload-to-4095.jsonl")).output().unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let out = Command::new(pmacwd)
+        .arg("replay")
+        .arg(capture("no-profile-explains.jsonl"))
+        .args(["--format", "json"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("\"explained\":false"));
+
+    let dir = std::env::temp_dir().join(format!("pmacwd-replay-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.jsonl");
+    let text = std::fs::read_to_string(capture("reload-to-4095.jsonl")).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    lines[3] = "{\"servo\": -4}";
+    std::fs::write(&bad, lines.join("\n")).unwrap();
+    let out = Command::new(pmacwd).arg("replay").arg(&bad).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("bad.jsonl:4:"), "{stderr}");
+}
