@@ -6,6 +6,7 @@
 
 pub mod check;
 pub mod decode;
+pub mod import;
 pub mod replay;
 pub mod reply_text;
 pub mod runner;

@@ -7,12 +7,11 @@
 //! reading's options are then supported (some consistent profile chooses it), ruled out (every
 //! profile that chooses it diverged) or not covered by any profile.
 
-use crate::runner::{compare, Mismatch};
-use crate::trace::{parse_yaml, Step, Trace};
+use crate::runner::{apply_to_model, compare, Mismatch};
+use crate::trace::{parse_yaml, Step, Trace, TraceEvent};
 use crate::trace_jsonl::StepReader;
 use pmacwd_model::config::ModelConfig;
 use pmacwd_model::controller::Controller;
-use pmacwd_model::event::Event;
 use pmacwd_model::observe::Observation;
 use pmacwd_specs::profiles::{Choices, Profile};
 use pmacwd_specs::yaml::SourceMap;
@@ -221,7 +220,7 @@ pub fn replay(spec: &Spec, path: &Path) -> Result<ReplayReport, SpecError> {
             verdict: ProfileVerdict { profile, expectations: 0, divergences: 0, first: None },
         });
     }
-    let mut recent: VecDeque<(usize, Event)> = VecDeque::with_capacity(RECENT_EVENTS);
+    let mut recent: VecDeque<(usize, TraceEvent)> = VecDeque::with_capacity(RECENT_EVENTS);
     let mut events = 0u64;
     while let Some((line, step)) = source.next_step()? {
         events += 1;
@@ -230,16 +229,9 @@ pub fn replay(spec: &Spec, path: &Path) -> Result<ReplayReport, SpecError> {
         }
         recent.push_back((line, step.event.clone()));
         for lane in &mut lanes {
-            let outcome = if step.event == Event::Background && !lane.card.background_possible() {
-                let why = if lane.card.tripped() {
-                    "the card is tripped"
-                } else {
-                    "the load has not given the background a cycle's CPU time"
-                };
-                Err(Mismatch::Field("event", "a background cycle can complete".into(), format!("it cannot: {why}")))
-            } else {
-                let reply = lane.card.apply(&lane.cfg, &step.event);
-                compare(spec, &step.expect, &Observation::of(&lane.card, &lane.cfg, reply))
+            let outcome = match apply_to_model(&mut lane.card, &lane.cfg, &step.event) {
+                Err(why) => Err(Mismatch::Field("event", "a background cycle can complete".into(), why)),
+                Ok(reply) => compare(spec, &step.expect, &Observation::of(&lane.card, &lane.cfg, reply)),
             };
             match outcome {
                 Ok(n) => lane.verdict.expectations += n as u64,

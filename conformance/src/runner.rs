@@ -1,9 +1,9 @@
 //! Runs a trace on the reference model and compares every expected observation.
 
-use crate::trace::{Expect, LoadedTrace};
+use crate::trace::{Expect, LoadedTrace, TraceEvent};
 use pmacwd_model::config::ModelConfig;
 use pmacwd_model::controller::Controller;
-use pmacwd_model::event::Event;
+use pmacwd_model::event::{Event, Reply};
 use pmacwd_model::observe::Observation;
 use pmacwd_specs::check::ProfileSelection;
 use pmacwd_specs::profiles::Profile;
@@ -67,6 +67,29 @@ pub fn profiles_of(spec: &Spec, loaded: &LoadedTrace) -> Result<Vec<Profile>, Sp
     }
 }
 
+/// Applies one trace event to the model. `Err` says why a claimed background cycle cannot
+/// complete (a divergence); `run` completes a background cycle after every servo cycle in which
+/// the load allows one.
+pub fn apply_to_model(card: &mut Controller, cfg: &ModelConfig, event: &TraceEvent) -> Result<Reply, String> {
+    match event {
+        TraceEvent::Model(Event::Background) if !card.background_possible() => Err(if card.tripped() {
+            "it cannot: the card is tripped".into()
+        } else {
+            "it cannot: the load has not yet given the background a cycle's CPU time".into()
+        }),
+        TraceEvent::Model(e) => Ok(card.apply(cfg, e)),
+        TraceEvent::Run { cycles } => {
+            for _ in 0..*cycles {
+                card.servo_cycle(cfg);
+                if card.background_possible() {
+                    card.background_cycle(cfg);
+                }
+            }
+            Ok(Reply::None)
+        }
+    }
+}
+
 /// How many recent events a divergence report shows.
 const RECENT_EVENTS: usize = 5;
 
@@ -101,15 +124,10 @@ pub fn run_on_model(spec: &Spec, loaded: &LoadedTrace, profile: &Profile) -> Res
                 recent: recent.clone(),
             })
         };
-        if step.event == Event::Background && !card.background_possible() {
-            let why = if card.tripped() {
-                "the card is tripped"
-            } else {
-                "the load has not yet given the background a cycle's CPU time"
-            };
-            return Err(diverge("event", "a background cycle can complete".into(), format!("it cannot: {why}")));
-        }
-        let reply = card.apply(&cfg, &step.event);
+        let reply = match apply_to_model(&mut card, &cfg, &step.event) {
+            Ok(reply) => reply,
+            Err(why) => return Err(diverge("event", "a background cycle can complete".into(), why)),
+        };
         let obs = Observation::of(&card, &cfg, reply);
         checked += compare(spec, &step.expect, &obs).map_err(|e| match e {
             Mismatch::UnknownBit(field, j, name) => Failure::Unusable(loaded.map.error(

@@ -36,10 +36,29 @@ pub struct Trace {
     pub steps: Vec<Step>,
 }
 
+/// What a step does: one event of the model's vocabulary, or `run`, which a trace needs when
+/// the background is not observed (a host log): N servo cycles with a background cycle
+/// completing after each one in which the load allows it. The harness expands `run` into the
+/// model's own events, so any implementation can be driven by it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TraceEvent {
+    Model(Event),
+    Run { cycles: u32 },
+}
+
+impl fmt::Display for TraceEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TraceEvent::Model(e) => e.fmt(f),
+            TraceEvent::Run { cycles } => write!(f, "run {cycles} servo cycles, background whenever possible"),
+        }
+    }
+}
+
 /// One event and what should be observable after it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Step {
-    pub event: Event,
+    pub event: TraceEvent,
     pub expect: Expect,
     pub note: Option<String>,
 }
@@ -77,8 +96,8 @@ impl Expect {
 /// The keys a step may have besides its one event key.
 const STEP_EXTRAS: [&str; 2] = ["expect", "note"];
 /// The event keys.
-const EVENT_KEYS: [&str; 8] =
-    ["servo", "background", "load", "command", "supply_mv", "reset", "checksum_fault", "clear_rti_reentry"];
+const EVENT_KEYS: [&str; 9] =
+    ["servo", "run", "background", "load", "command", "supply_mv", "reset", "checksum_fault", "clear_rti_reentry"];
 
 impl<'de> Deserialize<'de> for Step {
     /// A step is a bare word (`background`, `clear_rti_reentry`) or a mapping with exactly one
@@ -105,10 +124,10 @@ impl<'de> Deserialize<'de> for Step {
                         )))
                     }
                 };
-                Ok(Step { event, expect: Expect::default(), note: None })
+                Ok(Step { event: TraceEvent::Model(event), expect: Expect::default(), note: None })
             }
             fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Step, A::Error> {
-                let mut event: Option<Event> = None;
+                let mut event: Option<TraceEvent> = None;
                 let mut expect = None;
                 let mut note = None;
                 while let Some(key) = map.next_key::<String>()? {
@@ -121,12 +140,16 @@ impl<'de> Deserialize<'de> for Step {
                             note = Some(map.next_value::<String>()?);
                             continue;
                         }
-                        "servo" => {
+                        "servo" | "run" => {
                             let cycles: u32 = map.next_value()?;
                             if cycles == 0 {
-                                return Err(de::Error::custom("`servo` needs at least 1 cycle"));
+                                return Err(de::Error::custom(format!("`{key}` needs at least 1 cycle")));
                             }
-                            Event::Servo { cycles }
+                            if key == "run" {
+                                TraceEvent::Run { cycles }
+                            } else {
+                                TraceEvent::Model(Event::Servo { cycles })
+                            }
                         }
                         "background" | "clear_rti_reentry" => {
                             let n: u32 = map.next_value()?;
@@ -135,20 +158,24 @@ impl<'de> Deserialize<'de> for Step {
                                     "`{key}` takes no count other than 1; write one step per occurrence"
                                 )));
                             }
-                            if key == "background" {
+                            TraceEvent::Model(if key == "background" {
                                 Event::Background
                             } else {
                                 Event::ClearRtiReentry
-                            }
+                            })
                         }
-                        "load" => Event::Load(map.next_value::<Load>()?),
+                        "load" => TraceEvent::Model(Event::Load(map.next_value::<Load>()?)),
                         "command" => {
                             let text: String = map.next_value()?;
-                            Event::Command(HostCommand::parse(&text).map_err(|e| de::Error::custom(e.0))?)
+                            TraceEvent::Model(Event::Command(
+                                HostCommand::parse(&text).map_err(|e| de::Error::custom(e.0))?,
+                            ))
                         }
-                        "supply_mv" => Event::Supply { millivolts: map.next_value()? },
-                        "reset" => Event::Reset(map.next_value::<ResetEvent>()?),
-                        "checksum_fault" => Event::ChecksumFault(map.next_value::<ChecksumTarget>()?),
+                        "supply_mv" => TraceEvent::Model(Event::Supply { millivolts: map.next_value()? }),
+                        "reset" => TraceEvent::Model(Event::Reset(map.next_value::<ResetEvent>()?)),
+                        "checksum_fault" => {
+                            TraceEvent::Model(Event::ChecksumFault(map.next_value::<ChecksumTarget>()?))
+                        }
                         other => {
                             return Err(de::Error::custom(format!(
                                 "unknown key `{other}`; a step has one of {} plus optional {}",
@@ -225,27 +252,30 @@ pub fn to_yaml(trace: &Trace) -> String {
     s.push_str("steps:\n");
     for step in &trace.steps {
         let event = match &step.event {
-            Event::Servo { cycles } => format!("servo: {cycles}"),
-            Event::Background => "background: 1".into(),
-            Event::ClearRtiReentry => "clear_rti_reentry: 1".into(),
-            Event::Load(l) => format!(
-                "load: {{motors: {}, plc0_units: {}, background_units: {}}}",
-                l.motors, l.plc0_units, l.background_units
-            ),
-            Event::Command(c) => format!("command: {}", quote(&c.to_string())),
-            Event::Supply { millivolts } => format!("supply_mv: {millivolts}"),
-            Event::Reset(r) => format!(
-                "reset: {{kind: {}, dpram_fault: {}, flash_fault: {}, bootstrap: {}}}",
-                match r.kind {
-                    pmacwd_specs::check::ResetKind::Init => "init",
-                    pmacwd_specs::check::ResetKind::Power => "power",
-                },
-                r.dpram_fault,
-                r.flash_fault,
-                r.bootstrap
-            ),
-            Event::ChecksumFault(ChecksumTarget::Firmware) => "checksum_fault: firmware".into(),
-            Event::ChecksumFault(ChecksumTarget::UserProgram) => "checksum_fault: user_program".into(),
+            TraceEvent::Run { cycles } => format!("run: {cycles}"),
+            TraceEvent::Model(e) => match e {
+                Event::Servo { cycles } => format!("servo: {cycles}"),
+                Event::Background => "background: 1".into(),
+                Event::ClearRtiReentry => "clear_rti_reentry: 1".into(),
+                Event::Load(l) => format!(
+                    "load: {{motors: {}, plc0_units: {}, background_units: {}}}",
+                    l.motors, l.plc0_units, l.background_units
+                ),
+                Event::Command(c) => format!("command: {}", quote(&c.to_string())),
+                Event::Supply { millivolts } => format!("supply_mv: {millivolts}"),
+                Event::Reset(r) => format!(
+                    "reset: {{kind: {}, dpram_fault: {}, flash_fault: {}, bootstrap: {}}}",
+                    match r.kind {
+                        pmacwd_specs::check::ResetKind::Init => "init",
+                        pmacwd_specs::check::ResetKind::Power => "power",
+                    },
+                    r.dpram_fault,
+                    r.flash_fault,
+                    r.bootstrap
+                ),
+                Event::ChecksumFault(ChecksumTarget::Firmware) => "checksum_fault: firmware".into(),
+                Event::ChecksumFault(ChecksumTarget::UserProgram) => "checksum_fault: user_program".into(),
+            },
         };
         let _ = writeln!(s, "  - {event}");
         if let Some(n) = &step.note {

@@ -2,7 +2,7 @@
 //! one step per line, in the same vocabulary as the YAML form (`docs/trace-format.md`).
 //! [`StepReader`] reads it one line at a time, so memory does not grow with the trace.
 
-use crate::trace::{Expect, Step, Trace, FORMAT_VERSION};
+use crate::trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
 use pmacwd_model::event::Event;
 use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetKind};
 use pmacwd_specs::cite::Cites;
@@ -133,7 +133,22 @@ pub fn header_line(trace: &Trace) -> String {
 
 /// One step as a line.
 pub fn step_line(step: &Step) -> String {
-    let mut v = match &step.event {
+    let event = match &step.event {
+        TraceEvent::Run { cycles } => serde_json::json!({ "run": cycles }),
+        TraceEvent::Model(e) => model_event_json(e),
+    };
+    let mut v = event;
+    if let Some(n) = &step.note {
+        v["note"] = serde_json::json!(n);
+    }
+    if !step.expect.is_empty() {
+        v["expect"] = expect_json(&step.expect);
+    }
+    v.to_string()
+}
+
+fn model_event_json(e: &Event) -> serde_json::Value {
+    match e {
         Event::Servo { cycles } => serde_json::json!({ "servo": cycles }),
         Event::Background => serde_json::json!({ "background": 1 }),
         Event::ClearRtiReentry => serde_json::json!({ "clear_rti_reentry": 1 }),
@@ -147,14 +162,7 @@ pub fn step_line(step: &Step) -> String {
             "dpram_fault": r.dpram_fault, "flash_fault": r.flash_fault, "bootstrap": r.bootstrap } }),
         Event::ChecksumFault(ChecksumTarget::Firmware) => serde_json::json!({ "checksum_fault": "firmware" }),
         Event::ChecksumFault(ChecksumTarget::UserProgram) => serde_json::json!({ "checksum_fault": "user_program" }),
-    };
-    if let Some(n) = &step.note {
-        v["note"] = serde_json::json!(n);
     }
-    if !step.expect.is_empty() {
-        v["expect"] = expect_json(&step.expect);
-    }
-    v.to_string()
 }
 
 fn expect_json(e: &Expect) -> serde_json::Value {

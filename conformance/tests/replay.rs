@@ -81,3 +81,42 @@ fn the_command_line_exit_codes_follow_the_verdict_and_a_malformed_line_is_unusab
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("bad.jsonl:4:"), "{stderr}");
 }
+
+#[test]
+fn an_imported_host_log_replays_and_settles_two_readings() {
+    // The synthetic host session reads Y:$25 minimum 4092 after 2234 cycles with a background
+    // every 4 cycles (so the reload was 4096) and shows bit 12 set while no error is reported.
+    let log = capture("host-session.log");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let trace = pmacwd_conformance::import::import(&log, &text, "i40-zero").unwrap();
+    let dir = std::env::temp_dir().join(format!("pmacwd-import-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("session.jsonl");
+    std::fs::write(&out, pmacwd_conformance::trace_jsonl::to_jsonl(&trace)).unwrap();
+    let r = replay(&Spec::embedded().unwrap(), &out).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(consistent(&r), ["um-215", "um-215-50hz", "um-215-literal-plc"]);
+    assert!(matches!(option(&r, "reset_value_when_i40_zero", "4095"), OptionVerdict::RuledOut(..)));
+    assert!(matches!(option(&r, "bit12_meaning", "firmware_checksum_error"), OptionVerdict::RuledOut(..)));
+}
+
+#[test]
+fn a_host_log_with_a_command_but_no_reply_or_a_stray_line_is_refused_with_its_line() {
+    use pmacwd_conformance::import::import;
+    let err = import(Path::new("s.log"), "> ???\n> I40\n< 0\n", "i40-zero").unwrap_err();
+    assert_eq!(err.position.map(|p| p.line), Some(1), "{err}");
+    assert!(err.message.contains("no reply line"), "{err}");
+    let err = import(Path::new("s.log"), "> ???\n< 001000000000\nhello\n", "i40-zero").unwrap_err();
+    assert_eq!(err.position.map(|p| (p.line, p.column)), Some((3, 1)), "{err}");
+    let err = import(Path::new("s.log"), "> RHX:$0\n< 1000000\n", "i40-zero").unwrap_err();
+    assert!(err.message.contains("not a 24-bit hex word"), "{err}");
+}
+
+#[test]
+fn the_time_between_two_servo_counter_reads_becomes_a_run_step_even_across_the_wrap() {
+    use pmacwd_conformance::trace::TraceEvent;
+    let t =
+        pmacwd_conformance::import::import(Path::new("s.log"), "> RHX:$0\n< FFFFF0\n> RHX:$0\n< 000010\n", "i40-zero")
+            .unwrap();
+    assert_eq!(t.steps[1].event, TraceEvent::Run { cycles: 0x20 });
+}

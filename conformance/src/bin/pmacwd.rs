@@ -88,6 +88,56 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         specs: Option<PathBuf>,
     },
+    /// Turn a plain host log (commands, replies, X:$0 read alongside) into a trace.
+    ///
+    /// The log format and how to capture one from a real controller: docs/capturing.md. Writes
+    /// JSON Lines (or YAML with --yaml) to --out, or to standard output.
+    Import {
+        #[arg(value_name = "LOG")]
+        log: PathBuf,
+        /// Where to write the trace (default: standard output).
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
+        /// The check.yaml configuration the trace names (CPU costs, hardware delay, I-variables).
+        #[arg(long, value_name = "NAME", default_value = "i40-zero")]
+        configuration: String,
+        /// Write YAML instead of JSON Lines.
+        #[arg(long)]
+        yaml: bool,
+    },
+}
+
+fn import_log(log: &std::path::Path, out: Option<PathBuf>, configuration: &str, yaml: bool) -> ExitCode {
+    let text = match std::fs::read_to_string(log) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("pmacwd: {}: cannot read: {e}", log.display());
+            return ExitCode::from(2);
+        }
+    };
+    let trace = match pmacwd_conformance::import::import(log, &text, configuration) {
+        Ok(t) => t,
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let written = if yaml {
+        pmacwd_conformance::trace::to_yaml(&trace)
+    } else {
+        pmacwd_conformance::trace_jsonl::to_jsonl(&trace)
+    };
+    match out {
+        Some(path) => {
+            if let Err(e) = std::fs::write(&path, written) {
+                eprintln!("pmacwd: {}: cannot write: {e}", path.display());
+                return ExitCode::from(2);
+            }
+            eprintln!("pmacwd: wrote {} steps to {}", trace.steps.len(), path.display());
+        }
+        None => print!("{written}"),
+    }
+    ExitCode::SUCCESS
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -249,6 +299,7 @@ fn main() -> ExitCode {
         Command::Run { paths, specs, profile } => run_traces(paths, specs, profile),
         Command::Decode { reply, json, specs } => decode_reply(&reply, json, specs),
         Command::Replay { file, format, specs } => replay_file(&file, format, specs),
+        Command::Import { log, out, configuration, yaml } => import_log(&log, out, &configuration, yaml),
         Command::Check { specs, profile, configuration, witnesses, threads } => {
             let spec = match load_spec(&specs) {
                 Ok(s) => s,
