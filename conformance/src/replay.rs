@@ -7,12 +7,10 @@
 //! reading's options are then supported (some consistent profile chooses it), ruled out (every
 //! profile that chooses it diverged) or not covered by any profile.
 
-use crate::runner::{apply_to_model, compare, Mismatch};
+use crate::runner::{Mismatch, ModelLane};
 use crate::trace::{parse_yaml, Step, Trace, TraceEvent};
 use crate::trace_jsonl::StepReader;
 use pmacwd_model::config::ModelConfig;
-use pmacwd_model::controller::Controller;
-use pmacwd_model::observe::Observation;
 use pmacwd_specs::profiles::{Choices, Profile};
 use pmacwd_specs::yaml::SourceMap;
 use pmacwd_specs::{Position, Spec, SpecError};
@@ -193,8 +191,7 @@ fn differ_only_in(a: &Choices, b: &Choices, reading: &str) -> bool {
 const RECENT_EVENTS: usize = 5;
 
 struct Lane {
-    cfg: ModelConfig,
-    card: Controller,
+    model: ModelLane,
     verdict: ProfileVerdict,
 }
 
@@ -213,10 +210,8 @@ pub fn replay(spec: &Spec, path: &Path) -> Result<ReplayReport, SpecError> {
         })?;
         // A capture reads the card's real 24-bit servo counter.
         cfg.servo_counter_mask = 0xFF_FFFF;
-        let card = Controller::power_on(&cfg);
         lanes.push(Lane {
-            cfg,
-            card,
+            model: ModelLane::new(cfg),
             verdict: ProfileVerdict { profile, expectations: 0, divergences: 0, first: None },
         });
     }
@@ -229,9 +224,9 @@ pub fn replay(spec: &Spec, path: &Path) -> Result<ReplayReport, SpecError> {
         }
         recent.push_back((line, step.event.clone()));
         for lane in &mut lanes {
-            let outcome = match apply_to_model(&mut lane.card, &lane.cfg, &step.event) {
+            let outcome = match lane.model.apply(&step.event) {
                 Err(why) => Err(Mismatch::Field("event", "a background cycle can complete".into(), why)),
-                Ok(reply) => compare(spec, &step.expect, &Observation::of(&lane.card, &lane.cfg, reply)),
+                Ok(reply) => lane.model.check(spec, &step.expect, reply),
             };
             match outcome {
                 Ok(n) => lane.verdict.expectations += n as u64,

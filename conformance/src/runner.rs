@@ -67,26 +67,105 @@ pub fn profiles_of(spec: &Spec, loaded: &LoadedTrace) -> Result<Vec<Profile>, Sp
     }
 }
 
-/// Applies one trace event to the model. `Err` says why a claimed background cycle cannot
-/// complete (a divergence); `run` completes a background cycle after every servo cycle in which
-/// the load allows one.
-pub fn apply_to_model(card: &mut Controller, cfg: &ModelConfig, event: &TraceEvent) -> Result<Reply, String> {
-    match event {
-        TraceEvent::Model(Event::Background) if !card.background_possible() => Err(if card.tripped() {
-            "it cannot: the card is tripped".into()
-        } else {
-            "it cannot: the load has not yet given the background a cycle's CPU time".into()
-        }),
-        TraceEvent::Model(e) => Ok(card.apply(cfg, e)),
-        TraceEvent::Run { cycles } => {
-            for _ in 0..*cycles {
-                card.servo_cycle(cfg);
-                if card.background_possible() {
-                    card.background_cycle(cfg);
-                }
-            }
-            Ok(Reply::None)
+/// The model as a trace drives it: the controller, its configuration, and how many servo
+/// cycles have passed since it tripped (its own counter X:$0 stops with the processor), which
+/// timing windows need.
+pub struct ModelLane {
+    pub cfg: ModelConfig,
+    pub card: Controller,
+    pub cycles_since_trip: u64,
+}
+
+impl ModelLane {
+    pub fn new(cfg: ModelConfig) -> ModelLane {
+        let card = Controller::power_on(&cfg);
+        ModelLane { cfg, card, cycles_since_trip: 0 }
+    }
+
+    fn servo_cycle(&mut self) {
+        if self.card.tripped() {
+            self.cycles_since_trip += 1;
         }
+        self.card.servo_cycle(&self.cfg);
+    }
+
+    /// Applies one trace event. `Err` says why a claimed background cycle cannot complete (a
+    /// divergence); `run` completes a background cycle after every servo cycle in which the
+    /// load allows one.
+    pub fn apply(&mut self, event: &TraceEvent) -> Result<Reply, String> {
+        let reply = match event {
+            TraceEvent::Model(Event::Background) if !self.card.background_possible() => {
+                return Err(if self.card.tripped() {
+                    "it cannot: the card is tripped".into()
+                } else {
+                    "it cannot: the load has not yet given the background a cycle's CPU time".into()
+                })
+            }
+            TraceEvent::Model(Event::Servo { cycles }) => {
+                for _ in 0..*cycles {
+                    self.servo_cycle();
+                }
+                Reply::None
+            }
+            TraceEvent::Model(e) => self.card.apply(&self.cfg, e),
+            TraceEvent::Run { cycles } => {
+                for _ in 0..*cycles {
+                    self.servo_cycle();
+                    if self.card.background_possible() {
+                        self.card.background_cycle(&self.cfg);
+                    }
+                }
+                Reply::None
+            }
+        };
+        // Only servo cycles after the trip count; a running card has none.
+        if !self.card.tripped() {
+            self.cycles_since_trip = 0;
+        }
+        Ok(reply)
+    }
+
+    /// Compares the observations after an event with a step's expectations. With
+    /// `window_cycles: W`, an expected trip (or its absence) also holds if the model trips within
+    /// the next W servo cycles (or tripped within the last W): captured timing is uncertain.
+    pub fn check(&self, spec: &Spec, expect: &Expect, reply: Reply) -> Result<usize, Mismatch> {
+        let obs = Observation::of(&self.card, &self.cfg, reply);
+        let (Some(window), Some(want)) = (expect.window_cycles, expect.tripped) else {
+            return compare(spec, expect, &obs);
+        };
+        let tripped = self.card.tripped();
+        let within = if want == tripped {
+            true
+        } else if want {
+            let mut probe = self.card.clone();
+            (0..window).any(|_| {
+                probe.servo_cycle(&self.cfg);
+                probe.tripped()
+            })
+        } else {
+            self.cycles_since_trip <= u64::from(window)
+        };
+        if !within {
+            return Err(Mismatch::Field(
+                "tripped",
+                format!("{want} within {window} servo cycles"),
+                tripped.to_string(),
+            ));
+        }
+        // The trip-derived observations follow the windowed verdict.
+        let mut rest = expect.clone();
+        for field in [
+            &mut rest.tripped,
+            &mut rest.led_red,
+            &mut rest.fefco_on,
+            &mut rest.relay_tripped,
+            &mut rest.outputs_forced_off,
+        ] {
+            if *field == Some(want) {
+                *field = None;
+            }
+        }
+        Ok(1 + compare(spec, &rest, &obs)?)
     }
 }
 
@@ -106,7 +185,7 @@ pub fn run_on_model(spec: &Spec, loaded: &LoadedTrace, profile: &Profile) -> Res
     // The checker drops X:$000000 from its states (no rule reads it); a trace runs with the
     // card's real 24-bit servo cycle counter, since a host can read it.
     cfg.servo_counter_mask = 0xFF_FFFF;
-    let mut card = Controller::power_on(&cfg);
+    let mut lane = ModelLane::new(cfg);
     let mut recent: Vec<String> = Vec::new();
     let mut checked = 0;
     for (i, step) in trace.steps.iter().enumerate() {
@@ -124,12 +203,11 @@ pub fn run_on_model(spec: &Spec, loaded: &LoadedTrace, profile: &Profile) -> Res
                 recent: recent.clone(),
             })
         };
-        let reply = match apply_to_model(&mut card, &cfg, &step.event) {
+        let reply = match lane.apply(&step.event) {
             Ok(reply) => reply,
             Err(why) => return Err(diverge("event", "a background cycle can complete".into(), why)),
         };
-        let obs = Observation::of(&card, &cfg, reply);
-        checked += compare(spec, &step.expect, &obs).map_err(|e| match e {
+        checked += lane.check(spec, &step.expect, reply).map_err(|e| match e {
             Mismatch::UnknownBit(field, j, name) => Failure::Unusable(loaded.map.error(
                 &format!("steps.{i}.expect.{field}.{j}"),
                 format!("no status bit named `{name}` in status.yaml"),

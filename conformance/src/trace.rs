@@ -79,6 +79,9 @@ pub struct Expect {
     pub counter: Option<i32>,
     /// X:$000025.
     pub counter_min: Option<i32>,
+    /// Timing uncertainty for `tripped`: the expectation also holds if the model trips within
+    /// this many servo cycles after the step, or tripped within this many before it.
+    pub window_cycles: Option<u32>,
     /// Status bits (names of `status.yaml`) that must be 1.
     #[serde(default)]
     pub status_set: Vec<String>,
@@ -297,6 +300,9 @@ pub fn to_yaml(trace: &Trace) -> String {
                 if let Some(v) = v {
                     let _ = writeln!(s, "      {k}: {v}");
                 }
+            }
+            if let Some(v) = e.window_cycles {
+                let _ = writeln!(s, "      window_cycles: {v}");
             }
             if let Some(v) = e.counter {
                 let _ = writeln!(s, "      counter: {v}");

@@ -181,6 +181,9 @@ fn expect_json(e: &Expect) -> serde_json::Value {
             m.insert(k.into(), serde_json::json!(v));
         }
     }
+    if let Some(v) = e.window_cycles {
+        m.insert("window_cycles".into(), serde_json::json!(v));
+    }
     if let Some(v) = e.counter {
         m.insert("counter".into(), serde_json::json!(v));
     }

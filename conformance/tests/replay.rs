@@ -120,3 +120,23 @@ fn the_time_between_two_servo_counter_reads_becomes_a_run_step_even_across_the_w
             .unwrap();
     assert_eq!(t.steps[1].event, TraceEvent::Run { cycles: 0x20 });
 }
+
+#[test]
+fn a_trip_seen_within_a_window_of_cycles_matches_a_model_trip_inside_the_window_only() {
+    // The default profile trips 4096 + 46 = 4142 servo cycles after power-up with no background.
+    use pmacwd_conformance::runner::{run_on_model, Failure};
+    use pmacwd_conformance::trace::parse_yaml;
+    let spec = Spec::embedded().unwrap();
+    let profile = spec.profiles.get("um-215").unwrap();
+    let run = |cycles: u32, tripped: bool, window: u32| {
+        let text = format!(
+            "version: 1\ndescription: d\nconfiguration: i40-zero\nprofiles: [um-215]\nsteps:\n  - servo: {cycles}\n    expect: {{tripped: {tripped}, window_cycles: {window}}}\n"
+        );
+        run_on_model(&spec, &parse_yaml(Path::new("w.yaml"), &text).unwrap(), &profile)
+    };
+    assert!(run(4139, true, 5).is_ok(), "the model trips 3 cycles later: inside the window");
+    assert!(run(4145, false, 5).is_ok(), "the model tripped 3 cycles earlier: inside the window");
+    assert!(matches!(run(4130, true, 5), Err(Failure::Diverged(_))), "12 cycles early is outside");
+    assert!(matches!(run(4150, false, 5), Err(Failure::Diverged(_))), "8 cycles late is outside");
+    assert!(matches!(run(4139, true, 0), Err(Failure::Diverged(_))), "no window: exact");
+}
