@@ -90,7 +90,7 @@ fn there_are_at_least_25_named_properties_each_with_a_citation() {
 fn canary(canary: Canary, configuration: &str) -> pmacwd_model::checker::RunReport {
     let spec = Spec::embedded().unwrap();
     let cfg = ModelConfig::from_spec(&spec, configuration, &spec.profiles.default_profile()).unwrap();
-    WatchdogModel { cfg, canary: Some(canary) }.check(2)
+    WatchdogModel { cfg, canary: Some(canary), detailed: false }.check(2)
 }
 
 #[test]
@@ -117,4 +117,21 @@ fn canary_a_model_whose_trip_is_not_latched_is_caught() {
     assert!(!p.holds);
     let events: Vec<String> = p.path.as_ref().unwrap().iter().map(|s| s.event.to_string()).collect();
     assert_eq!(events, ["supply 4.500 V", "supply 5.000 V"]);
+}
+
+#[test]
+fn the_fast_check_with_conjoined_always_properties_agrees_with_the_detailed_one() {
+    // `check` gives stateright the `always` properties as two conjunctions for speed; with
+    // every property separate it must reach the same states and the same verdicts.
+    let spec = Spec::embedded().unwrap();
+    for name in ["status", "lockout"] {
+        let cfg = ModelConfig::from_spec(&spec, name, &spec.profiles.default_profile()).unwrap();
+        let fast = WatchdogModel { cfg: cfg.clone(), canary: None, detailed: false }.check(2);
+        let detailed = WatchdogModel { cfg, canary: None, detailed: true }.check(2);
+        assert_eq!(fast.states, detailed.states, "{name}");
+        let verdicts = |r: &pmacwd_model::checker::RunReport| {
+            r.properties.iter().map(|p| (p.name, p.holds, p.path.as_ref().map(Vec::len))).collect::<Vec<_>>()
+        };
+        assert_eq!(verdicts(&fast), verdicts(&detailed), "{name}");
+    }
 }
