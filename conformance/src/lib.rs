@@ -10,5 +10,6 @@ pub mod import;
 pub mod replay;
 pub mod reply_text;
 pub mod runner;
+pub mod subject;
 pub mod trace;
 pub mod trace_jsonl;

@@ -1,0 +1,174 @@
+//! The conformance suite's view of a controller implementation.
+//!
+//! Implement [`Subject`] for your emulator, simulator or firmware harness and the lockstep
+//! tests, the scenario library and `pmacwd conform` can run against it: the suite powers it up
+//! with a configuration resolved from `specs/` (a [`ModelConfig`]), feeds it the events of the
+//! model's vocabulary, and compares what it observes with the reference model after every one.
+//! [`CoreSubject`] (this project's `no_std` core) is the first implementation; [`ModelSubject`]
+//! is the reference itself.
+
+use pmacwd_core as core;
+use pmacwd_model::command::{Buffer, HostCommand, Register};
+use pmacwd_model::config::ModelConfig;
+use pmacwd_model::controller::Controller;
+use pmacwd_model::event::{Event, Reply};
+use pmacwd_model::observe::Observation;
+use pmacwd_specs::check::{ChecksumTarget, ResetKind};
+use pmacwd_specs::profiles::{Bit12Meaning, RtiWarningLatch, StrobeStop, Strober};
+
+/// A controller implementation under test.
+pub trait Subject {
+    /// Human-readable name for reports.
+    fn name(&self) -> &'static str;
+    /// Powers up with this configuration (profile readings, CPU costs, saved I-variables).
+    fn power_on(cfg: &ModelConfig) -> Self
+    where
+        Self: Sized;
+    /// Whether a background cycle can complete now (the suite only sends `Background` then).
+    fn background_possible(&self) -> bool;
+    /// Applies one event and reports everything observable afterwards.
+    fn apply(&mut self, event: &Event) -> Observation;
+}
+
+/// The reference model as a subject.
+pub struct ModelSubject {
+    cfg: ModelConfig,
+    card: Controller,
+}
+
+impl Subject for ModelSubject {
+    fn name(&self) -> &'static str {
+        "reference model"
+    }
+    fn power_on(cfg: &ModelConfig) -> Self {
+        ModelSubject { cfg: cfg.clone(), card: Controller::power_on(cfg) }
+    }
+    fn background_possible(&self) -> bool {
+        self.card.background_possible()
+    }
+    fn apply(&mut self, event: &Event) -> Observation {
+        let reply = self.card.apply(&self.cfg, event);
+        Observation::of(&self.card, &self.cfg, reply)
+    }
+}
+
+/// This project's compact core as a subject.
+pub struct CoreSubject {
+    cfg: core::Config,
+    core: core::Core,
+}
+
+/// The core's configuration for a model configuration.
+pub fn core_config(cfg: &ModelConfig) -> core::Config {
+    let c = &cfg.profile.choices;
+    core::Config {
+        profile: core::Profile {
+            reset_value_i40_zero: c.reset_value_when_i40_zero.cycles(),
+            strobe_stop: match c.strobe_stop {
+                StrobeStop::AtZero => core::StrobeStop::AtZero,
+                StrobeStop::BelowZero => core::StrobeStop::BelowZero,
+            },
+            rti_strobes: c.strober == Strober::RealTimeInterrupt,
+            bit12_firmware_error: c.bit12_meaning == Bit12Meaning::FirmwareChecksumError,
+            rti_warning_sticky: c.rti_warning_latch == RtiWarningLatch::Sticky,
+        },
+        hardware_delay_cycles: cfg.hardware_delay_cycles,
+        cycle_units: cfg.cpu.cycle_units,
+        servo_units_per_motor: cfg.cpu.servo_units_per_motor,
+        move_planning_units: cfg.cpu.move_planning_units,
+        saved_i8: cfg.saved.i8,
+        saved_i40: cfg.saved.i40,
+        saved_i41: cfg.saved.i41,
+        pass_firmware: cfg.pass_cycles.firmware,
+        pass_user_program: cfg.pass_cycles.user_program,
+        supply_min_millivolts: cfg.supply_min_millivolts,
+        servo_counter_mask: cfg.servo_counter_mask,
+        load: core_load(&cfg.loads[0]),
+    }
+}
+
+fn core_load(l: &pmacwd_specs::check::Load) -> core::Load {
+    core::Load { motors: l.motors, plc0_units: l.plc0_units, background_units: l.background_units }
+}
+
+/// The core's event for a model event.
+pub fn core_event(e: &Event) -> core::Event {
+    match e {
+        Event::Servo { cycles } => core::Event::Servo(*cycles),
+        Event::Background => core::Event::Background,
+        Event::Load(l) => core::Event::Load(core_load(l)),
+        Event::Command(c) => core::Event::Command(match c {
+            HostCommand::GlobalStatus => core::Command::GlobalStatus,
+            HostCommand::ReadI(n) => core::Command::ReadI(*n),
+            HostCommand::WriteI(n, v) => core::Command::WriteI(*n, *v),
+            HostCommand::ReadHex(r) => core::Command::ReadHex(match r {
+                Register::ServoCycles => core::Register::ServoCycles,
+                Register::StatusX => core::Register::StatusX,
+                Register::StatusY => core::Register::StatusY,
+                Register::WatchdogCounter => core::Register::WatchdogCounter,
+                Register::WatchdogMinimum => core::Register::WatchdogMinimum,
+                Register::RunningChecksum => core::Register::RunningChecksum,
+                Register::ProgramChecksumReference => core::Register::ProgramChecksumReference,
+            }),
+            HostCommand::Reset => core::Command::Reset,
+            HostCommand::Open(Buffer::Plc(_)) => core::Command::OpenPlc,
+            HostCommand::Open(Buffer::Program(_)) => core::Command::OpenProgram,
+            HostCommand::Close => core::Command::Close,
+            HostCommand::Unrecognized(_) => core::Command::Unrecognized,
+        }),
+        Event::Supply { millivolts } => core::Event::Supply(*millivolts),
+        Event::Reset(r) => core::Event::Reset(core::Reset {
+            kind: match r.kind {
+                ResetKind::Init => core::ResetKind::Init,
+                ResetKind::Power => core::ResetKind::Power,
+            },
+            dpram_fault: r.dpram_fault,
+            flash_fault: r.flash_fault,
+            bootstrap: r.bootstrap,
+        }),
+        Event::ChecksumFault(ChecksumTarget::Firmware) => core::Event::ChecksumFault(core::Area::Firmware),
+        Event::ChecksumFault(ChecksumTarget::UserProgram) => core::Event::ChecksumFault(core::Area::UserProgram),
+        Event::ClearRtiReentry => core::Event::ClearRtiReentry,
+    }
+}
+
+fn model_reply(r: core::Reply) -> Reply {
+    match r {
+        core::Reply::None => Reply::None,
+        core::Reply::Silence => Reply::Silence,
+        core::Reply::Ack => Reply::Ack,
+        core::Reply::Status { x, y } => Reply::Status { x, y },
+        core::Reply::Bootstrap => Reply::Bootstrap,
+        core::Reply::Value(v) => Reply::Value(v),
+        core::Reply::Hex(v) => Reply::Hex(v),
+        core::Reply::Error(n) => Reply::Error(n),
+    }
+}
+
+impl Subject for CoreSubject {
+    fn name(&self) -> &'static str {
+        "pmacwd-core"
+    }
+    fn power_on(cfg: &ModelConfig) -> Self {
+        let cfg = core_config(cfg);
+        CoreSubject { core: core::Core::power_on(&cfg), cfg }
+    }
+    fn background_possible(&self) -> bool {
+        self.core.background_possible()
+    }
+    fn apply(&mut self, event: &Event) -> Observation {
+        let reply = model_reply(self.core.apply(&self.cfg, core_event(event)));
+        let o = self.core.observe(&self.cfg, core::Reply::None);
+        Observation {
+            reply,
+            led_red: o.tripped,
+            fefco_on: o.tripped,
+            relay_tripped: o.tripped,
+            outputs_forced_off: o.tripped,
+            counter: o.counter,
+            counter_min: o.counter_min,
+            status_x: o.status_x,
+            status_y: o.status_y,
+        }
+    }
+}

@@ -1,0 +1,62 @@
+//! The compact core keeps its own constants (a shared table would let one wrong constant pass
+//! every comparison); this checks each against `specs/`.
+
+use pmacwd_core::{bits, Profile, StrobeStop, I40_MAX, I41_MAX, I8_MAX, I_VARIABLE_MAX, LOCKOUT};
+use pmacwd_specs::profiles::{ResetValueWhenI40Zero, StrobeStop as SpecStop, Strober};
+use pmacwd_specs::status::WordId;
+use pmacwd_specs::Spec;
+
+#[test]
+fn the_core_status_bits_sit_where_status_yaml_puts_them() {
+    let spec = Spec::embedded().unwrap();
+    for (name, word, mask) in [
+        ("rti_reentry", WordId::X, bits::RTI_REENTRY),
+        ("servo_error", WordId::X, bits::SERVO_ERROR),
+        ("checksum_error", WordId::X, bits::CHECKSUM_ERROR),
+        ("prom_checksum_active", WordId::X, bits::PROM_CHECKSUM_ACTIVE),
+        ("dpram_error", WordId::X, bits::DPRAM_ERROR),
+        ("flash_error", WordId::X, bits::FLASH_ERROR),
+        ("rti_warning", WordId::X, bits::RTI_WARNING),
+        ("motion_buffer_open", WordId::Y, bits::MOTION_BUFFER_OPEN),
+        ("plc_buffer_open", WordId::Y, bits::PLC_BUFFER_OPEN),
+    ] {
+        let (w, b) = spec.status.bit(name).unwrap_or_else(|| panic!("status.yaml has no `{name}`"));
+        assert_eq!((w, 1u32 << b), (word, mask), "{name}");
+    }
+}
+
+#[test]
+fn the_core_lockout_table_and_i_variable_ranges_match_variables_yaml() {
+    let spec = Spec::embedded().unwrap();
+    let v = &spec.variables;
+    let table: Vec<(u16, u16)> = v.lockout.iter().map(|r| (r.first, r.last)).collect();
+    assert_eq!(table, LOCKOUT.to_vec());
+    for (bit, r) in v.lockout.iter().enumerate() {
+        assert_eq!(usize::from(r.bit), bit, "lockout.yaml lists bits in order");
+    }
+    assert_eq!(i64::from(I_VARIABLE_MAX), v.i_variable_numbers.max);
+    assert_eq!(I8_MAX, v.i_variables.i8.range.max);
+    assert_eq!(I40_MAX, v.i_variables.i40.range.max);
+    assert_eq!(I41_MAX, v.i_variables.i41.range.max);
+}
+
+#[test]
+fn the_core_named_profiles_match_profiles_yaml() {
+    let spec = Spec::embedded().unwrap();
+    for (name, p) in [("um-215", Profile::UM_215), ("srm-57", Profile::SRM_57)] {
+        let c = spec.profiles.get(name).unwrap().choices;
+        let rv = match c.reset_value_when_i40_zero {
+            ResetValueWhenI40Zero::R4095 => 4095,
+            ResetValueWhenI40Zero::R4096 => 4096,
+        };
+        assert_eq!(p.reset_value_i40_zero, rv, "{name}");
+        assert_eq!(p.strobe_stop == StrobeStop::BelowZero, c.strobe_stop == SpecStop::BelowZero, "{name}");
+        assert_eq!(p.rti_strobes, c.strober == Strober::RealTimeInterrupt, "{name}");
+    }
+}
+
+#[test]
+fn the_core_supply_minimum_in_its_benchmarks_matches_watchdog_yaml() {
+    let spec = Spec::embedded().unwrap();
+    assert_eq!((spec.watchdog.hardware.supply_volts_min.value * 1000.0).round() as u32, 4750);
+}

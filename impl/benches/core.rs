@@ -1,0 +1,87 @@
+//! The compact core against the reference model, on the same events.
+//!
+//! Run: `cargo bench -p pmacwd-core --bench core`.
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use pmacwd_core::{Command, Config, Core, Event, Load, Profile, Reply};
+
+fn config() -> Config {
+    Config {
+        profile: Profile::UM_215,
+        hardware_delay_cycles: 45,
+        cycle_units: 100,
+        servo_units_per_motor: 1,
+        move_planning_units: 0,
+        saved_i8: 2,
+        saved_i40: 0,
+        saved_i41: 0,
+        pass_firmware: 2,
+        pass_user_program: 1,
+        supply_min_millivolts: 4750,
+        servo_counter_mask: 0xFF_FFFF,
+        load: Load { motors: 8, plc0_units: 30, background_units: 250 },
+    }
+}
+
+fn core_benchmarks(c: &mut Criterion) {
+    let cfg = config();
+    let mut g = c.benchmark_group("core");
+    // One servo interrupt, with a background cycle whenever possible so the card never trips.
+    g.bench_function("servo_event", |b| {
+        let mut core = Core::power_on(&cfg);
+        b.iter(|| {
+            core.servo_cycle(black_box(&cfg));
+            if core.background_possible() {
+                core.background_cycle(&cfg);
+            }
+        })
+    });
+    for n in [1u32, 1_000, 1_000_000_000] {
+        g.bench_function(format!("advance_{n}"), |b| {
+            let start = Core::power_on(&cfg);
+            b.iter(|| {
+                let mut core = start;
+                core.advance(&cfg, black_box(n));
+                core
+            })
+        });
+    }
+    g.bench_function("status_reply", |b| {
+        let mut core = Core::power_on(&cfg);
+        b.iter(|| match core.apply(&cfg, Event::Command(black_box(Command::GlobalStatus))) {
+            Reply::Status { x, y } => Reply::status_text(x, y),
+            _ => [0; 12],
+        })
+    });
+    // The reference model on the same servo event.
+    let spec = pmacwd_specs::Spec::embedded().unwrap();
+    let mcfg =
+        pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
+    g.bench_function("model_servo_event", |b| {
+        let mut card = pmacwd_model::controller::Controller::power_on(&mcfg);
+        b.iter(|| {
+            card.servo_cycle(black_box(&mcfg));
+            if card.background_possible() {
+                card.background_cycle(&mcfg);
+            }
+        })
+    });
+    g.bench_function("model_step_servo_event", |b| {
+        let model = pmacwd_model::checker::WatchdogModel::new(mcfg.clone());
+        let mut state = pmacwd_model::checker::State {
+            controller: pmacwd_model::controller::Controller::power_on(&mcfg),
+            violations: 0,
+        };
+        b.iter(|| {
+            let (_, next) = model.step(&state, &pmacwd_model::event::Event::Servo { cycles: 1 });
+            state = next;
+            if state.controller.background_possible() {
+                state.controller.background_cycle(&mcfg);
+            }
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, core_benchmarks);
+criterion_main!(benches);

@@ -1,0 +1,740 @@
+//! # pmacwd-core: the compact Turbo PMAC watchdog core
+//!
+//! The semantics of the reference model (`model/`) with none of its cost: `no_std`, no
+//! allocation, no dependencies, the state in a few machine words, the status words kept in
+//! their 24-bit wire layout (a `???` reply is formatting, not translation), and
+//! [`Core::advance`] running any number of idle servo cycles in constant time.
+//!
+//! Its constants are its own ([`bits`], [`LOCKOUT`], [`Profile`]): a test in `conformance/`
+//! checks them against `specs/`, and lockstep tests check every event against the model.
+//!
+//! Citations: UM = Turbo PMAC User Manual, SRM = Software Reference.
+#![no_std]
+#![forbid(unsafe_code)]
+#![deny(clippy::arithmetic_side_effects)]
+
+pub mod counter;
+#[doc(hidden)]
+pub mod proofs;
+pub mod rti;
+
+pub use counter::StrobeStop;
+use rti::Tick;
+
+/// Status bit positions in the wire layout of X:$000006 / Y:$000006 (SRM p.289-290).
+pub mod bits {
+    /// X bit 22: RTI re-entry, sticky.
+    pub const RTI_REENTRY: u32 = 1 << 22;
+    /// X bit 20: servo error.
+    pub const SERVO_ERROR: u32 = 1 << 20;
+    /// X bit 13: any memory checksum error.
+    pub const CHECKSUM_ERROR: u32 = 1 << 13;
+    /// X bit 12: PROM checksum active (or the M83 firmware checksum error reading).
+    pub const PROM_CHECKSUM_ACTIVE: u32 = 1 << 12;
+    /// X bit 11: DPRAM error at power-up/reset.
+    pub const DPRAM_ERROR: u32 = 1 << 11;
+    /// X bit 10: flash error at reset.
+    pub const FLASH_ERROR: u32 = 1 << 10;
+    /// X bit 9: RTI warning.
+    pub const RTI_WARNING: u32 = 1 << 9;
+    /// Y bit 19: motion program buffer open.
+    pub const MOTION_BUFFER_OPEN: u32 = 1 << 19;
+    /// Y bit 17: PLC buffer open.
+    pub const PLC_BUFFER_OPEN: u32 = 1 << 17;
+}
+
+/// I41 lockout ranges by I41 bit (SRM p.57): motor, coordinate system, MACRO/Servo IC,
+/// conversion table setup.
+pub const LOCKOUT: [(u16, u16); 4] = [(100, 4899), (5100, 6699), (6800, 7999), (8000, 8191)];
+/// Turbo PMAC has I0..I8191.
+pub const I_VARIABLE_MAX: u16 = 8191;
+/// Valid ranges of I8, I40, I41 (UM p.236, SRM p.57).
+pub const I8_MAX: i64 = 255;
+pub const I40_MAX: i64 = 65_535;
+pub const I41_MAX: i64 = 15;
+/// How many other I-variables the core remembers (it has no heap); see [`Core::write_i`].
+pub const OTHER_I_VARIABLES: usize = 16;
+
+/// One profile's readings (the profiles of `specs/profiles.yaml`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Profile {
+    /// 4095 (SRM p.57) or 4096 (UM p.215).
+    pub reset_value_i40_zero: u16,
+    pub strobe_stop: StrobeStop,
+    /// SRM p.57: the RTI task strobes; UM p.215: the servo interrupt does.
+    pub rti_strobes: bool,
+    /// M83's reading of bit 12: set only by a firmware checksum error.
+    pub bit12_firmware_error: bool,
+    /// Bit 9 sticky like bit 22 (otherwise cleared by an RTI whose predecessor finished).
+    pub rti_warning_sticky: bool,
+}
+
+impl Profile {
+    /// The default profile `um-215`.
+    pub const UM_215: Profile = Profile {
+        reset_value_i40_zero: 4096,
+        strobe_stop: StrobeStop::AtZero,
+        rti_strobes: false,
+        bit12_firmware_error: false,
+        rti_warning_sticky: false,
+    };
+    /// The profile `srm-57`.
+    pub const SRM_57: Profile = Profile {
+        reset_value_i40_zero: 4095,
+        strobe_stop: StrobeStop::BelowZero,
+        rti_strobes: true,
+        bit12_firmware_error: false,
+        rti_warning_sticky: false,
+    };
+}
+
+/// Everything fixed for a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Config {
+    pub profile: Profile,
+    /// Servo cycles without a strobe edge after which the timer trips.
+    pub hardware_delay_cycles: u32,
+    pub cycle_units: u16,
+    pub servo_units_per_motor: u16,
+    pub move_planning_units: u16,
+    pub saved_i8: u8,
+    pub saved_i40: u16,
+    pub saved_i41: u8,
+    pub pass_firmware: u8,
+    pub pass_user_program: u8,
+    /// Supply minimum (UM p.215: about 4.75 V).
+    pub supply_min_millivolts: u32,
+    /// Mask of X:$000000 (0xFF_FFFF on the card).
+    pub servo_counter_mask: u32,
+    /// The load at power-up.
+    pub load: Load,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Load {
+    pub motors: u8,
+    pub plc0_units: u16,
+    pub background_units: u16,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Area {
+    Firmware,
+    UserProgram,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResetKind {
+    Init,
+    Power,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Reset {
+    pub kind: ResetKind,
+    pub dpram_fault: bool,
+    pub flash_fault: bool,
+    pub bootstrap: bool,
+}
+
+/// Registers a host can read with `RH`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Register {
+    ServoCycles,
+    StatusX,
+    StatusY,
+    WatchdogCounter,
+    WatchdogMinimum,
+    RunningChecksum,
+    ProgramChecksumReference,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Command {
+    GlobalStatus,
+    ReadI(u16),
+    WriteI(u16, i64),
+    ReadHex(Register),
+    Reset,
+    OpenPlc,
+    OpenProgram,
+    Close,
+    Unrecognized,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Event {
+    /// `n` servo cycles with no background completion, in O(1).
+    Servo(u32),
+    Background,
+    Load(Load),
+    Command(Command),
+    Supply(u32),
+    Reset(Reset),
+    ChecksumFault(Area),
+    ClearRtiReentry,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reply {
+    None,
+    Silence,
+    Ack,
+    Status { x: u32, y: u32 },
+    Bootstrap,
+    Value(i64),
+    Hex(u32),
+    Error(u16),
+}
+
+impl Reply {
+    /// The 12 characters of a `???` reply (SRM p.289: the first is bits 23-20 of X:$000006).
+    pub fn status_text(x: u32, y: u32) -> [u8; 12] {
+        const HEX: &[u8; 16] = b"0123456789ABCDEF";
+        let mut out = [b'0'; 12];
+        for (i, slot) in out.iter_mut().enumerate() {
+            let word = if i < 6 { x } else { y };
+            let shift = 20u32.saturating_sub(4u32.saturating_mul((i % 6) as u32));
+            *slot = HEX[((word >> shift) & 0xF) as usize];
+        }
+        out
+    }
+}
+
+/// What can be observed after an event.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Observation {
+    pub reply: Reply,
+    /// Red LED, FEFCO/ on, relay over, outputs forced off (UM p.215): all follow the trip.
+    pub tripped: bool,
+    pub counter: i32,
+    pub counter_min: i32,
+    pub status_x: u32,
+    pub status_y: u32,
+}
+
+/// Flags packed in one byte.
+const TRIPPED: u8 = 1;
+const SUPPLY_LOW: u8 = 2;
+const BOOTSTRAP: u8 = 4;
+const ERROR_FIRMWARE: u8 = 8;
+const ERROR_PROGRAM: u8 = 16;
+const AREA_PROGRAM: u8 = 32;
+
+/// The controller state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Core {
+    counter: i32,
+    counter_min: i32,
+    cycles_since_strobe: u32,
+    rti_remaining: u32,
+    background_credit: u32,
+    servo_cycles: u32,
+    /// Wire layout, without bits 12 and 13 (computed from the checksum engine).
+    status_x: u32,
+    status_y: u32,
+    load: Load,
+    i40: u16,
+    rti_phase: u16,
+    i8: u8,
+    i41: u8,
+    flags: u8,
+    /// Background cycles done in the current checksum pass.
+    position: u8,
+    /// Content and reference tokens: bit 0 firmware, 1 firmware reference, 2 program, 3 program reference.
+    tokens: u8,
+    others: [(u16, i64); OTHER_I_VARIABLES],
+    others_len: u8,
+    /// CPU units left after the servo update, and bit 20 if the servo update does not fit:
+    /// both follow from the load, so they are computed when it changes, not every cycle.
+    free: u32,
+    servo_error: u32,
+}
+
+impl Core {
+    pub fn power_on(cfg: &Config) -> Core {
+        let mut c = Core {
+            counter: 0,
+            counter_min: 0,
+            cycles_since_strobe: 0,
+            rti_remaining: 0,
+            background_credit: 0,
+            servo_cycles: 0,
+            status_x: 0,
+            status_y: 0,
+            load: cfg.load,
+            i40: 0,
+            rti_phase: 0,
+            i8: 0,
+            i41: 0,
+            flags: 0,
+            position: 0,
+            tokens: 0,
+            others: [(0, 0); OTHER_I_VARIABLES],
+            others_len: 0,
+            free: 0,
+            servo_error: 0,
+        };
+        c.set_load(cfg, cfg.load);
+        c.restart(cfg, Reset { kind: ResetKind::Power, dpram_fault: false, flash_fault: false, bootstrap: false });
+        c
+    }
+
+    pub fn tripped(&self) -> bool {
+        self.flags & TRIPPED != 0
+    }
+
+    fn running(&self) -> bool {
+        self.flags & (TRIPPED | BOOTSTRAP) == 0
+    }
+
+    pub fn counter(&self) -> i32 {
+        self.counter
+    }
+
+    pub fn counter_min(&self) -> i32 {
+        self.counter_min
+    }
+
+    pub fn background_possible(&self) -> bool {
+        self.running() && self.background_credit >= u32::from(self.load.background_units)
+    }
+
+    /// X:$000006 and Y:$000006 as `???` reports them.
+    pub fn status_words(&self, cfg: &Config) -> (u32, u32) {
+        let mut x = self.status_x;
+        let error = self.flags & (ERROR_FIRMWARE | ERROR_PROGRAM);
+        if error != 0 {
+            x |= bits::CHECKSUM_ERROR;
+        }
+        // SRM p.289: 1 while evaluating the firmware (13 = 0) or after a firmware error; under
+        // the M83 reading only after a firmware error.
+        let bit12 = if cfg.profile.bit12_firmware_error || error != 0 {
+            error == ERROR_FIRMWARE
+        } else {
+            self.flags & AREA_PROGRAM == 0
+        };
+        if bit12 {
+            x |= bits::PROM_CHECKSUM_ACTIVE;
+        }
+        (x, self.status_y)
+    }
+
+    pub fn observe(&self, cfg: &Config, reply: Reply) -> Observation {
+        let (status_x, status_y) = self.status_words(cfg);
+        Observation {
+            reply,
+            tripped: self.tripped(),
+            counter: self.counter,
+            counter_min: self.counter_min,
+            status_x,
+            status_y,
+        }
+    }
+
+    /// Applies one event and returns the reply.
+    pub fn apply(&mut self, cfg: &Config, event: Event) -> Reply {
+        match event {
+            Event::Servo(n) => {
+                self.advance(cfg, n);
+                Reply::None
+            }
+            Event::Background => {
+                self.background_cycle(cfg);
+                Reply::None
+            }
+            Event::Load(l) => {
+                self.set_load(cfg, l);
+                Reply::None
+            }
+            Event::Command(c) => self.command(cfg, c),
+            Event::Supply(mv) => {
+                // UM p.215: below about 4.75 V the relay trips and the card shuts down.
+                if mv < cfg.supply_min_millivolts {
+                    self.flags |= SUPPLY_LOW;
+                    self.flags |= TRIPPED;
+                } else {
+                    self.flags &= !SUPPLY_LOW;
+                }
+                Reply::None
+            }
+            Event::Reset(r) => {
+                if r.kind == ResetKind::Power {
+                    self.flags &= !SUPPLY_LOW;
+                }
+                let low = self.flags & SUPPLY_LOW;
+                // UM p.215: only a power cycle or an INIT/ pulse undoes a trip.
+                self.restart(cfg, r);
+                if low != 0 {
+                    self.flags |= SUPPLY_LOW | TRIPPED;
+                }
+                Reply::None
+            }
+            Event::ChecksumFault(area) => {
+                if !self.tripped() {
+                    self.tokens ^= match area {
+                        Area::Firmware => 1,
+                        Area::UserProgram => 4,
+                    };
+                }
+                Reply::None
+            }
+            Event::ClearRtiReentry => {
+                // SRM p.289: bit 22 stays set "until this bit is manually changed to 0".
+                if !self.tripped() {
+                    self.status_x &= !bits::RTI_REENTRY;
+                }
+                Reply::None
+            }
+        }
+    }
+
+    fn restart(&mut self, cfg: &Config, r: Reset) {
+        let supply_low = self.flags & SUPPLY_LOW;
+        self.flags = supply_low | if r.bootstrap { BOOTSTRAP } else { 0 };
+        self.i8 = cfg.saved_i8;
+        self.i40 = cfg.saved_i40;
+        self.i41 = cfg.saved_i41;
+        self.others_len = 0;
+        self.counter = counter::reset_value(self.i40, cfg.profile.reset_value_i40_zero);
+        self.counter_min = self.counter;
+        self.cycles_since_strobe = 0;
+        self.rti_phase = 0;
+        self.rti_remaining = 0;
+        self.background_credit = 0;
+        // SRM p.289: bits 11 and 10 report the reset-time DPRAM check and flash read.
+        self.status_x =
+            (if r.dpram_fault { bits::DPRAM_ERROR } else { 0 }) | (if r.flash_fault { bits::FLASH_ERROR } else { 0 });
+        self.status_y = 0;
+        self.position = 0;
+        self.tokens = 0;
+        self.servo_cycles = 0;
+    }
+
+    fn trip(&mut self) {
+        self.flags |= TRIPPED;
+    }
+
+    // ------------------------------------------------------------------ foreground
+
+    /// The RTI bookkeeping of one servo cycle, given the CPU `free` after the servo update.
+    /// Returns the tick and the units left to the background.
+    #[inline]
+    fn rti_cycle(&mut self, cfg: &Config, free: u32) -> (Tick, u32) {
+        // UM p.236: the RTI runs every I8+1 servo cycles.
+        let due = self.rti_phase >= u16::from(self.i8);
+        self.rti_phase = if due { 0 } else { self.rti_phase.saturating_add(1) };
+        let mut tick = Tick::None;
+        if due {
+            if self.rti_remaining > 0 {
+                // SRM p.289-290: bits 22 and 9; UM p.236: PLC 0 not restarted.
+                self.status_x |= bits::RTI_REENTRY | bits::RTI_WARNING;
+                tick = Tick::Overrun;
+            } else {
+                if !cfg.profile.rti_warning_sticky {
+                    self.status_x &= !bits::RTI_WARNING;
+                }
+                self.rti_remaining = u32::from(self.load.plc0_units).saturating_add(u32::from(cfg.move_planning_units));
+                tick = Tick::Started;
+            }
+        }
+        let work = free.min(self.rti_remaining);
+        self.rti_remaining = self.rti_remaining.saturating_sub(work);
+        (tick, free.saturating_sub(work))
+    }
+
+    fn set_load(&mut self, cfg: &Config, load: Load) {
+        self.load = load;
+        let servo = u32::from(load.motors).saturating_mul(u32::from(cfg.servo_units_per_motor));
+        // SRM p.289 bit 20: the servo routines could not complete (UM p.236: about 1% a motor).
+        self.servo_error = if servo > u32::from(cfg.cycle_units) { bits::SERVO_ERROR } else { 0 };
+        self.free = u32::from(cfg.cycle_units).saturating_sub(servo);
+    }
+
+    /// Bit 20 as of this servo cycle, and the CPU units the cycle leaves.
+    #[inline]
+    fn free_units(&mut self) -> u32 {
+        self.status_x = (self.status_x & !bits::SERVO_ERROR) | self.servo_error;
+        self.free
+    }
+
+    /// One servo interrupt and its RTI.
+    #[inline]
+    pub fn servo_cycle(&mut self, cfg: &Config) {
+        if !self.running() {
+            return;
+        }
+        self.servo_cycles = self.servo_cycles.wrapping_add(1) & cfg.servo_counter_mask;
+        let free = self.free_units();
+        let (counter, allowed) = counter::decrement(self.counter, cfg.profile.strobe_stop);
+        self.counter = counter;
+        self.counter_min = self.counter_min.min(counter);
+        let (tick, left) = self.rti_cycle(cfg, free);
+        self.background_credit = self.background_credit.saturating_add(left).min(u32::from(self.load.background_units));
+        let strobe = allowed && (!cfg.profile.rti_strobes || tick != Tick::None);
+        if strobe {
+            self.cycles_since_strobe = 0;
+        } else {
+            self.cycles_since_strobe = self.cycles_since_strobe.saturating_add(1);
+            // UM p.215: no strobe edge for longer than the hardware allows: trip.
+            if self.cycles_since_strobe > cfg.hardware_delay_cycles {
+                self.trip();
+            }
+        }
+    }
+
+    /// The first of the next `n` servo cycles at which the timer trips, if any, in closed form.
+    fn trip_cycle(&self, cfg: &Config) -> Option<u64> {
+        let delay = u64::from(cfg.hardware_delay_cycles);
+        let gap = u64::from(self.cycles_since_strobe);
+        // Without any further strobe the timer trips once the gap passes the delay.
+        let unstrobed = delay.saturating_add(1).saturating_sub(gap).max(1);
+        let allowed = u64::from(counter::strobing_cycles(self.counter));
+        if !cfg.profile.rti_strobes {
+            // Strobes on cycles 1..=allowed, then the gap grows.
+            return Some(if allowed == 0 { unstrobed } else { allowed.saturating_add(delay).saturating_add(1) });
+        }
+        // RTI strobing: strobes at the RTI ticks among cycles 1..=allowed.
+        let i8 = u64::from(self.i8);
+        let phase = u64::from(self.rti_phase);
+        let period = i8.saturating_add(1);
+        let first = if phase >= i8 { 1 } else { i8.saturating_sub(phase).saturating_add(1) };
+        if first > allowed || first > unstrobed {
+            return Some(unstrobed);
+        }
+        if period > delay.saturating_add(1) {
+            // The gap between two ticks exceeds the delay: trip after the first strobe.
+            return Some(first.saturating_add(delay).saturating_add(1));
+        }
+        let last =
+            first.saturating_add(allowed.saturating_sub(first).checked_div(period).unwrap_or(0).saturating_mul(period));
+        Some(last.saturating_add(delay).saturating_add(1))
+    }
+
+    /// `n` servo cycles with no background completion, in constant time: the counter, its
+    /// minimum, the strobe gap and the trip in closed form; the RTI over whole periods in
+    /// closed form, with at most two partial periods stepped.
+    pub fn advance(&mut self, cfg: &Config, n: u32) {
+        if !self.running() || n == 0 {
+            return;
+        }
+        let trip_at = self.trip_cycle(cfg);
+        let cycles = match trip_at {
+            Some(t) if t <= u64::from(n) => t,
+            _ => u64::from(n),
+        };
+        let k = u32::try_from(cycles).unwrap_or(n);
+        // Counter, minimum, strobe gap.
+        let allowed = counter::strobing_cycles(self.counter);
+        let last_strobe: Option<u32> = if cfg.profile.rti_strobes {
+            let i8 = u32::from(self.i8);
+            let phase = u32::from(self.rti_phase);
+            let period = i8.saturating_add(1);
+            let first = if phase >= i8 { 1 } else { i8.saturating_sub(phase).saturating_add(1) };
+            let bound = allowed.min(k);
+            (first <= bound).then(|| {
+                first
+                    .saturating_add(bound.saturating_sub(first).checked_div(period).unwrap_or(0).saturating_mul(period))
+            })
+        } else {
+            let bound = allowed.min(k);
+            (bound > 0).then_some(bound)
+        };
+        self.counter = counter::after(self.counter, k, cfg.profile.strobe_stop);
+        self.counter_min = self.counter_min.min(self.counter);
+        self.cycles_since_strobe = match last_strobe {
+            Some(s) => k.saturating_sub(s),
+            None => self.cycles_since_strobe.saturating_add(k),
+        };
+        self.servo_cycles = (self.servo_cycles.wrapping_add(k)) & cfg.servo_counter_mask;
+        // RTI and background credit.
+        let free = self.free_units();
+        let mut remaining_cycles = k;
+        let period = u32::from(self.i8).saturating_add(1);
+        // Step to the first RTI tick (the next cycle is a tick when phase >= I8).
+        while remaining_cycles > 0 && self.rti_phase < u16::from(self.i8) {
+            self.credit_cycle(cfg, free);
+            remaining_cycles = remaining_cycles.saturating_sub(1);
+        }
+        if self.rti_phase > u16::from(self.i8) && remaining_cycles > 0 {
+            self.credit_cycle(cfg, free);
+            remaining_cycles = remaining_cycles.saturating_sub(1);
+            while remaining_cycles > 0 && self.rti_phase < u16::from(self.i8) {
+                self.credit_cycle(cfg, free);
+                remaining_cycles = remaining_cycles.saturating_sub(1);
+            }
+        }
+        let whole = remaining_cycles.checked_div(period).unwrap_or(0);
+        if whole > 0 {
+            let task = u64::from(self.load.plc0_units).saturating_add(u64::from(cfg.move_planning_units));
+            let p = rti::whole_periods(
+                u64::from(self.rti_remaining),
+                u64::from(whole),
+                u64::from(period),
+                u64::from(free),
+                task,
+            );
+            self.rti_remaining = u32::try_from(p.remaining).unwrap_or(u32::MAX);
+            if p.any_overrun {
+                self.status_x |= bits::RTI_REENTRY | bits::RTI_WARNING;
+            }
+            if !cfg.profile.rti_warning_sticky {
+                match p.last {
+                    Tick::Overrun => self.status_x |= bits::RTI_WARNING,
+                    Tick::Started => self.status_x &= !bits::RTI_WARNING,
+                    Tick::None => {}
+                }
+            }
+            let cap = u64::from(self.load.background_units);
+            self.background_credit =
+                u32::try_from(u64::from(self.background_credit).saturating_add(p.share).min(cap)).unwrap_or(0);
+            // A whole number of periods ends where it started: due again.
+            remaining_cycles = remaining_cycles.saturating_sub(whole.saturating_mul(period));
+        }
+        while remaining_cycles > 0 {
+            self.credit_cycle(cfg, free);
+            remaining_cycles = remaining_cycles.saturating_sub(1);
+        }
+        if trip_at.is_some_and(|t| t <= u64::from(n)) {
+            self.trip();
+        }
+    }
+
+    fn credit_cycle(&mut self, cfg: &Config, free: u32) {
+        let (_, left) = self.rti_cycle(cfg, free);
+        self.background_credit = self.background_credit.saturating_add(left).min(u32::from(self.load.background_units));
+    }
+
+    // ------------------------------------------------------------------ background
+
+    pub fn background_cycle(&mut self, cfg: &Config) {
+        if !self.background_possible() {
+            return;
+        }
+        self.background_credit = 0;
+        // UM p.215: "At the end of each background cycle, the CPU resets the counter".
+        self.counter = counter::reset_value(self.i40, cfg.profile.reset_value_i40_zero);
+        self.counter_min = self.counter_min.min(self.counter);
+        // UM p.217: the checksums run in background and stop for good on a mismatch.
+        if self.flags & (ERROR_FIRMWARE | ERROR_PROGRAM) != 0 {
+            return;
+        }
+        self.position = self.position.saturating_add(1);
+        let program = self.flags & AREA_PROGRAM != 0;
+        let pass = if program { cfg.pass_user_program } else { cfg.pass_firmware };
+        if self.position < pass {
+            return;
+        }
+        let (content, reference) = if program {
+            (self.tokens >> 2 & 1, self.tokens >> 3 & 1)
+        } else {
+            (self.tokens & 1, self.tokens >> 1 & 1)
+        };
+        if content != reference {
+            self.flags |= if program { ERROR_PROGRAM } else { ERROR_FIRMWARE };
+        } else {
+            self.position = 0;
+            self.flags ^= AREA_PROGRAM;
+        }
+    }
+
+    // ------------------------------------------------------------------ host commands
+
+    pub fn command(&mut self, cfg: &Config, c: Command) -> Reply {
+        // UM p.215: a tripped card will not communicate.
+        if self.tripped() {
+            return Reply::Silence;
+        }
+        if self.flags & BOOTSTRAP != 0 {
+            // SRM p.289: BOOTSTRAP PROM.
+            return if c == Command::GlobalStatus { Reply::Bootstrap } else { Reply::Error(3) };
+        }
+        match c {
+            Command::GlobalStatus => {
+                let (x, y) = self.status_words(cfg);
+                Reply::Status { x, y }
+            }
+            Command::ReadI(n) => Reply::Value(self.read_i(n)),
+            Command::WriteI(n, v) => self.write_i(n, v),
+            Command::ReadHex(r) => Reply::Hex(self.register(cfg, r)),
+            Command::Reset => {
+                self.restart(
+                    cfg,
+                    Reset { kind: ResetKind::Init, dpram_fault: false, flash_fault: false, bootstrap: false },
+                );
+                Reply::None
+            }
+            Command::OpenPlc => {
+                self.status_y |= bits::PLC_BUFFER_OPEN;
+                Reply::Ack
+            }
+            Command::OpenProgram => {
+                self.status_y |= bits::MOTION_BUFFER_OPEN;
+                Reply::Ack
+            }
+            Command::Close => {
+                self.status_y &= !(bits::PLC_BUFFER_OPEN | bits::MOTION_BUFFER_OPEN);
+                // UM p.217: X:$1090 takes the checksum computed when a buffer is closed.
+                self.tokens = (self.tokens & !8) | ((self.tokens & 4) << 1);
+                Reply::Ack
+            }
+            Command::Unrecognized => Reply::Error(3),
+        }
+    }
+
+    pub fn read_i(&self, n: u16) -> i64 {
+        match n {
+            8 => i64::from(self.i8),
+            40 => i64::from(self.i40),
+            41 => i64::from(self.i41),
+            _ => self.others[..usize::from(self.others_len)].iter().find(|(k, _)| *k == n).map_or(0, |(_, v)| *v),
+        }
+    }
+
+    /// An I-variable write. Locked writes are ignored without an error (SRM p.57). Beyond I8,
+    /// I40 and I41 the core remembers [`OTHER_I_VARIABLES`] non-zero values; a write that would
+    /// need more answers ERR003 (a limit of this core, not of the card).
+    pub fn write_i(&mut self, n: u16, v: i64) -> Reply {
+        if let Some(bit) = LOCKOUT.iter().position(|(a, b)| (*a..=*b).contains(&n)) {
+            if self.i41 & (1u8 << bit) != 0 {
+                return Reply::Ack;
+            }
+        }
+        match n {
+            8 if (0..=I8_MAX).contains(&v) => self.i8 = v as u8,
+            40 if (0..=I40_MAX).contains(&v) => self.i40 = v as u16,
+            41 if (0..=I41_MAX).contains(&v) => self.i41 = v as u8,
+            8 | 40 | 41 => return Reply::Error(3),
+            _ => {
+                let len = usize::from(self.others_len);
+                match self.others[..len].iter().position(|(k, _)| *k == n) {
+                    Some(i) if v == 0 => {
+                        self.others[i] = self.others[len.saturating_sub(1)];
+                        self.others_len = self.others_len.saturating_sub(1);
+                    }
+                    Some(i) => self.others[i].1 = v,
+                    None if v == 0 => {}
+                    None if len < OTHER_I_VARIABLES => {
+                        self.others[len] = (n, v);
+                        self.others_len = self.others_len.saturating_add(1);
+                    }
+                    None => return Reply::Error(3),
+                }
+            }
+        }
+        Reply::Ack
+    }
+
+    pub fn register(&self, cfg: &Config, r: Register) -> u32 {
+        let word = |v: i32| (v as u32) & 0xFF_FFFF;
+        match r {
+            Register::ServoCycles => self.servo_cycles,
+            Register::StatusX => self.status_words(cfg).0,
+            Register::StatusY => self.status_words(cfg).1,
+            Register::WatchdogCounter => word(self.counter),
+            Register::WatchdogMinimum => word(self.counter_min),
+            Register::RunningChecksum => (u32::from(self.flags & AREA_PROGRAM != 0) << 8) | u32::from(self.position),
+            Register::ProgramChecksumReference => u32::from(self.tokens >> 3 & 1),
+        }
+    }
+}

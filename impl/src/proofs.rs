@@ -1,0 +1,145 @@
+//! Proof harnesses, dual-use (design.md): each body is a function of its inputs; under Kani
+//! (`cargo kani`) a `#[kani::proof]` calls it with `kani::any()` inputs, proving it for all of
+//! them; under `cargo test` a twin runs the same body over the whole input domain (at most
+//! 2^32 cases per harness). The whole-state `advance` harness has a domain far beyond that; its
+//! twin is a proptest in `tests/advance.rs`.
+//!
+//! Why the counter domain is the whole reachable domain: a background cycle loads
+//! `reset_value(i40)` for some `i40` in 0..=65535 (1..=65535, or 4095/4096 for 0), and every
+//! later counter value is `after(reset, k)` for the `k` servo cycles since, so the pairs
+//! (i40, k) with k in 0..=65535 reach every value down to -65535. A below-zero counter trips the
+//! card within `hardware_delay_cycles + 1` cycles, and that delay is servo_hz / (2 x strobe
+//! minimum): 800 cycles at 40 kHz and 25 Hz, far inside the enumerated range.
+
+use crate::counter::{after, decrement, reset_value, StrobeStop};
+
+#[cfg(test)]
+extern crate std;
+
+/// The two readings of the reset value for I40 = 0.
+pub const RESET_VALUES_I40_ZERO: [u16; 2] = [4095, 4096];
+
+/// The decrement path from a reload never overflows or panics, `after(reload, k)` equals k
+/// single decrements (by induction: `after(c, 0) = c` and `after(c, k + 1)` is one decrement of
+/// `after(c, k)`), and the counter never rises, so the minimum register, which takes the last
+/// value, never exceeds any value the counter held since the reload.
+pub fn check_counter_path(i40: u16, k: u16, stop: StrobeStop, reset_value_i40_zero: u16) {
+    let reload = reset_value(i40, reset_value_i40_zero);
+    assert!((1..=65_535).contains(&reload));
+    let k = u32::from(k);
+    assert_eq!(after(reload, 0, stop), reload);
+    let now = after(reload, k, stop);
+    let (stepped, _) = decrement(now, stop);
+    let next = after(reload, k.saturating_add(1), stop);
+    assert_eq!(next, stepped, "closed form equals one more single step");
+    assert!(next <= now, "the counter never rises between reloads");
+    let minimum = now.min(next);
+    assert!(minimum <= next && minimum <= now && minimum <= reload);
+    if stop == StrobeStop::AtZero {
+        assert!(next >= 0, "UM p.215: the counter stops at zero");
+    }
+}
+
+/// The I40 = 0 mapping of each profile: 4095 (SRM p.57) or 4096 (UM p.215), otherwise I40.
+pub fn check_i40_mapping(i40: u16) {
+    for rv in RESET_VALUES_I40_ZERO {
+        let expected = if i40 == 0 { i32::from(rv) } else { i32::from(i40) };
+        assert_eq!(reset_value(i40, rv), expected);
+    }
+}
+
+/// `advance(n)` equals n single servo cycles on the whole state, and leaves the minimum
+/// register at or below the counter. Used by the Kani proof below (small n) and by the proptest
+/// twin in `tests/advance.rs` (random configurations, states and n).
+pub fn check_advance_equals_single_steps(cfg: &crate::Config, start: &crate::Core, n: u32) {
+    let mut fast = *start;
+    fast.advance(cfg, n);
+    let mut slow = *start;
+    for _ in 0..n {
+        slow.servo_cycle(cfg);
+    }
+    assert_eq!(fast, slow, "advance({n}) differs from {n} single cycles");
+    assert!(fast.counter_min() <= fast.counter() || fast.tripped(), "X:$25 above Y:$25");
+    assert!(fast.counter_min() <= start.counter_min(), "X:$25 rose without a reset");
+}
+
+#[cfg(kani)]
+mod kani_proofs {
+    use super::*;
+
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn advance_equals_single_steps_for_small_n() {
+        let profile = crate::Profile {
+            reset_value_i40_zero: if kani::any() { 4095 } else { 4096 },
+            strobe_stop: if kani::any() { StrobeStop::AtZero } else { StrobeStop::BelowZero },
+            rti_strobes: kani::any(),
+            bit12_firmware_error: kani::any(),
+            rti_warning_sticky: kani::any(),
+        };
+        let cfg = crate::Config {
+            profile,
+            hardware_delay_cycles: kani::any::<u8>().into(),
+            cycle_units: kani::any::<u8>().into(),
+            servo_units_per_motor: kani::any::<u8>().into(),
+            move_planning_units: kani::any::<u8>().into(),
+            saved_i8: kani::any::<u8>() % 4,
+            saved_i40: kani::any::<u8>().into(),
+            saved_i41: 0,
+            pass_firmware: 1,
+            pass_user_program: 1,
+            supply_min_millivolts: 4750,
+            servo_counter_mask: 0xFF_FFFF,
+            load: crate::Load {
+                motors: kani::any::<u8>() % 4,
+                plc0_units: kani::any::<u8>().into(),
+                background_units: kani::any::<u8>().into(),
+            },
+        };
+        let n: u8 = kani::any();
+        kani::assume(n <= 8);
+        check_advance_equals_single_steps(&cfg, &crate::Core::power_on(&cfg), n.into());
+    }
+
+    use super::*;
+
+    #[kani::proof]
+    fn counter_path_never_overflows_and_equals_single_steps() {
+        let stop = if kani::any() { StrobeStop::AtZero } else { StrobeStop::BelowZero };
+        let rv = if kani::any() { 4095 } else { 4096 };
+        check_counter_path(kani::any(), kani::any(), stop, rv);
+    }
+
+    #[kani::proof]
+    fn i40_zero_mapping_matches_each_profile() {
+        check_i40_mapping(kani::any());
+    }
+}
+
+#[cfg(test)]
+mod exhaustive_twins {
+    use super::*;
+
+    /// All 2^32 (I40, cycles) pairs, under both strobe readings (the I40 = 0 reading only
+    /// matters for I40 = 0, which is covered with both values).
+    #[test]
+    fn counter_path_never_overflows_and_equals_single_steps_for_every_i40_and_cycle_count() {
+        for stop in [StrobeStop::AtZero, StrobeStop::BelowZero] {
+            for i40 in 0..=u16::MAX {
+                let readings: &[u16] = if i40 == 0 { &RESET_VALUES_I40_ZERO } else { &RESET_VALUES_I40_ZERO[..1] };
+                for rv in readings {
+                    for k in 0..=u16::MAX {
+                        check_counter_path(i40, k, stop, *rv);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn i40_zero_mapping_matches_each_profile_for_every_i40() {
+        for i40 in 0..=u16::MAX {
+            check_i40_mapping(i40);
+        }
+    }
+}

@@ -1,0 +1,96 @@
+//! The proptest twin of the `advance` proof harness: random configurations, random states
+//! reached by random events, random n up to 20,000 (crossing the strobe stop and the trip).
+
+use pmacwd_core::proofs::check_advance_equals_single_steps;
+use pmacwd_core::{Area, Command, Config, Core, Event, Load, Profile, Reset, ResetKind, StrobeStop};
+use proptest::prelude::*;
+
+fn config() -> impl Strategy<Value = Config> {
+    (
+        (any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>()),
+        (1u32..=60, 1u16..=120, 0u16..=30, 0u16..=20, 0u8..=6, 0u16..=400),
+        (0u8..=12, 0u16..=600, 0u16..=400),
+    )
+        .prop_map(
+            |((r4096, below, rti, m83, sticky), (delay, cycle, per_motor, planning, i8, i40), (motors, plc0, bg))| {
+                Config {
+                    profile: Profile {
+                        reset_value_i40_zero: if r4096 { 4096 } else { 4095 },
+                        strobe_stop: if below { StrobeStop::BelowZero } else { StrobeStop::AtZero },
+                        rti_strobes: rti,
+                        bit12_firmware_error: m83,
+                        rti_warning_sticky: sticky,
+                    },
+                    hardware_delay_cycles: delay,
+                    cycle_units: cycle,
+                    servo_units_per_motor: per_motor,
+                    move_planning_units: planning,
+                    saved_i8: i8,
+                    saved_i40: i40,
+                    saved_i41: 0,
+                    pass_firmware: 2,
+                    pass_user_program: 1,
+                    supply_min_millivolts: 4750,
+                    servo_counter_mask: 0xFF_FFFF,
+                    load: Load { motors, plc0_units: plc0, background_units: bg },
+                }
+            },
+        )
+}
+
+fn event() -> impl Strategy<Value = Event> {
+    prop_oneof![
+        4 => (1u32..50).prop_map(Event::Servo),
+        4 => Just(Event::Background),
+        1 => (0u8..=12, 0u16..=600, 0u16..=400).prop_map(|(m, p, b)| Event::Load(Load { motors: m, plc0_units: p, background_units: b })),
+        1 => (0u16..=8).prop_map(|v| Event::Command(Command::WriteI(8, i64::from(v)))),
+        1 => (0u16..=50).prop_map(|v| Event::Command(Command::WriteI(40, i64::from(v)))),
+        1 => Just(Event::Reset(Reset { kind: ResetKind::Init, dpram_fault: false, flash_fault: false, bootstrap: false })),
+        1 => Just(Event::ChecksumFault(Area::Firmware)),
+        1 => Just(Event::ClearRtiReentry),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 4000, ..ProptestConfig::default() })]
+
+    /// advance(n) equals n single servo cycles, on every field of the state.
+    #[test]
+    fn advance_equals_n_single_servo_cycles(cfg in config(), prefix in prop::collection::vec(event(), 0..40), n in prop_oneof![0u32..300, 300u32..20_000]) {
+        let mut core = Core::power_on(&cfg);
+        for e in prefix {
+            if e == Event::Background && !core.background_possible() {
+                continue;
+            }
+            core.apply(&cfg, e);
+        }
+        check_advance_equals_single_steps(&cfg, &core, n);
+    }
+}
+
+/// A gap of a billion cycles costs what one cycle costs: it still finishes at once and lands
+/// where the closed form says (tripped, counter at its floor).
+#[test]
+fn a_billion_idle_cycles_trip_a_card_without_background() {
+    let cfg = Config {
+        profile: Profile::UM_215,
+        hardware_delay_cycles: 45,
+        cycle_units: 100,
+        servo_units_per_motor: 1,
+        move_planning_units: 0,
+        saved_i8: 2,
+        saved_i40: 0,
+        saved_i41: 0,
+        pass_firmware: 2,
+        pass_user_program: 1,
+        supply_min_millivolts: 4750,
+        servo_counter_mask: 0xFF_FFFF,
+        load: Load { motors: 8, plc0_units: 30, background_units: 250 },
+    };
+    let mut core = Core::power_on(&cfg);
+    core.advance(&cfg, 1_000_000_000);
+    assert!(core.tripped());
+    assert_eq!((core.counter(), core.counter_min()), (0, 0));
+    // The trip came 4096 + 46 cycles in (UM p.215); the servo counter stopped there.
+    assert_eq!(core.register(&cfg, pmacwd_core::Register::ServoCycles), 4142);
+}
