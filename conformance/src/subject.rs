@@ -56,6 +56,8 @@ impl Subject for ModelSubject {
 pub struct CoreSubject {
     cfg: core::Config,
     core: core::Core,
+    /// All 8192 I-variables, as an emulator would embed them (boxed: 64 KiB).
+    store: Box<core::AllIVariables>,
 }
 
 /// The core's configuration for a model configuration.
@@ -151,13 +153,13 @@ impl Subject for CoreSubject {
     }
     fn power_on(cfg: &ModelConfig) -> Self {
         let cfg = core_config(cfg);
-        CoreSubject { core: core::Core::power_on(&cfg), cfg }
+        CoreSubject { core: core::Core::power_on(&cfg), cfg, store: Box::default() }
     }
     fn background_possible(&self) -> bool {
         self.core.background_possible()
     }
     fn apply(&mut self, event: &Event) -> Observation {
-        let reply = model_reply(self.core.apply(&self.cfg, core_event(event)));
+        let reply = model_reply(self.core.apply(&self.cfg, core_event(event), &mut *self.store));
         let o = self.core.observe(&self.cfg, core::Reply::None);
         Observation {
             reply,

@@ -52,8 +52,87 @@ pub const I_VARIABLE_MAX: u16 = 8191;
 pub const I8_MAX: i64 = 255;
 pub const I40_MAX: i64 = 65_535;
 pub const I41_MAX: i64 = 15;
-/// How many other I-variables the core remembers (it has no heap); see [`Core::write_i`].
-pub const OTHER_I_VARIABLES: usize = 16;
+
+/// Where the I-variables other than I8, I40 and I41 live. The watchdog core reads none of them,
+/// so their storage is the embedding's choice and stays out of [`Core`], which keeps the core a
+/// few machine words: a firmware has its memory map, an emulator a table of all 8192
+/// ([`AllIVariables`]), a test a few slots ([`FewIVariables`]).
+pub trait IVariableStore {
+    /// The value of I`n` (0 when never written since the last reset).
+    fn read(&self, n: u16) -> i64;
+    /// Stores I`n` = `v`; `false` when the store has no room (answered ERR003).
+    fn write(&mut self, n: u16, v: i64) -> bool;
+    /// Back to the values saved in flash: all zero in this core's configuration.
+    fn restore(&mut self);
+}
+
+/// Every I-variable I0..I8191, 64 KiB: what an emulator embeds.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AllIVariables(pub [i64; I_VARIABLE_MAX as usize + 1]);
+
+impl Default for AllIVariables {
+    fn default() -> Self {
+        AllIVariables([0; I_VARIABLE_MAX as usize + 1])
+    }
+}
+
+impl IVariableStore for AllIVariables {
+    fn read(&self, n: u16) -> i64 {
+        self.0.get(usize::from(n)).copied().unwrap_or(0)
+    }
+    fn write(&mut self, n: u16, v: i64) -> bool {
+        match self.0.get_mut(usize::from(n)) {
+            Some(slot) => {
+                *slot = v;
+                true
+            }
+            None => false,
+        }
+    }
+    fn restore(&mut self) {
+        self.0 = [0; I_VARIABLE_MAX as usize + 1];
+    }
+}
+
+/// Up to `N` non-zero I-variables in a small table; a write needing more answers ERR003.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FewIVariables<const N: usize> {
+    slots: [(u16, i64); N],
+    len: usize,
+}
+
+impl<const N: usize> Default for FewIVariables<N> {
+    fn default() -> Self {
+        FewIVariables { slots: [(0, 0); N], len: 0 }
+    }
+}
+
+impl<const N: usize> IVariableStore for FewIVariables<N> {
+    fn read(&self, n: u16) -> i64 {
+        self.slots.iter().take(self.len).find(|(k, _)| *k == n).map_or(0, |(_, v)| *v)
+    }
+    fn write(&mut self, n: u16, v: i64) -> bool {
+        let len = self.len.min(N);
+        match self.slots[..len].iter().position(|(k, _)| *k == n) {
+            Some(i) if v == 0 => {
+                // Zero is the default: forget the slot (the last one moves into it).
+                self.slots[i] = self.slots[len.saturating_sub(1)];
+                self.len = len.saturating_sub(1);
+            }
+            Some(i) => self.slots[i].1 = v,
+            None if v == 0 => {}
+            None if len < N => {
+                self.slots[len] = (n, v);
+                self.len = len.saturating_add(1);
+            }
+            None => return false,
+        }
+        true
+    }
+    fn restore(&mut self) {
+        self.len = 0;
+    }
+}
 
 /// One profile's readings (the profiles of `specs/profiles.yaml`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -243,8 +322,6 @@ pub struct Core {
     position: u8,
     /// Content and reference tokens: bit 0 firmware, 1 firmware reference, 2 program, 3 program reference.
     tokens: u8,
-    others: [(u16, i64); OTHER_I_VARIABLES],
-    others_len: u8,
     /// CPU units left after the servo update, and bit 20 if the servo update does not fit:
     /// both follow from the load, so they are computed when it changes, not every cycle.
     free: u32,
@@ -270,8 +347,6 @@ impl Core {
             flags: 0,
             position: 0,
             tokens: 0,
-            others: [(0, 0); OTHER_I_VARIABLES],
-            others_len: 0,
             free: 0,
             servo_error: 0,
         };
@@ -332,8 +407,9 @@ impl Core {
         }
     }
 
-    /// Applies one event and returns the reply.
-    pub fn apply(&mut self, cfg: &Config, event: Event) -> Reply {
+    /// Applies one event and returns the reply. `store` holds the I-variables the core does not
+    /// read itself (see [`IVariableStore`]); only host commands and resets touch it.
+    pub fn apply<S: IVariableStore + ?Sized>(&mut self, cfg: &Config, event: Event, store: &mut S) -> Reply {
         match event {
             Event::Servo(n) => {
                 self.advance(cfg, n);
@@ -347,7 +423,7 @@ impl Core {
                 self.set_load(cfg, l);
                 Reply::None
             }
-            Event::Command(c) => self.command(cfg, c),
+            Event::Command(c) => self.command(cfg, c, store),
             Event::Supply(mv) => {
                 // UM p.215: below about 4.75 V the relay trips and the card shuts down.
                 if mv < cfg.supply_min_millivolts {
@@ -365,6 +441,7 @@ impl Core {
                 let low = self.flags & SUPPLY_LOW;
                 // UM p.215: only a power cycle or an INIT/ pulse undoes a trip.
                 self.restart(cfg, r);
+                store.restore();
                 if low != 0 {
                     self.flags |= SUPPLY_LOW | TRIPPED;
                 }
@@ -395,7 +472,6 @@ impl Core {
         self.i8 = cfg.saved_i8;
         self.i40 = cfg.saved_i40;
         self.i41 = cfg.saved_i41;
-        self.others_len = 0;
         self.counter = counter::reset_value(self.i40, cfg.profile.reset_value_i40_zero);
         self.counter_min = self.counter;
         self.cycles_since_strobe = 0;
@@ -640,7 +716,7 @@ impl Core {
 
     // ------------------------------------------------------------------ host commands
 
-    pub fn command(&mut self, cfg: &Config, c: Command) -> Reply {
+    pub fn command<S: IVariableStore + ?Sized>(&mut self, cfg: &Config, c: Command, store: &mut S) -> Reply {
         // UM p.215: a tripped card will not communicate.
         if self.tripped() {
             return Reply::Silence;
@@ -654,14 +730,15 @@ impl Core {
                 let (x, y) = self.status_words(cfg);
                 Reply::Status { x, y }
             }
-            Command::ReadI(n) => Reply::Value(self.read_i(n)),
-            Command::WriteI(n, v) => self.write_i(n, v),
+            Command::ReadI(n) => Reply::Value(self.read_i(n, store)),
+            Command::WriteI(n, v) => self.write_i(n, v, store),
             Command::ReadHex(r) => Reply::Hex(self.register(cfg, r)),
             Command::Reset => {
                 self.restart(
                     cfg,
                     Reset { kind: ResetKind::Init, dpram_fault: false, flash_fault: false, bootstrap: false },
                 );
+                store.restore();
                 Reply::None
             }
             Command::OpenPlc => {
@@ -682,19 +759,19 @@ impl Core {
         }
     }
 
-    pub fn read_i(&self, n: u16) -> i64 {
+    pub fn read_i<S: IVariableStore + ?Sized>(&self, n: u16, store: &S) -> i64 {
         match n {
             8 => i64::from(self.i8),
             40 => i64::from(self.i40),
             41 => i64::from(self.i41),
-            _ => self.others[..usize::from(self.others_len)].iter().find(|(k, _)| *k == n).map_or(0, |(_, v)| *v),
+            _ => store.read(n),
         }
     }
 
-    /// An I-variable write. Locked writes are ignored without an error (SRM p.57). Beyond I8,
-    /// I40 and I41 the core remembers [`OTHER_I_VARIABLES`] non-zero values; a write that would
-    /// need more answers ERR003 (a limit of this core, not of the card).
-    pub fn write_i(&mut self, n: u16, v: i64) -> Reply {
+    /// An I-variable write. Locked writes are ignored without an error (SRM p.57). Values
+    /// outside I8's, I40's or I41's range answer ERR003 (MODEL, as the reference model); so does
+    /// a write the store has no room for (a limit of the store, not of the card).
+    pub fn write_i<S: IVariableStore + ?Sized>(&mut self, n: u16, v: i64, store: &mut S) -> Reply {
         if let Some(bit) = LOCKOUT.iter().position(|(a, b)| (*a..=*b).contains(&n)) {
             if self.i41 & (1u8 << bit) != 0 {
                 return Reply::Ack;
@@ -705,22 +782,8 @@ impl Core {
             40 if (0..=I40_MAX).contains(&v) => self.i40 = v as u16,
             41 if (0..=I41_MAX).contains(&v) => self.i41 = v as u8,
             8 | 40 | 41 => return Reply::Error(3),
-            _ => {
-                let len = usize::from(self.others_len);
-                match self.others[..len].iter().position(|(k, _)| *k == n) {
-                    Some(i) if v == 0 => {
-                        self.others[i] = self.others[len.saturating_sub(1)];
-                        self.others_len = self.others_len.saturating_sub(1);
-                    }
-                    Some(i) => self.others[i].1 = v,
-                    None if v == 0 => {}
-                    None if len < OTHER_I_VARIABLES => {
-                        self.others[len] = (n, v);
-                        self.others_len = self.others_len.saturating_add(1);
-                    }
-                    None => return Reply::Error(3),
-                }
-            }
+            _ if store.write(n, v) => {}
+            _ => return Reply::Error(3),
         }
         Reply::Ack
     }

@@ -63,6 +63,23 @@ pub fn check_advance_equals_single_steps(cfg: &crate::Config, start: &crate::Cor
     assert!(fast.counter_min() <= start.counter_min(), "X:$25 rose without a reset");
 }
 
+/// `advance(n)` for any n (the whole u32 range) never panics, keeps the minimum register at
+/// or below the counter and never raises it, and splits: advance(a) then advance(n - a) equals
+/// advance(n). With [`check_advance_equals_single_steps`] for small n, the split extends the
+/// single-step equality to every n (any n is a sum of small steps).
+pub fn check_advance_any_n(cfg: &crate::Config, start: &crate::Core, n: u32, split: u32) {
+    let mut whole = *start;
+    whole.advance(cfg, n);
+    assert!(whole.counter_min() <= whole.counter() || whole.tripped(), "X:$25 above Y:$25");
+    assert!(whole.counter_min() <= start.counter_min(), "X:$25 rose without a reset");
+    assert!(whole.counter() >= -65_535, "the counter left its reachable domain");
+    let a = split.min(n);
+    let mut parts = *start;
+    parts.advance(cfg, a);
+    parts.advance(cfg, n.saturating_sub(a));
+    assert_eq!(whole, parts, "advance({n}) differs from advance({a}) then advance({})", n.saturating_sub(a));
+}
+
 #[cfg(kani)]
 mod kani_proofs {
     use super::*;
@@ -101,7 +118,33 @@ mod kani_proofs {
         check_advance_equals_single_steps(&cfg, &crate::Core::power_on(&cfg), n.into());
     }
 
-    use super::*;
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn advance_never_panics_and_splits_for_every_n() {
+        let profile = crate::Profile {
+            reset_value_i40_zero: if kani::any() { 4095 } else { 4096 },
+            strobe_stop: if kani::any() { StrobeStop::AtZero } else { StrobeStop::BelowZero },
+            rti_strobes: kani::any(),
+            bit12_firmware_error: kani::any(),
+            rti_warning_sticky: kani::any(),
+        };
+        let cfg = crate::Config {
+            profile,
+            hardware_delay_cycles: kani::any::<u16>().into(),
+            cycle_units: kani::any(),
+            servo_units_per_motor: kani::any(),
+            move_planning_units: kani::any(),
+            saved_i8: kani::any::<u8>() % 4,
+            saved_i40: kani::any(),
+            saved_i41: 0,
+            pass_firmware: 1,
+            pass_user_program: 1,
+            supply_min_millivolts: 4750,
+            servo_counter_mask: 0xFF_FFFF,
+            load: crate::Load { motors: kani::any(), plc0_units: kani::any(), background_units: kani::any() },
+        };
+        check_advance_any_n(&cfg, &crate::Core::power_on(&cfg), kani::any(), kani::any());
+    }
 
     #[kani::proof]
     fn counter_path_never_overflows_and_equals_single_steps() {

@@ -1,8 +1,8 @@
 //! The proptest twin of the `advance` proof harness: random configurations, random states
 //! reached by random events, random n up to 20,000 (crossing the strobe stop and the trip).
 
-use pmacwd_core::proofs::check_advance_equals_single_steps;
-use pmacwd_core::{Area, Command, Config, Core, Event, Load, Profile, Reset, ResetKind, StrobeStop};
+use pmacwd_core::proofs::{check_advance_any_n, check_advance_equals_single_steps};
+use pmacwd_core::{Area, Command, Config, Core, Event, FewIVariables, Load, Profile, Reset, ResetKind, StrobeStop};
 use proptest::prelude::*;
 
 fn config() -> impl Strategy<Value = Config> {
@@ -62,9 +62,23 @@ proptest! {
             if e == Event::Background && !core.background_possible() {
                 continue;
             }
-            core.apply(&cfg, e);
+            core.apply(&cfg, e, &mut FewIVariables::<4>::default());
         }
         check_advance_equals_single_steps(&cfg, &core, n);
+    }
+
+    /// The twin of the Kani harness for every n: advance over the whole u32 range never panics,
+    /// keeps X:$25 at or below Y:$25, and splits at any point.
+    #[test]
+    fn advance_of_any_length_never_panics_and_splits_anywhere(cfg in config(), prefix in prop::collection::vec(event(), 0..40), n in any::<u32>(), split in any::<u32>()) {
+        let mut core = Core::power_on(&cfg);
+        for e in prefix {
+            if e == Event::Background && !core.background_possible() {
+                continue;
+            }
+            core.apply(&cfg, e, &mut FewIVariables::<4>::default());
+        }
+        check_advance_any_n(&cfg, &core, n, split);
     }
 }
 

@@ -1,0 +1,59 @@
+//! The I-variable stores the core delegates to, and the size of the core itself.
+
+use pmacwd_core::{AllIVariables, Command, Config, Core, Event, FewIVariables, Load, Profile, Reply};
+
+fn config() -> Config {
+    Config {
+        profile: Profile::UM_215,
+        hardware_delay_cycles: 45,
+        cycle_units: 100,
+        servo_units_per_motor: 1,
+        move_planning_units: 0,
+        saved_i8: 2,
+        saved_i40: 0,
+        saved_i41: 0,
+        pass_firmware: 2,
+        pass_user_program: 1,
+        supply_min_millivolts: 4750,
+        servo_counter_mask: 0xFF_FFFF,
+        load: Load { motors: 8, plc0_units: 30, background_units: 250 },
+    }
+}
+
+/// The design asks for the state "packed into a few machine words": the I-variable store is
+/// outside the core, so copying a core (as `advance` benchmarks and checkers do) stays cheap.
+#[test]
+fn the_core_state_fits_in_eight_machine_words() {
+    assert!(core::mem::size_of::<Core>() <= 64, "Core is {} bytes", core::mem::size_of::<Core>());
+}
+
+/// A small store forgets zeroed slots, so it only runs out when more than N variables are
+/// non-zero at once; then the write answers ERR003 and the value is not half-stored.
+#[test]
+fn a_full_small_store_refuses_the_next_write_with_err003_and_zero_frees_a_slot() {
+    let cfg = config();
+    let mut core = Core::power_on(&cfg);
+    let mut store = FewIVariables::<2>::default();
+    let cmd = |core: &mut Core, store: &mut FewIVariables<2>, c| core.apply(&cfg, Event::Command(c), store);
+    assert_eq!(cmd(&mut core, &mut store, Command::WriteI(130, 5)), Reply::Ack);
+    assert_eq!(cmd(&mut core, &mut store, Command::WriteI(131, 6)), Reply::Ack);
+    assert_eq!(cmd(&mut core, &mut store, Command::WriteI(132, 7)), Reply::Error(3));
+    assert_eq!(cmd(&mut core, &mut store, Command::ReadI(132)), Reply::Value(0));
+    assert_eq!(cmd(&mut core, &mut store, Command::WriteI(130, 0)), Reply::Ack);
+    assert_eq!(cmd(&mut core, &mut store, Command::WriteI(132, 7)), Reply::Ack);
+    assert_eq!(cmd(&mut core, &mut store, Command::ReadI(131)), Reply::Value(6));
+    assert_eq!(cmd(&mut core, &mut store, Command::ReadI(132)), Reply::Value(7));
+}
+
+/// `$$$` resets the card: I-variables go back to their saved values (zero here) in the store
+/// too, like I8, I40 and I41 inside the core.
+#[test]
+fn a_reset_command_restores_the_stored_i_variables() {
+    let cfg = config();
+    let mut core = Core::power_on(&cfg);
+    let mut store = Box::<AllIVariables>::default();
+    assert_eq!(core.apply(&cfg, Event::Command(Command::WriteI(8191, -3)), &mut *store), Reply::Ack);
+    assert_eq!(core.apply(&cfg, Event::Command(Command::ReadI(8191)), &mut *store), Reply::Value(-3));
+    core.apply(&cfg, Event::Command(Command::Reset), &mut *store);
+    assert_eq!(core.apply(&cfg, Event::Command(Command::ReadI(8191)), &mut *store), Reply::Value(0));
+}
