@@ -6,7 +6,9 @@
 
 pub mod check;
 pub mod decode;
+pub mod generate;
 pub mod import;
+pub mod lockstep;
 pub mod replay;
 pub mod reply_text;
 pub mod runner;

@@ -278,3 +278,71 @@ pub fn compare(spec: &Spec, e: &Expect, o: &Observation) -> Result<usize, Mismat
     }
     Ok(n)
 }
+
+/// Runs `loaded` on an implementation in lockstep with the model under `profile`: after every
+/// step the two must observe the same thing, and the implementation's observations must meet
+/// the step's expectations. (A `window_cycles` expectation is about timing uncertainty in a
+/// capture; there the lockstep comparison alone stands for it, and [`run_on_model`] checks the
+/// window on the model.) Returns the number of expectations checked on the implementation.
+pub fn run_on_subject<S: crate::subject::Subject>(
+    spec: &Spec,
+    loaded: &LoadedTrace,
+    profile: &Profile,
+) -> Result<usize, Failure> {
+    let trace = &loaded.trace;
+    let mut cfg = ModelConfig::from_spec(spec, &trace.configuration, profile).map_err(|_| {
+        Failure::Unusable(
+            loaded
+                .map
+                .error("configuration", format!("no configuration named `{}` in check.yaml", trace.configuration)),
+        )
+    })?;
+    cfg.servo_counter_mask = 0xFF_FFFF;
+    let mut pair = crate::lockstep::Pair::<S>::power_on(&cfg);
+    let mut recent: Vec<String> = Vec::new();
+    let mut checked = 0;
+    for (i, step) in trace.steps.iter().enumerate() {
+        recent.push(step.event.to_string());
+        if recent.len() > RECENT_EVENTS {
+            recent.remove(0);
+        }
+        let diverge = |what: &str, expected: String, observed: String| {
+            Failure::Diverged(Divergence {
+                step: i,
+                position: loaded.step_position(i),
+                what: what.to_string(),
+                expected,
+                observed,
+                recent: recent.clone(),
+            })
+        };
+        let obs = match pair.apply_trace_event(&step.event) {
+            Ok(Some(obs)) => obs,
+            Ok(None) => {
+                return Err(diverge(
+                    "event",
+                    "a background cycle can complete".into(),
+                    "neither the model nor the implementation can complete one".into(),
+                ))
+            }
+            Err(d) => {
+                return Err(diverge(
+                    "implementation against the model",
+                    "the model's observations".into(),
+                    d.to_string(),
+                ))
+            }
+        };
+        if step.expect.window_cycles.is_some() {
+            continue;
+        }
+        checked += compare(spec, &step.expect, &obs).map_err(|e| match e {
+            Mismatch::UnknownBit(field, j, name) => Failure::Unusable(loaded.map.error(
+                &format!("steps.{i}.expect.{field}.{j}"),
+                format!("no status bit named `{name}` in status.yaml"),
+            )),
+            Mismatch::Field(what, expected, observed) => diverge(what, expected, observed),
+        })?;
+    }
+    Ok(checked)
+}

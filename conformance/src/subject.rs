@@ -36,6 +36,13 @@ pub struct ModelSubject {
     card: Controller,
 }
 
+impl ModelSubject {
+    /// The reference controller as it stands (for coverage and property checks).
+    pub fn controller(&self) -> &Controller {
+        &self.card
+    }
+}
+
 impl Subject for ModelSubject {
     fn name(&self) -> &'static str {
         "reference model"

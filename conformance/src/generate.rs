@@ -1,0 +1,331 @@
+//! Generated lockstep traces: random event sequences, weighted toward the edges where
+//! implementations go wrong, run on an implementation and the reference model side by side.
+//!
+//! Edges the weights aim at: the counter near 0 and the strobe gap near the hardware delay
+//! ([`Choice::ServoToCounter`] and [`Choice::ServoPastStrobeStop`] land a few cycles either side),
+//! long idle gaps (which an implementation may fast-forward), I40 = 0 and small I40 values,
+//! RTI overruns (the configurations' heavy PLC 0 loads and I8 writes), trips by undervoltage
+//! and starvation, INIT/ and power cycles with reset-time faults and bootstrap, locked
+//! I-variable ranges under several I41 values, and checksum faults; every (configuration,
+//! profile) pair of the spec is drawn.
+//!
+//! A failing case is shrunk by proptest to a minimal one and returned as a [`Counterexample`],
+//! which writes itself as a YAML trace (docs/trace-format.md) that reproduces it: the
+//! regression files of `conformance/regressions/`.
+
+use crate::lockstep::{Disagreement, Pair};
+use crate::subject::Subject;
+use crate::trace::{self, Expect, Step, Trace, TraceEvent};
+use pmacwd_model::command::HostCommand;
+use pmacwd_model::config::ModelConfig;
+use pmacwd_model::event::Event;
+use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetEvent, ResetKind};
+use pmacwd_specs::{Spec, SpecError};
+use proptest::prelude::*;
+use proptest::test_runner::{Config as RunnerConfig, RngAlgorithm, TestError, TestRng, TestRunner};
+use std::cell::Cell;
+
+/// Every (configuration, profile) pair of the spec, with a 24-bit servo counter so long runs
+/// do not wrap X:$0 into the small widths the model checker uses.
+pub fn all_configs(spec: &Spec) -> Result<Vec<ModelConfig>, SpecError> {
+    let mut v = Vec::new();
+    for name in spec.check.configurations.keys() {
+        for p in spec.profiles.all() {
+            let mut cfg = ModelConfig::from_spec(spec, name, &p)?;
+            cfg.servo_counter_mask = 0xFF_FFFF;
+            v.push(cfg);
+        }
+    }
+    Ok(v)
+}
+
+/// Host command lines the generator draws from: reads and writes in and out of every lockout
+/// range, I41 values that lock some ranges and an out-of-range one, I40 and I8 near their
+/// edges, the watchdog and checksum registers, buffers, `$$$` and an unknown command.
+pub const COMMANDS: &[&str] = &[
+    "???",
+    "I130",
+    "I130=7",
+    "I5100=3",
+    "I5100",
+    "I6800=1",
+    "I8000=2",
+    "I8191=5",
+    "I41=1",
+    "I41=3",
+    "I41=15",
+    "I41=0",
+    "I41=16",
+    "I40=1",
+    "I40=3",
+    "I40=0",
+    "I40=65535",
+    "I40=65536",
+    "I8=0",
+    "I8=1",
+    "I8=3",
+    "I8=60",
+    "I8=300",
+    "RHX:$25",
+    "RHY:$25",
+    "RHX:$0",
+    "RHX:$1080",
+    "RHX:$1090",
+    "RHX:$6",
+    "RHY:$6",
+    "OPEN PLC 1",
+    "OPEN PROG 1",
+    "CLOSE",
+    "$$$",
+    "HELLO",
+];
+
+/// One step of a generated trace, resolved against the model's state when it is applied.
+#[derive(Clone, Debug)]
+pub enum Choice {
+    Event(Event),
+    /// The configuration's load number `i` (modulo how many it has).
+    Load(usize),
+    /// A background cycle, if one can complete (otherwise nothing happens).
+    Background,
+    /// Servo cycles until the counter is `offset` from 0 (at least one cycle).
+    ServoToCounter(i32),
+    /// Servo cycles until the strobe has been stopped for the hardware delay plus `offset`.
+    ServoPastStrobeStop(i32),
+}
+
+/// A generated case: which (configuration, profile) pair, and the steps.
+#[derive(Clone, Debug)]
+pub struct Generated {
+    pub which: usize,
+    pub choices: Vec<Choice>,
+}
+
+fn choice() -> impl Strategy<Value = Choice> {
+    let reset = (any::<bool>(), prop::bool::weighted(0.2), prop::bool::weighted(0.2), prop::bool::weighted(0.1))
+        .prop_map(|(power, d, f, b)| {
+            Choice::Event(Event::Reset(ResetEvent {
+                kind: if power { ResetKind::Power } else { ResetKind::Init },
+                dpram_fault: d,
+                flash_fault: f,
+                bootstrap: b,
+            }))
+        });
+    prop_oneof![
+        6 => (1u32..=4).prop_map(|c| Choice::Event(Event::Servo { cycles: c })),
+        2 => (5u32..=200).prop_map(|c| Choice::Event(Event::Servo { cycles: c })),
+        1 => (200u32..=20_000).prop_map(|c| Choice::Event(Event::Servo { cycles: c })),
+        2 => (-2i32..=2).prop_map(Choice::ServoToCounter),
+        1 => (-2i32..=2).prop_map(Choice::ServoPastStrobeStop),
+        8 => Just(Choice::Background),
+        2 => (0usize..4).prop_map(Choice::Load),
+        5 => prop::sample::select(COMMANDS).prop_map(|t| Choice::Event(Event::Command(
+            HostCommand::parse(t).expect("the generator's commands parse")
+        ))),
+        1 => prop::sample::select(&[4500u32, 4749, 4750, 5000][..]).prop_map(|mv| Choice::Event(Event::Supply { millivolts: mv })),
+        1 => reset,
+        1 => prop::sample::select(&[ChecksumTarget::Firmware, ChecksumTarget::UserProgram][..])
+            .prop_map(|a| Choice::Event(Event::ChecksumFault(a))),
+        1 => Just(Choice::Event(Event::ClearRtiReentry)),
+    ]
+}
+
+/// Cases over `configs` pairs with 1..=`max_len` steps.
+pub fn strategy(configs: usize, max_len: usize) -> impl Strategy<Value = Generated> {
+    (0..configs.max(1), prop::collection::vec(choice(), 1..=max_len.max(1)))
+        .prop_map(|(which, choices)| Generated { which, choices })
+}
+
+/// Longest servo run a targeted choice asks for (the I40 = 0 reset value plus any delay fits).
+const TARGETED_CYCLES_MAX: i64 = 100_000;
+
+/// The event a choice stands for now, or `None` when it does nothing (a background cycle that
+/// cannot complete).
+fn resolve<S: Subject>(pair: &Pair<S>, cfg: &ModelConfig, choice: &Choice) -> Result<Option<Event>, Disagreement> {
+    let card = pair.model.controller();
+    let servo = |cycles: i64| Event::Servo { cycles: cycles.clamp(1, TARGETED_CYCLES_MAX) as u32 };
+    Ok(match choice {
+        Choice::Event(e) => Some(e.clone()),
+        Choice::Load(i) => Some(Event::Load(cfg.loads[i % cfg.loads.len()])),
+        Choice::Background => pair.background_possible()?.then_some(Event::Background),
+        Choice::ServoToCounter(offset) => Some(servo(i64::from(card.counter) - i64::from(*offset))),
+        Choice::ServoPastStrobeStop(offset) => {
+            Some(servo(i64::from(card.counter.max(0)) + i64::from(cfg.hardware_delay_cycles) + i64::from(*offset)))
+        }
+    })
+}
+
+/// Runs `choices` on a fresh pair; returns the events applied, or the disagreement and (when
+/// `record`) the events up to and including the one that diverged.
+pub fn run_choices<S: Subject>(
+    cfg: &ModelConfig,
+    choices: &[Choice],
+    record: bool,
+) -> Result<u64, (Disagreement, Vec<Event>)> {
+    let mut pair = Pair::<S>::power_on(cfg);
+    if record {
+        pair = pair.recording();
+    }
+    for c in choices {
+        let outcome = resolve(&pair, cfg, c).and_then(|e| match e {
+            Some(e) => pair.apply(&e).map(|_| ()),
+            None => Ok(()),
+        });
+        if let Err(d) = outcome {
+            let mut events = pair.applied.take().unwrap_or_default();
+            if d.event == Event::Background && events.last() != Some(&Event::Background) {
+                // A background cycle only one side allows: the trace ends by asking for it.
+                events.push(Event::Background);
+            }
+            return Err((d, events));
+        }
+    }
+    Ok(pair.count)
+}
+
+/// A shrunk divergence, ready to be saved as a regression trace.
+#[derive(Clone, Debug)]
+pub struct Counterexample {
+    pub configuration: String,
+    pub profile: String,
+    pub events: Vec<Event>,
+    pub disagreement: Disagreement,
+    /// The seed of the run that found it.
+    pub seed: u64,
+}
+
+impl Counterexample {
+    /// The trace that reproduces it; its last step carries the disagreement as a note.
+    pub fn to_trace(&self) -> Trace {
+        let last = self.events.len().saturating_sub(1);
+        Trace {
+            version: trace::FORMAT_VERSION,
+            description: format!(
+                "Lockstep regression: found by generated traces (seed {}), shrunk to {} events. {}",
+                self.seed,
+                self.events.len(),
+                self.disagreement
+            ),
+            cite: None,
+            configuration: self.configuration.clone(),
+            profiles: ProfileSelection::Named(vec![self.profile.clone()]),
+            steps: self
+                .events
+                .iter()
+                .enumerate()
+                .map(|(i, e)| Step {
+                    event: TraceEvent::Model(e.clone()),
+                    expect: Expect::default(),
+                    note: (i == last).then(|| format!("diverged here: {}", self.disagreement.fields.join("; "))),
+                })
+                .collect(),
+        }
+    }
+
+    /// A stable file name: configuration, profile and a hash of the events.
+    pub fn file_name(&self) -> String {
+        // FNV-1a over the events' text: stable across runs and platforms.
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for e in &self.events {
+            for b in e.to_string().bytes().chain([b'\n']) {
+                h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+            }
+        }
+        format!("{}-{}-{:08x}.yaml", self.configuration, self.profile, h as u32)
+    }
+}
+
+/// How a generated run went.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Stats {
+    pub traces: u32,
+    pub events: u64,
+}
+
+/// What to generate.
+#[derive(Clone, Copy, Debug)]
+pub struct Settings {
+    pub cases: u32,
+    pub max_len: usize,
+    pub seed: u64,
+}
+
+/// Runs `settings.cases` generated traces on `S` and the model over `configs`; on a divergence
+/// returns the shrunk counterexample. `progress` is called with the traces done so far.
+pub fn run<S: Subject>(
+    configs: &[ModelConfig],
+    settings: Settings,
+    progress: &dyn Fn(u32),
+) -> Result<Stats, Box<Counterexample>> {
+    let mut seed_bytes = [0u8; 32];
+    seed_bytes[..8].copy_from_slice(&settings.seed.to_le_bytes());
+    let config = RunnerConfig {
+        cases: settings.cases,
+        max_shrink_iters: 50_000,
+        failure_persistence: None,
+        ..RunnerConfig::default()
+    };
+    let mut runner = TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &seed_bytes));
+    let stats = Cell::new(Stats::default());
+    let shrinking = Cell::new(false);
+    let result = runner.run(&strategy(configs.len(), settings.max_len), |g| {
+        let cfg = &configs[g.which % configs.len()];
+        match run_choices::<S>(cfg, &g.choices, false) {
+            Ok(events) => {
+                if !shrinking.get() {
+                    let mut s = stats.get();
+                    s.traces += 1;
+                    s.events += events;
+                    stats.set(s);
+                    progress(s.traces);
+                }
+                Ok(())
+            }
+            Err((d, _)) => {
+                shrinking.set(true);
+                Err(TestCaseError::fail(d.to_string()))
+            }
+        }
+    });
+    match result {
+        Ok(()) => Ok(stats.get()),
+        Err(TestError::Fail(_, g)) => {
+            let cfg = &configs[g.which % configs.len()];
+            let (disagreement, events) = match run_choices::<S>(cfg, &g.choices, true) {
+                Err(found) => found,
+                Ok(_) => unreachable!("a shrunk failing case fails again: lockstep is deterministic"),
+            };
+            Err(Box::new(Counterexample {
+                configuration: cfg.configuration.clone(),
+                profile: cfg.profile.name.clone(),
+                events,
+                disagreement,
+                seed: settings.seed,
+            }))
+        }
+        Err(TestError::Abort(reason)) => {
+            unreachable!("lockstep cases are never rejected, so proptest cannot abort: {reason}")
+        }
+    }
+}
+
+/// Replays a saved trace in lockstep under each of its profiles; returns the events applied.
+pub fn replay_trace<S: Subject>(
+    spec: &Spec,
+    loaded: &trace::LoadedTrace,
+) -> Result<u64, (String, usize, Disagreement)> {
+    let profiles = crate::runner::profiles_of(spec, loaded)
+        .map_err(|e| (String::new(), 0, Disagreement { event: Event::Background, fields: vec![e.to_string()] }))?;
+    let mut total = 0;
+    for p in profiles {
+        let mut cfg = ModelConfig::from_spec(spec, &loaded.trace.configuration, &p)
+            .map_err(|e| (p.name.clone(), 0, Disagreement { event: Event::Background, fields: vec![e.to_string()] }))?;
+        cfg.servo_counter_mask = 0xFF_FFFF;
+        let mut pair = Pair::<S>::power_on(&cfg);
+        for (i, step) in loaded.trace.steps.iter().enumerate() {
+            pair.apply_trace_event(&step.event).map_err(|d| (p.name.clone(), i, d))?;
+        }
+        total += pair.count;
+    }
+    Ok(total)
+}

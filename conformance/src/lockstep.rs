@@ -1,0 +1,120 @@
+//! Lockstep: an implementation ([`Subject`]) and the reference model driven by the same events,
+//! their observations compared after every one. A divergence names the event, the fields that
+//! differ and both values; [`Pair::applied`] keeps the events so far, so a divergence can be
+//! written out as a trace that reproduces it.
+
+use crate::subject::{ModelSubject, Subject};
+use crate::trace::TraceEvent;
+use pmacwd_model::config::ModelConfig;
+use pmacwd_model::event::Event;
+use pmacwd_model::observe::Observation;
+use std::fmt;
+
+/// Where and how the implementation and the model parted.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Disagreement {
+    /// The event whose observations differ (or the background cycle only one side allows).
+    pub event: Event,
+    /// `field: model X, implementation Y` for each differing field.
+    pub fields: Vec<String>,
+}
+
+impl fmt::Display for Disagreement {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "after `{}`: {}", self.event, self.fields.join("; "))
+    }
+}
+
+/// The fields in which two observations differ, as `field: model X, implementation Y`.
+pub fn differences(model: &Observation, subject: &Observation) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut field = |name: &str, m: String, s: String| {
+        if m != s {
+            out.push(format!("{name}: model {m}, implementation {s}"));
+        }
+    };
+    field("reply", format!("{:?}", model.reply), format!("{:?}", subject.reply));
+    field("led_red", model.led_red.to_string(), subject.led_red.to_string());
+    field("fefco_on", model.fefco_on.to_string(), subject.fefco_on.to_string());
+    field("relay_tripped", model.relay_tripped.to_string(), subject.relay_tripped.to_string());
+    field("outputs_forced_off", model.outputs_forced_off.to_string(), subject.outputs_forced_off.to_string());
+    field("Y:$25", model.counter.to_string(), subject.counter.to_string());
+    field("X:$25", model.counter_min.to_string(), subject.counter_min.to_string());
+    field("X:$6", format!("{:06X}", model.status_x), format!("{:06X}", subject.status_x));
+    field("Y:$6", format!("{:06X}", model.status_y), format!("{:06X}", subject.status_y));
+    out
+}
+
+/// The model and an implementation, powered up together.
+pub struct Pair<S: Subject> {
+    pub model: ModelSubject,
+    pub subject: S,
+    /// Events applied so far, when recording (see [`Pair::recording`]).
+    pub applied: Option<Vec<Event>>,
+    /// Events applied so far.
+    pub count: u64,
+}
+
+impl<S: Subject> Pair<S> {
+    pub fn power_on(cfg: &ModelConfig) -> Self {
+        Pair { model: ModelSubject::power_on(cfg), subject: S::power_on(cfg), applied: None, count: 0 }
+    }
+
+    /// Keeps every applied event, so a divergence can be saved as a trace.
+    pub fn recording(mut self) -> Self {
+        self.applied = Some(Vec::new());
+        self
+    }
+
+    /// Whether a background cycle can complete now; both must agree.
+    pub fn background_possible(&self) -> Result<bool, Disagreement> {
+        let (m, s) = (self.model.background_possible(), self.subject.background_possible());
+        if m != s {
+            return Err(Disagreement {
+                event: Event::Background,
+                fields: vec![format!("background cycle possible: model {m}, implementation {s}")],
+            });
+        }
+        Ok(m)
+    }
+
+    /// Applies one event to both and compares what each observes.
+    pub fn apply(&mut self, event: &Event) -> Result<Observation, Disagreement> {
+        if let Some(v) = &mut self.applied {
+            v.push(event.clone());
+        }
+        self.count += 1;
+        let m = self.model.apply(event);
+        let s = self.subject.apply(event);
+        if m != s {
+            return Err(Disagreement { event: event.clone(), fields: differences(&m, &s) });
+        }
+        Ok(m)
+    }
+
+    /// Applies a trace step: `run` expands into servo cycles with a background cycle after
+    /// each one the load allows (asking both sides whether it can complete); a `background`
+    /// step that neither side can complete is reported as `Ok(None)`.
+    pub fn apply_trace_event(&mut self, event: &TraceEvent) -> Result<Option<Observation>, Disagreement> {
+        match event {
+            TraceEvent::Model(Event::Background) => {
+                if self.background_possible()? {
+                    self.apply(&Event::Background).map(Some)
+                } else {
+                    Ok(None)
+                }
+            }
+            TraceEvent::Model(e) => self.apply(e).map(Some),
+            TraceEvent::Run { cycles } => {
+                let mut last = None;
+                for _ in 0..*cycles {
+                    last = Some(self.apply(&Event::Servo { cycles: 1 })?);
+                    if self.background_possible()? {
+                        last = Some(self.apply(&Event::Background)?);
+                    }
+                }
+                Ok(last)
+            }
+        }
+    }
+}
