@@ -9,6 +9,7 @@ pub mod decode;
 pub mod generate;
 pub mod import;
 pub mod lockstep;
+pub mod product;
 pub mod replay;
 pub mod reply_text;
 pub mod runner;

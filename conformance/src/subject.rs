@@ -166,18 +166,23 @@ impl Subject for CoreSubject {
         self.core.background_possible()
     }
     fn apply(&mut self, event: &Event) -> Observation {
-        let reply = model_reply(self.core.apply(&self.cfg, core_event(event), &mut *self.store));
-        let o = self.core.observe(&self.cfg, core::Reply::None);
-        Observation {
-            reply,
-            led_red: o.tripped,
-            fefco_on: o.tripped,
-            relay_tripped: o.tripped,
-            outputs_forced_off: o.tripped,
-            counter: o.counter,
-            counter_min: o.counter_min,
-            status_x: o.status_x,
-            status_y: o.status_y,
-        }
+        let reply = self.core.apply(&self.cfg, core_event(event), &mut *self.store);
+        core_observation(&self.core, &self.cfg, reply)
+    }
+}
+
+/// What the core shows after an event, in the model's terms.
+pub fn core_observation(core: &core::Core, cfg: &core::Config, reply: core::Reply) -> Observation {
+    let o = core.observe(cfg, reply);
+    Observation {
+        reply: model_reply(o.reply),
+        led_red: o.tripped,
+        fefco_on: o.tripped,
+        relay_tripped: o.tripped,
+        outputs_forced_off: o.tripped,
+        counter: o.counter,
+        counter_min: o.counter_min,
+        status_x: o.status_x,
+        status_y: o.status_y,
     }
 }

@@ -95,7 +95,7 @@ impl IVariableStore for AllIVariables {
 }
 
 /// Up to `N` non-zero I-variables in a small table; a write needing more answers ERR003.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct FewIVariables<const N: usize> {
     slots: [(u16, i64); N],
     len: usize,
@@ -301,7 +301,7 @@ const ERROR_PROGRAM: u8 = 16;
 const AREA_PROGRAM: u8 = 32;
 
 /// The controller state.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Core {
     counter: i32,
     counter_min: i32,
