@@ -14,7 +14,7 @@
 //! regression files of `conformance/regressions/`.
 
 use crate::lockstep::{Disagreement, Pair};
-use crate::subject::Subject;
+use crate::subject::{ModelSubject, Subject};
 use crate::trace::{self, Expect, Step, Trace, TraceEvent};
 use pmacwd_model::command::HostCommand;
 use pmacwd_model::config::ModelConfig;
@@ -23,7 +23,7 @@ use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetEvent, ResetKin
 use pmacwd_specs::{Spec, SpecError};
 use proptest::prelude::*;
 use proptest::test_runner::{Config as RunnerConfig, RngAlgorithm, TestError, TestRng, TestRunner};
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 
 /// Every (configuration, profile) pair of the spec, with a 24-bit servo counter so long runs
 /// do not wrap X:$0 into the small widths the model checker uses.
@@ -161,6 +161,7 @@ pub fn run_choices<S: Subject>(
     cfg: &ModelConfig,
     choices: &[Choice],
     record: bool,
+    observe: &mut dyn FnMut(&ModelConfig, &Event, &ModelSubject),
 ) -> Result<u64, (Disagreement, Vec<Event>)> {
     let mut pair = Pair::<S>::power_on(cfg);
     if record {
@@ -168,7 +169,7 @@ pub fn run_choices<S: Subject>(
     }
     for c in choices {
         let outcome = resolve(&pair, cfg, c).and_then(|e| match e {
-            Some(e) => pair.apply(&e).map(|_| ()),
+            Some(e) => pair.apply(&e).map(|_| observe(cfg, &e, &pair.model)),
             None => Ok(()),
         });
         if let Err(d) = outcome {
@@ -251,11 +252,13 @@ pub struct Settings {
 }
 
 /// Runs `settings.cases` generated traces on `S` and the model over `configs`; on a divergence
-/// returns the shrunk counterexample. `progress` is called with the traces done so far.
+/// returns the shrunk counterexample. `progress` is called with the traces done so far;
+/// `observe` sees every event applied (and the model after it) in traces that pass.
 pub fn run<S: Subject>(
     configs: &[ModelConfig],
     settings: Settings,
     progress: &dyn Fn(u32),
+    observe: &mut dyn FnMut(&ModelConfig, &Event, &ModelSubject),
 ) -> Result<Stats, Box<Counterexample>> {
     let mut seed_bytes = [0u8; 32];
     seed_bytes[..8].copy_from_slice(&settings.seed.to_le_bytes());
@@ -267,10 +270,16 @@ pub fn run<S: Subject>(
     };
     let mut runner = TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &seed_bytes));
     let stats = Cell::new(Stats::default());
+    let observe = RefCell::new(observe);
     let shrinking = Cell::new(false);
     let result = runner.run(&strategy(configs.len(), settings.max_len), |g| {
         let cfg = &configs[g.which % configs.len()];
-        match run_choices::<S>(cfg, &g.choices, false) {
+        let mut sink = |c: &ModelConfig, e: &Event, m: &ModelSubject| {
+            if !shrinking.get() {
+                (observe.borrow_mut())(c, e, m)
+            }
+        };
+        match run_choices::<S>(cfg, &g.choices, false, &mut sink) {
             Ok(events) => {
                 if !shrinking.get() {
                     let mut s = stats.get();
@@ -291,7 +300,7 @@ pub fn run<S: Subject>(
         Ok(()) => Ok(stats.get()),
         Err(TestError::Fail(_, g)) => {
             let cfg = &configs[g.which % configs.len()];
-            let (disagreement, events) = match run_choices::<S>(cfg, &g.choices, true) {
+            let (disagreement, events) = match run_choices::<S>(cfg, &g.choices, true, &mut |_, _, _| {}) {
                 Err(found) => found,
                 Ok(_) => unreachable!("a shrunk failing case fails again: lockstep is deterministic"),
             };

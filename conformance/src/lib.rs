@@ -5,6 +5,7 @@
 //! `pmacwd` binary is the command line.
 
 pub mod check;
+pub mod coverage;
 pub mod decode;
 pub mod generate;
 pub mod import;

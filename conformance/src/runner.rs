@@ -289,6 +289,17 @@ pub fn run_on_subject<S: crate::subject::Subject>(
     loaded: &LoadedTrace,
     profile: &Profile,
 ) -> Result<usize, Failure> {
+    run_on_subject_observed::<S>(spec, loaded, profile, &mut |_, _, _| {})
+}
+
+/// [`run_on_subject`], with `observe` called after every step (a `run` step is reported as
+/// one servo event of its length) with the model as it stands: for coverage reports.
+pub fn run_on_subject_observed<S: crate::subject::Subject>(
+    spec: &Spec,
+    loaded: &LoadedTrace,
+    profile: &Profile,
+    observe: &mut dyn FnMut(&ModelConfig, &Event, &crate::subject::ModelSubject),
+) -> Result<usize, Failure> {
     let trace = &loaded.trace;
     let mut cfg = ModelConfig::from_spec(spec, &trace.configuration, profile).map_err(|_| {
         Failure::Unusable(
@@ -333,6 +344,11 @@ pub fn run_on_subject<S: crate::subject::Subject>(
                 ))
             }
         };
+        let event = match &step.event {
+            TraceEvent::Model(e) => e.clone(),
+            TraceEvent::Run { cycles } => Event::Servo { cycles: *cycles },
+        };
+        observe(&cfg, &event, &pair.model);
         if step.expect.window_cycles.is_some() {
             continue;
         }

@@ -88,6 +88,41 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         specs: Option<PathBuf>,
     },
+    /// Run the conformance suite against the compact core (impl/) and print what it covered.
+    ///
+    /// Three parts, each in lockstep with the reference model (observations compared after
+    /// every event): the scenario library (expectations also checked on the core), generated
+    /// traces weighted toward the edges, and, unless --no-exhaustive, the exhaustive product of
+    /// model and core at every bounded configuration of check.yaml. Then a coverage report: model
+    /// events applied, status bits seen set, properties reached. A generated divergence is
+    /// shrunk, printed and saved as a regression trace. Exit 0 no divergence, 1 a divergence,
+    /// 2 unusable input.
+    Conform {
+        /// Generated traces to run.
+        #[arg(long, value_name = "N", default_value_t = 10_000)]
+        cases: u32,
+        /// Longest generated trace, in steps.
+        #[arg(long, value_name = "N", default_value_t = 1_000)]
+        max_len: usize,
+        /// Seed of the generator (default: fresh; printed either way, so a run can be repeated).
+        #[arg(long, value_name = "N")]
+        seed: Option<u64>,
+        /// Scenario directory (default: specs/scenarios, or DIR/scenarios with --specs DIR).
+        #[arg(long, value_name = "DIR")]
+        scenarios: Option<PathBuf>,
+        /// Spec directory to use instead of the embedded one.
+        #[arg(long, value_name = "DIR")]
+        specs: Option<PathBuf>,
+        /// Skip the exhaustive product exploration.
+        #[arg(long)]
+        no_exhaustive: bool,
+        /// Where a shrunk divergence is saved as a trace.
+        #[arg(long, value_name = "DIR", default_value = "conformance/regressions")]
+        save_regressions: PathBuf,
+        /// Checker threads for the exhaustive part (default: the machine's cores).
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
+    },
     /// Turn a plain host log (commands, replies, X:$0 read alongside) into a trace.
     ///
     /// The log format and how to capture one from a real controller: docs/capturing.md. Writes
@@ -293,9 +328,179 @@ fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<Strin
     }
 }
 
+struct ConformArgs {
+    cases: u32,
+    max_len: usize,
+    seed: Option<u64>,
+    scenarios: Option<PathBuf>,
+    specs: Option<PathBuf>,
+    no_exhaustive: bool,
+    save_regressions: PathBuf,
+    threads: Option<usize>,
+}
+
+fn conform(a: ConformArgs) -> ExitCode {
+    use pmacwd_conformance::coverage::Coverage;
+    use pmacwd_conformance::generate::{self, Settings};
+    use pmacwd_conformance::runner::{profiles_of, run_on_subject_observed, Failure};
+    use pmacwd_conformance::subject::CoreSubject;
+    let spec = match load_spec(&a.specs) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let scenario_dir = a.scenarios.clone().unwrap_or_else(|| match &a.specs {
+        Some(d) => d.join("scenarios"),
+        None => PathBuf::from("specs/scenarios"),
+    });
+    let files = match trace_files(&[scenario_dir]) {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let mut coverage = Coverage::default();
+    let mut diverged = false;
+    let start = std::time::Instant::now();
+
+    println!("== scenarios on the core, in lockstep with the model");
+    let (mut runs, mut expectations) = (0usize, 0usize);
+    for file in &files {
+        let loaded = match pmacwd_conformance::trace::load_yaml(file) {
+            Ok(l) => l,
+            Err(e) => {
+                eprintln!("pmacwd: {e}");
+                return ExitCode::from(2);
+            }
+        };
+        let profiles = match profiles_of(&spec, &loaded) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("pmacwd: {e}");
+                return ExitCode::from(2);
+            }
+        };
+        for p in profiles {
+            let mut observe = |c: &_, e: &_, m: &_| coverage.record(c, e, m);
+            match run_on_subject_observed::<CoreSubject>(&spec, &loaded, &p, &mut observe) {
+                Ok(n) => {
+                    runs += 1;
+                    expectations += n;
+                }
+                Err(Failure::Unusable(e)) => {
+                    eprintln!("pmacwd: {e}");
+                    return ExitCode::from(2);
+                }
+                Err(Failure::Diverged(d)) => {
+                    diverged = true;
+                    println!("DIVERGED  {} [{}]\n  {d}", file.display(), p.name);
+                }
+            }
+        }
+    }
+    println!("{} scenarios, {runs} scenario-profile runs, {expectations} expectations met by the core", files.len());
+
+    println!("== generated traces");
+    let configs = match generate::all_configs(&spec) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let seed = a.seed.unwrap_or_else(|| {
+        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
+    });
+    println!(
+        "seed {seed} (repeat with --seed {seed}); {} traces of up to {} steps over {} (configuration, profile) pairs",
+        a.cases,
+        a.max_len,
+        configs.len()
+    );
+    let settings = Settings { cases: a.cases, max_len: a.max_len, seed };
+    let step = (a.cases / 10).max(1);
+    let progress = |done: u32| {
+        if done % step == 0 {
+            eprintln!("  {done} of {} traces", a.cases);
+        }
+    };
+    let generated_start = std::time::Instant::now();
+    let mut observe = |c: &_, e: &_, m: &_| coverage.record(c, e, m);
+    match generate::run::<CoreSubject>(&configs, settings, &progress, &mut observe) {
+        Ok(stats) => {
+            let secs = generated_start.elapsed().as_secs_f64();
+            println!(
+                "{} traces, {} events, no divergence ({secs:.1} s with coverage bookkeeping)",
+                stats.traces, stats.events
+            );
+        }
+        Err(found) => {
+            diverged = true;
+            let yaml = pmacwd_conformance::trace::to_yaml(&found.to_trace());
+            let path = a.save_regressions.join(found.file_name());
+            let saved = std::fs::create_dir_all(&a.save_regressions).and_then(|_| std::fs::write(&path, &yaml));
+            println!("DIVERGED under {} / {}: {}", found.configuration, found.profile, found.disagreement);
+            match saved {
+                Ok(()) => println!("shrunk to {} events, saved as {}:", found.events.len(), path.display()),
+                Err(e) => {
+                    println!("shrunk to {} events (could not save to {}: {e}):", found.events.len(), path.display())
+                }
+            }
+            print!("{yaml}");
+        }
+    }
+
+    if !a.no_exhaustive {
+        println!("== exhaustive lockstep: the product of model and core at every bounded run");
+        let runs = match planned_runs(&spec, &Selection::default()) {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!("pmacwd: {e}");
+                return ExitCode::from(2);
+            }
+        };
+        let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+        let mut total = 0;
+        for cfg in runs {
+            let r = pmacwd_conformance::product::check(cfg, threads);
+            total += r.states;
+            match &r.divergence {
+                None => println!(
+                    "ok        {:<10} {:<20} {:>8} pair states, depth {:>3}, {:.2} s",
+                    r.configuration,
+                    r.profile,
+                    r.states,
+                    r.depth,
+                    r.duration.as_secs_f64()
+                ),
+                Some((events, d)) => {
+                    diverged = true;
+                    println!("DIVERGED  {} / {}: {d}\n  shortest path:", r.configuration, r.profile);
+                    for e in events {
+                        println!("    {e}");
+                    }
+                }
+            }
+        }
+        println!("{total} pair states explored");
+    }
+
+    println!("== coverage");
+    print!("{}", coverage.report(&spec));
+    println!("total {:.1} s", start.elapsed().as_secs_f64());
+    if diverged {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
+        Command::Conform { cases, max_len, seed, scenarios, specs, no_exhaustive, save_regressions, threads } => {
+            conform(ConformArgs { cases, max_len, seed, scenarios, specs, no_exhaustive, save_regressions, threads })
+        }
         Command::Run { paths, specs, profile } => run_traces(paths, specs, profile),
         Command::Decode { reply, json, specs } => decode_reply(&reply, json, specs),
         Command::Replay { file, format, specs } => replay_file(&file, format, specs),

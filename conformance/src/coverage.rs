@@ -1,0 +1,188 @@
+//! What a conformance run exercised: the kinds of model events applied, the status bits seen
+//! set, the reference model's named properties reached (`sometimes`) or checked (`always`) on
+//! the states the run went through, and the trip causes seen. `pmacwd conform` prints it.
+
+use crate::subject::ModelSubject;
+use pmacwd_model::checker::{State, WatchdogModel};
+use pmacwd_model::command::{Buffer, HostCommand};
+use pmacwd_model::config::ModelConfig;
+use pmacwd_model::controller::TripCause;
+use pmacwd_model::event::Event;
+use pmacwd_model::properties::{Expectation, STATE_PROPERTIES};
+use pmacwd_specs::check::{ChecksumTarget, ResetKind};
+use pmacwd_specs::Spec;
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt::Write as _;
+
+/// Every kind of event the model knows, as the report names them.
+pub const EVENT_KINDS: &[&str] = &[
+    "servo (1 cycle)",
+    "servo (2+ cycles)",
+    "background",
+    "load change",
+    "??? (global status)",
+    "I-variable read",
+    "I-variable write",
+    "register read",
+    "$$$ (reset command)",
+    "OPEN PLC",
+    "OPEN PROG",
+    "CLOSE",
+    "unrecognized command",
+    "supply below minimum",
+    "supply at or above minimum",
+    "INIT/ pulse",
+    "power cycle",
+    "reset finding a DPRAM fault",
+    "reset finding a flash fault",
+    "reset into bootstrap",
+    "firmware checksum fault",
+    "user-program checksum fault",
+    "clear bit 22",
+];
+
+fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
+    match e {
+        Event::Servo { cycles: 1 } => vec!["servo (1 cycle)"],
+        Event::Servo { .. } => vec!["servo (2+ cycles)"],
+        Event::Background => vec!["background"],
+        Event::Load(_) => vec!["load change"],
+        Event::Command(c) => vec![match c {
+            HostCommand::GlobalStatus => "??? (global status)",
+            HostCommand::ReadI(_) => "I-variable read",
+            HostCommand::WriteI(..) => "I-variable write",
+            HostCommand::ReadHex(_) => "register read",
+            HostCommand::Reset => "$$$ (reset command)",
+            HostCommand::Open(Buffer::Plc(_)) => "OPEN PLC",
+            HostCommand::Open(Buffer::Program(_)) => "OPEN PROG",
+            HostCommand::Close => "CLOSE",
+            HostCommand::Unrecognized(_) => "unrecognized command",
+        }],
+        Event::Supply { millivolts } if *millivolts < cfg.supply_min_millivolts => vec!["supply below minimum"],
+        Event::Supply { .. } => vec!["supply at or above minimum"],
+        Event::Reset(r) => {
+            let mut v = vec![match r.kind {
+                ResetKind::Init => "INIT/ pulse",
+                ResetKind::Power => "power cycle",
+            }];
+            if r.dpram_fault {
+                v.push("reset finding a DPRAM fault");
+            }
+            if r.flash_fault {
+                v.push("reset finding a flash fault");
+            }
+            if r.bootstrap {
+                v.push("reset into bootstrap");
+            }
+            v
+        }
+        Event::ChecksumFault(ChecksumTarget::Firmware) => vec!["firmware checksum fault"],
+        Event::ChecksumFault(ChecksumTarget::UserProgram) => vec!["user-program checksum fault"],
+        Event::ClearRtiReentry => vec!["clear bit 22"],
+    }
+}
+
+/// Counts gathered over a run.
+#[derive(Default)]
+pub struct Coverage {
+    pub events: BTreeMap<&'static str, u64>,
+    /// (word, bit) -> times seen set after an event.
+    pub bits_set: BTreeMap<(char, u8), u64>,
+    /// Property name -> states on which a `sometimes` property held.
+    pub reached: BTreeMap<&'static str, u64>,
+    /// Property name -> states on which an `always` property failed (a model bug if non-zero).
+    pub always_failed: BTreeMap<&'static str, u64>,
+    pub states_checked: u64,
+    pub trips: BTreeSet<&'static str>,
+    /// One checker per (configuration, profile), for the property predicates.
+    models: BTreeMap<(String, String), WatchdogModel>,
+}
+
+impl Coverage {
+    /// Records what one applied event exercised; `model` is the reference after it.
+    pub fn record(&mut self, cfg: &ModelConfig, event: &Event, model: &ModelSubject) {
+        for k in kind(cfg, event) {
+            *self.events.entry(k).or_default() += 1;
+        }
+        let card = model.controller();
+        let (x, y) = card.status_words(cfg);
+        for (word, value) in [('X', x), ('Y', y)] {
+            for bit in 0..24u8 {
+                if value >> bit & 1 == 1 {
+                    *self.bits_set.entry((word, bit)).or_default() += 1;
+                }
+            }
+        }
+        match card.trip {
+            Some(TripCause::Undervoltage) => {
+                self.trips.insert("undervoltage");
+            }
+            Some(TripCause::StrobeTimeout) => {
+                self.trips.insert("strobe stopped (starvation)");
+            }
+            None => {}
+        }
+        let key = (cfg.configuration.clone(), cfg.profile.name.clone());
+        let checker = self.models.entry(key).or_insert_with(|| WatchdogModel::new(cfg.clone()));
+        let state = State { controller: card.clone(), violations: 0 };
+        self.states_checked += 1;
+        for p in STATE_PROPERTIES {
+            let holds = (p.holds)(checker, &state);
+            match p.expectation {
+                Expectation::Sometimes if holds => *self.reached.entry(p.name).or_default() += 1,
+                Expectation::Always if !holds => *self.always_failed.entry(p.name).or_default() += 1,
+                _ => {}
+            }
+        }
+    }
+
+    /// The report: every event kind, status bit and property, with what the run did to it.
+    pub fn report(&self, spec: &Spec) -> String {
+        let mut s = String::new();
+        let seen = EVENT_KINDS.iter().filter(|k| self.events.contains_key(*k)).count();
+        let _ = writeln!(s, "model events applied: {seen} of {} kinds", EVENT_KINDS.len());
+        for k in EVENT_KINDS {
+            let _ = writeln!(s, "  {:>10}  {k}", self.events.get(k).copied().unwrap_or(0));
+        }
+        let mut bits = Vec::new();
+        for (word, w) in [('X', &spec.status.words.x), ('Y', &spec.status.words.y)] {
+            for (bit, b) in &w.bits {
+                bits.push((word, *bit, b.name.as_str()));
+            }
+        }
+        let set = bits.iter().filter(|(w, b, _)| self.bits_set.contains_key(&(*w, *b))).count();
+        let _ = writeln!(s, "status bits seen set: {set} of {} ({} are driven by the model)", bits.len(), driven());
+        for (word, bit, name) in &bits {
+            if let Some(n) = self.bits_set.get(&(*word, *bit)) {
+                let _ = writeln!(s, "  {n:>10}  {word}{bit:<2} {name}");
+            }
+        }
+        let sometimes: Vec<_> = STATE_PROPERTIES.iter().filter(|p| p.expectation == Expectation::Sometimes).collect();
+        let always: Vec<_> = STATE_PROPERTIES.iter().filter(|p| p.expectation == Expectation::Always).collect();
+        let reached = sometimes.iter().filter(|p| self.reached.contains_key(p.name)).count();
+        let _ = writeln!(s, "`sometimes` properties reached: {reached} of {}", sometimes.len());
+        for p in &sometimes {
+            let n = self.reached.get(p.name).copied().unwrap_or(0);
+            let _ = writeln!(s, "  {:>10}  {}{}", n, p.name, if n == 0 { "  (NOT REACHED)" } else { "" });
+        }
+        let failing = always.iter().filter(|p| self.always_failed.contains_key(p.name)).count();
+        let _ = writeln!(
+            s,
+            "`always` properties checked on {} model states: {} hold, {failing} failed",
+            self.states_checked,
+            always.len() - failing
+        );
+        for (name, n) in &self.always_failed {
+            let _ = writeln!(s, "  FAILED on {n} states: {name}");
+        }
+        let trips: Vec<&str> = self.trips.iter().copied().collect();
+        let _ = writeln!(s, "trip causes seen: {}", if trips.is_empty() { "none".into() } else { trips.join(", ") });
+        s
+    }
+}
+
+/// The status bits the model sets or clears: X 22, 20, 13, 12, 11, 10, 9 and Y 19, 17 (the
+/// others are described in status.yaml but not modelled).
+fn driven() -> usize {
+    9
+}
