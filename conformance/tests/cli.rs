@@ -203,3 +203,29 @@ fn decode_refuses_a_malformed_reply_with_exit_2() {
         assert!(!out.stderr.is_empty());
     }
 }
+
+/// `pmacwd conform` runs the scenario library and generated traces on the core and ends with
+/// a coverage report; a fixed seed makes the run repeatable, and it says so.
+#[test]
+fn conform_runs_scenarios_and_generated_traces_on_the_core_and_reports_coverage() {
+    let out = pmacwd()
+        .args(["conform", "--cases", "40", "--max-len", "200", "--seed", "7", "--no-exhaustive", "--scenarios"])
+        .arg(specs_dir().join("scenarios"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("expectations met by the core"), "{stdout}");
+    assert!(stdout.contains("seed 7 (repeat with --seed 7)"), "{stdout}");
+    assert!(stdout.contains("40 traces,"), "{stdout}");
+    assert!(stdout.contains("model events applied:"), "{stdout}");
+    assert!(stdout.contains("`sometimes` properties reached:"), "{stdout}");
+}
+
+/// A scenario directory that does not exist is unusable input: exit 2, not a silent pass.
+#[test]
+fn conform_with_a_missing_scenario_directory_exits_2() {
+    let out = pmacwd().args(["conform", "--scenarios", "/nonexistent/scenarios", "--cases", "1"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/scenarios"));
+}

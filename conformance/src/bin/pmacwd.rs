@@ -39,6 +39,9 @@ enum Command {
         /// Checker threads (default: the machine's cores).
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
+        /// Skip the conformance summary (the core against the model) after the model check.
+        #[arg(long)]
+        no_conformance: bool,
     },
     /// Run traces (YAML, docs/trace-format.md) on the reference model and compare every
     /// expected observation, under each profile a trace names.
@@ -342,7 +345,6 @@ struct ConformArgs {
 fn conform(a: ConformArgs) -> ExitCode {
     use pmacwd_conformance::coverage::Coverage;
     use pmacwd_conformance::generate::{self, Settings};
-    use pmacwd_conformance::runner::{profiles_of, run_on_subject_observed, Failure};
     use pmacwd_conformance::subject::CoreSubject;
     let spec = match load_spec(&a.specs) {
         Ok(s) => s,
@@ -364,41 +366,18 @@ fn conform(a: ConformArgs) -> ExitCode {
     let start = std::time::Instant::now();
 
     println!("== scenarios on the core, in lockstep with the model");
-    let (mut runs, mut expectations) = (0usize, 0usize);
-    for file in &files {
-        let loaded = match pmacwd_conformance::trace::load_yaml(file) {
-            Ok(l) => l,
-            Err(e) => {
-                eprintln!("pmacwd: {e}");
-                return ExitCode::from(2);
-            }
-        };
-        let profiles = match profiles_of(&spec, &loaded) {
-            Ok(p) => p,
-            Err(e) => {
-                eprintln!("pmacwd: {e}");
-                return ExitCode::from(2);
-            }
-        };
-        for p in profiles {
-            let mut observe = |c: &_, e: &_, m: &_| coverage.record(c, e, m);
-            match run_on_subject_observed::<CoreSubject>(&spec, &loaded, &p, &mut observe) {
-                Ok(n) => {
-                    runs += 1;
-                    expectations += n;
-                }
-                Err(Failure::Unusable(e)) => {
-                    eprintln!("pmacwd: {e}");
-                    return ExitCode::from(2);
-                }
-                Err(Failure::Diverged(d)) => {
-                    diverged = true;
-                    println!("DIVERGED  {} [{}]\n  {d}", file.display(), p.name);
-                }
-            }
+    match scenarios_on_core(&spec, &files, &mut coverage) {
+        Ok(tally) => {
+            diverged |= tally.diverged;
+            println!(
+                "{} scenarios, {} scenario-profile runs, {} expectations met by the core",
+                files.len(),
+                tally.runs,
+                tally.expectations
+            );
         }
+        Err(code) => return code,
     }
-    println!("{} scenarios, {runs} scenario-profile runs, {expectations} expectations met by the core", files.len());
 
     println!("== generated traces");
     let configs = match generate::all_configs(&spec) {
@@ -495,6 +474,132 @@ fn conform(a: ConformArgs) -> ExitCode {
     }
 }
 
+/// What running the scenario library on the core found.
+struct ScenarioTally {
+    runs: usize,
+    expectations: usize,
+    diverged: bool,
+}
+
+/// Every scenario under every profile it names, on the core in lockstep with the model, with
+/// its expectations checked on the core; divergences are printed as they are found.
+fn scenarios_on_core(
+    spec: &Spec,
+    files: &[PathBuf],
+    coverage: &mut pmacwd_conformance::coverage::Coverage,
+) -> Result<ScenarioTally, ExitCode> {
+    use pmacwd_conformance::runner::{profiles_of, run_on_subject_observed, Failure};
+    use pmacwd_conformance::subject::CoreSubject;
+    let mut tally = ScenarioTally { runs: 0, expectations: 0, diverged: false };
+    for file in files {
+        let loaded = pmacwd_conformance::trace::load_yaml(file).map_err(|e| {
+            eprintln!("pmacwd: {e}");
+            ExitCode::from(2)
+        })?;
+        let profiles = profiles_of(spec, &loaded).map_err(|e| {
+            eprintln!("pmacwd: {e}");
+            ExitCode::from(2)
+        })?;
+        for p in profiles {
+            let mut observe = |c: &_, e: &_, m: &_| coverage.record(c, e, m);
+            match run_on_subject_observed::<CoreSubject>(spec, &loaded, &p, &mut observe) {
+                Ok(n) => {
+                    tally.runs += 1;
+                    tally.expectations += n;
+                }
+                Err(Failure::Unusable(e)) => {
+                    eprintln!("pmacwd: {e}");
+                    return Err(ExitCode::from(2));
+                }
+                Err(Failure::Diverged(d)) => {
+                    tally.diverged = true;
+                    println!("DIVERGED  {} [{}]\n  {d}", file.display(), p.name);
+                }
+            }
+        }
+    }
+    Ok(tally)
+}
+
+/// The conformance summary `pmacwd check` prints after the model check: the exhaustive product
+/// of model and core at the checked runs, the scenario library on the core, and 1,000
+/// generated traces. Returns whether anything diverged.
+fn conformance_summary(
+    spec: &Spec,
+    runs: &[pmacwd_model::config::ModelConfig],
+    scenario_dir: &std::path::Path,
+    threads: usize,
+) -> Result<bool, ExitCode> {
+    use pmacwd_conformance::generate::{self, Settings};
+    use pmacwd_conformance::subject::CoreSubject;
+    println!("conformance summary: the compact core (impl/) against the model (`pmacwd conform` for the full suite and its coverage)");
+    let mut diverged = false;
+    let start = std::time::Instant::now();
+    let mut pairs = 0;
+    for cfg in runs {
+        let r = pmacwd_conformance::product::check(cfg.clone(), threads);
+        pairs += r.states;
+        if let Some((events, d)) = &r.divergence {
+            diverged = true;
+            println!("  DIVERGED  {} / {}: {d}\n  shortest path:", r.configuration, r.profile);
+            for e in events {
+                println!("      {e}");
+            }
+        }
+    }
+    println!(
+        "  exhaustive lockstep: {pairs} pair states over {} runs, {} ({:.1} s)",
+        runs.len(),
+        if diverged { "DIVERGED" } else { "no divergence" },
+        start.elapsed().as_secs_f64()
+    );
+    if scenario_dir.is_dir() {
+        let files = trace_files(&[scenario_dir.to_path_buf()]).map_err(|e| {
+            eprintln!("pmacwd: {e}");
+            ExitCode::from(2)
+        })?;
+        let tally = scenarios_on_core(spec, &files, &mut Default::default())?;
+        diverged |= tally.diverged;
+        println!(
+            "  scenarios: {} files, {} scenario-profile runs, {} expectations met by the core{}",
+            files.len(),
+            tally.runs,
+            tally.expectations,
+            if tally.diverged { ", DIVERGED" } else { "" }
+        );
+    } else {
+        println!("  scenarios: {} not found (run from the project root), skipped", scenario_dir.display());
+    }
+    let configs = generate::all_configs(spec).map_err(|e| {
+        eprintln!("pmacwd: {e}");
+        ExitCode::from(2)
+    })?;
+    let seed = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64);
+    let start = std::time::Instant::now();
+    match generate::run::<CoreSubject>(
+        &configs,
+        Settings { cases: 1_000, max_len: 1_000, seed },
+        &|_| {},
+        &mut |_, _, _| {},
+    ) {
+        Ok(stats) => println!(
+            "  generated: {} traces, {} events, seed {seed}, no divergence ({:.1} s)",
+            stats.traces,
+            stats.events,
+            start.elapsed().as_secs_f64()
+        ),
+        Err(found) => {
+            diverged = true;
+            println!(
+                "  generated: seed {seed}, DIVERGED under {} / {}: {}",
+                found.configuration, found.profile, found.disagreement
+            );
+            print!("{}", pmacwd_conformance::trace::to_yaml(&found.to_trace()));
+        }
+    }
+    Ok(diverged)
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
@@ -505,7 +610,7 @@ fn main() -> ExitCode {
         Command::Decode { reply, json, specs } => decode_reply(&reply, json, specs),
         Command::Replay { file, format, specs } => replay_file(&file, format, specs),
         Command::Import { log, out, configuration, yaml } => import_log(&log, out, &configuration, yaml),
-        Command::Check { specs, profile, configuration, witnesses, threads } => {
+        Command::Check { specs, profile, configuration, witnesses, threads, no_conformance } => {
             let spec = match load_spec(&specs) {
                 Ok(s) => s,
                 Err(code) => return code,
@@ -526,7 +631,7 @@ fn main() -> ExitCode {
             println!("pmacwd check: {} runs from {}, {} threads", runs.len(), spec.dir.display(), threads);
             let mut failures = 0usize;
             let (mut states, mut seconds) = (0usize, 0f64);
-            for (i, cfg) in runs.into_iter().enumerate() {
+            for (i, cfg) in runs.iter().cloned().enumerate() {
                 eprint!("[{}] checking {} / {} ...\r", i + 1, cfg.configuration, cfg.profile.name);
                 let _ = std::io::stderr().flush();
                 let report = run(cfg, threads);
@@ -546,7 +651,18 @@ fn main() -> ExitCode {
                     format!("{failures} runs with failing properties")
                 }
             );
-            if failures == 0 {
+            let mut diverged = false;
+            if !no_conformance {
+                let scenario_dir = match &specs {
+                    Some(d) => d.join("scenarios"),
+                    None => PathBuf::from("specs/scenarios"),
+                };
+                match conformance_summary(&spec, &runs, &scenario_dir, threads) {
+                    Ok(d) => diverged = d,
+                    Err(code) => return code,
+                }
+            }
+            if failures == 0 && !diverged {
                 ExitCode::SUCCESS
             } else {
                 ExitCode::from(1)
