@@ -57,3 +57,16 @@ fn a_reset_command_restores_the_stored_i_variables() {
     core.apply(&cfg, Event::Command(Command::Reset), &mut *store);
     assert_eq!(core.apply(&cfg, Event::Command(Command::ReadI(8191)), &mut *store), Reply::Value(0));
 }
+
+/// Writing 0 to a variable the small store does not hold stores nothing (0 is what it reads
+/// anyway), so such writes never use up the room other variables need.
+#[test]
+fn writing_zero_to_an_unstored_variable_takes_no_slot() {
+    let cfg = config();
+    let mut core = Core::power_on(&cfg);
+    let mut store = FewIVariables::<2>::default();
+    for c in [Command::WriteI(140, 0), Command::WriteI(141, 0), Command::WriteI(130, 5), Command::WriteI(131, 6)] {
+        assert_eq!(core.apply(&cfg, Event::Command(c), &mut store), Reply::Ack, "{c:?}");
+    }
+    assert_eq!(core.apply(&cfg, Event::Command(Command::ReadI(131)), &mut store), Reply::Value(6));
+}
