@@ -13,6 +13,15 @@ quickcheck! {
         text.len() == 12 && decode(&text) == Ok(StatusReply::Words { x, y })
     }
 
+    /// The compact core formats its `???` reply itself (nibble lookups on the wire-layout
+    /// words); for any two 24-bit words its twelve characters are what the suite's encoder
+    /// writes and its decoder reads back.
+    fn the_core_formats_the_status_reply_as_the_suite_encodes_it(x: u32, y: u32) -> bool {
+        let (x, y) = (x & 0xFF_FFFF, y & 0xFF_FFFF);
+        let core_text = pmacwd_core::Reply::status_text(x, y);
+        core_text.as_slice() == encode(StatusReply::Words { x, y }).as_bytes()
+    }
+
     /// Any error number survives the BEL ERRnnn CR form.
     fn error_replies_round_trip(n: u16) -> bool {
         let n = n % 1000;

@@ -70,3 +70,12 @@ fn writing_zero_to_an_unstored_variable_takes_no_slot() {
     }
     assert_eq!(core.apply(&cfg, Event::Command(Command::ReadI(131)), &mut store), Reply::Value(6));
 }
+
+/// SRM p.289: the first reply character is bits 23-20 of X:$000006, the twelfth bits 3-0 of
+/// Y:$000006; RTI re-entry (X bit 22) alone reads `400000000000`.
+#[test]
+fn the_status_reply_text_puts_x_first_most_significant_nibble_first() {
+    assert_eq!(&Reply::status_text(1 << 22, 0), b"400000000000");
+    assert_eq!(&Reply::status_text(0x123456, 0x789ABC), b"123456789ABC");
+    assert_eq!(&Reply::status_text(0, 1 << 17), b"000000020000");
+}
