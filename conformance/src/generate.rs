@@ -243,6 +243,11 @@ pub struct Stats {
     pub events: u64,
 }
 
+/// A seed for a fresh run (from the clock); runs print it so that any one can be repeated.
+pub fn fresh_seed() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
+}
+
 /// What to generate.
 #[derive(Clone, Copy, Debug)]
 pub struct Settings {
@@ -316,25 +321,4 @@ pub fn run<S: Subject>(
             unreachable!("lockstep cases are never rejected, so proptest cannot abort: {reason}")
         }
     }
-}
-
-/// Replays a saved trace in lockstep under each of its profiles; returns the events applied.
-pub fn replay_trace<S: Subject>(
-    spec: &Spec,
-    loaded: &trace::LoadedTrace,
-) -> Result<u64, (String, usize, Disagreement)> {
-    let profiles = crate::runner::profiles_of(spec, loaded)
-        .map_err(|e| (String::new(), 0, Disagreement { event: Event::Background, fields: vec![e.to_string()] }))?;
-    let mut total = 0;
-    for p in profiles {
-        let mut cfg = ModelConfig::from_spec(spec, &loaded.trace.configuration, &p)
-            .map_err(|e| (p.name.clone(), 0, Disagreement { event: Event::Background, fields: vec![e.to_string()] }))?;
-        cfg.servo_counter_mask = 0xFF_FFFF;
-        let mut pair = Pair::<S>::power_on(&cfg);
-        for (i, step) in loaded.trace.steps.iter().enumerate() {
-            pair.apply_trace_event(&step.event).map_err(|d| (p.name.clone(), i, d))?;
-        }
-        total += pair.count;
-    }
-    Ok(total)
 }

@@ -1,6 +1,6 @@
 //! Runs a trace on the reference model and compares every expected observation.
 
-use crate::trace::{Expect, LoadedTrace, TraceEvent};
+use crate::trace::{Expect, LoadedTrace, Step, TraceEvent};
 use pmacwd_model::config::ModelConfig;
 use pmacwd_model::controller::Controller;
 use pmacwd_model::event::{Event, Reply};
@@ -172,8 +172,8 @@ impl ModelLane {
 /// How many recent events a divergence report shows.
 const RECENT_EVENTS: usize = 5;
 
-/// Runs `loaded` on the model under `profile`; returns the number of expectations checked.
-pub fn run_on_model(spec: &Spec, loaded: &LoadedTrace, profile: &Profile) -> Result<usize, Failure> {
+/// The trace's configuration under `profile`.
+fn trace_config(spec: &Spec, loaded: &LoadedTrace, profile: &Profile) -> Result<ModelConfig, Failure> {
     let trace = &loaded.trace;
     let mut cfg = ModelConfig::from_spec(spec, &trace.configuration, profile).map_err(|_| {
         Failure::Unusable(
@@ -185,37 +185,50 @@ pub fn run_on_model(spec: &Spec, loaded: &LoadedTrace, profile: &Profile) -> Res
     // The checker drops X:$000000 from its states (no rule reads it); a trace runs with the
     // card's real 24-bit servo cycle counter, since a host can read it.
     cfg.servo_counter_mask = 0xFF_FFFF;
-    let mut lane = ModelLane::new(cfg);
+    Ok(cfg)
+}
+
+/// Runs `step` on every step of `loaded`, keeping the window of recent events, and turns the
+/// first mismatch into a [`Failure`] that names the step, its line and the events before it.
+/// Returns the number of expectations checked.
+fn run_steps(loaded: &LoadedTrace, mut step: impl FnMut(&Step) -> Result<usize, Mismatch>) -> Result<usize, Failure> {
     let mut recent: Vec<String> = Vec::new();
     let mut checked = 0;
-    for (i, step) in trace.steps.iter().enumerate() {
-        recent.push(step.event.to_string());
+    for (i, s) in loaded.trace.steps.iter().enumerate() {
+        recent.push(s.event.to_string());
         if recent.len() > RECENT_EVENTS {
             recent.remove(0);
         }
-        let diverge = |what: &str, expected: String, observed: String| {
-            Failure::Diverged(Divergence {
+        checked += step(s).map_err(|e| match e {
+            Mismatch::UnknownBit(field, j, name) => Failure::Unusable(loaded.map.error(
+                &format!("steps.{i}.expect.{field}.{j}"),
+                format!("no status bit named `{name}` in status.yaml"),
+            )),
+            Mismatch::Field(what, expected, observed) => Failure::Diverged(Divergence {
                 step: i,
                 position: loaded.step_position(i),
                 what: what.to_string(),
                 expected,
                 observed,
                 recent: recent.clone(),
-            })
-        };
-        let reply = match lane.apply(&step.event) {
-            Ok(reply) => reply,
-            Err(why) => return Err(diverge("event", "a background cycle can complete".into(), why)),
-        };
-        checked += lane.check(spec, &step.expect, reply).map_err(|e| match e {
-            Mismatch::UnknownBit(field, j, name) => Failure::Unusable(loaded.map.error(
-                &format!("steps.{i}.expect.{field}.{j}"),
-                format!("no status bit named `{name}` in status.yaml"),
-            )),
-            Mismatch::Field(what, expected, observed) => diverge(what, expected, observed),
+            }),
         })?;
     }
     Ok(checked)
+}
+
+/// What a step claimed that could not happen: a background cycle when none can complete.
+fn no_background(observed: String) -> Mismatch {
+    Mismatch::Field("event", "a background cycle can complete".into(), observed)
+}
+
+/// Runs `loaded` on the model under `profile`; returns the number of expectations checked.
+pub fn run_on_model(spec: &Spec, loaded: &LoadedTrace, profile: &Profile) -> Result<usize, Failure> {
+    let mut lane = ModelLane::new(trace_config(spec, loaded, profile)?);
+    run_steps(loaded, |step| {
+        let reply = lane.apply(&step.event).map_err(no_background)?;
+        lane.check(spec, &step.expect, reply)
+    })
 }
 
 /// How an observation fails an expectation.
@@ -300,44 +313,14 @@ pub fn run_on_subject_observed<S: crate::subject::Subject>(
     profile: &Profile,
     observe: &mut dyn FnMut(&ModelConfig, &Event, &crate::subject::ModelSubject),
 ) -> Result<usize, Failure> {
-    let trace = &loaded.trace;
-    let mut cfg = ModelConfig::from_spec(spec, &trace.configuration, profile).map_err(|_| {
-        Failure::Unusable(
-            loaded
-                .map
-                .error("configuration", format!("no configuration named `{}` in check.yaml", trace.configuration)),
-        )
-    })?;
-    cfg.servo_counter_mask = 0xFF_FFFF;
+    let cfg = trace_config(spec, loaded, profile)?;
     let mut pair = crate::lockstep::Pair::<S>::power_on(&cfg);
-    let mut recent: Vec<String> = Vec::new();
-    let mut checked = 0;
-    for (i, step) in trace.steps.iter().enumerate() {
-        recent.push(step.event.to_string());
-        if recent.len() > RECENT_EVENTS {
-            recent.remove(0);
-        }
-        let diverge = |what: &str, expected: String, observed: String| {
-            Failure::Diverged(Divergence {
-                step: i,
-                position: loaded.step_position(i),
-                what: what.to_string(),
-                expected,
-                observed,
-                recent: recent.clone(),
-            })
-        };
+    run_steps(loaded, |step| {
         let obs = match pair.apply_trace_event(&step.event) {
             Ok(Some(obs)) => obs,
-            Ok(None) => {
-                return Err(diverge(
-                    "event",
-                    "a background cycle can complete".into(),
-                    "neither the model nor the implementation can complete one".into(),
-                ))
-            }
+            Ok(None) => return Err(no_background("neither the model nor the implementation can complete one".into())),
             Err(d) => {
-                return Err(diverge(
+                return Err(Mismatch::Field(
                     "implementation against the model",
                     "the model's observations".into(),
                     d.to_string(),
@@ -350,15 +333,8 @@ pub fn run_on_subject_observed<S: crate::subject::Subject>(
         };
         observe(&cfg, &event, &pair.model);
         if step.expect.window_cycles.is_some() {
-            continue;
+            return Ok(0);
         }
-        checked += compare(spec, &step.expect, &obs).map_err(|e| match e {
-            Mismatch::UnknownBit(field, j, name) => Failure::Unusable(loaded.map.error(
-                &format!("steps.{i}.expect.{field}.{j}"),
-                format!("no status bit named `{name}` in status.yaml"),
-            )),
-            Mismatch::Field(what, expected, observed) => diverge(what, expected, observed),
-        })?;
-    }
-    Ok(checked)
+        compare(spec, &step.expect, &obs)
+    })
 }

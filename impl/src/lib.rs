@@ -545,8 +545,7 @@ impl Core {
         let (counter, allowed) = counter::decrement(self.counter, cfg.profile.strobe_stop);
         self.counter = counter;
         self.counter_min = self.counter_min.min(counter);
-        let (tick, left) = self.rti_cycle(cfg, free);
-        self.background_credit = self.background_credit.saturating_add(left).min(u32::from(self.load.background_units));
+        let tick = self.credit_cycle(cfg, free);
         let strobe = allowed && (!cfg.profile.rti_strobes || tick != Tick::None);
         if strobe {
             self.cycles_since_strobe = 0;
@@ -559,32 +558,48 @@ impl Core {
         }
     }
 
-    /// The first of the next `n` servo cycles at which the timer trips, if any, in closed form.
-    fn trip_cycle(&self, cfg: &Config) -> Option<u64> {
+    /// The RTI period, I8 + 1 servo cycles (UM p.236), and the first of the next cycles
+    /// (counting from 1) on which the RTI runs.
+    fn rti_schedule(&self) -> (u32, u32) {
+        let i8 = u32::from(self.i8);
+        let phase = u32::from(self.rti_phase);
+        let first = if phase >= i8 { 1 } else { i8.saturating_sub(phase).saturating_add(1) };
+        (i8.saturating_add(1), first)
+    }
+
+    /// The last of the next `bound` cycles that strobes, if any: every one (UM p.215: the servo
+    /// interrupt strobes), or only the RTI ticks when the profile has the RTI task strobe
+    /// (SRM p.57).
+    fn last_strobe_within(&self, cfg: &Config, bound: u32) -> Option<u32> {
+        if !cfg.profile.rti_strobes {
+            return (bound > 0).then_some(bound);
+        }
+        let (period, first) = self.rti_schedule();
+        (first <= bound).then(|| {
+            first.saturating_add(bound.saturating_sub(first).checked_div(period).unwrap_or(0).saturating_mul(period))
+        })
+    }
+
+    /// The first of the next servo cycles at which the timer trips, in closed form.
+    fn trip_cycle(&self, cfg: &Config) -> u64 {
         let delay = u64::from(cfg.hardware_delay_cycles);
         let gap = u64::from(self.cycles_since_strobe);
-        // Without any further strobe the timer trips once the gap passes the delay.
+        // UM p.215: the timer trips once no strobe edge has come for longer than the delay.
+        let trip_after = |strobe: u32| u64::from(strobe).saturating_add(delay).saturating_add(1);
         let unstrobed = delay.saturating_add(1).saturating_sub(gap).max(1);
-        let allowed = u64::from(counter::strobing_cycles(self.counter));
-        if !cfg.profile.rti_strobes {
-            // Strobes on cycles 1..=allowed, then the gap grows.
-            return Some(if allowed == 0 { unstrobed } else { allowed.saturating_add(delay).saturating_add(1) });
+        // Strobes may come only while the counter allows them: cycles 1..=allowed.
+        let allowed = counter::strobing_cycles(self.counter);
+        if cfg.profile.rti_strobes {
+            let (period, first) = self.rti_schedule();
+            if u64::from(first) > unstrobed {
+                return unstrobed;
+            }
+            if first <= allowed && u64::from(period) > delay.saturating_add(1) {
+                // The gap between two ticks exceeds the delay: trip after the first strobe.
+                return trip_after(first);
+            }
         }
-        // RTI strobing: strobes at the RTI ticks among cycles 1..=allowed.
-        let i8 = u64::from(self.i8);
-        let phase = u64::from(self.rti_phase);
-        let period = i8.saturating_add(1);
-        let first = if phase >= i8 { 1 } else { i8.saturating_sub(phase).saturating_add(1) };
-        if first > allowed || first > unstrobed {
-            return Some(unstrobed);
-        }
-        if period > delay.saturating_add(1) {
-            // The gap between two ticks exceeds the delay: trip after the first strobe.
-            return Some(first.saturating_add(delay).saturating_add(1));
-        }
-        let last =
-            first.saturating_add(allowed.saturating_sub(first).checked_div(period).unwrap_or(0).saturating_mul(period));
-        Some(last.saturating_add(delay).saturating_add(1))
+        self.last_strobe_within(cfg, allowed).map_or(unstrobed, trip_after)
     }
 
     /// `n` servo cycles with no background completion, in constant time: the counter, its
@@ -594,28 +609,13 @@ impl Core {
         if !self.running() || n == 0 {
             return;
         }
+        // Up to the trip, if it comes within the n cycles: a tripped card stops.
         let trip_at = self.trip_cycle(cfg);
-        let cycles = match trip_at {
-            Some(t) if t <= u64::from(n) => t,
-            _ => u64::from(n),
-        };
-        let k = u32::try_from(cycles).unwrap_or(n);
+        let trips = trip_at <= u64::from(n);
+        let k = if trips { u32::try_from(trip_at).unwrap_or(n) } else { n };
         // Counter, minimum, strobe gap.
         let allowed = counter::strobing_cycles(self.counter);
-        let last_strobe: Option<u32> = if cfg.profile.rti_strobes {
-            let i8 = u32::from(self.i8);
-            let phase = u32::from(self.rti_phase);
-            let period = i8.saturating_add(1);
-            let first = if phase >= i8 { 1 } else { i8.saturating_sub(phase).saturating_add(1) };
-            let bound = allowed.min(k);
-            (first <= bound).then(|| {
-                first
-                    .saturating_add(bound.saturating_sub(first).checked_div(period).unwrap_or(0).saturating_mul(period))
-            })
-        } else {
-            let bound = allowed.min(k);
-            (bound > 0).then_some(bound)
-        };
+        let last_strobe = self.last_strobe_within(cfg, allowed.min(k));
         self.counter = counter::after(self.counter, k, cfg.profile.strobe_stop);
         self.counter_min = self.counter_min.min(self.counter);
         self.cycles_since_strobe = match last_strobe {
@@ -671,14 +671,17 @@ impl Core {
             self.credit_cycle(cfg, free);
             remaining_cycles = remaining_cycles.saturating_sub(1);
         }
-        if trip_at.is_some_and(|t| t <= u64::from(n)) {
+        if trips {
             self.trip();
         }
     }
 
-    fn credit_cycle(&mut self, cfg: &Config, free: u32) {
-        let (_, left) = self.rti_cycle(cfg, free);
+    /// One cycle's RTI bookkeeping and the background credit it leaves; returns the RTI tick.
+    #[inline]
+    fn credit_cycle(&mut self, cfg: &Config, free: u32) -> Tick {
+        let (tick, left) = self.rti_cycle(cfg, free);
         self.background_credit = self.background_credit.saturating_add(left).min(u32::from(self.load.background_units));
+        tick
     }
 
     // ------------------------------------------------------------------ background

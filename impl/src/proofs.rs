@@ -84,35 +84,44 @@ pub fn check_advance_any_n(cfg: &crate::Config, start: &crate::Core, n: u32, spl
 mod kani_proofs {
     use super::*;
 
-    #[kani::proof]
-    #[kani::unwind(10)]
-    fn advance_equals_single_steps_for_small_n() {
-        let profile = crate::Profile {
-            reset_value_i40_zero: if kani::any() { 4095 } else { 4096 },
-            strobe_stop: if kani::any() { StrobeStop::AtZero } else { StrobeStop::BelowZero },
-            rti_strobes: kani::any(),
-            bit12_firmware_error: kani::any(),
-            rti_warning_sticky: kani::any(),
-        };
-        let cfg = crate::Config {
-            profile,
-            hardware_delay_cycles: kani::any::<u8>().into(),
-            cycle_units: kani::any::<u8>().into(),
-            servo_units_per_motor: kani::any::<u8>().into(),
-            move_planning_units: kani::any::<u8>().into(),
+    /// Any configuration of every profile reading with I8 <= 3 (so the partial RTI periods
+    /// `advance` steps stay within the unwind bound) and any motor count. `Width` sets the
+    /// symbolic domain of the delay, the CPU costs, I40 and the PLC 0 and background costs: u8
+    /// for the single-step comparison (which unrolls n servo cycles), u16 for the
+    /// closed-form-only harness.
+    fn any_config<Width: kani::Arbitrary + Into<u16>>() -> crate::Config {
+        let wide = |w: Width| -> u16 { w.into() };
+        crate::Config {
+            profile: crate::Profile {
+                reset_value_i40_zero: if kani::any() { 4095 } else { 4096 },
+                strobe_stop: if kani::any() { StrobeStop::AtZero } else { StrobeStop::BelowZero },
+                rti_strobes: kani::any(),
+                bit12_firmware_error: kani::any(),
+                rti_warning_sticky: kani::any(),
+            },
+            hardware_delay_cycles: wide(kani::any()).into(),
+            cycle_units: wide(kani::any()),
+            servo_units_per_motor: wide(kani::any()),
+            move_planning_units: wide(kani::any()),
             saved_i8: kani::any::<u8>() % 4,
-            saved_i40: kani::any::<u8>().into(),
+            saved_i40: wide(kani::any()),
             saved_i41: 0,
             pass_firmware: 1,
             pass_user_program: 1,
             supply_min_millivolts: 4750,
             servo_counter_mask: 0xFF_FFFF,
             load: crate::Load {
-                motors: kani::any::<u8>() % 4,
-                plc0_units: kani::any::<u8>().into(),
-                background_units: kani::any::<u8>().into(),
+                motors: kani::any(),
+                plc0_units: wide(kani::any()),
+                background_units: wide(kani::any()),
             },
-        };
+        }
+    }
+
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn advance_equals_single_steps_for_small_n() {
+        let cfg = any_config::<u8>();
         let n: u8 = kani::any();
         kani::assume(n <= 8);
         check_advance_equals_single_steps(&cfg, &crate::Core::power_on(&cfg), n.into());
@@ -121,28 +130,7 @@ mod kani_proofs {
     #[kani::proof]
     #[kani::unwind(10)]
     fn advance_never_panics_and_splits_for_every_n() {
-        let profile = crate::Profile {
-            reset_value_i40_zero: if kani::any() { 4095 } else { 4096 },
-            strobe_stop: if kani::any() { StrobeStop::AtZero } else { StrobeStop::BelowZero },
-            rti_strobes: kani::any(),
-            bit12_firmware_error: kani::any(),
-            rti_warning_sticky: kani::any(),
-        };
-        let cfg = crate::Config {
-            profile,
-            hardware_delay_cycles: kani::any::<u16>().into(),
-            cycle_units: kani::any(),
-            servo_units_per_motor: kani::any(),
-            move_planning_units: kani::any(),
-            saved_i8: kani::any::<u8>() % 4,
-            saved_i40: kani::any(),
-            saved_i41: 0,
-            pass_firmware: 1,
-            pass_user_program: 1,
-            supply_min_millivolts: 4750,
-            servo_counter_mask: 0xFF_FFFF,
-            load: crate::Load { motors: kani::any(), plc0_units: kani::any(), background_units: kani::any() },
-        };
+        let cfg = any_config::<u16>();
         check_advance_any_n(&cfg, &crate::Core::power_on(&cfg), kani::any(), kani::any());
     }
 

@@ -1,6 +1,8 @@
 //! The proptest twin of the `advance` proof harness: random configurations, random states
 //! reached by random events, random n up to 20,000 (crossing the strobe stop and the trip).
 
+mod common;
+
 use pmacwd_core::proofs::{check_advance_any_n, check_advance_equals_single_steps};
 use pmacwd_core::{Area, Command, Config, Core, Event, FewIVariables, Load, Profile, Reset, ResetKind, StrobeStop};
 use proptest::prelude::*;
@@ -86,21 +88,7 @@ proptest! {
 /// where the closed form says (tripped, counter at its floor).
 #[test]
 fn a_billion_idle_cycles_trip_a_card_without_background() {
-    let cfg = Config {
-        profile: Profile::UM_215,
-        hardware_delay_cycles: 45,
-        cycle_units: 100,
-        servo_units_per_motor: 1,
-        move_planning_units: 0,
-        saved_i8: 2,
-        saved_i40: 0,
-        saved_i41: 0,
-        pass_firmware: 2,
-        pass_user_program: 1,
-        supply_min_millivolts: 4750,
-        servo_counter_mask: 0xFF_FFFF,
-        load: Load { motors: 8, plc0_units: 30, background_units: 250 },
-    };
+    let cfg = common::realistic_config();
     let mut core = Core::power_on(&cfg);
     core.advance(&cfg, 1_000_000_000);
     assert!(core.tripped());

@@ -1,24 +1,9 @@
 //! The I-variable stores the core delegates to, and the size of the core itself.
 
-use pmacwd_core::{AllIVariables, Command, Config, Core, Event, FewIVariables, Load, Profile, Reply};
+mod common;
 
-fn config() -> Config {
-    Config {
-        profile: Profile::UM_215,
-        hardware_delay_cycles: 45,
-        cycle_units: 100,
-        servo_units_per_motor: 1,
-        move_planning_units: 0,
-        saved_i8: 2,
-        saved_i40: 0,
-        saved_i41: 0,
-        pass_firmware: 2,
-        pass_user_program: 1,
-        supply_min_millivolts: 4750,
-        servo_counter_mask: 0xFF_FFFF,
-        load: Load { motors: 8, plc0_units: 30, background_units: 250 },
-    }
-}
+use common::realistic_config as config;
+use pmacwd_core::{AllIVariables, Command, Core, Event, FewIVariables, Reply};
 
 /// The design asks for the state "packed into a few machine words": the I-variable store is
 /// outside the core, so copying a core (as `advance` benchmarks and checkers do) stays cheap.

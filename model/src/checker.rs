@@ -422,6 +422,22 @@ pub struct PropertyInfo {
     pub needs: &'static str,
 }
 
+impl PropertyInfo {
+    /// This property's verdict after a run.
+    fn result(&self, holds: bool, applicable: bool, path: Option<Vec<TraceStep>>) -> PropertyResult {
+        PropertyResult {
+            name: self.name,
+            expectation: self.expectation,
+            cite: self.cite,
+            sentence: self.sentence,
+            holds,
+            applicable,
+            needs: self.needs,
+            path,
+        }
+    }
+}
+
 /// Every property's name, kind and citation, in checking order.
 pub fn property_table() -> Vec<PropertyInfo> {
     fn any(_: &ModelConfig) -> bool {
@@ -482,16 +498,7 @@ impl WatchdogModel {
                         (found.is_some() || !applicable, found.map(|p| model.replay(&p.clone().into_actions())))
                     }
                 };
-                PropertyResult {
-                    name: info.name,
-                    expectation: info.expectation,
-                    cite: info.cite,
-                    sentence: info.sentence,
-                    holds,
-                    applicable,
-                    needs: info.needs,
-                    path,
-                }
+                info.result(holds, applicable, path)
             })
             .collect();
         RunReport {
@@ -523,17 +530,7 @@ impl WatchdogModel {
                     Expectation::Always => found.is_none(),
                     Expectation::Sometimes => found.is_some() || !applicable,
                 };
-                let path = found.map(|p| model.replay(&p.clone().into_actions()));
-                PropertyResult {
-                    name: info.name,
-                    expectation: info.expectation,
-                    cite: info.cite,
-                    sentence: info.sentence,
-                    holds,
-                    applicable,
-                    needs: info.needs,
-                    path,
-                }
+                info.result(holds, applicable, found.map(|p| model.replay(&p.clone().into_actions())))
             })
             .collect();
         RunReport {

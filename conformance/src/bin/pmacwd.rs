@@ -387,9 +387,7 @@ fn conform(a: ConformArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let seed = a.seed.unwrap_or_else(|| {
-        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
-    });
+    let seed = a.seed.unwrap_or_else(generate::fresh_seed);
     println!(
         "seed {seed} (repeat with --seed {seed}); {} traces of up to {} steps over {} (configuration, profile) pairs",
         a.cases,
@@ -574,7 +572,7 @@ fn conformance_summary(
         eprintln!("pmacwd: {e}");
         ExitCode::from(2)
     })?;
-    let seed = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64);
+    let seed = generate::fresh_seed();
     let start = std::time::Instant::now();
     match generate::run::<CoreSubject>(
         &configs,
