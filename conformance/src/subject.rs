@@ -96,8 +96,31 @@ pub fn core_config(cfg: &ModelConfig) -> core::Config {
     }
 }
 
-fn core_load(l: &pmacwd_specs::check::Load) -> core::Load {
+pub fn core_load(l: &pmacwd_specs::check::Load) -> core::Load {
     core::Load { motors: l.motors, plc0_units: l.plc0_units, background_units: l.background_units }
+}
+
+/// The core's command for a model command.
+pub fn core_command(c: &HostCommand) -> core::Command {
+    match c {
+        HostCommand::GlobalStatus => core::Command::GlobalStatus,
+        HostCommand::ReadI(n) => core::Command::ReadI(*n),
+        HostCommand::WriteI(n, v) => core::Command::WriteI(*n, *v),
+        HostCommand::ReadHex(r) => core::Command::ReadHex(match r {
+            Register::ServoCycles => core::Register::ServoCycles,
+            Register::StatusX => core::Register::StatusX,
+            Register::StatusY => core::Register::StatusY,
+            Register::WatchdogCounter => core::Register::WatchdogCounter,
+            Register::WatchdogMinimum => core::Register::WatchdogMinimum,
+            Register::RunningChecksum => core::Register::RunningChecksum,
+            Register::ProgramChecksumReference => core::Register::ProgramChecksumReference,
+        }),
+        HostCommand::Reset => core::Command::Reset,
+        HostCommand::Open(Buffer::Plc(_)) => core::Command::OpenPlc,
+        HostCommand::Open(Buffer::Program(_)) => core::Command::OpenProgram,
+        HostCommand::Close => core::Command::Close,
+        HostCommand::Unrecognized(_) => core::Command::Unrecognized,
+    }
 }
 
 /// The core's event for a model event.
@@ -106,25 +129,7 @@ pub fn core_event(e: &Event) -> core::Event {
         Event::Servo { cycles } => core::Event::Servo(*cycles),
         Event::Background => core::Event::Background,
         Event::Load(l) => core::Event::Load(core_load(l)),
-        Event::Command(c) => core::Event::Command(match c {
-            HostCommand::GlobalStatus => core::Command::GlobalStatus,
-            HostCommand::ReadI(n) => core::Command::ReadI(*n),
-            HostCommand::WriteI(n, v) => core::Command::WriteI(*n, *v),
-            HostCommand::ReadHex(r) => core::Command::ReadHex(match r {
-                Register::ServoCycles => core::Register::ServoCycles,
-                Register::StatusX => core::Register::StatusX,
-                Register::StatusY => core::Register::StatusY,
-                Register::WatchdogCounter => core::Register::WatchdogCounter,
-                Register::WatchdogMinimum => core::Register::WatchdogMinimum,
-                Register::RunningChecksum => core::Register::RunningChecksum,
-                Register::ProgramChecksumReference => core::Register::ProgramChecksumReference,
-            }),
-            HostCommand::Reset => core::Command::Reset,
-            HostCommand::Open(Buffer::Plc(_)) => core::Command::OpenPlc,
-            HostCommand::Open(Buffer::Program(_)) => core::Command::OpenProgram,
-            HostCommand::Close => core::Command::Close,
-            HostCommand::Unrecognized(_) => core::Command::Unrecognized,
-        }),
+        Event::Command(c) => core::Event::Command(core_command(c)),
         Event::Supply { millivolts } => core::Event::Supply(*millivolts),
         Event::Reset(r) => core::Event::Reset(core::Reset {
             kind: match r.kind {

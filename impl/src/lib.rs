@@ -363,6 +363,11 @@ impl Core {
         self.flags & (TRIPPED | BOOTSTRAP) == 0
     }
 
+    /// The CPU load the card runs under now.
+    pub fn load(&self) -> Load {
+        self.load
+    }
+
     pub fn counter(&self) -> i32 {
         self.counter
     }

@@ -1,0 +1,356 @@
+//! Captures: the requests and replies of host sessions, with timing, written as a trace
+//! (JSON Lines, `docs/trace-format.md`) that `pmacwd replay` can judge. Used by `pmacwd record`
+//! (a proxy in front of a real card or an emulator) and by `pmacwd serve --record`.
+//!
+//! A reply is split into its answers ([`framing::parse_reply`]) and the answers are matched to
+//! the line's commands in order: `???`, I-variable reads, `RH` reads, `ver` and `cid` report
+//! one message each, everything else none; an error ends the line. What is compared and what is
+//! only kept as a note:
+//!
+//! - compared: `???`, `RH` of X:$6, Y:$6, X:$1080, X:$1090; reads of I8, I40, I41 and of any
+//!   I-variable written in the capture since the last reset; error numbers; the `(ack)` of
+//!   writes, `OPEN` and `CLOSE`; silence (a tripped card, UM p.215);
+//! - compared only when the capture's timing is exact to the servo cycle (an emulator's own
+//!   sessions, or virtual time): `RH` of X:$25 and Y:$25, which change every servo cycle;
+//! - kept as notes: X:$0 (the card's counter starts anywhere; the model's at 0), reads of
+//!   I-variables the capture did not write (the card's saved values are not in the model),
+//!   `ver` and `cid`, and every command after an error or whose answers cannot be matched.
+//!
+//! With timing from a host's clock, a silence becomes `tripped: true` with a window of
+//! `window_cycles` instead of an exact `(silence)`.
+
+use super::framing::{self, ReadAnswer};
+use crate::trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
+use crate::trace_jsonl;
+use pmacwd_model::command::{HostCommand, Register};
+use pmacwd_model::event::Event;
+use pmacwd_specs::check::{AllKeyword, ProfileSelection};
+use std::io::{self, Write};
+
+/// Commands every host sends that the model does not know, each answered by one message.
+const IDENTITY_COMMANDS: [&str; 2] = ["VER", "CID"];
+
+/// How exact the capture's timing is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Timing {
+    /// Servo cycles counted by the emulator itself: every reading is compared.
+    Exact,
+    /// Servo cycles estimated from a host's clock: counter reads become notes and a silence
+    /// may come up to this many servo cycles early or late.
+    HostClock { window_cycles: u32 },
+}
+
+/// Writes a capture one step at a time, flushing after each, so an interrupted session keeps
+/// everything up to its last exchange.
+pub struct CaptureWriter<W: Write> {
+    out: W,
+    timing: Timing,
+    pending_cycles: u64,
+    /// I-variables written since the last reset: the model knows their values.
+    written: Vec<bool>,
+    pending_notes: Vec<String>,
+    pub steps: u64,
+}
+
+/// How the commands of a line line up with the answers of its reply.
+enum Matched {
+    /// The command ran and this is what to expect of it.
+    Step(Step),
+    /// Kept as a note only (not executed, or not expressible in a trace).
+    Note(String),
+}
+
+impl<W: Write> CaptureWriter<W> {
+    /// Writes the header line.
+    pub fn new(mut out: W, description: &str, configuration: &str, timing: Timing) -> io::Result<Self> {
+        let header = Trace {
+            version: FORMAT_VERSION,
+            description: description.to_string(),
+            cite: None,
+            configuration: configuration.to_string(),
+            profiles: ProfileSelection::Keyword(AllKeyword::All),
+            steps: Vec::new(),
+        };
+        writeln!(out, "{}", trace_jsonl::header_line(&header))?;
+        out.flush()?;
+        Ok(CaptureWriter {
+            out,
+            timing,
+            pending_cycles: 0,
+            written: vec![false; usize::from(pmacwd_core::I_VARIABLE_MAX) + 1],
+            pending_notes: Vec::new(),
+            steps: 0,
+        })
+    }
+
+    /// `cycles` servo cycles passed (background whenever possible): written as `run` steps
+    /// before the next step.
+    pub fn elapse(&mut self, cycles: u64) {
+        self.pending_cycles = self.pending_cycles.saturating_add(cycles);
+    }
+
+    fn write_step(&mut self, mut step: Step) -> io::Result<()> {
+        while self.pending_cycles > 0 {
+            let cycles = u32::try_from(self.pending_cycles).unwrap_or(u32::MAX);
+            self.pending_cycles -= u64::from(cycles);
+            self.write_line(Step { event: TraceEvent::Run { cycles }, expect: Expect::default(), note: None })?;
+        }
+        if !self.pending_notes.is_empty() {
+            let mut notes = std::mem::take(&mut self.pending_notes);
+            notes.extend(step.note.take());
+            step.note = Some(notes.join("; "));
+        }
+        if let TraceEvent::Model(Event::Reset(_) | Event::Command(HostCommand::Reset)) = step.event {
+            self.written.fill(false);
+        }
+        self.write_line(step)
+    }
+
+    fn write_line(&mut self, step: Step) -> io::Result<()> {
+        writeln!(self.out, "{}", trace_jsonl::step_line(&step))?;
+        self.out.flush()?;
+        self.steps += 1;
+        Ok(())
+    }
+
+    /// An event the bench caused (a control command): load, supply, reset, checksum fault.
+    pub fn event(&mut self, step: Step) -> io::Result<()> {
+        match step.event {
+            TraceEvent::Run { cycles } => {
+                self.elapse(u64::from(cycles));
+                Ok(())
+            }
+            _ => self.write_step(step),
+        }
+    }
+
+    /// A command line and its reply (`None`: no reply came).
+    pub fn exchange(&mut self, line: &str, reply: Option<&[u8]>) -> io::Result<()> {
+        // A note goes with the line's step before it, or with the next step written.
+        let mut last: Option<Step> = None;
+        for m in self.match_line(line, reply) {
+            match (m, &mut last) {
+                (Matched::Step(s), _) => {
+                    if let Some(previous) = last.replace(s) {
+                        self.write_step(previous)?;
+                    }
+                }
+                (Matched::Note(n), Some(step)) => {
+                    step.note = Some(match step.note.take() {
+                        Some(old) => format!("{old}; {n}"),
+                        None => n,
+                    })
+                }
+                (Matched::Note(n), None) => self.pending_notes.push(n),
+            }
+        }
+        match last {
+            Some(step) => self.write_step(step),
+            None => Ok(()),
+        }
+    }
+
+    /// Notes that found no step to go with (at the end of a capture).
+    pub fn finish(mut self) -> io::Result<Vec<String>> {
+        self.out.flush()?;
+        Ok(std::mem::take(&mut self.pending_notes))
+    }
+
+    fn match_line(&mut self, line: &str, reply: Option<&[u8]>) -> Vec<Matched> {
+        let commands = framing::split_commands(line);
+        let command_step = |c: HostCommand, expect: Expect, note: Option<String>| {
+            Matched::Step(Step { event: TraceEvent::Model(Event::Command(c)), expect, note })
+        };
+        let unmatched = |why: String| -> Vec<Matched> {
+            let mut out: Vec<Matched> = commands
+                .iter()
+                .map(|c| match HostCommand::parse(c) {
+                    Ok(h) => command_step(h, Expect::default(), None),
+                    Err(e) => Matched::Note(format!("`{c}` left out: {}", e.0)),
+                })
+                .collect();
+            out.push(Matched::Note(why));
+            out
+        };
+        let Some(bytes) = reply else {
+            // A tripped card answers nothing (UM p.215).
+            let expect = match self.timing {
+                Timing::Exact => Expect { reply: Some("(silence)".into()), ..Expect::default() },
+                Timing::HostClock { window_cycles } => {
+                    Expect { tripped: Some(true), window_cycles: Some(window_cycles), ..Expect::default() }
+                }
+            };
+            return commands
+                .iter()
+                .map(|c| match HostCommand::parse(c) {
+                    Ok(h) => command_step(h, expect.clone(), None),
+                    Err(e) => Matched::Note(format!("`{c}` left out: {}", e.0)),
+                })
+                .collect();
+        };
+        let shown = String::from_utf8_lossy(bytes).escape_debug().to_string();
+        let parsed = match framing::parse_reply(bytes) {
+            Ok(p) => p,
+            Err(e) => return unmatched(format!("reply `{shown}` to `{line}` not compared: {e}")),
+        };
+        let mut answers = parsed.answers.into_iter();
+        let mut out = Vec::new();
+        let mut stopped = false;
+        for text in &commands {
+            if stopped {
+                out.push(Matched::Note(format!("`{text}` not executed: it follows an error in the line")));
+                continue;
+            }
+            let parsed = HostCommand::parse(text);
+            let identity = IDENTITY_COMMANDS.iter().any(|i| text.eq_ignore_ascii_case(i));
+            let reports = identity
+                || matches!(parsed, Ok(HostCommand::GlobalStatus | HostCommand::ReadI(_) | HostCommand::ReadHex(_)));
+            let unknown = !identity && matches!(parsed, Ok(HostCommand::Unrecognized(_)) | Err(_));
+            let answer = if reports || unknown { answers.next() } else { None };
+            let error = match &answer {
+                Some(ReadAnswer::Error(n)) => Some(*n),
+                _ => None,
+            };
+            if unknown && answer.is_some() && error.is_none() {
+                return unmatched(format!(
+                    "reply `{shown}` to `{line}` not compared: the card accepted `{text}`, which the model does not know"
+                ));
+            }
+            if reports && answer.is_none() {
+                return unmatched(format!("reply `{shown}` to `{line}` not compared: fewer answers than commands"));
+            }
+            let command = match parsed {
+                Ok(c) => c,
+                Err(e) => {
+                    out.push(Matched::Note(format!("`{text}` left out: {}", e.0)));
+                    stopped = error.is_some();
+                    continue;
+                }
+            };
+            let mut expect = Expect::default();
+            let mut note = None;
+            if let Some(code) = error {
+                stopped = true;
+                match code {
+                    Some(n) => expect.reply = Some(format!("ERR{n:03}")),
+                    None => note = Some("an error without its number (I6 = 0 or 2): not compared".to_string()),
+                }
+            } else if let Some(ReadAnswer::Data(data)) = answer {
+                (expect.reply, note) = self.expect_data(&command, identity, data.trim());
+            } else if command == HostCommand::Reset {
+                note = Some("$$$ resets the card: its acknowledgement is the link's, not compared".to_string());
+            } else {
+                expect.reply = Some("(ack)".into());
+                if let HostCommand::WriteI(n, _) = command {
+                    self.written[usize::from(n)] = true;
+                }
+            }
+            out.push(command_step(command, expect, note));
+        }
+        if answers.next().is_some() {
+            return unmatched(format!("reply `{shown}` to `{line}` not compared: more answers than commands"));
+        }
+        out
+    }
+
+    /// What to expect of a command that reported `data`, or why it is only a note.
+    fn expect_data(&self, command: &HostCommand, identity: bool, data: &str) -> (Option<String>, Option<String>) {
+        let exact = self.timing == Timing::Exact;
+        let note = |why: &str| (None, Some(format!("reply `{data}` not compared: {why}")));
+        if identity {
+            return note("outside the model's vocabulary");
+        }
+        match command {
+            HostCommand::ReadI(n) if !matches!(n, 8 | 40 | 41) && !self.written[usize::from(*n)] => {
+                note("the card's saved value; the model starts every I-variable but I8, I40, I41 at 0")
+            }
+            HostCommand::ReadHex(Register::ServoCycles) => note("X:$0 counts from wherever the card started"),
+            HostCommand::ReadHex(Register::WatchdogCounter | Register::WatchdogMinimum) if !exact => {
+                note("timing from the host's clock is not exact to a servo cycle")
+            }
+            _ => (Some(data.to_ascii_uppercase()), None),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trace_jsonl::read_all;
+    use std::path::Path;
+
+    fn capture(timing: Timing, exchanges: &[(&str, Option<&[u8]>)]) -> Trace {
+        let mut buf = Vec::new();
+        let mut w = CaptureWriter::new(&mut buf, "test", "i40-zero", timing).unwrap();
+        for (line, reply) in exchanges {
+            w.elapse(3);
+            w.exchange(line, *reply).unwrap();
+        }
+        assert!(w.finish().unwrap().is_empty());
+        read_all(Path::new("capture.jsonl"), buf.as_slice()).expect("a capture reads back as a trace")
+    }
+
+    fn replies(t: &Trace) -> Vec<(String, Option<String>)> {
+        t.steps
+            .iter()
+            .filter_map(|s| match &s.event {
+                TraceEvent::Model(Event::Command(c)) => Some((c.to_string(), s.expect.reply.clone())),
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_handshake_line_keeps_its_writes_and_notes_ver() {
+        // dls-pmaclib's connect: `i6=1 i3=2 ver` answered `1.947 CR ACK`.
+        let t = capture(Timing::Exact, &[("i6=1 i3=2 ver", Some(b"1.947\r\x06"))]);
+        assert_eq!(t.steps[0].event, TraceEvent::Run { cycles: 3 });
+        let r = replies(&t);
+        assert_eq!(r[0], ("I6=1".into(), Some("(ack)".into())));
+        assert_eq!(r[1], ("I3=2".into(), Some("(ack)".into())));
+        assert_eq!(r[2].1, None);
+        assert!(t.steps[3].note.as_deref().unwrap().contains("outside the model's vocabulary"));
+    }
+
+    #[test]
+    fn reads_compare_only_what_the_model_can_know() {
+        let t = capture(
+            Timing::HostClock { window_cycles: 225 },
+            &[
+                ("I130 I40 RHY:$25 ??? RHX:$0", Some(b"7\r0\r000FF0\r000000000000\r01A2B3\r\x06")),
+                ("I130=5 I130", Some(b"5\r\x06")),
+            ],
+        );
+        let r = replies(&t);
+        assert_eq!(r[0].1, None, "I130 before any write: the card's saved value");
+        assert_eq!(r[1].1.as_deref(), Some("0"));
+        assert_eq!(r[2].1, None, "Y:$25 from a host clock");
+        assert_eq!(r[3].1.as_deref(), Some("000000000000"));
+        assert_eq!(r[4].1, None, "X:$0");
+        assert_eq!(r[6].1.as_deref(), Some("5"), "I130 after the capture wrote it");
+    }
+
+    #[test]
+    fn an_error_ends_the_line_and_silence_is_a_trip() {
+        let t = capture(
+            Timing::HostClock { window_cycles: 225 },
+            &[("I130=1 FOO I131=1", Some(b"\x07ERR003\r")), ("???", None)],
+        );
+        let r = replies(&t);
+        assert_eq!(r.len(), 3, "I131=1 follows the error: a note, not a step");
+        assert_eq!(r[1].1.as_deref(), Some("ERR003"));
+        let last = t.steps.last().unwrap();
+        assert_eq!((last.expect.tripped, last.expect.window_cycles), (Some(true), Some(225)));
+        assert!(last.note.is_none());
+        assert!(t.steps.iter().any(|s| s.note.as_deref().is_some_and(|n| n.contains("`I131=1` not executed"))));
+    }
+
+    #[test]
+    fn answers_that_do_not_line_up_are_kept_but_not_compared() {
+        let t = capture(Timing::Exact, &[("#1J+ ???", Some(b"000000000000\r\x06")), ("??? ???", Some(b"1\r\x06"))]);
+        assert!(replies(&t).iter().all(|(_, r)| r.is_none()));
+        let notes: Vec<&str> = t.steps.iter().filter_map(|s| s.note.as_deref()).collect();
+        assert!(notes.iter().any(|n| n.contains("the card accepted `#1J+`")));
+        assert!(notes.iter().any(|n| n.contains("fewer answers than commands")));
+    }
+}

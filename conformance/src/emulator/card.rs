@@ -1,0 +1,346 @@
+//! One emulated card: the compact core (`pmacwd-core`), its I-variables with their saved
+//! values, a clock, and the framing of its answers. The server and the control interface share
+//! one `Card` behind a lock; every event that reaches the core also goes to the capture when
+//! the session is recorded.
+
+use super::capture::CaptureWriter;
+use super::control::{Control, HELP};
+use super::framing::{split_commands, Answer, Framing};
+use crate::subject::{core_command, core_event};
+use crate::trace::{Expect, Step, TraceEvent};
+use crate::trace_jsonl::step_line;
+use pmacwd_core as core;
+use pmacwd_core::IVariableStore;
+use pmacwd_model::command::HostCommand;
+use pmacwd_model::event::Event;
+use pmacwd_specs::check::Load;
+use std::io::Write;
+use std::time::Instant;
+
+/// What `ver` and `cid` answer: a firmware version (dls-pmaclib checks `^\d+\.\d+`) and a card
+/// ID (603382 is the Geo Brick, one of the three dls-pmaclib knows).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Identity {
+    pub version: String,
+    pub card_id: String,
+}
+
+impl Default for Identity {
+    fn default() -> Self {
+        Identity { version: "1.947".into(), card_id: "603382".into() }
+    }
+}
+
+/// How time passes for the card.
+#[derive(Clone, Copy, Debug)]
+pub enum Clock {
+    /// The servo rate against the wall clock: the cycles due are run before every request and
+    /// control command (an idle card costs nothing between them).
+    Wall { start: Instant, servo_hz: u32 },
+    /// Only `step` and `servo` on the control interface move time (for tests).
+    Virtual,
+}
+
+fn now_load(l: core::Load) -> Load {
+    Load { motors: l.motors, plc0_units: l.plc0_units, background_units: l.background_units }
+}
+
+/// I0..I8191 and the values saved in flash that a reset restores (the core holds I8, I40,
+/// I41 itself).
+pub struct FlashIVariables {
+    values: Box<core::AllIVariables>,
+    saved: Box<core::AllIVariables>,
+}
+
+impl FlashIVariables {
+    pub fn new(saved: &[(u16, i64)]) -> FlashIVariables {
+        let mut flash = Box::<core::AllIVariables>::default();
+        for &(n, v) in saved {
+            flash.write(n, v);
+        }
+        FlashIVariables { values: flash.clone(), saved: flash }
+    }
+}
+
+impl IVariableStore for FlashIVariables {
+    fn read(&self, n: u16) -> i64 {
+        self.values.read(n)
+    }
+    fn write(&mut self, n: u16, v: i64) -> bool {
+        self.values.write(n, v)
+    }
+    fn restore(&mut self) {
+        self.values.0 = self.saved.0;
+    }
+}
+
+/// The values saved in flash unless told otherwise: I3 = 2 and I6 = 1, the framing host
+/// drivers expect (`DATA CR ... ACK`, `BEL ERRnnn CR`). A factory-new card has I3 = 1
+/// (SRM p.37); `--saved I3=1` gives that.
+pub const SAVED_DEFAULT: [(u16, i64); 2] = [(3, 2), (6, 1)];
+
+pub struct Card {
+    cfg: core::Config,
+    core: core::Core,
+    store: FlashIVariables,
+    clock: Clock,
+    /// Servo cycles run since power-up (wall clock: against `start`).
+    cycles: u64,
+    identity: Identity,
+    capture: Option<CaptureWriter<Box<dyn Write + Send>>>,
+}
+
+impl Card {
+    pub fn power_on(cfg: core::Config, saved: &[(u16, i64)], clock: Clock, identity: Identity) -> Card {
+        Card {
+            core: core::Core::power_on(&cfg),
+            cfg,
+            store: FlashIVariables::new(saved),
+            clock,
+            cycles: 0,
+            identity,
+            capture: None,
+        }
+    }
+
+    /// Records every exchange and event from now on.
+    pub fn record(&mut self, capture: CaptureWriter<Box<dyn Write + Send>>) {
+        self.capture = Some(capture);
+    }
+
+    /// Ends the recording; returns notes that found no step (normally none).
+    pub fn finish_recording(&mut self) -> Vec<String> {
+        match self.capture.take().map(CaptureWriter::finish) {
+            Some(Ok(notes)) => notes,
+            Some(Err(e)) => vec![format!("the capture could not be completed: {e}")],
+            None => Vec::new(),
+        }
+    }
+
+    fn captured(&mut self, write: impl FnOnce(&mut CaptureWriter<Box<dyn Write + Send>>) -> std::io::Result<()>) {
+        if let Some(c) = &mut self.capture {
+            if let Err(e) = write(c) {
+                // A full disk must not stop the emulator: say so once and stop recording.
+                eprintln!("pmacwd serve: recording stopped: {e}");
+                self.capture = None;
+            }
+        }
+    }
+
+    /// Runs the servo cycles the wall clock says are due.
+    fn catch_up(&mut self) {
+        if let Clock::Wall { start, servo_hz } = self.clock {
+            let due = start.elapsed().as_nanos().saturating_mul(u128::from(servo_hz)) / 1_000_000_000;
+            let due = u64::try_from(due).unwrap_or(u64::MAX);
+            self.run(due.saturating_sub(self.cycles));
+        }
+    }
+
+    /// `n` servo cycles, a background cycle completing after each one in which the load allows
+    /// it: the `run` step of the trace format. Stops early once tripped (a tripped card does
+    /// nothing until INIT/ or power, UM p.215).
+    fn run(&mut self, n: u64) {
+        self.cycles = self.cycles.saturating_add(n);
+        self.captured(|c| {
+            c.elapse(n);
+            Ok(())
+        });
+        for _ in 0..n {
+            if self.core.tripped() {
+                break;
+            }
+            self.core.servo_cycle(&self.cfg);
+            if self.core.background_possible() {
+                self.core.background_cycle(&self.cfg);
+            }
+        }
+    }
+
+    pub fn tripped(&mut self) -> bool {
+        self.catch_up();
+        self.core.tripped()
+    }
+
+    fn framing(&self) -> Framing {
+        Framing { i3: self.core.read_i(3, &self.store), i6: self.core.read_i(6, &self.store) }
+    }
+
+    /// Answers a command line; `None` when the card is silent (tripped).
+    pub fn line(&mut self, bytes: &[u8]) -> Option<Vec<u8>> {
+        self.catch_up();
+        let line = String::from_utf8_lossy(bytes).into_owned();
+        let reply = self.answer(bytes, &line);
+        let r = reply.as_deref();
+        self.captured(|c| c.exchange(&line, r));
+        reply
+    }
+
+    fn answer(&mut self, bytes: &[u8], line: &str) -> Option<Vec<u8>> {
+        // UM p.215: a tripped card will not communicate.
+        if self.core.tripped() {
+            return None;
+        }
+        let mut out = Vec::new();
+        if bytes.iter().any(|b| *b > 127) {
+            // ERR004: illegal character, bad value (>127 ASCII).
+            self.framing().push_answer(&mut out, &Answer::Error(4));
+            return Some(out);
+        }
+        for text in split_commands(line) {
+            let answer = self.command(&text);
+            // Each answer is framed as I3/I6 stand after its command: `i3=2` already counts.
+            self.framing().push_answer(&mut out, &answer);
+            if let Answer::Error(_) = answer {
+                return Some(out);
+            }
+        }
+        self.framing().push_line_end(&mut out);
+        Some(out)
+    }
+
+    fn command(&mut self, text: &str) -> Answer {
+        if text.eq_ignore_ascii_case("ver") {
+            return Answer::Data(self.identity.version.clone());
+        }
+        if text.eq_ignore_ascii_case("cid") {
+            return Answer::Data(self.identity.card_id.clone());
+        }
+        // A command the model cannot hold (I9000, RHX:$1234) is a data error to the card.
+        let Ok(command) = HostCommand::parse(text) else {
+            return Answer::Error(3);
+        };
+        match self.core.command(&self.cfg, core_command(&command), &mut self.store) {
+            core::Reply::None | core::Reply::Ack | core::Reply::Silence => Answer::Nothing,
+            core::Reply::Status { x, y } => {
+                Answer::Data(String::from_utf8_lossy(&core::Reply::status_text(x, y)).into_owned())
+            }
+            core::Reply::Bootstrap => Answer::Data("BOOTSTRAP PROM".into()),
+            core::Reply::Value(v) => Answer::Data(v.to_string()),
+            core::Reply::Hex(v) => Answer::Data(format!("{v:06X}")),
+            core::Reply::Error(n) => Answer::Error(n),
+        }
+    }
+
+    /// The answer to a control character (VR_CTRL_RESPONSE): the global stop commands are not
+    /// modelled yet, so the card answers as to any command it does not know.
+    pub fn control_character(&mut self, _c: u8) -> Option<Vec<u8>> {
+        if self.tripped() {
+            return None;
+        }
+        let mut out = Vec::new();
+        self.framing().push_answer(&mut out, &Answer::Error(3));
+        Some(out)
+    }
+
+    /// A control-interface command; the reply line without its newline.
+    pub fn control(&mut self, c: Control) -> String {
+        self.catch_up();
+        let event = match c {
+            Control::Load { motors, plc0_units, background_units } => {
+                let now = self.core.load();
+                Event::Load(Load {
+                    motors: motors.unwrap_or(now.motors),
+                    plc0_units: plc0_units.unwrap_or(now.plc0_units),
+                    background_units: background_units.unwrap_or(now.background_units),
+                })
+            }
+            Control::Starve => {
+                // PLC 0 takes exactly the CPU the servo leaves in each RTI period (UM p.236:
+                // the RTI runs every I8+1 servo cycles), so the background never gets any.
+                let now = self.core.load();
+                let servo = u32::from(now.motors).saturating_mul(u32::from(self.cfg.servo_units_per_motor));
+                let free = u32::from(self.cfg.cycle_units).saturating_sub(servo);
+                let period = u32::try_from(self.core.read_i(8, &self.store)).unwrap_or(0).saturating_add(1);
+                let fill = free.saturating_mul(period).saturating_sub(u32::from(self.cfg.move_planning_units));
+                Event::Load(Load { plc0_units: u16::try_from(fill).unwrap_or(u16::MAX), ..now_load(now) })
+            }
+            Control::Supply { millivolts } => Event::Supply { millivolts },
+            Control::Reset(r) => Event::Reset(r),
+            Control::ChecksumFault(t) => Event::ChecksumFault(t),
+            Control::ClearRtiReentry => Event::ClearRtiReentry,
+            Control::Step { .. } | Control::Servo { .. } if matches!(self.clock, Clock::Wall { .. }) => {
+                return "error: step and servo move virtual time; this card runs on the wall clock (serve --virtual-time)"
+                    .into();
+            }
+            Control::Step { cycles } => {
+                self.run(u64::from(cycles));
+                let step = Step { event: TraceEvent::Run { cycles }, expect: Expect::default(), note: None };
+                return format!("ok {}", step_line(&step));
+            }
+            Control::Servo { cycles } => Event::Servo { cycles },
+            Control::State => return format!("ok {}", self.state()),
+            Control::Help => return format!("ok {HELP}"),
+        };
+        self.core.apply(&self.cfg, core_event(&event), &mut self.store);
+        if let Event::Servo { cycles } = event {
+            self.cycles = self.cycles.saturating_add(u64::from(cycles));
+        }
+        let step = Step { event: TraceEvent::Model(event), expect: Expect::default(), note: None };
+        let line = step_line(&step);
+        self.captured(|c| c.event(step));
+        format!("ok {line}")
+    }
+
+    /// What a bench can see of the card, on one line.
+    pub fn state(&mut self) -> String {
+        self.catch_up();
+        let (x, y) = self.core.status_words(&self.cfg);
+        let l = self.core.load();
+        format!(
+            "tripped={} counter={} counter_min={} status={:06X}{:06X} cycles={} load=motors:{},plc0_units:{},background_units:{}",
+            self.core.tripped(),
+            self.core.counter(),
+            self.core.counter_min(),
+            x,
+            y,
+            self.cycles,
+            l.motors,
+            l.plc0_units,
+            l.background_units
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn card() -> Card {
+        let spec = pmacwd_specs::Spec::embedded().unwrap();
+        let cfg =
+            pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
+        Card::power_on(crate::subject::core_config(&cfg), &SAVED_DEFAULT, Clock::Virtual, Identity::default())
+    }
+
+    #[test]
+    fn the_dls_pmaclib_handshake_gets_the_reply_it_checks_for() {
+        // dls-pmaclib connects with `i6=1 i3=2 ver` and wants `^\d+\.\d+\s*\r\x06$`.
+        assert_eq!(card().line(b"i6=1 i3=2 ver").unwrap(), b"1.947\r\x06");
+    }
+
+    #[test]
+    fn answers_follow_i3_as_it_stands_after_each_command() {
+        let mut c = card();
+        assert_eq!(c.line(b"i3=3 I40 i3=2 I40").unwrap(), b"\n0\r0\r\x06");
+        assert_eq!(c.line(b"I40 FOO I41").unwrap(), b"0\r\x07ERR003\r", "the error ends the line");
+        assert_eq!(c.line(&[b'I', 0xC3, b'9']).unwrap(), b"\x07ERR004\r", "bytes above 127");
+    }
+
+    #[test]
+    fn a_starved_card_goes_silent_until_init() {
+        let mut c = card();
+        assert!(c.control(Control::parse("starve").unwrap()).starts_with("ok {\"load\""));
+        // I40 = 0: 4096 (UM p.215) cycles of counter, then the hardware delay.
+        assert!(c.control(Control::parse("step 5000").unwrap()).starts_with("ok {\"run\":5000}"));
+        assert_eq!(c.line(b"???"), None);
+        c.control(Control::parse("init").unwrap());
+        assert_eq!(c.line(b"???").unwrap().last(), Some(&0x06), "answers again after INIT/");
+    }
+
+    #[test]
+    fn a_reset_restores_the_saved_framing() {
+        let mut c = card();
+        assert_eq!(c.line(b"i3=0 I40").unwrap(), b"0\r", "no ACK under I3 = 0");
+        assert_eq!(c.line(b"$$$").unwrap(), b"\x06", "$$$ restores the saved I3 = 2");
+    }
+}

@@ -1,0 +1,10 @@
+//! A Turbo PMAC emulator on the card's Ethernet protocol (`pmacwd serve`), backed by the
+//! compact core, and a recording proxy (`pmacwd record`) that writes host sessions as
+//! captures in the trace format. `docs/emulator.md` is the user's guide.
+
+pub mod capture;
+pub mod card;
+pub mod control;
+pub mod framing;
+pub mod protocol;
+pub mod server;

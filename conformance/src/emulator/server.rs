@@ -1,0 +1,337 @@
+//! `pmacwd serve`: the card on TCP. One thread per connection; the card's lock is held only
+//! while a line is answered (microseconds), never while a socket is read or written, so a slow
+//! or vanished client cannot stall the others.
+//!
+//! What keeps the server from wedging: a request the card cannot follow (unknown code, a
+//! length beyond its 1,492-byte buffer) closes that connection; a write that does not complete
+//! in `WRITE_TIMEOUT` closes it; connections idle past `idle_timeout` are closed; and when
+//! `clients_max` connections are open, the one idle longest makes room for a new one
+//! (half-open connections are never the ones in use).
+
+use super::card::Card;
+use super::control::Control;
+use super::protocol::{Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
+use std::io::{self, BufRead, BufReader, Read, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread;
+use std::time::{Duration, Instant};
+
+/// A reply that cannot be written in this time closes the connection.
+pub const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
+/// A control line longer than this is refused (the commands are a few words).
+const CONTROL_LINE_BYTES_MAX: u64 = 1024;
+const CONTROL_CLIENTS_MAX: usize = 16;
+
+#[derive(Clone, Debug)]
+pub struct ServeOptions {
+    pub listen: SocketAddr,
+    pub control: Option<SocketAddr>,
+    pub clients_max: usize,
+    pub idle_timeout: Option<Duration>,
+    pub verbose: bool,
+}
+
+/// Counters for the summary and the tests.
+#[derive(Default, Debug)]
+pub struct Stats {
+    pub connections: AtomicU64,
+    pub requests: AtomicU64,
+    pub refused_requests: AtomicU64,
+    pub evicted: AtomicU64,
+}
+
+struct Connection {
+    id: u64,
+    stream: TcpStream,
+    last_active_ms: Arc<AtomicU64>,
+}
+
+struct Shared {
+    card: Mutex<Card>,
+    started: Instant,
+    options: ServeOptions,
+    connections: Mutex<Vec<Connection>>,
+    stats: Stats,
+    stopping: AtomicBool,
+}
+
+impl Shared {
+    fn card(&self) -> MutexGuard<'_, Card> {
+        // A panic elsewhere must not take the card down with it: the state stays usable.
+        self.card.lock().unwrap_or_else(|e| e.into_inner())
+    }
+    fn now_ms(&self) -> u64 {
+        u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX)
+    }
+    fn log(&self, msg: &str) {
+        if self.options.verbose {
+            eprintln!("pmacwd serve: {msg}");
+        }
+    }
+}
+
+/// A running server.
+pub struct Server {
+    shared: Arc<Shared>,
+    pub local_addr: SocketAddr,
+    pub control_addr: Option<SocketAddr>,
+    threads: Vec<thread::JoinHandle<()>>,
+}
+
+impl Server {
+    /// Binds the listeners and starts accepting.
+    pub fn start(card: Card, options: ServeOptions) -> io::Result<Server> {
+        let listener = TcpListener::bind(options.listen)?;
+        let local_addr = listener.local_addr()?;
+        let control = match options.control {
+            Some(a) => Some(TcpListener::bind(a)?),
+            None => None,
+        };
+        let control_addr = control.as_ref().map(|l| l.local_addr()).transpose()?;
+        let shared = Arc::new(Shared {
+            card: Mutex::new(card),
+            started: Instant::now(),
+            options,
+            connections: Mutex::new(Vec::new()),
+            stats: Stats::default(),
+            stopping: AtomicBool::new(false),
+        });
+        let mut threads = Vec::new();
+        let s = shared.clone();
+        threads.push(thread::spawn(move || accept_hosts(listener, s)));
+        if let Some(l) = control {
+            let s = shared.clone();
+            threads.push(thread::spawn(move || accept_control(l, s)));
+        }
+        Ok(Server { shared, local_addr, control_addr, threads })
+    }
+
+    pub fn stats(&self) -> &Stats {
+        &self.shared.stats
+    }
+
+    /// Runs `f` on the card (for tests and the final summary).
+    pub fn with_card<T>(&self, f: impl FnOnce(&mut Card) -> T) -> T {
+        f(&mut self.shared.card())
+    }
+
+    /// Blocks until the listeners stop (they do not, unless [`Server::stop`] is called).
+    pub fn wait(mut self) {
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+
+    /// Stops accepting and closes every connection.
+    pub fn stop(mut self) {
+        self.shared.stopping.store(true, Ordering::SeqCst);
+        // Wake the accept loops.
+        let _ = TcpStream::connect(self.local_addr);
+        if let Some(a) = self.control_addr {
+            let _ = TcpStream::connect(a);
+        }
+        for c in self.shared.connections.lock().unwrap_or_else(|e| e.into_inner()).iter() {
+            let _ = c.stream.shutdown(std::net::Shutdown::Both);
+        }
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
+    let mut next_id = 0u64;
+    for stream in listener.incoming() {
+        if shared.stopping.load(Ordering::SeqCst) {
+            return;
+        }
+        let Ok(stream) = stream else { continue };
+        next_id += 1;
+        let id = next_id;
+        let last_active_ms = Arc::new(AtomicU64::new(shared.now_ms()));
+        let Ok(handle) = stream.try_clone() else { continue };
+        {
+            let mut conns = shared.connections.lock().unwrap_or_else(|e| e.into_inner());
+            if conns.len() >= shared.options.clients_max.max(1) {
+                let idlest = conns
+                    .iter()
+                    .enumerate()
+                    .min_by_key(|(_, c)| c.last_active_ms.load(Ordering::Relaxed))
+                    .map(|(i, _)| i);
+                if let Some(i) = idlest {
+                    let old = conns.swap_remove(i);
+                    let _ = old.stream.shutdown(std::net::Shutdown::Both);
+                    shared.stats.evicted.fetch_add(1, Ordering::Relaxed);
+                    shared.log(&format!("{} clients open: closed #{}, idle longest", conns.len() + 1, old.id));
+                }
+            }
+            conns.push(Connection { id, stream: handle, last_active_ms: last_active_ms.clone() });
+        }
+        shared.stats.connections.fetch_add(1, Ordering::Relaxed);
+        let s = shared.clone();
+        thread::spawn(move || {
+            let peer = stream.peer_addr().map_or_else(|_| "?".into(), |a| a.to_string());
+            s.log(&format!("#{id} {peer} connected"));
+            match host_session(stream, &s, &last_active_ms) {
+                Ok(()) => s.log(&format!("#{id} {peer} closed")),
+                Err(e) => {
+                    // Protocol errors are always worth a line; I/O endings only when verbose.
+                    if e.kind() == io::ErrorKind::InvalidData {
+                        eprintln!("pmacwd serve: #{id} {peer}: {e}; connection closed");
+                    } else {
+                        s.log(&format!("#{id} {peer}: {e}"));
+                    }
+                }
+            }
+            s.connections.lock().unwrap_or_else(|e| e.into_inner()).retain(|c| c.id != id);
+        });
+    }
+}
+
+/// Reads exactly `buf.len()` bytes; `Ok(false)` on a clean end of stream before the first.
+fn read_or_end(r: &mut impl Read, buf: &mut [u8]) -> io::Result<bool> {
+    let mut got = 0;
+    while got < buf.len() {
+        match r.read(&mut buf[got..]) {
+            Ok(0) if got == 0 => return Ok(false),
+            Ok(0) => return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the client left mid-request")),
+            Ok(n) => got += n,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(true)
+}
+
+/// Trailing CR, LF and NUL are the line's end, not commands.
+fn trim_line(data: &[u8]) -> &[u8] {
+    let end = data.iter().rposition(|b| !matches!(b, b'\r' | b'\n' | 0)).map_or(0, |i| i + 1);
+    &data[..end]
+}
+
+fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) -> io::Result<()> {
+    stream.set_nodelay(true)?;
+    stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
+    stream.set_read_timeout(shared.options.idle_timeout)?;
+    let mut reader = BufReader::new(stream.try_clone()?);
+    let mut writer = stream;
+    // The part of a long reply not yet fetched (GETBUFFER), or a SENDLINE answer (GETLINE).
+    let mut pending: Vec<u8> = Vec::new();
+    let mut sent = 0usize;
+    let mut header = [0u8; HEADER_BYTES];
+    let mut data = Vec::new();
+    loop {
+        if !read_or_end(&mut reader, &mut header)? {
+            return Ok(());
+        }
+        last_active_ms.store(shared.now_ms(), Ordering::Relaxed);
+        shared.stats.requests.fetch_add(1, Ordering::Relaxed);
+        let request = Header::parse(&header).request().map_err(|e| {
+            shared.stats.refused_requests.fetch_add(1, Ordering::Relaxed);
+            io::Error::new(io::ErrorKind::InvalidData, e)
+        })?;
+        let reply: Option<Vec<u8>> = match request {
+            Request::Line { data_bytes, reply } => {
+                data.resize(data_bytes, 0);
+                if !read_or_end(&mut reader, &mut data)? && data_bytes > 0 {
+                    return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the client left mid-request"));
+                }
+                let answer = shared.card().line(trim_line(&data));
+                pending.clear();
+                sent = 0;
+                match answer {
+                    None => None,
+                    Some(bytes) if reply => {
+                        pending = bytes;
+                        Some(next_packet(&pending, &mut sent))
+                    }
+                    Some(bytes) => {
+                        // SENDLINE: one byte now, the answer on GETLINE.
+                        pending = bytes;
+                        Some(vec![0x40])
+                    }
+                }
+            }
+            Request::NextPacket => (!shared.card().tripped()).then(|| {
+                if sent < pending.len() {
+                    next_packet(&pending, &mut sent)
+                } else {
+                    // Nothing waiting: NUL, which hosts read as "no data" (facts s.3).
+                    vec![0]
+                }
+            }),
+            Request::ReadReady => (!shared.card().tripped()).then(|| vec![0, u8::from(sent < pending.len())]),
+            Request::Flush => {
+                pending.clear();
+                sent = 0;
+                // The card answers the flush with a CTRL-X.
+                (!shared.card().tripped()).then(|| vec![0x18])
+            }
+            Request::Control(c) => shared.card().control_character(c),
+        };
+        // A tripped card says nothing: the host's read times out (UM p.215).
+        if let Some(bytes) = reply {
+            writer.write_all(&bytes)?;
+        }
+    }
+}
+
+fn next_packet(pending: &[u8], sent: &mut usize) -> Vec<u8> {
+    let end = (*sent + REPLY_PACKET_BYTES).min(pending.len());
+    let packet = pending[*sent..end].to_vec();
+    *sent = end;
+    packet
+}
+
+fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
+    let open = Arc::new(AtomicU64::new(0));
+    for stream in listener.incoming() {
+        if shared.stopping.load(Ordering::SeqCst) {
+            return;
+        }
+        let Ok(mut stream) = stream else { continue };
+        if open.load(Ordering::SeqCst) as usize >= CONTROL_CLIENTS_MAX {
+            let _ = writeln!(stream, "error: {CONTROL_CLIENTS_MAX} control connections are open already");
+            continue;
+        }
+        open.fetch_add(1, Ordering::SeqCst);
+        let s = shared.clone();
+        let open = open.clone();
+        thread::spawn(move || {
+            if let Err(e) = control_session(stream, &s) {
+                s.log(&format!("control connection: {e}"));
+            }
+            open.fetch_sub(1, Ordering::SeqCst);
+        });
+    }
+}
+
+fn control_session(stream: TcpStream, shared: &Shared) -> io::Result<()> {
+    stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
+    let mut writer = stream.try_clone()?;
+    let mut reader = BufReader::new(stream);
+    let mut line = Vec::new();
+    loop {
+        line.clear();
+        let n = reader.by_ref().take(CONTROL_LINE_BYTES_MAX).read_until(b'\n', &mut line)?;
+        if n == 0 {
+            return Ok(());
+        }
+        if line.last() != Some(&b'\n') && n as u64 == CONTROL_LINE_BYTES_MAX {
+            writeln!(writer, "error: a control line is at most {CONTROL_LINE_BYTES_MAX} bytes")?;
+            return Ok(());
+        }
+        let text = String::from_utf8_lossy(&line);
+        let text = text.trim();
+        if text.is_empty() {
+            continue;
+        }
+        let reply = match Control::parse(text) {
+            Ok(c) => shared.card().control(c),
+            Err(e) => format!("error: {e}"),
+        };
+        writeln!(writer, "{reply}")?;
+    }
+}
