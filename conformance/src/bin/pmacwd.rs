@@ -19,6 +19,14 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Turbo PMAC emulator on the card's Ethernet protocol (port 1025), backed by the compact
+    /// core: `???`, I-variables with I41 lockout, X:$25, Y:$25, X:$0, `$$$`, `ver`, `cid`; the
+    /// watchdog runs at the servo rate and a tripped card goes silent until INIT/ or power.
+    /// Load and faults come through the control interface (docs/emulator.md).
+    Serve(pmacwd_conformance::emulator::cli::ServeArgs),
+    /// Transparent proxy between a host program and a card that writes every request and reply,
+    /// with timing, as a capture for `pmacwd replay` (docs/emulator.md).
+    Record(pmacwd_conformance::emulator::cli::RecordArgs),
     /// Model-check every profile at the bounded configurations of specs/check.yaml.
     ///
     /// Prints, per configuration and profile: states, depth, time, and every property with its
@@ -605,6 +613,8 @@ fn main() -> ExitCode {
             conform(ConformArgs { cases, max_len, seed, scenarios, specs, no_exhaustive, save_regressions, threads })
         }
         Command::Run { paths, specs, profile } => run_traces(paths, specs, profile),
+        Command::Serve(args) => pmacwd_conformance::emulator::cli::serve(args),
+        Command::Record(args) => pmacwd_conformance::emulator::cli::record(args),
         Command::Decode { reply, json, specs } => decode_reply(&reply, json, specs),
         Command::Replay { file, format, specs } => replay_file(&file, format, specs),
         Command::Import { log, out, configuration, yaml } => import_log(&log, out, &configuration, yaml),

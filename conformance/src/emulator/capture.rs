@@ -150,6 +150,11 @@ impl<W: Write> CaptureWriter<W> {
         }
     }
 
+    /// A note for the next step.
+    pub fn note(&mut self, note: String) {
+        self.pending_notes.push(note);
+    }
+
     /// Notes that found no step to go with (at the end of a capture).
     pub fn finish(mut self) -> io::Result<Vec<String>> {
         self.out.flush()?;

@@ -4,7 +4,9 @@
 
 pub mod capture;
 pub mod card;
+pub mod cli;
 pub mod control;
 pub mod framing;
 pub mod protocol;
+pub mod proxy;
 pub mod server;
