@@ -1,0 +1,216 @@
+//! `pmacwd serve` on real sockets: the protocol details real clients rely on, and robustness
+//! against clients that misbehave. Each test runs its own server on a free loopback port.
+
+use pmacwd_conformance::emulator::card::{Card, Clock, Identity, SAVED_DEFAULT};
+use pmacwd_conformance::emulator::control::Control;
+use pmacwd_conformance::emulator::protocol::{Header, REPLY_PACKET_BYTES};
+use pmacwd_conformance::emulator::server::{ServeOptions, Server};
+use pmacwd_conformance::subject::core_config;
+use std::io::{ErrorKind, Read, Write};
+use std::net::TcpStream;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+fn card(clock: Clock) -> Card {
+    let spec = pmacwd_specs::Spec::embedded().unwrap();
+    let cfg =
+        pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
+    Card::power_on(core_config(&cfg), &SAVED_DEFAULT, clock, Identity::default())
+}
+
+fn server(clock: Clock, clients_max: usize, idle_timeout: Option<Duration>) -> Server {
+    let options = ServeOptions {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        control: None,
+        clients_max,
+        idle_timeout,
+        verbose: false,
+    };
+    Server::start(card(clock), options).expect("a free loopback port")
+}
+
+fn connect(s: &Server) -> TcpStream {
+    let c = TcpStream::connect(s.local_addr).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    c.set_nodelay(true).unwrap();
+    c
+}
+
+fn send_line(c: &mut TcpStream, line: &str) {
+    c.write_all(&Header::getresponse(line.len() as u16).to_bytes()).unwrap();
+    c.write_all(line.as_bytes()).unwrap();
+}
+
+/// One packet as a host reads it (the server writes each packet whole).
+fn packet(c: &mut TcpStream) -> Vec<u8> {
+    let mut buf = vec![0u8; 4096];
+    let n = c.read(&mut buf).expect("a reply");
+    buf.truncate(n);
+    buf
+}
+
+fn ask(c: &mut TcpStream, line: &str) -> Vec<u8> {
+    send_line(c, line);
+    packet(c)
+}
+
+/// Whether the server closed this connection (end of stream, or reset).
+fn closed(c: &mut TcpStream) -> bool {
+    let mut b = [0u8; 16];
+    matches!(c.read(&mut b), Ok(0)) || matches!(c.read(&mut b), Err(e) if e.kind() == ErrorKind::ConnectionReset)
+}
+
+#[test]
+fn a_long_reply_comes_in_1400_byte_packets_fetched_with_getbuffer() {
+    // 373 `???` fill the card's 1,492-byte line; the answers (13 bytes each, and the ACK) take
+    // four packets. dls-pmaclib reads on with GETBUFFER while a packet is 1,400 bytes.
+    let s = server(Clock::Virtual, 8, None);
+    let mut c = connect(&s);
+    let line = "??? ".repeat(373);
+    assert_eq!(line.len(), 1492);
+    let mut reply = ask(&mut c, &line);
+    assert_eq!(reply.len(), REPLY_PACKET_BYTES);
+    loop {
+        c.write_all(&Header::getbuffer().to_bytes()).unwrap();
+        let p = packet(&mut c);
+        reply.extend_from_slice(&p);
+        if p.len() < REPLY_PACKET_BYTES {
+            break;
+        }
+    }
+    assert_eq!(reply.len(), 373 * 13 + 1);
+    assert_eq!(reply.last(), Some(&0x06));
+    assert!(reply.chunks(13).take(373).all(|a| a == b"001000000000\r"));
+    // Nothing left: GETBUFFER gets a NUL, which hosts read as "no data".
+    c.write_all(&Header::getbuffer().to_bytes()).unwrap();
+    assert_eq!(packet(&mut c), [0]);
+}
+
+#[test]
+fn malformed_headers_close_only_that_connection() {
+    let s = server(Clock::Virtual, 8, None);
+    let mut good = connect(&s);
+    let bad_headers: [[u8; 8]; 3] = [
+        [0x40, 0x12, 0, 0, 0, 0, 0, 0],       // unknown request code
+        [0x40, 0xBF, 0, 0, 0, 0, 0xFF, 0xFF], // 65,535 data bytes: beyond the 1,492 the card takes
+        [0xC0, 0xBF, 0, 0, 0, 0, 0, 3],       // GETRESPONSE with the upload request type
+    ];
+    for h in bad_headers {
+        let mut c = connect(&s);
+        c.write_all(&h).unwrap();
+        c.write_all(b"???").unwrap();
+        assert!(closed(&mut c), "{h:02X?} should close the connection");
+        assert_eq!(ask(&mut good, "???"), b"001000000000\r\x06", "the other client is unaffected");
+    }
+    assert_eq!(s.stats().refused_requests.load(Ordering::Relaxed), 3);
+}
+
+#[test]
+fn clients_that_leave_mid_request_or_mid_reply_do_not_disturb_others() {
+    let s = server(Clock::Virtual, 8, None);
+    {
+        // A header that promises 100 bytes, then 10, then gone.
+        let mut c = connect(&s);
+        c.write_all(&Header::getresponse(100).to_bytes()).unwrap();
+        c.write_all(b"I130=1 I13").unwrap();
+    }
+    {
+        // A long reply nobody reads: the server writes into a closed socket.
+        let mut c = connect(&s);
+        send_line(&mut c, &"??? ".repeat(373));
+    }
+    {
+        // Half a header.
+        let mut c = connect(&s);
+        c.write_all(&[0x40, 0xBF, 0]).unwrap();
+    }
+    let mut c = connect(&s);
+    assert_eq!(ask(&mut c, "I130"), b"0\r\x06", "the half-sent write was never executed");
+    assert_eq!(ask(&mut c, "???"), b"001000000000\r\x06");
+}
+
+#[test]
+fn idle_connections_make_room_for_new_clients() {
+    // Half-open connections look to the server like clients that never speak again: when the
+    // table is full, the one idle longest is closed for the newcomer.
+    let s = server(Clock::Virtual, 8, None);
+    let mut silent: Vec<TcpStream> = (0..8).map(|_| connect(&s)).collect();
+    std::thread::sleep(Duration::from_millis(20));
+    let mut newcomer = connect(&s);
+    assert_eq!(ask(&mut newcomer, "???"), b"001000000000\r\x06");
+    assert!(s.stats().evicted.load(Ordering::Relaxed) >= 1);
+    assert!(closed(&mut silent[0]), "the longest idle connection was closed");
+}
+
+#[test]
+fn a_connection_silent_past_the_idle_timeout_is_closed() {
+    let s = server(Clock::Virtual, 8, Some(Duration::from_millis(200)));
+    let mut c = connect(&s);
+    assert_eq!(ask(&mut c, "I40"), b"0\r\x06");
+    let t = Instant::now();
+    assert!(closed(&mut c));
+    assert!(t.elapsed() >= Duration::from_millis(150));
+}
+
+#[test]
+fn a_tripped_card_reads_requests_and_answers_none_until_init() {
+    // UM p.215: the tripped CPU does not communicate; the connection stays up, the host's read
+    // times out, and after INIT/ the same connection gets answers again.
+    let s = server(Clock::Virtual, 8, None);
+    let mut c = connect(&s);
+    assert_eq!(ask(&mut c, "???"), b"001000000000\r\x06");
+    s.with_card(|card| {
+        card.control(Control::parse("starve").unwrap());
+        card.control(Control::parse("step 5000").unwrap());
+    });
+    c.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
+    for line in ["???", "ver", "I130=5", "GETBUFFER"] {
+        if line == "GETBUFFER" {
+            c.write_all(&Header::getbuffer().to_bytes()).unwrap();
+        } else {
+            send_line(&mut c, line);
+        }
+        let mut b = [0u8; 16];
+        let e = c.read(&mut b).expect_err("silence");
+        assert!(matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut), "{line}: {e}");
+    }
+    s.with_card(|card| {
+        card.control(Control::parse("plc0 30").unwrap());
+        card.control(Control::parse("init").unwrap());
+    });
+    c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    assert_eq!(ask(&mut c, "I130"), b"0\r\x06", "the write sent while tripped was never executed");
+}
+
+#[test]
+fn a_hundred_concurrent_clients_each_get_their_own_answers() {
+    // Bounded load: 100 clients x 200 lines, each writing and reading back its own I-variable,
+    // so a reply delivered to the wrong client or out of order shows up as a wrong value.
+    let s = server(Clock::Wall { start: Instant::now(), servo_hz: 2250 }, 128, None);
+    let addr = s.local_addr;
+    let started = Instant::now();
+    let clients: Vec<_> = (0..100u16)
+        .map(|k| {
+            std::thread::spawn(move || {
+                let mut c = TcpStream::connect(addr).unwrap();
+                c.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+                c.set_nodelay(true).unwrap();
+                for j in 0..200u32 {
+                    let value = u32::from(k) * 1000 + j;
+                    let reply = ask(&mut c, &format!("I{}={value} I{}", 1000 + k, 1000 + k));
+                    assert_eq!(reply, format!("{value}\r\x06").as_bytes(), "client {k} line {j}");
+                }
+            })
+        })
+        .collect();
+    for c in clients {
+        c.join().expect("no client saw a wrong answer");
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    eprintln!("100 clients x 200 lines in {seconds:.2} s ({:.0} lines/s)", 20_000.0 / seconds);
+    assert_eq!(s.stats().connections.load(Ordering::Relaxed), 100);
+    let mut c = connect(&s);
+    let status = ask(&mut c, "???");
+    // Bit 12 follows the checksum pass on the wall clock; the rest stays clear.
+    assert!(status == b"001000000000\r\x06" || status == b"000000000000\r\x06", "still serving: {status:?}");
+}
