@@ -5,10 +5,9 @@
 //! `cargo bench -p pmacwd-conformance --bench serve`
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use pmacwd_conformance::emulator::card::{Card, Clock, Identity, SAVED_DEFAULT};
+use pmacwd_conformance::emulator::card::{Card, Clock};
 use pmacwd_conformance::emulator::protocol::Header;
 use pmacwd_conformance::emulator::server::{ServeOptions, Server};
-use pmacwd_conformance::subject::core_config;
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::time::{Duration, Instant};
@@ -17,21 +16,10 @@ const CLIENTS: usize = 4;
 const LINES_PER_CLIENT: usize = 500;
 
 fn start() -> Server {
-    let spec = pmacwd_specs::Spec::embedded().unwrap();
-    let model =
-        pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
     // The wall clock, as `pmacwd serve` runs by default: every request first runs the servo
-    // cycles due since the last one.
-    let clock = Clock::Wall { start: Instant::now(), servo_hz: model.servo_hz };
-    let card = Card::power_on(core_config(&model), &SAVED_DEFAULT, clock, Identity::default());
-    let options = ServeOptions {
-        listen: "127.0.0.1:0".parse().unwrap(),
-        control: None,
-        clients_max: 128,
-        idle_timeout: None,
-        verbose: false,
-    };
-    Server::start(card, options).unwrap()
+    // cycles due since the last one (2.25 kHz).
+    let card = Card::default_card(Clock::Wall { start: Instant::now(), servo_hz: 2250 });
+    Server::start(card, ServeOptions::free_loopback_port(128)).unwrap()
 }
 
 struct Client {

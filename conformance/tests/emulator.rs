@@ -1,32 +1,18 @@
 //! `pmacwd serve` on real sockets: the protocol details real clients rely on, and robustness
 //! against clients that misbehave. Each test runs its own server on a free loopback port.
 
-use pmacwd_conformance::emulator::card::{Card, Clock, Identity, SAVED_DEFAULT};
+use pmacwd_conformance::emulator::card::{Card, Clock};
 use pmacwd_conformance::emulator::control::Control;
 use pmacwd_conformance::emulator::protocol::{Header, REPLY_PACKET_BYTES};
 use pmacwd_conformance::emulator::server::{ServeOptions, Server};
-use pmacwd_conformance::subject::core_config;
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-fn card(clock: Clock) -> Card {
-    let spec = pmacwd_specs::Spec::embedded().unwrap();
-    let cfg =
-        pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
-    Card::power_on(core_config(&cfg), &SAVED_DEFAULT, clock, Identity::default())
-}
-
 fn server(clock: Clock, clients_max: usize, idle_timeout: Option<Duration>) -> Server {
-    let options = ServeOptions {
-        listen: "127.0.0.1:0".parse().unwrap(),
-        control: None,
-        clients_max,
-        idle_timeout,
-        verbose: false,
-    };
-    Server::start(card(clock), options).expect("a free loopback port")
+    let options = ServeOptions { idle_timeout, ..ServeOptions::free_loopback_port(clients_max) };
+    Server::start(Card::default_card(clock), options).expect("a free loopback port")
 }
 
 fn connect(s: &Server) -> TcpStream {

@@ -2,11 +2,10 @@
 //! with its own clock, and writes a capture that replays as consistent.
 
 use pmacwd_conformance::emulator::capture::CaptureWriter;
-use pmacwd_conformance::emulator::card::{Card, Clock, Identity, SAVED_DEFAULT};
+use pmacwd_conformance::emulator::card::{Card, Clock};
 use pmacwd_conformance::emulator::protocol::Header;
 use pmacwd_conformance::emulator::proxy::{Proxy, RecordOptions, Recorder};
 use pmacwd_conformance::emulator::server::{ServeOptions, Server};
-use pmacwd_conformance::subject::core_config;
 use pmacwd_conformance::trace::TraceEvent;
 use std::io::{Read, Write};
 use std::net::TcpStream;
@@ -26,16 +25,8 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
     let spec = pmacwd_specs::Spec::embedded().unwrap();
     let model =
         pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
-    let clock = Clock::Wall { start: Instant::now(), servo_hz: model.servo_hz };
-    let card = Card::power_on(core_config(&model), &SAVED_DEFAULT, clock, Identity::default());
-    let options = ServeOptions {
-        listen: "127.0.0.1:0".parse().unwrap(),
-        control: None,
-        clients_max: 8,
-        idle_timeout: None,
-        verbose: false,
-    };
-    let server = Server::start(card, options).unwrap();
+    let card = Card::default_card(Clock::Wall { start: Instant::now(), servo_hz: model.servo_hz });
+    let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
 
     let path = std::env::temp_dir().join(format!("pmacwd-record-test-{}.jsonl", std::process::id()));
     let timing = Recorder::timing(model.servo_hz, false);

@@ -103,6 +103,15 @@ impl Card {
         }
     }
 
+    /// The card `pmacwd serve` emulates by default: the embedded spec's `i40-zero`
+    /// configuration under its default profile, with the default saved I-variables.
+    pub fn default_card(clock: Clock) -> Card {
+        let spec = pmacwd_specs::Spec::embedded().expect("the embedded spec is checked by its own tests");
+        let model = pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile())
+            .expect("i40-zero is a configuration of the embedded spec");
+        Card::power_on(crate::subject::core_config(&model), &SAVED_DEFAULT, clock, Identity::default())
+    }
+
     /// Records every exchange and event from now on.
     pub fn record(&mut self, capture: CaptureWriter<Box<dyn Write + Send>>) {
         self.capture = Some(capture);

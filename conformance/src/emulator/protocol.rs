@@ -30,6 +30,29 @@ pub const VR_PMAC_READREADY: u8 = 0xC2;
 pub const VR_CTRL_RESPONSE: u8 = 0xC4;
 pub const VR_PMAC_GETBUFFER: u8 = 0xC5;
 
+/// Reads exactly `buf.len()` bytes; `Ok(false)` on a clean end of stream before the first,
+/// an error when the stream ends part-way (a peer that left mid-request).
+pub fn read_or_end(r: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<bool> {
+    use std::io::ErrorKind;
+    let mut got = 0;
+    while got < buf.len() {
+        match r.read(&mut buf[got..]) {
+            Ok(0) if got == 0 => return Ok(false),
+            Ok(0) => return Err(std::io::Error::new(ErrorKind::UnexpectedEof, "the peer left mid-request")),
+            Ok(n) => got += n,
+            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(true)
+}
+
+/// A command line without its trailing CR, LF and NUL, which end the line and are not commands.
+pub fn trim_line(data: &[u8]) -> &[u8] {
+    let end = data.iter().rposition(|b| !matches!(b, b'\r' | b'\n' | 0)).map_or(0, |i| i + 1);
+    &data[..end]
+}
+
 /// A request header.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Header {

@@ -13,7 +13,7 @@
 
 use super::capture::{CaptureWriter, Timing};
 use super::framing::{ACK, BEL, CR};
-use super::protocol::{Header, Request, HEADER_BYTES, VR_PMAC_GETRESPONSE};
+use super::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETRESPONSE};
 use crate::trace::Step;
 use std::io::{self, BufRead, BufReader, Read, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
@@ -229,20 +229,6 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
     }
 }
 
-fn read_or_end(r: &mut impl Read, buf: &mut [u8]) -> io::Result<bool> {
-    let mut got = 0;
-    while got < buf.len() {
-        match r.read(&mut buf[got..]) {
-            Ok(0) if got == 0 => return Ok(false),
-            Ok(0) => return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "stream ended mid-request")),
-            Ok(n) => got += n,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(true)
-}
-
 fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>) {
     let pending = Arc::new(Mutex::new(Pending::default()));
     let (Ok(client_w), Ok(card_r)) = (client.try_clone(), card.try_clone()) else { return };
@@ -285,8 +271,7 @@ fn requests_to_card(client: TcpStream, card: Option<TcpStream>, shared: &Shared,
                 Ok(Request::NextPacket) => {}
                 Ok(Request::Line { .. }) if h.request == VR_PMAC_GETRESPONSE => {
                     p.finish(shared);
-                    let end = data.iter().rposition(|b| !matches!(b, b'\r' | b'\n' | 0)).map_or(0, |i| i + 1);
-                    let line = String::from_utf8_lossy(&data[..end]).into_owned();
+                    let line = String::from_utf8_lossy(trim_line(&data)).into_owned();
                     p.exchange = Some((Instant::now(), line, Vec::new()));
                 }
                 Ok(_) => {

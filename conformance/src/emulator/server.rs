@@ -10,7 +10,7 @@
 
 use super::card::Card;
 use super::control::Control;
-use super::protocol::{Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
+use super::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
 use std::io::{self, BufRead, BufReader, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -31,6 +31,19 @@ pub struct ServeOptions {
     pub clients_max: usize,
     pub idle_timeout: Option<Duration>,
     pub verbose: bool,
+}
+
+impl ServeOptions {
+    /// A free port on loopback, no control interface, no idle timeout (for tests and benches).
+    pub fn free_loopback_port(clients_max: usize) -> ServeOptions {
+        ServeOptions {
+            listen: SocketAddr::from(([127, 0, 0, 1], 0)),
+            control: None,
+            clients_max,
+            idle_timeout: None,
+            verbose: false,
+        }
+    }
 }
 
 /// Counters for the summary and the tests.
@@ -188,27 +201,6 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
             s.connections.lock().unwrap_or_else(|e| e.into_inner()).retain(|c| c.id != id);
         });
     }
-}
-
-/// Reads exactly `buf.len()` bytes; `Ok(false)` on a clean end of stream before the first.
-fn read_or_end(r: &mut impl Read, buf: &mut [u8]) -> io::Result<bool> {
-    let mut got = 0;
-    while got < buf.len() {
-        match r.read(&mut buf[got..]) {
-            Ok(0) if got == 0 => return Ok(false),
-            Ok(0) => return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the client left mid-request")),
-            Ok(n) => got += n,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(true)
-}
-
-/// Trailing CR, LF and NUL are the line's end, not commands.
-fn trim_line(data: &[u8]) -> &[u8] {
-    let end = data.iter().rposition(|b| !matches!(b, b'\r' | b'\n' | 0)).map_or(0, |i| i + 1);
-    &data[..end]
 }
 
 fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) -> io::Result<()> {
