@@ -229,3 +229,36 @@ fn conform_with_a_missing_scenario_directory_exits_2() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/scenarios"));
 }
+
+#[test]
+fn serve_refuses_arguments_it_cannot_honour_with_exit_2_and_the_reason() {
+    // Every refusal happens before the server binds a port, so none of these listens.
+    for (args, reason) in [
+        (&["--saved", "I40=70000"][..], "I40 ranges 0..65535"),
+        (&["--saved", "I9000=1"][..], "Turbo PMAC has I0..I8191"),
+        (&["--saved", "P1=3"][..], "expected IN=V"),
+        (&["--configuration", "nope"][..], "no configuration named `nope`"),
+        (&["--profile", "nope"][..], "no profile named `nope`"),
+        (&["--servo-hz", "0"][..], "at least 1"),
+    ] {
+        let out = pmacwd().arg("serve").args(args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(reason), "{args:?}: {stderr}");
+    }
+}
+
+#[test]
+fn record_needs_a_target_and_an_output_and_says_so() {
+    let out = pmacwd().args(["record", "--listen", "127.0.0.1:0"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--target"));
+    let dir = TempDir::new("record");
+    let out = pmacwd()
+        .args(["record", "--listen", "127.0.0.1:0", "--target", "127.0.0.1:1", "--out"])
+        .arg(dir.join("no-such-dir/capture.jsonl"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("capture.jsonl"));
+}
