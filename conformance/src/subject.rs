@@ -100,6 +100,11 @@ pub fn core_load(l: &pmacwd_specs::check::Load) -> core::Load {
     core::Load { motors: l.motors, plc0_units: l.plc0_units, background_units: l.background_units }
 }
 
+/// The spec's load for the core's (the inverse of [`core_load`]).
+pub fn spec_load(l: core::Load) -> pmacwd_specs::check::Load {
+    pmacwd_specs::check::Load { motors: l.motors, plc0_units: l.plc0_units, background_units: l.background_units }
+}
+
 /// The core's command for a model command.
 pub fn core_command(c: &HostCommand) -> core::Command {
     match c {

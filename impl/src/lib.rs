@@ -368,6 +368,12 @@ impl Core {
         self.load
     }
 
+    /// CPU units a servo cycle leaves after the servo update, for the RTI and the background
+    /// (kept up to date by every load change).
+    pub fn spare_units(&self) -> u32 {
+        self.free
+    }
+
     pub fn counter(&self) -> i32 {
         self.counter
     }

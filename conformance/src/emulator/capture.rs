@@ -166,32 +166,29 @@ impl<W: Write> CaptureWriter<W> {
         let command_step = |c: HostCommand, expect: Expect, note: Option<String>| {
             Matched::Step(Step { event: TraceEvent::Model(Event::Command(c)), expect, note })
         };
-        let unmatched = |why: String| -> Vec<Matched> {
-            let mut out: Vec<Matched> = commands
-                .iter()
-                .map(|c| match HostCommand::parse(c) {
-                    Ok(h) => command_step(h, Expect::default(), None),
-                    Err(e) => Matched::Note(format!("`{c}` left out: {}", e.0)),
-                })
-                .collect();
-            out.push(Matched::Note(why));
-            out
-        };
-        let Some(bytes) = reply else {
-            // A tripped card answers nothing (UM p.215).
-            let expect = match self.timing {
-                Timing::Exact => Expect { reply: Some("(silence)".into()), ..Expect::default() },
-                Timing::HostClock { window_cycles } => {
-                    Expect { tripped: Some(true), window_cycles: Some(window_cycles), ..Expect::default() }
-                }
-            };
-            return commands
+        // Every command as a step expecting `expect`; those a trace cannot hold as notes.
+        let each_command = |expect: Expect| -> Vec<Matched> {
+            commands
                 .iter()
                 .map(|c| match HostCommand::parse(c) {
                     Ok(h) => command_step(h, expect.clone(), None),
                     Err(e) => Matched::Note(format!("`{c}` left out: {}", e.0)),
                 })
-                .collect();
+                .collect()
+        };
+        let unmatched = |why: String| -> Vec<Matched> {
+            let mut out = each_command(Expect::default());
+            out.push(Matched::Note(why));
+            out
+        };
+        let Some(bytes) = reply else {
+            // A tripped card answers nothing (UM p.215).
+            return each_command(match self.timing {
+                Timing::Exact => Expect { reply: Some("(silence)".into()), ..Expect::default() },
+                Timing::HostClock { window_cycles } => {
+                    Expect { tripped: Some(true), window_cycles: Some(window_cycles), ..Expect::default() }
+                }
+            });
         };
         let shown = String::from_utf8_lossy(bytes).escape_debug().to_string();
         let parsed = match framing::parse_reply(bytes) {

@@ -6,7 +6,7 @@
 use super::capture::CaptureWriter;
 use super::control::{Control, HELP};
 use super::framing::{split_commands, Answer, Framing};
-use crate::subject::{core_command, core_event};
+use crate::subject::{core_command, core_event, spec_load};
 use crate::trace::{Expect, Step, TraceEvent};
 use crate::trace_jsonl::step_line;
 use pmacwd_core as core;
@@ -39,10 +39,6 @@ pub enum Clock {
     Wall { start: Instant, servo_hz: u32 },
     /// Only `step` and `servo` on the control interface move time (for tests).
     Virtual,
-}
-
-fn now_load(l: core::Load) -> Load {
-    Load { motors: l.motors, plc0_units: l.plc0_units, background_units: l.background_units }
 }
 
 /// I0..I8191 and the values saved in flash that a reset restores (the core holds I8, I40,
@@ -246,7 +242,7 @@ impl Card {
         self.catch_up();
         let event = match c {
             Control::Load { motors, plc0_units, background_units } => {
-                let now = self.core.load();
+                let now = spec_load(self.core.load());
                 Event::Load(Load {
                     motors: motors.unwrap_or(now.motors),
                     plc0_units: plc0_units.unwrap_or(now.plc0_units),
@@ -256,12 +252,13 @@ impl Card {
             Control::Starve => {
                 // PLC 0 takes exactly the CPU the servo leaves in each RTI period (UM p.236:
                 // the RTI runs every I8+1 servo cycles), so the background never gets any.
-                let now = self.core.load();
-                let servo = u32::from(now.motors).saturating_mul(u32::from(self.cfg.servo_units_per_motor));
-                let free = u32::from(self.cfg.cycle_units).saturating_sub(servo);
                 let period = u32::try_from(self.core.read_i(8, &self.store)).unwrap_or(0).saturating_add(1);
-                let fill = free.saturating_mul(period).saturating_sub(u32::from(self.cfg.move_planning_units));
-                Event::Load(Load { plc0_units: u16::try_from(fill).unwrap_or(u16::MAX), ..now_load(now) })
+                let fill = self
+                    .core
+                    .spare_units()
+                    .saturating_mul(period)
+                    .saturating_sub(u32::from(self.cfg.move_planning_units));
+                Event::Load(Load { plc0_units: u16::try_from(fill).unwrap_or(u16::MAX), ..spec_load(self.core.load()) })
             }
             Control::Supply { millivolts } => Event::Supply { millivolts },
             Control::Reset(r) => Event::Reset(r),

@@ -86,6 +86,10 @@ impl Recorder {
         self.capture.event(step)
     }
 
+    fn capture_note(&mut self, note: String) {
+        self.capture.note(note);
+    }
+
     pub fn finish(self) -> io::Result<(u64, u64, Vec<String>)> {
         let steps = self.capture.steps;
         Ok((self.exchanges, steps, self.capture.finish()?))
@@ -179,13 +183,6 @@ impl Proxy {
         self.close()
     }
 
-    /// Stops at once and closes the capture.
-    pub fn stop(self) -> io::Result<(u64, u64, Vec<String>)> {
-        self.shared.stopping.store(true, Ordering::SeqCst);
-        let _ = TcpStream::connect(self.local_addr);
-        self.close()
-    }
-
     fn close(self) -> io::Result<(u64, u64, Vec<String>)> {
         self.shared.stopping.store(true, Ordering::SeqCst);
         if let Some(a) = self.control_addr {
@@ -231,7 +228,9 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
 
 fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>) {
     let pending = Arc::new(Mutex::new(Pending::default()));
-    let (Ok(client_w), Ok(card_r)) = (client.try_clone(), card.try_clone()) else { return };
+    let (Ok(client_w), Ok(card_r), Ok(card_w)) = (client.try_clone(), card.try_clone(), card.try_clone()) else {
+        return;
+    };
     let _ = client.set_nodelay(true);
     let _ = card.set_nodelay(true);
     let replies = {
@@ -239,14 +238,13 @@ fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>) {
         let pending = pending.clone();
         thread::spawn(move || replies_to_host(card_r, client_w, &shared, &pending))
     };
-    requests_to_card(client, card.try_clone().ok(), shared, &pending);
+    requests_to_card(client, card_w, shared, &pending);
     let _ = card.shutdown(Shutdown::Write);
     let _ = replies.join();
     pending.lock().unwrap_or_else(|e| e.into_inner()).finish(shared);
 }
 
-fn requests_to_card(client: TcpStream, card: Option<TcpStream>, shared: &Shared, pending: &Mutex<Pending>) {
-    let Some(mut card) = card else { return };
+fn requests_to_card(client: TcpStream, mut card: TcpStream, shared: &Shared, pending: &Mutex<Pending>) {
     let mut reader = BufReader::new(client);
     let mut header = [0u8; HEADER_BYTES];
     let mut data = Vec::new();
@@ -301,12 +299,6 @@ fn requests_to_card(client: TcpStream, card: Option<TcpStream>, shared: &Shared,
         if card.write_all(&header).and_then(|()| card.write_all(&data)).is_err() {
             return;
         }
-    }
-}
-
-impl Recorder {
-    fn capture_note(&mut self, note: String) {
-        self.capture.note(note);
     }
 }
 

@@ -50,7 +50,6 @@ impl ServeOptions {
 #[derive(Default, Debug)]
 pub struct Stats {
     pub connections: AtomicU64,
-    pub requests: AtomicU64,
     pub refused_requests: AtomicU64,
     pub evicted: AtomicU64,
 }
@@ -219,7 +218,6 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
             return Ok(());
         }
         last_active_ms.store(shared.now_ms(), Ordering::Relaxed);
-        shared.stats.requests.fetch_add(1, Ordering::Relaxed);
         let request = Header::parse(&header).request().map_err(|e| {
             shared.stats.refused_requests.fetch_add(1, Ordering::Relaxed);
             io::Error::new(io::ErrorKind::InvalidData, e)
