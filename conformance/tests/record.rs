@@ -78,3 +78,164 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
     assert!(default.consistent(), "{}", pmacwd_conformance::replay::to_text(&report, "um-215"));
     std::fs::remove_file(&path).ok();
 }
+
+/// The capture's command steps as (command, expected reply), in order.
+fn recorded_replies(trace: &pmacwd_conformance::trace::Trace) -> Vec<(String, Option<String>)> {
+    trace
+        .steps
+        .iter()
+        .filter_map(|s| match &s.event {
+            TraceEvent::Model(pmacwd_model::event::Event::Command(c)) => Some((c.to_string(), s.expect.reply.clone())),
+            _ => None,
+        })
+        .collect()
+}
+
+/// What a capture writes for a reply the client received (`None`: it gave up).
+fn as_recorded(reply: Option<&[u8]>) -> String {
+    match reply {
+        None => "(silence)".into(),
+        Some(b"\x06") => "(ack)".into(),
+        Some(b) if b.first() == Some(&0x07) => String::from_utf8_lossy(&b[1..b.len() - 1]).into_owned(),
+        Some(b) => String::from_utf8_lossy(&b[..b.len() - 2]).into_owned(),
+    }
+}
+
+/// Sends one line and reads its reply, giving up after `patience` (as a host does with a
+/// card that went silent).
+fn ask_or_give_up(c: &mut TcpStream, line: &str, patience: Duration) -> Option<Vec<u8>> {
+    c.set_read_timeout(Some(patience)).unwrap();
+    c.write_all(&Header::getresponse(line.len() as u16).to_bytes()).unwrap();
+    c.write_all(line.as_bytes()).unwrap();
+    let mut reply = Vec::new();
+    let mut buf = [0u8; 4096];
+    loop {
+        match c.read(&mut buf) {
+            Ok(0) => panic!("the proxy closed the session"),
+            Ok(n) => {
+                reply.extend_from_slice(&buf[..n]);
+                let ends =
+                    reply.last() == Some(&0x06) || (reply.first() == Some(&0x07) && reply.last() == Some(&b'\r'));
+                if ends {
+                    return Some(reply);
+                }
+            }
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {
+                assert!(reply.is_empty(), "a partial reply {reply:?} to `{line}`");
+                return None;
+            }
+            Err(e) => panic!("{e}"),
+        }
+    }
+}
+
+struct ControlClient(std::io::BufReader<TcpStream>);
+
+impl ControlClient {
+    fn send(&mut self, line: &str) -> String {
+        use std::io::BufRead;
+        writeln!(self.0.get_mut(), "{line}").unwrap();
+        let mut reply = String::new();
+        self.0.read_line(&mut reply).unwrap();
+        assert!(reply.starts_with("ok"), "control `{line}`: {reply}");
+        reply
+    }
+}
+
+#[test]
+fn every_recorded_reply_is_the_one_the_client_received_however_fast_or_impatient_the_client() {
+    // Why: the proxy pairs reply bytes with requests. A client that sends its next command the
+    // moment a reply arrives, or gives up on a silent card before the proxy's silence timeout
+    // and then resets the card, must still find each reply in the capture under the command
+    // that got it, and the reset after the silences it followed. Otherwise `replay` judges a
+    // healthy session as unexplained. Hundreds of back-to-back exchanges make a race show.
+    let spec = pmacwd_specs::Spec::embedded().unwrap();
+    let model =
+        pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
+    let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
+    let server = Server::start(Card::default_card(Clock::Virtual), options).unwrap();
+    let path = std::env::temp_dir().join(format!("pmacwd-record-order-{}.jsonl", std::process::id()));
+    let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
+    let capture = CaptureWriter::new(out, "order test", "i40-zero", Recorder::timing(model.servo_hz, true)).unwrap();
+    let silence = Duration::from_millis(150);
+    let options = RecordOptions {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        target: server.local_addr.to_string(),
+        control: Some(("127.0.0.1:0".parse().unwrap(), server.control_addr.unwrap().to_string())),
+        servo_hz: model.servo_hz,
+        virtual_time: true,
+        silence,
+        sessions: Some(1),
+        verbose: false,
+    };
+    let proxy = Proxy::start(Recorder::new(capture, model.servo_hz, true), options).unwrap();
+    let mut control = ControlClient(std::io::BufReader::new(TcpStream::connect(proxy.control_addr.unwrap()).unwrap()));
+
+    let mut received: Vec<(String, String)> = Vec::new();
+    {
+        let mut c = TcpStream::connect(proxy.local_addr).unwrap();
+        c.set_nodelay(true).unwrap();
+        let patient = Duration::from_secs(5);
+        let mut exchange = |c: &mut TcpStream, line: &str, patience: Duration| {
+            let reply = ask_or_give_up(c, line, patience);
+            received.push((line.to_string(), as_recorded(reply.as_deref())));
+        };
+        exchange(&mut c, "I6=1", patient);
+        exchange(&mut c, "I3=2", patient);
+        for round in 0..3 {
+            // Back to back: acknowledgements, errors, data, in a mix that pairs wrongly
+            // if one reply is taken for another.
+            for i in 0..100 {
+                let line = match i % 5 {
+                    0 => format!("I130={}", round * 1000 + i),
+                    1 => "I130".to_string(),
+                    2 => "FOO".to_string(),
+                    3 => "???".to_string(),
+                    _ => format!("I41={}", i % 2),
+                };
+                exchange(&mut c, &line, patient);
+            }
+            // Trip the card, then give up on it sooner than the proxy's silence timeout,
+            // several times, and reset it straight away.
+            control.send("starve");
+            control.send("step 20000");
+            for line in ["???", "I130", "???"] {
+                exchange(&mut c, line, silence / 5);
+            }
+            control.send("plc0 30");
+            control.send("init");
+        }
+        // After INIT/ the card has its saved I130 again, which the model does not know: written
+        // first, its read is compared.
+        exchange(&mut c, "I130=7", patient);
+        exchange(&mut c, "I130", patient);
+    }
+    drop(control);
+    let (exchanges, _, notes) = proxy.wait().unwrap();
+    assert_eq!(exchanges, received.len() as u64);
+    assert!(notes.is_empty(), "{notes:?}");
+
+    let text = std::fs::read_to_string(&path).unwrap();
+    let trace = pmacwd_conformance::trace_jsonl::read_all(&path, text.as_bytes()).unwrap();
+    let recorded = recorded_replies(&trace);
+    assert_eq!(recorded.len(), received.len());
+    for (i, ((line, got), (command, expect))) in received.iter().zip(&recorded).enumerate() {
+        assert!(line.eq_ignore_ascii_case(command), "exchange {i}: sent `{line}`, recorded `{command}`");
+        assert_eq!(expect.as_deref(), Some(got.as_str()), "exchange {i} `{line}`: the client received `{got}`");
+    }
+    // Each reset comes after the three silences that preceded it.
+    let order: Vec<&str> = trace
+        .steps
+        .iter()
+        .filter_map(|s| match (&s.event, s.expect.reply.as_deref()) {
+            (TraceEvent::Model(pmacwd_model::event::Event::Reset(_)), _) => Some("reset"),
+            (_, Some("(silence)")) => Some("silence"),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(order, ["silence", "silence", "silence", "reset"].repeat(3));
+    let report = pmacwd_conformance::replay::replay(&spec, &path).unwrap();
+    let default = report.profiles.iter().find(|p| p.profile.name == model.profile.name).unwrap();
+    assert!(default.consistent(), "{}", pmacwd_conformance::replay::to_text(&report, "um-215"));
+    std::fs::remove_file(&path).ok();
+}

@@ -2,23 +2,34 @@
 //! that writes every command line and its reply, with timing, as a capture.
 //!
 //! Bytes are forwarded unchanged in both directions; the proxy only reads along. Per host
-//! session, one thread carries requests to the card and one carries replies back. An exchange
-//! is a VR_PMAC_GETRESPONSE line plus every reply byte up to the next request (GETBUFFER
-//! continuations included); it is written once the reply ends (ACK, or an error's CR), the next
-//! request comes, or `silence` passes without a byte: then it is a silence (a tripped card,
-//! UM p.215). Time is the proxy's clock times the servo rate, or, with `--virtual-time`, the
-//! `step` commands seen on the proxied control interface of a `pmacwd serve --virtual-time`.
+//! session, one thread carries requests to the card and one carries replies back.
 //!
+//! Replies are paired with requests by order, not by time: the card answers the requests of a
+//! connection in the order it received them, so each request joins the session's queue before
+//! it is forwarded and reply bytes belong to the oldest request waiting. A reply ends with its
+//! ACK, or with the CR after an error's number; a reply whose end the framing does not show
+//! (a bare BEL under I6 = 0 or 2, I3 = 0 or 1) ends when the host sends its next request. A
+//! request that gets no reply byte for `silence` is a silence (a tripped card, UM p.215), even
+//! when the host gave up on it sooner. Each reply is written to the capture before its bytes
+//! go on to the host, so a fast host cannot overtake its own exchange.
+//!
+//! Control commands (`--control-listen`) reach the card only after every host request
+//! forwarded before them has its reply or its silence recorded, so an INIT/ sent after a silent
+//! command is recorded after that silence, in the order the card saw them.
+//!
+//! Time is the proxy's clock times the servo rate, or, with `--virtual-time`, the `step`
+//! commands seen on the proxied control interface of a `pmacwd serve --virtual-time`.
 //! Concurrent sessions share one timeline, in the order their exchanges complete.
 
 use super::capture::{CaptureWriter, Timing};
 use super::framing::{ACK, BEL, CR};
-use super::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETRESPONSE};
+use super::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
 use crate::trace::Step;
+use std::collections::{BTreeSet, VecDeque};
 use std::io::{self, BufRead, BufReader, Read, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread;
 use std::time::{Duration, Instant};
 
@@ -101,6 +112,7 @@ struct Shared {
     options: RecordOptions,
     sessions_ended: AtomicU64,
     stopping: AtomicBool,
+    order: Order,
 }
 
 impl Shared {
@@ -123,21 +135,201 @@ impl Shared {
     }
 }
 
-/// The exchange of one session waiting for its reply.
-#[derive(Default)]
-struct Pending {
-    exchange: Option<(Instant, String, Vec<u8>)>,
-    last_byte: Option<Instant>,
+/// What a request forwarded to the card is waiting for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ReplyEnd {
+    /// A command line's reply: it ends with the ACK, or with the CR after an error's number.
+    Line,
+    /// As `Line`, or a lone NUL: a GETBUFFER or GETLINE with nothing waiting.
+    LineOrNul,
+    /// A fixed number of bytes (READREADY: 2, FLUSH and SENDLINE: 1).
+    Bytes(usize),
 }
 
-impl Pending {
-    /// Writes the waiting exchange, if any.
-    fn finish(&mut self, shared: &Shared) {
-        if let Some((at, line, bytes)) = self.exchange.take() {
-            let reply = (!bytes.is_empty()).then_some(bytes.as_slice());
-            shared.record(|r| r.exchange(at, &line, reply));
+/// A request forwarded to the card whose reply has not ended yet.
+struct Awaiting {
+    /// Its place in the proxy's order of requests (all sessions): the control interface waits
+    /// for every request forwarded before it.
+    id: u64,
+    sent: Instant,
+    /// The command line, for a VR_PMAC_GETRESPONSE; other requests are forwarded, not recorded.
+    line: Option<String>,
+    end: ReplyEnd,
+    bytes: Vec<u8>,
+    /// Inside an error message (after its BEL), for [`ReplyEnd::Line`].
+    in_error: bool,
+}
+
+impl Awaiting {
+    /// Takes reply bytes from the front of `new` up to the end of this reply; returns how many
+    /// it took and whether the reply is complete.
+    fn take(&mut self, new: &[u8]) -> (usize, bool) {
+        match self.end {
+            ReplyEnd::Bytes(n) => {
+                let take = n.saturating_sub(self.bytes.len()).min(new.len());
+                self.bytes.extend_from_slice(&new[..take]);
+                (take, self.bytes.len() >= n)
+            }
+            ReplyEnd::LineOrNul if self.bytes.is_empty() && new.first() == Some(&0) => {
+                self.bytes.push(0);
+                (1, true)
+            }
+            ReplyEnd::Line | ReplyEnd::LineOrNul => {
+                for (i, &b) in new.iter().enumerate() {
+                    // An error is `BEL ERRnnn CR` or `BEL CR ERRnnn CR` (I6 = 1, 3): it ends
+                    // at the CR after its number. A bare BEL (I6 = 0, 2) ends only by what
+                    // comes next: the host's next request or the silence.
+                    let ends = match b {
+                        ACK => true,
+                        BEL => {
+                            self.in_error = true;
+                            false
+                        }
+                        CR => self.in_error && self.bytes.last().is_some_and(u8::is_ascii_digit),
+                        _ => false,
+                    };
+                    self.bytes.push(b);
+                    if ends {
+                        return (i + 1, true);
+                    }
+                }
+                (new.len(), false)
+            }
         }
-        self.last_byte = None;
+    }
+}
+
+/// The requests of one host session in the order the card receives them. The card answers
+/// them in that order, so reply bytes belong to the oldest request waiting; a reply is
+/// recorded before its bytes are forwarded to the host, so the host's next request cannot
+/// overtake it.
+struct Session {
+    waiting: VecDeque<Awaiting>,
+    /// When the oldest request began to wait for its reply (or its last byte came).
+    clock_from: Instant,
+    /// Reply bytes that came when no request was waiting.
+    unsolicited_bytes: u64,
+}
+
+impl Session {
+    fn new() -> Session {
+        Session { waiting: VecDeque::new(), clock_from: Instant::now(), unsolicited_bytes: 0 }
+    }
+
+    fn push(&mut self, shared: &Shared, line: Option<String>, end: ReplyEnd) {
+        let now = Instant::now();
+        if self.waiting.is_empty() {
+            self.clock_from = now;
+        }
+        let id = shared.order.forwarded();
+        self.waiting.push_back(Awaiting { id, sent: now, line, end, bytes: Vec::new(), in_error: false });
+    }
+
+    /// A new request came while the oldest has part of a reply whose end the proxy cannot
+    /// see (a bare BEL, or I3 = 0 or 1 framing): the host has read what it wanted and moved
+    /// on, so that reply ends here. A request with no reply byte yet keeps waiting: the card
+    /// answers in order, or the silence closes it.
+    fn host_moved_on(&mut self, shared: &Shared) {
+        if self.waiting.front().is_some_and(|a| !a.bytes.is_empty()) {
+            self.resolve_front(shared);
+        }
+    }
+
+    /// Takes reply bytes from the card: each completed reply is recorded, in order.
+    fn reply_bytes(&mut self, shared: &Shared, mut new: &[u8]) {
+        let now = Instant::now();
+        while !new.is_empty() {
+            let Some(front) = self.waiting.front_mut() else {
+                self.unsolicited_bytes += new.len() as u64;
+                return;
+            };
+            let (taken, complete) = front.take(new);
+            new = &new[taken..];
+            self.clock_from = now;
+            if complete {
+                self.resolve_front(shared);
+            }
+        }
+    }
+
+    /// Closes the oldest request as silent when no reply byte came for `silence`.
+    fn check_silence(&mut self, shared: &Shared, silence: Duration) {
+        while !self.waiting.is_empty() && self.clock_from.elapsed() >= silence {
+            self.resolve_front(shared);
+        }
+    }
+
+    fn resolve_front(&mut self, shared: &Shared) {
+        let Some(a) = self.waiting.pop_front() else { return };
+        if let Some(line) = &a.line {
+            let reply = (!a.bytes.is_empty()).then_some(a.bytes.as_slice());
+            shared.record(|r| r.exchange(a.sent, line, reply));
+        }
+        // The next request's wait for its reply counts from here.
+        self.clock_from = Instant::now();
+        shared.order.resolved(a.id);
+    }
+
+    /// The end of the session: what still waits is recorded as it stands.
+    fn finish(&mut self, shared: &Shared) {
+        while !self.waiting.is_empty() {
+            self.resolve_front(shared);
+        }
+        if self.unsolicited_bytes > 0 {
+            let n = self.unsolicited_bytes;
+            shared.record(|r| {
+                r.capture_note(format!("{n} reply bytes came with no request waiting: forwarded, not recorded"));
+                Ok(())
+            });
+            self.unsolicited_bytes = 0;
+        }
+    }
+}
+
+/// The order of requests over all sessions, so that a control command reaches the card only
+/// after every request forwarded before it has its reply or its silence recorded: the capture
+/// then has the events in the order the card saw them (an INIT/ after a silent command comes
+/// after that silence).
+struct Order {
+    next: AtomicU64,
+    waiting: Mutex<BTreeSet<u64>>,
+    resolved: Condvar,
+}
+
+impl Order {
+    fn new() -> Order {
+        Order { next: AtomicU64::new(0), waiting: Mutex::new(BTreeSet::new()), resolved: Condvar::new() }
+    }
+
+    fn lock(&self) -> MutexGuard<'_, BTreeSet<u64>> {
+        self.waiting.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn forwarded(&self) -> u64 {
+        let id = self.next.fetch_add(1, Ordering::SeqCst);
+        self.lock().insert(id);
+        id
+    }
+
+    fn resolved(&self, id: u64) {
+        self.lock().remove(&id);
+        self.resolved.notify_all();
+    }
+
+    /// Waits until every request forwarded so far is resolved, or `limit` passes (a session
+    /// whose replies stopped being read); `false` then.
+    fn wait_for_earlier(&self, limit: Duration) -> bool {
+        let before = self.next.load(Ordering::SeqCst);
+        let deadline = Instant::now() + limit;
+        let mut waiting = self.lock();
+        while waiting.first().is_some_and(|&id| id < before) {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return false;
+            }
+            waiting = self.resolved.wait_timeout(waiting, left).unwrap_or_else(|e| e.into_inner()).0;
+        }
+        true
     }
 }
 
@@ -163,6 +355,7 @@ impl Proxy {
             options,
             sessions_ended: AtomicU64::new(0),
             stopping: AtomicBool::new(false),
+            order: Order::new(),
         });
         let mut accept = Vec::new();
         let s = shared.clone();
@@ -227,7 +420,7 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
 }
 
 fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>) {
-    let pending = Arc::new(Mutex::new(Pending::default()));
+    let session = Arc::new(Mutex::new(Session::new()));
     let (Ok(client_w), Ok(card_r), Ok(card_w)) = (client.try_clone(), card.try_clone(), card.try_clone()) else {
         return;
     };
@@ -235,16 +428,20 @@ fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>) {
     let _ = card.set_nodelay(true);
     let replies = {
         let shared = shared.clone();
-        let pending = pending.clone();
-        thread::spawn(move || replies_to_host(card_r, client_w, &shared, &pending))
+        let session = session.clone();
+        thread::spawn(move || replies_to_host(card_r, client_w, &shared, &session))
     };
-    requests_to_card(client, card_w, shared, &pending);
+    requests_to_card(client, card_w, shared, &session);
     let _ = card.shutdown(Shutdown::Write);
     let _ = replies.join();
-    pending.lock().unwrap_or_else(|e| e.into_inner()).finish(shared);
+    lock(&session).finish(shared);
 }
 
-fn requests_to_card(client: TcpStream, mut card: TcpStream, shared: &Shared, pending: &Mutex<Pending>) {
+fn lock(session: &Mutex<Session>) -> MutexGuard<'_, Session> {
+    session.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn requests_to_card(client: TcpStream, mut card: TcpStream, shared: &Shared, session: &Mutex<Session>) {
     let mut reader = BufReader::new(client);
     let mut header = [0u8; HEADER_BYTES];
     let mut data = Vec::new();
@@ -264,30 +461,56 @@ fn requests_to_card(client: TcpStream, mut card: TcpStream, shared: &Shared, pen
             return;
         }
         {
-            let mut p = pending.lock().unwrap_or_else(|e| e.into_inner());
+            // The request joins the session's queue before it is forwarded, so that its reply
+            // always finds it there.
+            let mut s = lock(session);
+            let code = h.request;
+            let not_recorded = |shared: &Shared| {
+                shared.record(|r| {
+                    r.capture_note(format!("request 0x{code:02X} forwarded, not recorded"));
+                    Ok(())
+                })
+            };
             match request {
-                Ok(Request::NextPacket) => {}
-                Ok(Request::Line { .. }) if h.request == VR_PMAC_GETRESPONSE => {
-                    p.finish(shared);
+                Ok(Request::Line { reply: true, .. }) => {
+                    s.host_moved_on(shared);
                     let line = String::from_utf8_lossy(trim_line(&data)).into_owned();
-                    p.exchange = Some((Instant::now(), line, Vec::new()));
+                    s.push(shared, Some(line), ReplyEnd::Line);
                 }
-                Ok(_) => {
-                    p.finish(shared);
-                    let code = h.request;
-                    shared.record(|r| {
-                        r.capture_note(format!("request 0x{code:02X} forwarded, not recorded"));
-                        Ok(())
-                    });
+                Ok(Request::NextPacket) => {
+                    // The next packet of a long reply still coming belongs to that reply.
+                    let continues = s.waiting.back().is_some_and(|a| a.line.is_some() && !a.bytes.is_empty());
+                    if !continues {
+                        s.host_moved_on(shared);
+                        if code != VR_PMAC_GETBUFFER {
+                            not_recorded(shared);
+                        }
+                        s.push(shared, None, ReplyEnd::LineOrNul);
+                    }
+                }
+                Ok(
+                    request @ (Request::Line { reply: false, .. }
+                    | Request::ReadReady
+                    | Request::Flush
+                    | Request::Control(_)),
+                ) => {
+                    s.host_moved_on(shared);
+                    not_recorded(shared);
+                    let end = match request {
+                        Request::ReadReady => ReplyEnd::Bytes(2),
+                        Request::Control(_) => ReplyEnd::Line,
+                        _ => ReplyEnd::Bytes(1),
+                    };
+                    s.push(shared, None, end);
                 }
                 Err(e) => {
                     // Not a request the proxy can follow: forward the rest as it comes.
-                    p.finish(shared);
+                    s.finish(shared);
                     shared.record(|r| {
                         r.capture_note(format!("{e}: the rest of this session was forwarded, not recorded"));
                         Ok(())
                     });
-                    drop(p);
+                    drop(s);
                     if card.write_all(&header).is_err() {
                         return;
                     }
@@ -302,16 +525,7 @@ fn requests_to_card(client: TcpStream, mut card: TcpStream, shared: &Shared, pen
     }
 }
 
-/// Whether `bytes` is a whole reply: it ends with the ACK, or with the CR of an error.
-fn reply_complete(bytes: &[u8]) -> bool {
-    match bytes.last() {
-        Some(&ACK) => true,
-        Some(&CR) => bytes.contains(&BEL),
-        _ => false,
-    }
-}
-
-fn replies_to_host(mut card: TcpStream, mut client: TcpStream, shared: &Shared, pending: &Mutex<Pending>) {
+fn replies_to_host(mut card: TcpStream, mut client: TcpStream, shared: &Shared, session: &Mutex<Session>) {
     let silence = shared.options.silence;
     let _ = card.set_read_timeout(Some(Duration::from_millis(20).min(silence)));
     let mut buf = [0u8; 4096];
@@ -319,24 +533,15 @@ fn replies_to_host(mut card: TcpStream, mut client: TcpStream, shared: &Shared, 
         match card.read(&mut buf) {
             Ok(0) => break,
             Ok(n) => {
+                // Recorded first, then forwarded: the host cannot send its next request
+                // before this reply is in the capture.
+                lock(session).reply_bytes(shared, &buf[..n]);
                 if client.write_all(&buf[..n]).is_err() {
                     break;
                 }
-                let mut p = pending.lock().unwrap_or_else(|e| e.into_inner());
-                p.last_byte = Some(Instant::now());
-                if let Some((_, _, bytes)) = &mut p.exchange {
-                    bytes.extend_from_slice(&buf[..n]);
-                    if reply_complete(bytes) {
-                        p.finish(shared);
-                    }
-                }
             }
             Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => {
-                let mut p = pending.lock().unwrap_or_else(|e| e.into_inner());
-                let since = p.last_byte.or(p.exchange.as_ref().map(|(at, _, _)| *at));
-                if p.exchange.is_some() && since.is_some_and(|t| t.elapsed() >= silence) {
-                    p.finish(shared);
-                }
+                lock(session).check_silence(shared, silence);
             }
             Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
             Err(_) => break,
@@ -379,6 +584,19 @@ fn control_session(client: TcpStream, card: TcpStream, shared: &Shared) -> io::R
         line.clear();
         if from_client.read_line(&mut line)? == 0 {
             return Ok(());
+        }
+        // The card sees this command after every host request forwarded before it has been
+        // answered or found silent, and the capture has them in that order.
+        let limit = shared.options.silence.saturating_mul(4).max(Duration::from_secs(2));
+        if !shared.order.wait_for_earlier(limit) {
+            shared.record(|r| {
+                r.capture_note(format!(
+                    "control `{}` forwarded while host requests still waited for replies after {} ms: their order is uncertain",
+                    line.trim_end(),
+                    limit.as_millis()
+                ));
+                Ok(())
+            });
         }
         to_card.write_all(line.as_bytes())?;
         reply.clear();
