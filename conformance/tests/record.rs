@@ -28,6 +28,9 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
     let card = Card::default_card(Clock::Wall { start: Instant::now(), servo_hz: model.servo_hz });
     let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
 
+    // Taken before the recorder's clock starts, so that the session's length bounds the
+    // cycles the capture counts.
+    let started = Instant::now();
     let path = std::env::temp_dir().join(format!("pmacwd-record-test-{}.jsonl", std::process::id()));
     let timing = Recorder::timing(model.servo_hz, false);
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
@@ -44,7 +47,6 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
     };
     let proxy = Proxy::start(Recorder::new(capture, model.servo_hz, false), options).unwrap();
 
-    let started = Instant::now();
     {
         let mut c = TcpStream::connect(proxy.local_addr).unwrap();
         c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();

@@ -604,7 +604,8 @@ fn control_session(client: TcpStream, card: TcpStream, shared: &Shared) -> io::R
             return Ok(());
         }
         let at = Instant::now();
-        to_client.write_all(reply.as_bytes())?;
+        // Recorded before the reply goes on, as host replies are: the client's next request
+        // cannot reach the capture ahead of this event.
         if let Some(json) = reply.trim_end().strip_prefix("ok {").map(|rest| format!("{{{rest}")) {
             match serde_json::from_str::<Step>(&json) {
                 Ok(step) => shared.record(|r| r.event(at, step)),
@@ -614,5 +615,6 @@ fn control_session(client: TcpStream, card: TcpStream, shared: &Shared) -> io::R
                 }),
             }
         }
+        to_client.write_all(reply.as_bytes())?;
     }
 }
