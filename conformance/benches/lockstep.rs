@@ -7,7 +7,7 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use pmacwd_conformance::generate::{all_configs, run_choices, strategy, Choice, Generated};
 use pmacwd_conformance::subject::CoreSubject;
-use pmacwd_model::event::Event;
+use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::Spec;
 use proptest::strategy::{Strategy, ValueTree};
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};

@@ -1,9 +1,9 @@
 //! `pmacwd check`: model-check every profile at the bounded configurations of `check.yaml`.
 
 use pmacwd_model::checker::{PropertyResult, RunReport, TraceStep, WatchdogModel};
-use pmacwd_model::config::ModelConfig;
 use pmacwd_model::properties::Expectation;
 use pmacwd_specs::check::ProfileSelection;
+use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::{Spec, SpecError};
 use std::fmt::Write as _;
 
@@ -128,7 +128,7 @@ fn write_path(s: &mut String, p: &PropertyResult) {
 pub fn describe(step: &TraceStep) -> String {
     let o = &step.observation;
     let mut line = format!("{:<44}", step.event.to_string());
-    if o.reply != pmacwd_model::event::Reply::None {
+    if o.reply != pmacwd_specs::vocab::event::Reply::None {
         let _ = write!(line, " reply {:<14}", o.reply.to_string());
     }
     let _ = write!(line, " Y:$25={} X:$25={} status={:06X}{:06X}", o.counter, o.counter_min, o.status_x, o.status_y);

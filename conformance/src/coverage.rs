@@ -4,12 +4,12 @@
 
 use crate::subject::ModelSubject;
 use pmacwd_model::checker::{State, WatchdogModel};
-use pmacwd_model::command::{Buffer, HostCommand};
-use pmacwd_model::config::ModelConfig;
 use pmacwd_model::controller::TripCause;
-use pmacwd_model::event::Event;
 use pmacwd_model::properties::{Expectation, STATE_PROPERTIES};
 use pmacwd_specs::check::{ChecksumTarget, ResetKind};
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::vocab::command::{Buffer, HostCommand};
+use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::Spec;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;

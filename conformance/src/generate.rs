@@ -16,10 +16,10 @@
 use crate::lockstep::{Disagreement, Pair};
 use crate::subject::{ModelSubject, Subject};
 use crate::trace::{self, Expect, Step, Trace, TraceEvent};
-use pmacwd_model::command::HostCommand;
-use pmacwd_model::config::ModelConfig;
-use pmacwd_model::event::Event;
 use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetEvent, ResetKind};
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::vocab::command::HostCommand;
+use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::{Spec, SpecError};
 use proptest::prelude::*;
 use proptest::test_runner::{Config as RunnerConfig, RngAlgorithm, TestError, TestRng, TestRunner};

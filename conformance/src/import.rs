@@ -17,9 +17,9 @@
 //! power-up, the card's somewhere else.
 
 use crate::trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
-use pmacwd_model::command::{HostCommand, Register};
-use pmacwd_model::event::Event;
 use pmacwd_specs::check::{AllKeyword, ProfileSelection};
+use pmacwd_specs::vocab::command::{HostCommand, Register};
+use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::{Position, SpecError};
 use std::path::Path;
 

@@ -5,9 +5,9 @@
 
 use crate::subject::{ModelSubject, Subject};
 use crate::trace::TraceEvent;
-use pmacwd_model::config::ModelConfig;
-use pmacwd_model::event::Event;
-use pmacwd_model::observe::Observation;
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::vocab::event::Event;
+use pmacwd_specs::vocab::Observation;
 use std::fmt;
 
 /// Where and how the implementation and the model parted.

@@ -8,9 +8,8 @@ use crate::lockstep::{differences, Disagreement};
 use crate::subject::{core_config, core_event, core_observation};
 use pmacwd_core as core;
 use pmacwd_model::checker::{Action, State, WatchdogModel};
-use pmacwd_model::config::ModelConfig;
-use pmacwd_model::event::Event;
-use pmacwd_model::observe::Observation;
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::vocab::event::Event;
 use stateright::{Checker, Model, Property};
 use std::time::{Duration, Instant};
 
@@ -47,7 +46,7 @@ impl ProductModel {
         let mut core = s.core;
         let mut store = s.store;
         let core_reply = core.apply(&self.core_cfg, core_event(&event), &mut store);
-        let m = Observation::of(&model.controller, &self.model.cfg, reply);
+        let m = pmacwd_model::observe::of(&model.controller, &self.model.cfg, reply);
         let k = core_observation(&core, &self.core_cfg, core_reply);
         let mut fields = differences(&m, &k);
         let (bm, bk) = (model.controller.background_possible(), core.background_possible());

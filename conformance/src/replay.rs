@@ -10,7 +10,7 @@
 use crate::runner::{Mismatch, ModelLane};
 use crate::trace::{parse_yaml, Step, Trace, TraceEvent};
 use crate::trace_jsonl::StepReader;
-use pmacwd_model::config::ModelConfig;
+use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::{Choices, Profile};
 use pmacwd_specs::yaml::SourceMap;
 use pmacwd_specs::{Position, Spec, SpecError};

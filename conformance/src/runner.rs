@@ -1,13 +1,13 @@
 //! Runs a trace on the reference model and compares every expected observation.
 
 use crate::trace::{Expect, LoadedTrace, Step, TraceEvent};
-use pmacwd_model::config::ModelConfig;
 use pmacwd_model::controller::Controller;
-use pmacwd_model::event::{Event, Reply};
-use pmacwd_model::observe::Observation;
 use pmacwd_specs::check::ProfileSelection;
+use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::Profile;
 use pmacwd_specs::status::WordId;
+use pmacwd_specs::vocab::event::{Event, Reply};
+use pmacwd_specs::vocab::Observation;
 use pmacwd_specs::{Position, Spec, SpecError};
 use std::fmt;
 
@@ -129,7 +129,7 @@ impl ModelLane {
     /// `window_cycles: W`, an expected trip (or its absence) also holds if the model trips within
     /// the next W servo cycles (or tripped within the last W): captured timing is uncertain.
     pub fn check(&self, spec: &Spec, expect: &Expect, reply: Reply) -> Result<usize, Mismatch> {
-        let obs = Observation::of(&self.card, &self.cfg, reply);
+        let obs = pmacwd_model::observe::of(&self.card, &self.cfg, reply);
         let (Some(window), Some(want)) = (expect.window_cycles, expect.tripped) else {
             return compare(spec, expect, &obs);
         };

@@ -8,13 +8,13 @@
 //! is the reference itself.
 
 use pmacwd_core as core;
-use pmacwd_model::command::{Buffer, HostCommand, Register};
-use pmacwd_model::config::ModelConfig;
 use pmacwd_model::controller::Controller;
-use pmacwd_model::event::{Event, Reply};
-use pmacwd_model::observe::Observation;
 use pmacwd_specs::check::{ChecksumTarget, ResetKind};
+use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::{Bit12Meaning, RtiWarningLatch, StrobeStop, Strober};
+use pmacwd_specs::vocab::command::{Buffer, HostCommand, Register};
+use pmacwd_specs::vocab::event::{Event, Reply};
+use pmacwd_specs::vocab::Observation;
 
 /// A controller implementation under test.
 pub trait Subject {
@@ -55,7 +55,7 @@ impl Subject for ModelSubject {
     }
     fn apply(&mut self, event: &Event) -> Observation {
         let reply = self.card.apply(&self.cfg, event);
-        Observation::of(&self.card, &self.cfg, reply)
+        pmacwd_model::observe::of(&self.card, &self.cfg, reply)
     }
 }
 

@@ -5,10 +5,10 @@
 //! Parsing goes through `pmacwd_specs::yaml`, the one YAML module of the workspace, so every
 //! error names file, line and column, and unknown keys are errors.
 
-use pmacwd_model::command::HostCommand;
-use pmacwd_model::event::Event;
 use pmacwd_specs::check::{ChecksumTarget, Load, ProfileSelection, ResetEvent};
 use pmacwd_specs::cite::Cites;
+use pmacwd_specs::vocab::command::HostCommand;
+use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::yaml::SourceMap;
 use pmacwd_specs::SpecError;
 use serde::de::{self, MapAccess, Visitor};

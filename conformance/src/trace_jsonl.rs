@@ -3,9 +3,9 @@
 //! [`StepReader`] reads it one line at a time, so memory does not grow with the trace.
 
 use crate::trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
-use pmacwd_model::event::Event;
 use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetKind};
 use pmacwd_specs::cite::Cites;
+use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::{Position, SpecError};
 use serde::Deserialize;
 use std::io::BufRead;

@@ -6,8 +6,8 @@ use pmacwd_conformance::check::{planned_runs, Selection};
 use pmacwd_conformance::product::{check, check_product, ProductModel};
 use pmacwd_conformance::subject::core_config;
 use pmacwd_model::checker::{Canary, WatchdogModel};
-use pmacwd_model::command::HostCommand;
-use pmacwd_model::event::Event;
+use pmacwd_specs::vocab::command::HostCommand;
+use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::Spec;
 
 #[test]
@@ -32,7 +32,7 @@ fn the_core_agrees_with_the_model_in_every_reachable_state_of_every_bounded_run(
 #[test]
 fn a_divergence_comes_back_as_the_shortest_event_sequence_that_reaches_it() {
     let spec = Spec::embedded().unwrap();
-    let cfg = pmacwd_model::config::ModelConfig::from_spec(&spec, "lockout", &spec.profiles.default_profile()).unwrap();
+    let cfg = pmacwd_specs::config::ModelConfig::from_spec(&spec, "lockout", &spec.profiles.default_profile()).unwrap();
     let product = ProductModel {
         core_cfg: core_config(&cfg),
         model: WatchdogModel { cfg, canary: Some(Canary::LockoutIgnored), detailed: false },

@@ -3,8 +3,8 @@
 
 use pmacwd_conformance::check::{planned_runs, run, Selection};
 use pmacwd_model::checker::{Canary, WatchdogModel};
-use pmacwd_model::config::ModelConfig;
 use pmacwd_model::properties::Expectation;
+use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::Spec;
 use std::collections::{BTreeMap, BTreeSet};
 

@@ -2,7 +2,7 @@
 //! the host-command syntax. Random inputs find the corner cases hand-picked examples miss.
 
 use pmacwd_conformance::reply_text::{decode, encode, StatusReply};
-use pmacwd_model::command::{Buffer, HostCommand, Register};
+use pmacwd_specs::vocab::command::{Buffer, HostCommand, Register};
 use quickcheck::{quickcheck, Arbitrary, Gen, TestResult};
 
 quickcheck! {

@@ -24,7 +24,7 @@ fn ask(c: &mut TcpStream, line: &str) -> Vec<u8> {
 fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent() {
     let spec = pmacwd_specs::Spec::embedded().unwrap();
     let model =
-        pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
+        pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
     let card = Card::default_card(Clock::Wall { start: Instant::now(), servo_hz: model.servo_hz });
     let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
 
@@ -87,7 +87,9 @@ fn recorded_replies(trace: &pmacwd_conformance::trace::Trace) -> Vec<(String, Op
         .steps
         .iter()
         .filter_map(|s| match &s.event {
-            TraceEvent::Model(pmacwd_model::event::Event::Command(c)) => Some((c.to_string(), s.expect.reply.clone())),
+            TraceEvent::Model(pmacwd_specs::vocab::event::Event::Command(c)) => {
+                Some((c.to_string(), s.expect.reply.clone()))
+            }
             _ => None,
         })
         .collect()
@@ -153,7 +155,7 @@ fn every_recorded_reply_is_the_one_the_client_received_however_fast_or_impatient
     // healthy session as unexplained. Hundreds of back-to-back exchanges make a race show.
     let spec = pmacwd_specs::Spec::embedded().unwrap();
     let model =
-        pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
+        pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
     let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
     let server = Server::start(Card::default_card(Clock::Virtual), options).unwrap();
     let path = std::env::temp_dir().join(format!("pmacwd-record-order-{}.jsonl", std::process::id()));
@@ -230,7 +232,7 @@ fn every_recorded_reply_is_the_one_the_client_received_however_fast_or_impatient
         .steps
         .iter()
         .filter_map(|s| match (&s.event, s.expect.reply.as_deref()) {
-            (TraceEvent::Model(pmacwd_model::event::Event::Reset(_)), _) => Some("reset"),
+            (TraceEvent::Model(pmacwd_specs::vocab::event::Event::Reset(_)), _) => Some("reset"),
             (_, Some("(silence)")) => Some("silence"),
             _ => None,
         })

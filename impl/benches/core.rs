@@ -57,7 +57,7 @@ fn core_benchmarks(c: &mut Criterion) {
     // The reference model on the same servo event.
     let spec = pmacwd_specs::Spec::embedded().unwrap();
     let mcfg =
-        pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
+        pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
     g.bench_function("model_servo_event", |b| {
         let mut card = pmacwd_model::controller::Controller::power_on(&mcfg);
         b.iter(|| {
@@ -74,7 +74,7 @@ fn core_benchmarks(c: &mut Criterion) {
             violations: 0,
         };
         b.iter(|| {
-            let (_, next) = model.step(&state, &pmacwd_model::event::Event::Servo { cycles: 1 });
+            let (_, next) = model.step(&state, &pmacwd_specs::vocab::event::Event::Servo { cycles: 1 });
             state = next;
             if state.controller.background_possible() {
                 state.controller.background_cycle(&mcfg);

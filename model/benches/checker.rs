@@ -5,7 +5,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use pmacwd_model::checker::WatchdogModel;
-use pmacwd_model::config::ModelConfig;
+use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::Spec;
 
 fn checker_states_per_second(c: &mut Criterion) {

@@ -11,13 +11,13 @@
 //! environment has nothing new to react to, so the behaviours are the same; each jump is still
 //! simulated one plain servo cycle at a time.
 
-use crate::config::ModelConfig;
 use crate::controller::Controller;
-use crate::event::{Event, Reply};
 use crate::monitor::{Check, MONITORS};
-use crate::observe::Observation;
 use crate::properties::{Expectation, STATE_PROPERTIES};
 use pmacwd_specs::check::ChecksumTarget;
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::vocab::event::{Event, Reply};
+use pmacwd_specs::vocab::Observation;
 use stateright::{Checker, Model, Property};
 use std::time::{Duration, Instant};
 
@@ -186,7 +186,7 @@ impl WatchdogModel {
             _ => next.controller.apply(cfg, event),
         };
         match (self.canary, event) {
-            (Some(Canary::LockoutIgnored), Event::Command(crate::command::HostCommand::WriteI(n, v)))
+            (Some(Canary::LockoutIgnored), Event::Command(pmacwd_specs::vocab::command::HostCommand::WriteI(n, v)))
                 if !prev.tripped() && !prev.bootstrap =>
             {
                 if let Some(bit) = cfg.lockout_bit(*n) {
@@ -549,7 +549,7 @@ impl WatchdogModel {
         let mut steps = Vec::new();
         for a in actions {
             let (event, reply, next) = self.perform(&state, a);
-            steps.push(TraceStep { event, observation: Observation::of(&next.controller, &self.cfg, reply) });
+            steps.push(TraceStep { event, observation: crate::observe::of(&next.controller, &self.cfg, reply) });
             state = next;
         }
         steps

@@ -6,12 +6,12 @@
 //!
 //! Modelling choices the manuals leave open are marked `MODEL:` and explained where made.
 
-use crate::command::{Buffer, HostCommand, Register};
-use crate::config::ModelConfig;
-use crate::event::{Event, Reply};
 use pmacwd_specs::check::{ChecksumTarget, Load, ResetEvent, ResetKind};
+use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::{Bit12Meaning, RtiWarningLatch, StrobeStop, Strober};
 use pmacwd_specs::status::WordId;
+use pmacwd_specs::vocab::command::{Buffer, HostCommand, Register};
+use pmacwd_specs::vocab::event::{Event, Reply};
 use std::collections::BTreeMap;
 
 /// Why the hardware timer tripped.

@@ -3,10 +3,12 @@
 //! Laid out like its sources: [`controller`] is the semantics, rule by rule with citations
 //! (UM = Turbo PMAC User Manual, SRM = Software Reference); [`monitor`] and [`properties`] are
 //! the checked sentences; [`checker`] is the stateright [`stateright::Model`] with the
-//! environment's choices. Facts and readings come from `specs/` through [`config`].
+//! environment's choices; [`observe`] fills in the vocabulary's observation. Facts, readings
+//! and the vocabulary come from `pmacwd-specs` (`pmacwd_specs::config`, `pmacwd_specs::vocab`).
 //!
 //! ```
-//! use pmacwd_model::{config::ModelConfig, controller::Controller, event::{Event, Reply}, command::HostCommand};
+//! use pmacwd_model::controller::Controller;
+//! use pmacwd_specs::{config::ModelConfig, vocab::{Event, HostCommand, Reply}};
 //! let spec = pmacwd_specs::Spec::embedded().unwrap();
 //! let profile = spec.profiles.default_profile();
 //! let cfg = ModelConfig::from_spec(&spec, "timing", &profile).unwrap();
@@ -16,10 +18,7 @@
 //! ```
 
 pub mod checker;
-pub mod command;
-pub mod config;
 pub mod controller;
-pub mod event;
 pub mod monitor;
 pub mod observe;
 pub mod properties;

@@ -6,11 +6,11 @@
 //! in the next state; the matching `always` property requires that bit to stay clear. A
 //! monitor never influences the semantics, and a model that obeys every monitor adds no state.
 
-use crate::command::{HostCommand, Register};
-use crate::config::ModelConfig;
 use crate::controller::{Controller, CycleReport};
-use crate::event::{Event, Reply};
 use pmacwd_specs::check::ChecksumTarget;
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::vocab::command::{HostCommand, Register};
+use pmacwd_specs::vocab::event::{Event, Reply};
 
 /// A transition monitor: its property name, the sentence it encodes, and its check.
 pub struct Monitor {

@@ -9,13 +9,13 @@
 //!   show the behaviour at all.
 
 use crate::checker::{State, WatchdogModel};
-use crate::command::{Buffer, HostCommand};
-use crate::config::ModelConfig;
 use crate::controller::TripCause;
-use crate::event::Reply;
-use crate::observe::Observation;
 use pmacwd_specs::check::{ChecksumTarget, ResetKind};
+use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::{Bit12Meaning, StrobeStop};
+use pmacwd_specs::vocab::command::{Buffer, HostCommand};
+use pmacwd_specs::vocab::event::Reply;
+use pmacwd_specs::vocab::Observation;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Expectation {
@@ -63,7 +63,7 @@ fn has_command(cfg: &ModelConfig, f: fn(&HostCommand) -> bool) -> bool {
 }
 
 fn obs(m: &WatchdogModel, s: &State) -> Observation {
-    Observation::of(&s.controller, &m.cfg, Reply::None)
+    crate::observe::of(&s.controller, &m.cfg, Reply::None)
 }
 
 fn x_bit(m: &WatchdogModel, s: &State, bit: (pmacwd_specs::status::WordId, u8)) -> bool {

@@ -1,11 +1,11 @@
 //! The reference semantics on short, hand-written histories. Each test tells one sentence of
 //! the manuals as a story and checks what a host or an instrument would see.
 
-use pmacwd_model::command::HostCommand;
-use pmacwd_model::config::ModelConfig;
 use pmacwd_model::controller::{Controller, TripCause};
-use pmacwd_model::event::{Event, Reply};
 use pmacwd_specs::check::{ChecksumTarget, Load, ResetEvent, ResetKind};
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::vocab::command::HostCommand;
+use pmacwd_specs::vocab::event::{Event, Reply};
 use pmacwd_specs::Spec;
 
 fn config(configuration: &str, profile: &str) -> ModelConfig {

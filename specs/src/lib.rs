@@ -43,11 +43,13 @@
 pub mod check;
 pub mod cite;
 pub mod common;
+pub mod config;
 mod error;
 pub mod facts;
 pub mod profiles;
 pub mod status;
 pub mod variables;
+pub mod vocab;
 pub mod yaml;
 
 pub use error::{Position, SpecError};

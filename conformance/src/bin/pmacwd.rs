@@ -532,7 +532,7 @@ fn scenarios_on_core(
 /// generated traces. Returns whether anything diverged.
 fn conformance_summary(
     spec: &Spec,
-    runs: &[pmacwd_model::config::ModelConfig],
+    runs: &[pmacwd_specs::config::ModelConfig],
     scenario_dir: &std::path::Path,
     threads: usize,
 ) -> Result<bool, ExitCode> {

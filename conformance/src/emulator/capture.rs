@@ -22,9 +22,9 @@
 use super::framing::{self, ReadAnswer};
 use crate::trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
 use crate::trace_jsonl;
-use pmacwd_model::command::{HostCommand, Register};
-use pmacwd_model::event::Event;
 use pmacwd_specs::check::{AllKeyword, ProfileSelection};
+use pmacwd_specs::vocab::command::{HostCommand, Register};
+use pmacwd_specs::vocab::event::Event;
 use std::io::{self, Write};
 
 /// Commands every host sends that the model does not know, each answered by one message.

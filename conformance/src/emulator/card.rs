@@ -11,9 +11,9 @@ use crate::trace::{Expect, Step, TraceEvent};
 use crate::trace_jsonl::step_line;
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
-use pmacwd_model::command::HostCommand;
-use pmacwd_model::event::Event;
 use pmacwd_specs::check::Load;
+use pmacwd_specs::vocab::command::HostCommand;
+use pmacwd_specs::vocab::event::Event;
 use std::io::Write;
 use std::time::Instant;
 
@@ -103,7 +103,7 @@ impl Card {
     /// configuration under its default profile, with the default saved I-variables.
     pub fn default_card(clock: Clock) -> Card {
         let spec = pmacwd_specs::Spec::embedded().expect("the embedded spec is checked by its own tests");
-        let model = pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile())
+        let model = pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile())
             .expect("i40-zero is a configuration of the embedded spec");
         Card::power_on(crate::subject::core_config(&model), &SAVED_DEFAULT, clock, Identity::default())
     }
@@ -314,7 +314,7 @@ mod tests {
     fn card() -> Card {
         let spec = pmacwd_specs::Spec::embedded().unwrap();
         let cfg =
-            pmacwd_model::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
+            pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
         Card::power_on(crate::subject::core_config(&cfg), &SAVED_DEFAULT, Clock::Virtual, Identity::default())
     }
 

@@ -4,11 +4,11 @@
 //! Everything here comes from `specs/`: status bit positions by name (`status.yaml`), lockout
 //! ranges (`variables.yaml`), the supply minimum and strobe rule (`watchdog.yaml`).
 
-use crate::command::HostCommand;
-use pmacwd_specs::check::{ChecksumTarget, Configuration, Cpu, Delay, Load, PassCycles, ResetEvent};
-use pmacwd_specs::profiles::{Profile, ResetValueWhenI40Zero};
-use pmacwd_specs::status::WordId;
-use pmacwd_specs::{Spec, SpecError};
+use crate::check::{ChecksumTarget, Configuration, Cpu, Delay, Load, PassCycles, ResetEvent};
+use crate::profiles::{Profile, ResetValueWhenI40Zero};
+use crate::status::WordId;
+use crate::vocab::command::HostCommand;
+use crate::{Spec, SpecError};
 
 /// Where each status bit the model drives sits in the two words.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -75,7 +75,7 @@ impl ModelConfig {
             spec.status.bit(n).ok_or_else(|| {
                 SpecError::at(
                     &spec.dir.join("status.yaml"),
-                    pmacwd_specs::Position { line: 1, column: 1 },
+                    crate::Position { line: 1, column: 1 },
                     format!("the model needs a status bit named `{n}`"),
                 )
             })
@@ -92,7 +92,7 @@ impl ModelConfig {
             plc_buffer_open: bit("plc_buffer_open")?,
         };
         let vars = &spec.variables;
-        let range = |r: &pmacwd_specs::common::Range| (r.min, r.max);
+        let range = |r: &crate::common::Range| (r.min, r.max);
         let (i8_range, i40_range, i41_range) =
             (range(&vars.i_variables.i8.range), range(&vars.i_variables.i40.range), range(&vars.i_variables.i41.range));
         for (field, v, r) in [

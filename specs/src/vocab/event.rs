@@ -1,7 +1,7 @@
 //! The vocabulary: everything that can happen to a controller, and what it can answer.
 
-use crate::command::HostCommand;
-use pmacwd_specs::check::{ChecksumTarget, Load, ResetEvent, ResetKind};
+use crate::check::{ChecksumTarget, Load, ResetEvent, ResetKind};
+use crate::vocab::command::HostCommand;
 use std::fmt;
 
 /// One event from the closed set of the design notes.

@@ -1,0 +1,15 @@
+//! The vocabulary, defined once: everything that can happen to a controller ([`Event`], with
+//! the host's [`HostCommand`]s) and everything a host or an instrument can observe of it
+//! ([`Reply`], [`Observation`]; the status bits are data, in [`crate::status`]).
+//!
+//! The model, the compact core's bridge, the trace formats, the emulator and the command line
+//! all speak these types, and they match on them exhaustively: a new event, command or
+//! observation is a compile error at every place that must handle it.
+
+pub mod command;
+pub mod event;
+pub mod observation;
+
+pub use command::{Buffer, HostCommand, Register, Space};
+pub use event::{Event, Reply};
+pub use observation::Observation;
