@@ -15,12 +15,12 @@
 
 use crate::lockstep::{Disagreement, Pair};
 use crate::subject::{ModelSubject, Subject};
-use crate::trace::{self, Expect, Step, Trace, TraceEvent};
 use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetEvent, ResetKind};
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::vocab::command::HostCommand;
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::{Spec, SpecError};
+use pmacwd_trace::{self as trace, Expect, Step, Trace, TraceEvent};
 use proptest::prelude::*;
 use proptest::test_runner::{Config as RunnerConfig, RngAlgorithm, TestError, TestRng, TestRunner};
 use std::cell::{Cell, RefCell};

@@ -16,11 +16,11 @@
 //! own value is kept as the step's note, not compared: the model's X:$0 starts at 0 at
 //! power-up, the card's somewhere else.
 
-use crate::trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
 use pmacwd_specs::check::{AllKeyword, ProfileSelection};
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::{Position, SpecError};
+use pmacwd_trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
 use std::path::Path;
 
 /// The servo cycle counter wraps at 2^24 (M100->X:$000000,0,24,U).

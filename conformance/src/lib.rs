@@ -16,5 +16,3 @@ pub mod replay;
 pub mod reply_text;
 pub mod runner;
 pub mod subject;
-pub mod trace;
-pub mod trace_jsonl;

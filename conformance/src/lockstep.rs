@@ -4,10 +4,10 @@
 //! written out as a trace that reproduces it.
 
 use crate::subject::{ModelSubject, Subject};
-use crate::trace::TraceEvent;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::vocab::Observation;
+use pmacwd_trace::TraceEvent;
 use std::fmt;
 
 /// Where and how the implementation and the model parted.

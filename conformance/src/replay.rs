@@ -8,12 +8,12 @@
 //! profile that chooses it diverged) or not covered by any profile.
 
 use crate::runner::{Mismatch, ModelLane};
-use crate::trace::{parse_yaml, Step, Trace, TraceEvent};
-use crate::trace_jsonl::StepReader;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::{Choices, Profile};
 use pmacwd_specs::yaml::SourceMap;
 use pmacwd_specs::{Position, Spec, SpecError};
+use pmacwd_trace::jsonl::StepReader;
+use pmacwd_trace::{parse_yaml, Step, Trace, TraceEvent};
 use std::collections::VecDeque;
 use std::fs::File;
 use std::io::{BufRead, BufReader};

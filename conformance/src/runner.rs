@@ -1,6 +1,5 @@
 //! Runs a trace on the reference model and compares every expected observation.
 
-use crate::trace::{Expect, LoadedTrace, Step, TraceEvent};
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::ProfileSelection;
 use pmacwd_specs::config::ModelConfig;
@@ -9,6 +8,7 @@ use pmacwd_specs::status::WordId;
 use pmacwd_specs::vocab::event::{Event, Reply};
 use pmacwd_specs::vocab::Observation;
 use pmacwd_specs::{Position, Spec, SpecError};
+use pmacwd_trace::{Expect, LoadedTrace, Step, TraceEvent};
 use std::fmt;
 
 /// The first point where the model disagrees with a trace.

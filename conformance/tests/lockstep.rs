@@ -13,9 +13,9 @@
 use pmacwd_conformance::generate::{self, Settings};
 use pmacwd_conformance::runner::{profiles_of, run_on_subject, Failure};
 use pmacwd_conformance::subject::{CoreSubject, ModelSubject, Subject};
-use pmacwd_conformance::trace::{load_yaml, to_yaml};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::Spec;
+use pmacwd_trace::{load_yaml, to_yaml};
 use std::path::{Path, PathBuf};
 
 fn yaml_files(dir: &Path) -> Vec<PathBuf> {

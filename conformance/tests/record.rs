@@ -6,7 +6,7 @@ use pmacwd_conformance::emulator::card::{Card, Clock};
 use pmacwd_conformance::emulator::protocol::Header;
 use pmacwd_conformance::emulator::proxy::{Proxy, RecordOptions, Recorder};
 use pmacwd_conformance::emulator::server::{ServeOptions, Server};
-use pmacwd_conformance::trace::TraceEvent;
+use pmacwd_trace::TraceEvent;
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
@@ -62,7 +62,7 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
     assert!(notes.is_empty(), "{notes:?}");
 
     let text = std::fs::read_to_string(&path).unwrap();
-    let trace = pmacwd_conformance::trace_jsonl::read_all(&path, text.as_bytes()).unwrap();
+    let trace = pmacwd_trace::jsonl::read_all(&path, text.as_bytes()).unwrap();
     // Time from the proxy's clock: about 2,250 cycles a second, at most the session's length.
     let cycles: u64 = trace
         .steps
@@ -82,7 +82,7 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
 }
 
 /// The capture's command steps as (command, expected reply), in order.
-fn recorded_replies(trace: &pmacwd_conformance::trace::Trace) -> Vec<(String, Option<String>)> {
+fn recorded_replies(trace: &pmacwd_trace::Trace) -> Vec<(String, Option<String>)> {
     trace
         .steps
         .iter()
@@ -220,7 +220,7 @@ fn every_recorded_reply_is_the_one_the_client_received_however_fast_or_impatient
     assert!(notes.is_empty(), "{notes:?}");
 
     let text = std::fs::read_to_string(&path).unwrap();
-    let trace = pmacwd_conformance::trace_jsonl::read_all(&path, text.as_bytes()).unwrap();
+    let trace = pmacwd_trace::jsonl::read_all(&path, text.as_bytes()).unwrap();
     let recorded = recorded_replies(&trace);
     assert_eq!(recorded.len(), received.len());
     for (i, ((line, got), (command, expect))) in received.iter().zip(&recorded).enumerate() {

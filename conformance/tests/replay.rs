@@ -92,7 +92,7 @@ fn an_imported_host_log_replays_and_settles_two_readings() {
     let dir = std::env::temp_dir().join(format!("pmacwd-import-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("session.jsonl");
-    std::fs::write(&out, pmacwd_conformance::trace_jsonl::to_jsonl(&trace)).unwrap();
+    std::fs::write(&out, pmacwd_trace::jsonl::to_jsonl(&trace)).unwrap();
     let r = replay(&Spec::embedded().unwrap(), &out).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(consistent(&r), ["um-215", "um-215-50hz", "um-215-literal-plc"]);
@@ -114,7 +114,7 @@ fn a_host_log_with_a_command_but_no_reply_or_a_stray_line_is_refused_with_its_li
 
 #[test]
 fn the_time_between_two_servo_counter_reads_becomes_a_run_step_even_across_the_wrap() {
-    use pmacwd_conformance::trace::TraceEvent;
+    use pmacwd_trace::TraceEvent;
     let t =
         pmacwd_conformance::import::import(Path::new("s.log"), "> RHX:$0\n< FFFFF0\n> RHX:$0\n< 000010\n", "i40-zero")
             .unwrap();
@@ -125,7 +125,7 @@ fn the_time_between_two_servo_counter_reads_becomes_a_run_step_even_across_the_w
 fn a_trip_seen_within_a_window_of_cycles_matches_a_model_trip_inside_the_window_only() {
     // The default profile trips 4096 + 46 = 4142 servo cycles after power-up with no background.
     use pmacwd_conformance::runner::{run_on_model, Failure};
-    use pmacwd_conformance::trace::parse_yaml;
+    use pmacwd_trace::parse_yaml;
     let spec = Spec::embedded().unwrap();
     let profile = spec.profiles.get("um-215").unwrap();
     let run = |cycles: u32, tripped: bool, window: u32| {

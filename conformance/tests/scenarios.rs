@@ -3,8 +3,8 @@
 //! each profile it names.
 
 use pmacwd_conformance::runner::{profiles_of, run_on_model, Failure};
-use pmacwd_conformance::trace::{load_yaml, parse_yaml, to_yaml};
 use pmacwd_specs::Spec;
+use pmacwd_trace::{load_yaml, parse_yaml, to_yaml};
 use std::path::{Path, PathBuf};
 
 fn scenario_files() -> Vec<PathBuf> {
@@ -92,7 +92,7 @@ fn a_divergence_names_the_step_its_line_and_the_events_before_it() {
 
 #[test]
 fn every_scenario_round_trips_through_json_lines() {
-    use pmacwd_conformance::trace_jsonl::{read_all, to_jsonl};
+    use pmacwd_trace::jsonl::{read_all, to_jsonl};
     for file in scenario_files() {
         let loaded = load_yaml(&file).unwrap();
         let text = to_jsonl(&loaded.trace);
@@ -106,7 +106,7 @@ fn every_scenario_round_trips_through_json_lines() {
 
 #[test]
 fn a_malformed_json_lines_step_is_refused_with_its_line_and_column() {
-    use pmacwd_conformance::trace_jsonl::read_all;
+    use pmacwd_trace::jsonl::read_all;
     let header = r#"{"format":"pmacwd-trace","version":1,"description":"d","configuration":"timing","profiles":"all"}"#;
     let text = format!("{header}\n{{\"servo\":1}}\n\n{{\"servo\":1,\"expect\":{{\"trippd\":true}}}}\n");
     let err = read_all(Path::new("c.jsonl"), text.as_bytes()).unwrap_err();

@@ -168,11 +168,7 @@ fn import_log(log: &std::path::Path, out: Option<PathBuf>, configuration: &str, 
             return ExitCode::from(2);
         }
     };
-    let written = if yaml {
-        pmacwd_conformance::trace::to_yaml(&trace)
-    } else {
-        pmacwd_conformance::trace_jsonl::to_jsonl(&trace)
-    };
+    let written = if yaml { pmacwd_trace::to_yaml(&trace) } else { pmacwd_trace::jsonl::to_jsonl(&trace) };
     match out {
         Some(path) => {
             if let Err(e) = std::fs::write(&path, written) {
@@ -290,7 +286,7 @@ fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<Strin
     };
     let (mut passed, mut diverged) = (0usize, 0usize);
     for file in &files {
-        let loaded = match pmacwd_conformance::trace::load_yaml(file) {
+        let loaded = match pmacwd_trace::load_yaml(file) {
             Ok(l) => l,
             Err(e) => {
                 eprintln!("pmacwd: {e}");
@@ -421,7 +417,7 @@ fn conform(a: ConformArgs) -> ExitCode {
         }
         Err(found) => {
             diverged = true;
-            let yaml = pmacwd_conformance::trace::to_yaml(&found.to_trace());
+            let yaml = pmacwd_trace::to_yaml(&found.to_trace());
             let path = a.save_regressions.join(found.file_name());
             let saved = std::fs::create_dir_all(&a.save_regressions).and_then(|_| std::fs::write(&path, &yaml));
             println!("DIVERGED under {} / {}: {}", found.configuration, found.profile, found.disagreement);
@@ -498,7 +494,7 @@ fn scenarios_on_core(
     use pmacwd_conformance::subject::CoreSubject;
     let mut tally = ScenarioTally { runs: 0, expectations: 0, diverged: false };
     for file in files {
-        let loaded = pmacwd_conformance::trace::load_yaml(file).map_err(|e| {
+        let loaded = pmacwd_trace::load_yaml(file).map_err(|e| {
             eprintln!("pmacwd: {e}");
             ExitCode::from(2)
         })?;
@@ -600,7 +596,7 @@ fn conformance_summary(
                 "  generated: seed {seed}, DIVERGED under {} / {}: {}",
                 found.configuration, found.profile, found.disagreement
             );
-            print!("{}", pmacwd_conformance::trace::to_yaml(&found.to_trace()));
+            print!("{}", pmacwd_trace::to_yaml(&found.to_trace()));
         }
     }
     Ok(diverged)

@@ -20,11 +20,11 @@
 //! `window_cycles` instead of an exact `(silence)`.
 
 use super::framing::{self, ReadAnswer};
-use crate::trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
-use crate::trace_jsonl;
 use pmacwd_specs::check::{AllKeyword, ProfileSelection};
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
+use pmacwd_trace::jsonl as trace_jsonl;
+use pmacwd_trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
 use std::io::{self, Write};
 
 /// Commands every host sends that the model does not know, each answered by one message.
@@ -278,7 +278,7 @@ impl<W: Write> CaptureWriter<W> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trace_jsonl::read_all;
+    use pmacwd_trace::jsonl::read_all;
     use std::path::Path;
 
     fn capture(timing: Timing, exchanges: &[(&str, Option<&[u8]>)]) -> Trace {

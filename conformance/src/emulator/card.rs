@@ -7,13 +7,13 @@ use super::capture::CaptureWriter;
 use super::control::{Control, HELP};
 use super::framing::{split_commands, Answer, Framing};
 use crate::subject::{core_command, core_event, spec_load};
-use crate::trace::{Expect, Step, TraceEvent};
-use crate::trace_jsonl::step_line;
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::vocab::command::HostCommand;
 use pmacwd_specs::vocab::event::Event;
+use pmacwd_trace::jsonl::step_line;
+use pmacwd_trace::{Expect, Step, TraceEvent};
 use std::io::Write;
 use std::time::Instant;
 

@@ -24,7 +24,7 @@
 use super::capture::{CaptureWriter, Timing};
 use super::framing::{ACK, BEL, CR};
 use super::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
-use crate::trace::Step;
+use pmacwd_trace::Step;
 use std::collections::{BTreeSet, VecDeque};
 use std::io::{self, BufRead, BufReader, Read, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};

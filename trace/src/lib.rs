@@ -3,7 +3,14 @@
 //! `docs/trace-format.md`; this module is its schema.
 //!
 //! Parsing goes through `pmacwd_specs::yaml`, the one YAML module of the workspace, so every
-//! error names file, line and column, and unknown keys are errors.
+//! error names file, line and column, and unknown keys are errors. [`jsonl`] is the JSON Lines
+//! form, streamed.
+//!
+//! This crate depends only on `pmacwd-specs` (the vocabulary): the conformance suite, the
+//! emulator's captures and the command line all read and write traces through it, and a
+//! simulator author can use it without the model or the emulator.
+
+pub mod jsonl;
 
 use pmacwd_specs::check::{ChecksumTarget, Load, ProfileSelection, ResetEvent};
 use pmacwd_specs::cite::Cites;

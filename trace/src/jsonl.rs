@@ -2,7 +2,7 @@
 //! one step per line, in the same vocabulary as the YAML form (`docs/trace-format.md`).
 //! [`StepReader`] reads it one line at a time, so memory does not grow with the trace.
 
-use crate::trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
+use crate::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
 use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetKind};
 use pmacwd_specs::cite::Cites;
 use pmacwd_specs::vocab::event::Event;
