@@ -5,7 +5,7 @@
 //! A divergence comes back as the shortest event sequence that reaches it (breadth-first).
 
 use crate::lockstep::{differences, Disagreement};
-use crate::subject::{core_config, core_event, core_observation};
+use pmacwd_bridge::{core_config, core_event, core_observation};
 use pmacwd_core as core;
 use pmacwd_model::checker::{Action, State, WatchdogModel};
 use pmacwd_specs::config::ModelConfig;

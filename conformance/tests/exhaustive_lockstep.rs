@@ -2,9 +2,9 @@
 //! the checker explores the product of the model and the core, so every reachable transition
 //! of the bounded model is applied to the core as well and their observations compared.
 
+use pmacwd_bridge::core_config;
 use pmacwd_conformance::check::{planned_runs, Selection};
 use pmacwd_conformance::product::{check, check_product, ProductModel};
-use pmacwd_conformance::subject::core_config;
 use pmacwd_model::checker::{Canary, WatchdogModel};
 use pmacwd_specs::vocab::command::HostCommand;
 use pmacwd_specs::vocab::event::Event;

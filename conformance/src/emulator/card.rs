@@ -6,7 +6,7 @@
 use super::capture::CaptureWriter;
 use super::control::{Control, HELP};
 use super::framing::{split_commands, Answer, Framing};
-use crate::subject::{core_command, core_event, spec_load};
+use pmacwd_bridge::{core_command, core_event, spec_load};
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
@@ -105,7 +105,7 @@ impl Card {
         let spec = pmacwd_specs::Spec::embedded().expect("the embedded spec is checked by its own tests");
         let model = pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile())
             .expect("i40-zero is a configuration of the embedded spec");
-        Card::power_on(crate::subject::core_config(&model), &SAVED_DEFAULT, clock, Identity::default())
+        Card::power_on(pmacwd_bridge::core_config(&model), &SAVED_DEFAULT, clock, Identity::default())
     }
 
     /// Records every exchange and event from now on.
@@ -315,7 +315,7 @@ mod tests {
         let spec = pmacwd_specs::Spec::embedded().unwrap();
         let cfg =
             pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
-        Card::power_on(crate::subject::core_config(&cfg), &SAVED_DEFAULT, Clock::Virtual, Identity::default())
+        Card::power_on(pmacwd_bridge::core_config(&cfg), &SAVED_DEFAULT, Clock::Virtual, Identity::default())
     }
 
     #[test]

@@ -4,7 +4,7 @@ use super::capture::CaptureWriter;
 use super::card::{Card, Clock, Identity, SAVED_DEFAULT};
 use super::proxy::{Proxy, RecordOptions, Recorder};
 use super::server::{ServeOptions, Server};
-use crate::subject::core_config;
+use pmacwd_bridge::core_config;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::Spec;
 use std::io::Write;
