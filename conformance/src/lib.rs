@@ -7,7 +7,6 @@
 pub mod check;
 pub mod coverage;
 pub mod decode;
-pub mod emulator;
 pub mod generate;
 pub mod import;
 pub mod lockstep;

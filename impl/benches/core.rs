@@ -1,4 +1,5 @@
-//! The compact core against the reference model, on the same events.
+//! The compact core on its own: one servo event, fast-forward, `???`. The reference model's
+//! figures for the same events are `cargo bench -p pmacwd-model --bench servo_event`.
 //!
 //! Run: `cargo bench -p pmacwd-core --bench core`.
 
@@ -52,33 +53,6 @@ fn core_benchmarks(c: &mut Criterion) {
         b.iter(|| match core.apply(&cfg, Event::Command(black_box(Command::GlobalStatus)), &mut store) {
             Reply::Status { x, y } => Reply::status_text(x, y),
             _ => [0; 12],
-        })
-    });
-    // The reference model on the same servo event.
-    let spec = pmacwd_specs::Spec::embedded().unwrap();
-    let mcfg =
-        pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
-    g.bench_function("model_servo_event", |b| {
-        let mut card = pmacwd_model::controller::Controller::power_on(&mcfg);
-        b.iter(|| {
-            card.servo_cycle(black_box(&mcfg));
-            if card.background_possible() {
-                card.background_cycle(&mcfg);
-            }
-        })
-    });
-    g.bench_function("model_step_servo_event", |b| {
-        let model = pmacwd_model::checker::WatchdogModel::new(mcfg.clone());
-        let mut state = pmacwd_model::checker::State {
-            controller: pmacwd_model::controller::Controller::power_on(&mcfg),
-            violations: 0,
-        };
-        b.iter(|| {
-            let (_, next) = model.step(&state, &pmacwd_specs::vocab::event::Event::Servo { cycles: 1 });
-            state = next;
-            if state.controller.background_possible() {
-                state.controller.background_cycle(&mcfg);
-            }
         })
     });
     g.finish();

@@ -1,10 +1,10 @@
 //! `pmacwd serve` on real sockets: the protocol details real clients rely on, and robustness
 //! against clients that misbehave. Each test runs its own server on a free loopback port.
 
-use pmacwd_conformance::emulator::card::{Card, Clock};
-use pmacwd_conformance::emulator::control::Control;
-use pmacwd_conformance::emulator::protocol::{Header, REPLY_PACKET_BYTES};
-use pmacwd_conformance::emulator::server::{ServeOptions, Server};
+use pmacwd_emulator::card::{Card, Clock};
+use pmacwd_emulator::control::Control;
+use pmacwd_emulator::protocol::{Header, REPLY_PACKET_BYTES};
+use pmacwd_emulator::server::{ServeOptions, Server};
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
 use std::sync::atomic::Ordering;

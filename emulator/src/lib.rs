@@ -4,7 +4,6 @@
 
 pub mod capture;
 pub mod card;
-pub mod cli;
 pub mod control;
 pub mod framing;
 pub mod protocol;

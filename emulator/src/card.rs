@@ -3,9 +3,9 @@
 //! one `Card` behind a lock; every event that reaches the core also goes to the capture when
 //! the session is recorded.
 
-use super::capture::CaptureWriter;
-use super::control::{Control, HELP};
-use super::framing::{split_commands, Answer, Framing};
+use crate::capture::CaptureWriter;
+use crate::control::{Control, HELP};
+use crate::framing::{split_commands, Answer, Framing};
 use pmacwd_bridge::{core_command, core_event, spec_load};
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;

@@ -8,9 +8,9 @@
 //! `clients_max` connections are open, the one idle longest makes room for a new one
 //! (half-open connections are never the ones in use).
 
-use super::card::Card;
-use super::control::Control;
-use super::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
+use crate::card::Card;
+use crate::control::Control;
+use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
 use std::io::{self, BufRead, BufReader, Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

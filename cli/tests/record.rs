@@ -1,11 +1,11 @@
 //! `pmacwd record` on the wall clock: the proxy forwards bytes unchanged, times the exchanges
 //! with its own clock, and writes a capture that replays as consistent.
 
-use pmacwd_conformance::emulator::capture::CaptureWriter;
-use pmacwd_conformance::emulator::card::{Card, Clock};
-use pmacwd_conformance::emulator::protocol::Header;
-use pmacwd_conformance::emulator::proxy::{Proxy, RecordOptions, Recorder};
-use pmacwd_conformance::emulator::server::{ServeOptions, Server};
+use pmacwd_emulator::capture::CaptureWriter;
+use pmacwd_emulator::card::{Card, Clock};
+use pmacwd_emulator::protocol::Header;
+use pmacwd_emulator::proxy::{Proxy, RecordOptions, Recorder};
+use pmacwd_emulator::server::{ServeOptions, Server};
 use pmacwd_trace::TraceEvent;
 use std::io::{Read, Write};
 use std::net::TcpStream;

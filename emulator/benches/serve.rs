@@ -5,9 +5,9 @@
 //! `cargo bench -p pmacwd-conformance --bench serve`
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use pmacwd_conformance::emulator::card::{Card, Clock};
-use pmacwd_conformance::emulator::protocol::Header;
-use pmacwd_conformance::emulator::server::{ServeOptions, Server};
+use pmacwd_emulator::card::{Card, Clock};
+use pmacwd_emulator::protocol::Header;
+use pmacwd_emulator::server::{ServeOptions, Server};
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::time::{Duration, Instant};

@@ -28,13 +28,13 @@ fi
 if [ -x "$venv/bin/python" ] && ! cmp -s <("$python" -c 'import sys; print(sys.version)') <("$venv/bin/python" -c 'import sys; print(sys.version)'); then
   rm -rf "$venv"
 fi
-if [ ! -x "$venv/bin/python" ] || ! cmp -s conformance/tests/dls/requirements.txt "$venv/requirements.txt"; then
+if [ ! -x "$venv/bin/python" ] || ! cmp -s cli/tests/dls/requirements.txt "$venv/requirements.txt"; then
   rm -rf "$venv"
   "$python" -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check -r conformance/tests/dls/requirements.txt
-  cp conformance/tests/dls/requirements.txt "$venv/requirements.txt"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check -r cli/tests/dls/requirements.txt
+  cp cli/tests/dls/requirements.txt "$venv/requirements.txt"
 fi
 cargo build --release --locked --quiet --bin pmacwd
 venv_python="$PWD/$venv/bin/python"
-cd conformance/tests/dls
+cd cli/tests/dls
 PMACWD="$OLDPWD/target/release/pmacwd" "$venv_python" -m unittest -v test_dls_pmaclib

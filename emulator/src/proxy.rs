@@ -21,9 +21,9 @@
 //! commands seen on the proxied control interface of a `pmacwd serve --virtual-time`.
 //! Concurrent sessions share one timeline, in the order their exchanges complete.
 
-use super::capture::{CaptureWriter, Timing};
-use super::framing::{ACK, BEL, CR};
-use super::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
+use crate::capture::{CaptureWriter, Timing};
+use crate::framing::{ACK, BEL, CR};
+use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
 use pmacwd_trace::Step;
 use std::collections::{BTreeSet, VecDeque};
 use std::io::{self, BufRead, BufReader, Read, Write};

@@ -262,3 +262,32 @@ fn record_needs_a_target_and_an_output_and_says_so() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("capture.jsonl"));
 }
+
+#[test]
+fn the_command_line_exit_codes_follow_the_verdict_and_a_malformed_line_is_unusable_input() {
+    let pmacwd = env!("CARGO_BIN_EXE_pmacwd");
+    let capture = |name: &str| specs_dir().join("captures").join(name);
+    let out = Command::new(pmacwd).arg("replay").arg(capture("reload-to-4095.jsonl")).output().unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let out = Command::new(pmacwd)
+        .arg("replay")
+        .arg(capture("no-profile-explains.jsonl"))
+        .args(["--format", "json"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("\"explained\":false"));
+
+    let dir = std::env::temp_dir().join(format!("pmacwd-replay-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.jsonl");
+    let text = std::fs::read_to_string(capture("reload-to-4095.jsonl")).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    lines[3] = "{\"servo\": -4}";
+    std::fs::write(&bad, lines.join("\n")).unwrap();
+    let out = Command::new(pmacwd).arg("replay").arg(&bad).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("bad.jsonl:4:"), "{stderr}");
+}

@@ -19,7 +19,7 @@
 //! With timing from a host's clock, a silence becomes `tripped: true` with a window of
 //! `window_cycles` instead of an exact `(silence)`.
 
-use super::framing::{self, ReadAnswer};
+use crate::framing::{self, ReadAnswer};
 use pmacwd_specs::check::{AllKeyword, ProfileSelection};
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;

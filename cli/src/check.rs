@@ -1,0 +1,159 @@
+//! `pmacwd check`: the model check of every profile at the bounded configurations, then a
+//! conformance summary of the core against the model.
+
+use crate::common::{load_spec, trace_files};
+use crate::conform::scenarios_on_core;
+use pmacwd_conformance::check::{format_report, planned_runs, run, Selection};
+use pmacwd_specs::Spec;
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// The options of `pmacwd check`.
+pub struct CheckArgs {
+    pub specs: Option<PathBuf>,
+    pub profile: Option<String>,
+    pub configuration: Option<String>,
+    pub witnesses: bool,
+    pub threads: Option<usize>,
+    pub no_conformance: bool,
+}
+
+pub fn check(a: CheckArgs) -> ExitCode {
+    let CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance } = a;
+    let spec = match load_spec(&specs) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let runs = match planned_runs(&spec, &Selection { profile, configuration }) {
+        Ok(r) if r.is_empty() => {
+            eprintln!("pmacwd: the selection matches no run of {}", spec.dir.join("check.yaml").display());
+            return ExitCode::from(2);
+        }
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let default_profile = spec.profiles.default_profile().name;
+    println!("pmacwd check: {} runs from {}, {} threads", runs.len(), spec.dir.display(), threads);
+    let mut failures = 0usize;
+    let (mut states, mut seconds) = (0usize, 0f64);
+    for (i, cfg) in runs.iter().cloned().enumerate() {
+        eprint!("[{}] checking {} / {} ...\r", i + 1, cfg.configuration, cfg.profile.name);
+        let _ = std::io::stderr().flush();
+        let report = run(cfg, threads);
+        states += report.states;
+        seconds += report.duration.as_secs_f64();
+        if !report.all_hold() {
+            failures += 1;
+        }
+        print!("{}", format_report(&report, &default_profile, witnesses));
+    }
+    println!(
+        "total: {states} states in {seconds:.2} s ({:.0} states/s); {}",
+        states as f64 / seconds.max(1e-9),
+        if failures == 0 {
+            "every property holds".to_string()
+        } else {
+            format!("{failures} runs with failing properties")
+        }
+    );
+    let mut diverged = false;
+    if !no_conformance {
+        let scenario_dir = match &specs {
+            Some(d) => d.join("scenarios"),
+            None => PathBuf::from("specs/scenarios"),
+        };
+        match conformance_summary(&spec, &runs, &scenario_dir, threads) {
+            Ok(d) => diverged = d,
+            Err(code) => return code,
+        }
+    }
+    if failures == 0 && !diverged {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}
+
+/// The conformance summary `pmacwd check` prints after the model check: the exhaustive product
+/// of model and core at the checked runs, the scenario library on the core, and 1,000
+/// generated traces. Returns whether anything diverged.
+fn conformance_summary(
+    spec: &Spec,
+    runs: &[pmacwd_specs::config::ModelConfig],
+    scenario_dir: &std::path::Path,
+    threads: usize,
+) -> Result<bool, ExitCode> {
+    use pmacwd_conformance::generate::{self, Settings};
+    use pmacwd_conformance::subject::CoreSubject;
+    println!("conformance summary: the compact core (impl/) against the model (`pmacwd conform` for the full suite and its coverage)");
+    let mut diverged = false;
+    let start = std::time::Instant::now();
+    let mut pairs = 0;
+    for cfg in runs {
+        let r = pmacwd_conformance::product::check(cfg.clone(), threads);
+        pairs += r.states;
+        if let Some((events, d)) = &r.divergence {
+            diverged = true;
+            println!("  DIVERGED  {} / {}: {d}\n  shortest path:", r.configuration, r.profile);
+            for e in events {
+                println!("      {e}");
+            }
+        }
+    }
+    println!(
+        "  exhaustive lockstep: {pairs} pair states over {} runs, {} ({:.1} s)",
+        runs.len(),
+        if diverged { "DIVERGED" } else { "no divergence" },
+        start.elapsed().as_secs_f64()
+    );
+    if scenario_dir.is_dir() {
+        let files = trace_files(&[scenario_dir.to_path_buf()]).map_err(|e| {
+            eprintln!("pmacwd: {e}");
+            ExitCode::from(2)
+        })?;
+        let tally = scenarios_on_core(spec, &files, &mut Default::default())?;
+        diverged |= tally.diverged;
+        println!(
+            "  scenarios: {} files, {} scenario-profile runs, {} expectations met by the core{}",
+            files.len(),
+            tally.runs,
+            tally.expectations,
+            if tally.diverged { ", DIVERGED" } else { "" }
+        );
+    } else {
+        println!("  scenarios: {} not found (run from the project root), skipped", scenario_dir.display());
+    }
+    let configs = generate::all_configs(spec).map_err(|e| {
+        eprintln!("pmacwd: {e}");
+        ExitCode::from(2)
+    })?;
+    let seed = generate::fresh_seed();
+    let start = std::time::Instant::now();
+    match generate::run::<CoreSubject>(
+        &configs,
+        Settings { cases: 1_000, max_len: 1_000, seed },
+        &|_| {},
+        &mut |_, _, _| {},
+    ) {
+        Ok(stats) => println!(
+            "  generated: {} traces, {} events, seed {seed}, no divergence ({:.1} s)",
+            stats.traces,
+            stats.events,
+            start.elapsed().as_secs_f64()
+        ),
+        Err(found) => {
+            diverged = true;
+            println!(
+                "  generated: seed {seed}, DIVERGED under {} / {}: {}",
+                found.configuration, found.profile, found.disagreement
+            );
+            print!("{}", pmacwd_trace::to_yaml(&found.to_trace()));
+        }
+    }
+    Ok(diverged)
+}

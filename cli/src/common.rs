@@ -1,0 +1,87 @@
+//! What every subcommand shares: the spec directory, trace files, and unusable input.
+
+use pmacwd_emulator::capture::CaptureWriter;
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::Spec;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Prints the reason and gives exit code 2 (unusable input).
+pub fn unusable(msg: impl std::fmt::Display) -> ExitCode {
+    eprintln!("pmacwd: {msg}");
+    ExitCode::from(2)
+}
+
+/// The spec directory given with `--specs`, or the embedded one.
+pub fn load_spec(specs: &Option<PathBuf>) -> Result<Spec, ExitCode> {
+    match specs {
+        Some(dir) => Spec::load_dir(dir),
+        None => Spec::embedded(),
+    }
+    .map_err(|e| {
+        eprintln!("pmacwd: {e}");
+        ExitCode::from(2)
+    })
+}
+
+/// Trace files: each path a file, or a directory whose `.yaml` files are taken in name order.
+pub fn trace_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
+    let paths = if paths.is_empty() { vec![PathBuf::from("specs/scenarios")] } else { paths.to_vec() };
+    let mut files = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let entries = std::fs::read_dir(&p).map_err(|e| format!("{}: {e}", p.display()))?;
+            let mut found: Vec<PathBuf> = entries
+                .flatten()
+                .map(|e| e.path())
+                .filter(|f| f.extension().is_some_and(|x| x == "yaml" || x == "yml"))
+                .collect();
+            found.sort();
+            if found.is_empty() {
+                return Err(format!("{}: no .yaml traces in this directory", p.display()));
+            }
+            files.extend(found);
+        } else if p.is_file() {
+            files.push(p);
+        } else {
+            return Err(format!("{}: no such file or directory", p.display()));
+        }
+    }
+    Ok(files)
+}
+
+/// The resolved configuration `serve` and `record` run with.
+pub fn model_config(
+    specs: &Option<PathBuf>,
+    configuration: &str,
+    profile: Option<&str>,
+) -> Result<ModelConfig, String> {
+    let spec = match specs {
+        Some(dir) => Spec::load_dir(dir),
+        None => Spec::embedded(),
+    }
+    .map_err(|e| e.to_string())?;
+    let profile = match profile {
+        Some(name) => spec.profiles.get(name).ok_or_else(|| {
+            format!(
+                "no profile named `{name}` (profiles: {})",
+                spec.profiles.profiles.keys().cloned().collect::<Vec<_>>().join(", ")
+            )
+        })?,
+        None => spec.profiles.default_profile(),
+    };
+    ModelConfig::from_spec(&spec, configuration, &profile).map_err(|e| e.to_string())
+}
+
+/// A capture file, opened for writing.
+pub fn create_capture(
+    path: &Path,
+    description: &str,
+    configuration: &str,
+    timing: pmacwd_emulator::capture::Timing,
+) -> Result<CaptureWriter<Box<dyn Write + Send>>, String> {
+    let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let out: Box<dyn Write + Send> = Box::new(std::io::BufWriter::new(file));
+    CaptureWriter::new(out, description, configuration, timing).map_err(|e| format!("{}: {e}", path.display()))
+}

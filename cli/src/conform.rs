@@ -1,0 +1,195 @@
+//! `pmacwd conform`: the conformance suite against the compact core, with its coverage.
+
+use crate::common::{load_spec, trace_files};
+use pmacwd_conformance::check::{planned_runs, Selection};
+use pmacwd_specs::Spec;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+pub struct ConformArgs {
+    pub cases: u32,
+    pub max_len: usize,
+    pub seed: Option<u64>,
+    pub scenarios: Option<PathBuf>,
+    pub specs: Option<PathBuf>,
+    pub no_exhaustive: bool,
+    pub save_regressions: PathBuf,
+    pub threads: Option<usize>,
+}
+
+pub fn conform(a: ConformArgs) -> ExitCode {
+    use pmacwd_conformance::coverage::Coverage;
+    use pmacwd_conformance::generate::{self, Settings};
+    use pmacwd_conformance::subject::CoreSubject;
+    let spec = match load_spec(&a.specs) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let scenario_dir = a.scenarios.clone().unwrap_or_else(|| match &a.specs {
+        Some(d) => d.join("scenarios"),
+        None => PathBuf::from("specs/scenarios"),
+    });
+    let files = match trace_files(&[scenario_dir]) {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let mut coverage = Coverage::default();
+    let mut diverged = false;
+    let start = std::time::Instant::now();
+
+    println!("== scenarios on the core, in lockstep with the model");
+    match scenarios_on_core(&spec, &files, &mut coverage) {
+        Ok(tally) => {
+            diverged |= tally.diverged;
+            println!(
+                "{} scenarios, {} scenario-profile runs, {} expectations met by the core",
+                files.len(),
+                tally.runs,
+                tally.expectations
+            );
+        }
+        Err(code) => return code,
+    }
+
+    println!("== generated traces");
+    let configs = match generate::all_configs(&spec) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let seed = a.seed.unwrap_or_else(generate::fresh_seed);
+    println!(
+        "seed {seed} (repeat with --seed {seed}); {} traces of up to {} steps over {} (configuration, profile) pairs",
+        a.cases,
+        a.max_len,
+        configs.len()
+    );
+    let settings = Settings { cases: a.cases, max_len: a.max_len, seed };
+    let step = (a.cases / 10).max(1);
+    let progress = |done: u32| {
+        if done % step == 0 {
+            eprintln!("  {done} of {} traces", a.cases);
+        }
+    };
+    let generated_start = std::time::Instant::now();
+    let mut observe = |c: &_, e: &_, m: &_| coverage.record(c, e, m);
+    match generate::run::<CoreSubject>(&configs, settings, &progress, &mut observe) {
+        Ok(stats) => {
+            let secs = generated_start.elapsed().as_secs_f64();
+            println!(
+                "{} traces, {} events, no divergence ({secs:.1} s with coverage bookkeeping)",
+                stats.traces, stats.events
+            );
+        }
+        Err(found) => {
+            diverged = true;
+            let yaml = pmacwd_trace::to_yaml(&found.to_trace());
+            let path = a.save_regressions.join(found.file_name());
+            let saved = std::fs::create_dir_all(&a.save_regressions).and_then(|_| std::fs::write(&path, &yaml));
+            println!("DIVERGED under {} / {}: {}", found.configuration, found.profile, found.disagreement);
+            match saved {
+                Ok(()) => println!("shrunk to {} events, saved as {}:", found.events.len(), path.display()),
+                Err(e) => {
+                    println!("shrunk to {} events (could not save to {}: {e}):", found.events.len(), path.display())
+                }
+            }
+            print!("{yaml}");
+        }
+    }
+
+    if !a.no_exhaustive {
+        println!("== exhaustive lockstep: the product of model and core at every bounded run");
+        let runs = match planned_runs(&spec, &Selection::default()) {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!("pmacwd: {e}");
+                return ExitCode::from(2);
+            }
+        };
+        let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+        let mut total = 0;
+        for cfg in runs {
+            let r = pmacwd_conformance::product::check(cfg, threads);
+            total += r.states;
+            match &r.divergence {
+                None => println!(
+                    "ok        {:<10} {:<20} {:>8} pair states, depth {:>3}, {:.2} s",
+                    r.configuration,
+                    r.profile,
+                    r.states,
+                    r.depth,
+                    r.duration.as_secs_f64()
+                ),
+                Some((events, d)) => {
+                    diverged = true;
+                    println!("DIVERGED  {} / {}: {d}\n  shortest path:", r.configuration, r.profile);
+                    for e in events {
+                        println!("    {e}");
+                    }
+                }
+            }
+        }
+        println!("{total} pair states explored");
+    }
+
+    println!("== coverage");
+    print!("{}", coverage.report(&spec));
+    println!("total {:.1} s", start.elapsed().as_secs_f64());
+    if diverged {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+/// What running the scenario library on the core found.
+pub struct ScenarioTally {
+    pub runs: usize,
+    pub expectations: usize,
+    pub diverged: bool,
+}
+
+/// Every scenario under every profile it names, on the core in lockstep with the model, with
+/// its expectations checked on the core; divergences are printed as they are found.
+pub fn scenarios_on_core(
+    spec: &Spec,
+    files: &[PathBuf],
+    coverage: &mut pmacwd_conformance::coverage::Coverage,
+) -> Result<ScenarioTally, ExitCode> {
+    use pmacwd_conformance::runner::{profiles_of, run_on_subject_observed, Failure};
+    use pmacwd_conformance::subject::CoreSubject;
+    let mut tally = ScenarioTally { runs: 0, expectations: 0, diverged: false };
+    for file in files {
+        let loaded = pmacwd_trace::load_yaml(file).map_err(|e| {
+            eprintln!("pmacwd: {e}");
+            ExitCode::from(2)
+        })?;
+        let profiles = profiles_of(spec, &loaded).map_err(|e| {
+            eprintln!("pmacwd: {e}");
+            ExitCode::from(2)
+        })?;
+        for p in profiles {
+            let mut observe = |c: &_, e: &_, m: &_| coverage.record(c, e, m);
+            match run_on_subject_observed::<CoreSubject>(spec, &loaded, &p, &mut observe) {
+                Ok(n) => {
+                    tally.runs += 1;
+                    tally.expectations += n;
+                }
+                Err(Failure::Unusable(e)) => {
+                    eprintln!("pmacwd: {e}");
+                    return Err(ExitCode::from(2));
+                }
+                Err(Failure::Diverged(d)) => {
+                    tally.diverged = true;
+                    println!("DIVERGED  {} [{}]\n  {d}", file.display(), p.name);
+                }
+            }
+        }
+    }
+    Ok(tally)
+}

@@ -1,0 +1,26 @@
+//! `pmacwd decode`: a `???` reply explained bit by bit.
+
+use crate::common::load_spec;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+pub fn decode_reply(reply: &str, json: bool, specs: Option<PathBuf>) -> ExitCode {
+    let spec = match load_spec(&specs) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    match pmacwd_conformance::decode::explain(&spec, reply) {
+        Ok(d) if json => {
+            println!("{}", pmacwd_conformance::decode::to_json(&d));
+            ExitCode::SUCCESS
+        }
+        Ok(d) => {
+            print!("{}", pmacwd_conformance::decode::to_text(&d));
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,190 @@
+//! The `pmacwd` command line: the subcommands and their options; each lives in its own module,
+//! and `main` only dispatches.
+
+mod check;
+mod common;
+mod conform;
+mod decode;
+mod import;
+mod record;
+mod replay;
+mod run;
+mod serve;
+
+use clap::{Parser, Subcommand};
+use replay::Format;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Executable specification of the Turbo PMAC / Geo Brick watchdog, reset latch and global status.
+///
+/// Exit codes: 0 all good, 1 a property is violated (or a divergence found), 2 unusable input.
+#[derive(Parser)]
+#[command(name = "pmacwd", version)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Turbo PMAC emulator on the card's Ethernet protocol (port 1025), backed by the compact
+    /// core: `???`, I-variables with I41 lockout, X:$25, Y:$25, X:$0, `$$$`, `ver`, `cid`; the
+    /// watchdog runs at the servo rate and a tripped card goes silent until INIT/ or power.
+    /// Load and faults come through the control interface (docs/emulator.md).
+    Serve(serve::ServeArgs),
+    /// Transparent proxy between a host program and a card that writes every request and reply,
+    /// with timing, as a capture for `pmacwd replay` (docs/emulator.md).
+    Record(record::RecordArgs),
+    /// Model-check every profile at the bounded configurations of specs/check.yaml.
+    ///
+    /// Prints, per configuration and profile: states, depth, time, and every property with its
+    /// verdict; the shortest counterexample of a violated property.
+    Check {
+        /// Spec directory to check instead of the embedded one (the specs/ of this build).
+        #[arg(long, value_name = "DIR")]
+        specs: Option<PathBuf>,
+        /// Check only this profile.
+        #[arg(long, value_name = "NAME")]
+        profile: Option<String>,
+        /// Check only this configuration of check.yaml.
+        #[arg(long, value_name = "NAME")]
+        configuration: Option<String>,
+        /// Also print the shortest witness of every `sometimes` property.
+        #[arg(long)]
+        witnesses: bool,
+        /// Checker threads (default: the machine's cores).
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
+        /// Skip the conformance summary (the core against the model) after the model check.
+        #[arg(long)]
+        no_conformance: bool,
+    },
+    /// Run traces (YAML, docs/trace-format.md) on the reference model and compare every
+    /// expected observation, under each profile a trace names.
+    ///
+    /// PATH is a trace file or a directory of them (default: specs/scenarios). Prints one line
+    /// per trace and profile, and for a divergence the step, line, expected and observed values
+    /// and the events before it.
+    Run {
+        /// Trace files or directories.
+        #[arg(value_name = "PATH")]
+        paths: Vec<PathBuf>,
+        /// Spec directory to use instead of the embedded one.
+        #[arg(long, value_name = "DIR")]
+        specs: Option<PathBuf>,
+        /// Run only under this profile (default: the profiles each trace names).
+        #[arg(long, value_name = "NAME")]
+        profile: Option<String>,
+    },
+    /// Explain a ??? reply: every set bit of both words with its name and meaning, and whether
+    /// the EPICS pmac driver's hardware-problem mask flags it.
+    ///
+    /// REPLY is 12 hex characters (e.g. 400000080000), `BOOTSTRAP PROM`, or an error reply
+    /// (BEL ERRnnn CR). A malformed reply exits 2.
+    Decode {
+        #[arg(value_name = "REPLY")]
+        reply: String,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+        /// Spec directory to take the bit descriptions from instead of the embedded one.
+        #[arg(long, value_name = "DIR")]
+        specs: Option<PathBuf>,
+    },
+    /// Replay a captured trace (YAML or JSON Lines) against the model under every profile.
+    ///
+    /// Streams the capture; reports per profile whether it is consistent, the first divergence
+    /// with the events before it and the number of diverging events, then which readings of the
+    /// manuals the capture supports or rules out. Exit 0 when some profile explains the capture,
+    /// 1 when none does, 2 for unusable input.
+    Replay {
+        #[arg(value_name = "FILE")]
+        file: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
+        /// Spec directory to use instead of the embedded one.
+        #[arg(long, value_name = "DIR")]
+        specs: Option<PathBuf>,
+    },
+    /// Run the conformance suite against the compact core (impl/) and print what it covered.
+    ///
+    /// Three parts, each in lockstep with the reference model (observations compared after
+    /// every event): the scenario library (expectations also checked on the core), generated
+    /// traces weighted toward the edges, and, unless --no-exhaustive, the exhaustive product of
+    /// model and core at every bounded configuration of check.yaml. Then a coverage report: model
+    /// events applied, status bits seen set, properties reached. A generated divergence is
+    /// shrunk, printed and saved as a regression trace. Exit 0 no divergence, 1 a divergence,
+    /// 2 unusable input.
+    Conform {
+        /// Generated traces to run.
+        #[arg(long, value_name = "N", default_value_t = 10_000)]
+        cases: u32,
+        /// Longest generated trace, in steps.
+        #[arg(long, value_name = "N", default_value_t = 1_000)]
+        max_len: usize,
+        /// Seed of the generator (default: fresh; printed either way, so a run can be repeated).
+        #[arg(long, value_name = "N")]
+        seed: Option<u64>,
+        /// Scenario directory (default: specs/scenarios, or DIR/scenarios with --specs DIR).
+        #[arg(long, value_name = "DIR")]
+        scenarios: Option<PathBuf>,
+        /// Spec directory to use instead of the embedded one.
+        #[arg(long, value_name = "DIR")]
+        specs: Option<PathBuf>,
+        /// Skip the exhaustive product exploration.
+        #[arg(long)]
+        no_exhaustive: bool,
+        /// Where a shrunk divergence is saved as a trace.
+        #[arg(long, value_name = "DIR", default_value = "conformance/regressions")]
+        save_regressions: PathBuf,
+        /// Checker threads for the exhaustive part (default: the machine's cores).
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
+    },
+    /// Turn a plain host log (commands, replies, X:$0 read alongside) into a trace.
+    ///
+    /// The log format and how to capture one from a real controller: docs/capturing.md. Writes
+    /// JSON Lines (or YAML with --yaml) to --out, or to standard output.
+    Import {
+        #[arg(value_name = "LOG")]
+        log: PathBuf,
+        /// Where to write the trace (default: standard output).
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
+        /// The check.yaml configuration the trace names (CPU costs, hardware delay, I-variables).
+        #[arg(long, value_name = "NAME", default_value = "i40-zero")]
+        configuration: String,
+        /// Write YAML instead of JSON Lines.
+        #[arg(long)]
+        yaml: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Conform { cases, max_len, seed, scenarios, specs, no_exhaustive, save_regressions, threads } => {
+            conform::conform(conform::ConformArgs {
+                cases,
+                max_len,
+                seed,
+                scenarios,
+                specs,
+                no_exhaustive,
+                save_regressions,
+                threads,
+            })
+        }
+        Command::Run { paths, specs, profile } => run::run_traces(paths, specs, profile),
+        Command::Serve(args) => serve::serve(args),
+        Command::Record(args) => record::record(args),
+        Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
+        Command::Replay { file, format, specs } => replay::replay_file(&file, format, specs),
+        Command::Import { log, out, configuration, yaml } => import::import_log(&log, out, &configuration, yaml),
+        Command::Check { specs, profile, configuration, witnesses, threads, no_conformance } => {
+            check::check(check::CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance })
+        }
+    }
+}

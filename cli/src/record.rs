@@ -1,0 +1,108 @@
+//! `pmacwd record`: a transparent proxy that writes host sessions as a capture.
+
+use crate::common::{create_capture, model_config, unusable};
+use pmacwd_emulator::proxy::{Proxy, RecordOptions, Recorder};
+use std::io::Write;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+/// Transparent proxy that writes host sessions with a card as a capture.
+#[derive(clap::Args, Debug)]
+pub struct RecordArgs {
+    /// Address the host program connects to instead of the card.
+    #[arg(long, value_name = "ADDR")]
+    pub listen: SocketAddr,
+    /// The card (or emulator): HOST:PORT.
+    #[arg(long, value_name = "ADDR")]
+    pub target: String,
+    /// The capture to write (trace format, JSON Lines; replay it with `pmacwd replay`).
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+    /// The check.yaml configuration the capture names (and whose servo rate times it).
+    #[arg(long, value_name = "NAME", default_value = "i40-zero")]
+    pub configuration: String,
+    /// Spec directory to use instead of the embedded one.
+    #[arg(long, value_name = "DIR")]
+    pub specs: Option<PathBuf>,
+    /// The card's servo rate (default: the configuration's).
+    #[arg(long, value_name = "HZ")]
+    pub servo_hz: Option<u32>,
+    /// Also proxy an emulator's control interface: listen here ...
+    #[arg(long, value_name = "ADDR", requires = "control_target")]
+    pub control_listen: Option<SocketAddr>,
+    /// ... and forward to this one; its events go into the capture.
+    #[arg(long, value_name = "ADDR", requires = "control_listen")]
+    pub control_target: Option<String>,
+    /// Time only from the proxied control interface's `step` commands (an emulator in
+    /// virtual time): exact to the servo cycle.
+    #[arg(long, requires = "control_target")]
+    pub virtual_time: bool,
+    /// No reply byte for this long counts as silence (a tripped card).
+    #[arg(long, value_name = "MS", default_value_t = 1000)]
+    pub silence_ms: u64,
+    /// Stop after this many host sessions have ended (default: run until killed; every
+    /// exchange is on disk as soon as it completes).
+    #[arg(long, value_name = "N")]
+    pub sessions: Option<u64>,
+    /// Log sessions to standard error.
+    #[arg(long)]
+    pub verbose: bool,
+}
+
+pub fn record(a: RecordArgs) -> ExitCode {
+    let model = match model_config(&a.specs, &a.configuration, None) {
+        Ok(c) => c,
+        Err(e) => return unusable(e),
+    };
+    let servo_hz = a.servo_hz.unwrap_or(model.servo_hz);
+    if servo_hz == 0 {
+        return unusable("--servo-hz must be at least 1");
+    }
+    let timing = Recorder::timing(servo_hz, a.virtual_time);
+    let description = format!(
+        "recorded by pmacwd record from {} ({})",
+        a.target,
+        if a.virtual_time { "virtual time".to_string() } else { format!("host clock at {servo_hz} Hz") }
+    );
+    let capture = match create_capture(&a.out, &description, &a.configuration, timing) {
+        Ok(c) => c,
+        Err(e) => return unusable(e),
+    };
+    let options = RecordOptions {
+        listen: a.listen,
+        target: a.target.clone(),
+        control: a.control_listen.zip(a.control_target.clone()),
+        servo_hz,
+        virtual_time: a.virtual_time,
+        silence: Duration::from_millis(a.silence_ms.max(1)),
+        sessions: a.sessions,
+        verbose: a.verbose,
+    };
+    let proxy = match Proxy::start(Recorder::new(capture, servo_hz, a.virtual_time), options) {
+        Ok(p) => p,
+        Err(e) => return unusable(format!("cannot listen: {e}")),
+    };
+    println!(
+        "pmacwd record: {} -> {}{}, writing {}",
+        proxy.local_addr,
+        a.target,
+        match (proxy.control_addr, &a.control_target) {
+            (Some(l), Some(t)) => format!(" (control {l} -> {t})"),
+            _ => String::new(),
+        },
+        a.out.display()
+    );
+    let _ = std::io::stdout().flush();
+    match proxy.wait() {
+        Ok((exchanges, steps, notes)) => {
+            for n in notes {
+                eprintln!("pmacwd record: left over at the end: {n}");
+            }
+            println!("recorded {exchanges} exchanges as {steps} steps in {}", a.out.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => unusable(format!("{}: {e}", a.out.display())),
+    }
+}

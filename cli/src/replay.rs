@@ -1,0 +1,37 @@
+//! `pmacwd replay`: a capture against the model under every profile.
+
+use crate::common::load_spec;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum Format {
+    Text,
+    Json,
+}
+
+pub fn replay_file(file: &std::path::Path, format: Format, specs: Option<PathBuf>) -> ExitCode {
+    let spec = match load_spec(&specs) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    match pmacwd_conformance::replay::replay(&spec, file) {
+        Ok(report) => {
+            match format {
+                Format::Text => {
+                    print!("{}", pmacwd_conformance::replay::to_text(&report, &spec.profiles.default_profile().name))
+                }
+                Format::Json => println!("{}", pmacwd_conformance::replay::to_json(&report)),
+            }
+            if report.explained() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            }
+        }
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,69 @@
+//! `pmacwd run`: traces on the reference model.
+
+use crate::common::{load_spec, trace_files};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<String>) -> ExitCode {
+    use pmacwd_conformance::runner::{profiles_of, run_on_model, Failure};
+    let spec = match load_spec(&specs) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let files = match trace_files(&paths) {
+        Ok(f) => f,
+        Err(e) => {
+            eprintln!("pmacwd: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let (mut passed, mut diverged) = (0usize, 0usize);
+    for file in &files {
+        let loaded = match pmacwd_trace::load_yaml(file) {
+            Ok(l) => l,
+            Err(e) => {
+                eprintln!("pmacwd: {e}");
+                return ExitCode::from(2);
+            }
+        };
+        let profiles = match profiles_of(&spec, &loaded) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("pmacwd: {e}");
+                return ExitCode::from(2);
+            }
+        };
+        let profiles: Vec<_> = match &profile {
+            Some(name) => match spec.profiles.get(name) {
+                Some(p) => vec![p],
+                None => {
+                    eprintln!("pmacwd: no profile named `{name}`");
+                    return ExitCode::from(2);
+                }
+            },
+            None => profiles,
+        };
+        for p in profiles {
+            match run_on_model(&spec, &loaded, &p) {
+                Ok(n) => {
+                    passed += 1;
+                    println!("ok        {} [{}] ({n} expectations)", file.display(), p.name);
+                }
+                Err(Failure::Unusable(e)) => {
+                    eprintln!("pmacwd: {e}");
+                    return ExitCode::from(2);
+                }
+                Err(Failure::Diverged(d)) => {
+                    diverged += 1;
+                    println!("DIVERGED  {} [{}]\n  {d}", file.display(), p.name);
+                }
+            }
+        }
+    }
+    println!("{passed} passed, {diverged} failed");
+    if diverged == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}
