@@ -1,5 +1,5 @@
 //! Golden tests of the `pmacwd` command line: for each case, the exact standard output, standard
-//! error and exit code, compared with `tests/golden/<case>.txt` at the repository root.
+//! error and exit code, compared with `cli/tests/golden/<case>.txt`.
 //!
 //! They pin what a user of the command line sees, so that moving code between crates can be
 //! shown to change none of it. The binary runs from the repository root, as the README runs
@@ -14,10 +14,10 @@
 //! To write the files anew after an intended change of behaviour:
 //!
 //! ```sh
-//! PMACWD_BLESS=1 cargo test --release -p pmacwd-conformance --test golden
+//! PMACWD_BLESS=1 cargo test --release -p pmacwd-cli --test golden
 //! ```
 //!
-//! then review the change with `git diff tests/golden`.
+//! then review the change with `git diff cli/tests/golden`.
 
 use std::collections::BTreeSet;
 use std::io::Read;
@@ -362,7 +362,7 @@ fn every_golden_file_belongs_to_a_case() {
         return;
     }
     let files: BTreeSet<String> = std::fs::read_dir(golden_dir())
-        .expect("tests/golden exists (bless with PMACWD_BLESS=1)")
+        .expect("cli/tests/golden exists (bless with PMACWD_BLESS=1)")
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     let expected: BTreeSet<String> = names.iter().map(|n| format!("{n}.txt")).collect();
@@ -377,7 +377,7 @@ fn repo_root() -> PathBuf {
 }
 
 fn golden_dir() -> PathBuf {
-    repo_root().join("tests/golden")
+    repo_root().join("cli/tests/golden")
 }
 
 fn blessing() -> bool {
@@ -426,7 +426,7 @@ fn verify(group: &str, cases: &[Case], setup: impl FnOnce(&Path)) {
     assert!(
         failures.is_empty(),
         "{} of {} cases differ from their golden files \
-         (if the change is intended: PMACWD_BLESS=1 cargo test --release -p pmacwd-conformance --test golden):\n\n{}",
+         (if the change is intended: PMACWD_BLESS=1 cargo test --release -p pmacwd-cli --test golden):\n\n{}",
         failures.len(),
         cases.len(),
         failures.join("\n\n")
