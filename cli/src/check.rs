@@ -1,7 +1,7 @@
 //! `pmacwd check`: the model check of every profile at the bounded configurations, then a
 //! conformance summary of the core against the model.
 
-use crate::common::{load_spec, trace_files};
+use crate::common::{load_spec, scenario_library};
 use crate::conform::scenarios_on_core;
 use pmacwd_conformance::check::{format_report, planned_runs, run, Selection};
 use pmacwd_specs::Spec;
@@ -63,11 +63,7 @@ pub fn check(a: CheckArgs) -> ExitCode {
     );
     let mut diverged = false;
     if !no_conformance {
-        let scenario_dir = match &specs {
-            Some(d) => d.join("scenarios"),
-            None => PathBuf::from("specs/scenarios"),
-        };
-        match conformance_summary(&spec, &runs, &scenario_dir, threads) {
+        match conformance_summary(&spec, &runs, &specs, threads) {
             Ok(d) => diverged = d,
             Err(code) => return code,
         }
@@ -85,7 +81,7 @@ pub fn check(a: CheckArgs) -> ExitCode {
 fn conformance_summary(
     spec: &Spec,
     runs: &[pmacwd_specs::config::ModelConfig],
-    scenario_dir: &std::path::Path,
+    specs: &Option<PathBuf>,
     threads: usize,
 ) -> Result<bool, ExitCode> {
     use pmacwd_conformance::generate::{self, Settings};
@@ -111,8 +107,12 @@ fn conformance_summary(
         if diverged { "DIVERGED" } else { "no divergence" },
         start.elapsed().as_secs_f64()
     );
-    if scenario_dir.is_dir() {
-        let files = trace_files(&[scenario_dir.to_path_buf()]).map_err(|e| {
+    // A copy of the spec directory without its scenarios is checked without them.
+    let missing = specs.as_ref().map(|d| d.join("scenarios")).filter(|d| !d.is_dir());
+    if let Some(dir) = missing {
+        println!("  scenarios: {} not found, skipped", dir.display());
+    } else {
+        let files = scenario_library(specs).map_err(|e| {
             eprintln!("pmacwd: {e}");
             ExitCode::from(2)
         })?;
@@ -125,8 +125,6 @@ fn conformance_summary(
             tally.expectations,
             if tally.diverged { ", DIVERGED" } else { "" }
         );
-    } else {
-        println!("  scenarios: {} not found (run from the project root), skipped", scenario_dir.display());
     }
     let configs = generate::all_configs(spec).map_err(|e| {
         eprintln!("pmacwd: {e}");

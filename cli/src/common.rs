@@ -2,7 +2,8 @@
 
 use pmacwd_emulator::capture::CaptureWriter;
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::Spec;
+use pmacwd_specs::{Spec, SpecError};
+use pmacwd_trace::LoadedTrace;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -25,13 +26,44 @@ pub fn load_spec(specs: &Option<PathBuf>) -> Result<Spec, ExitCode> {
     })
 }
 
+/// A trace to run: a file, or a scenario compiled into the binary.
+pub struct TraceFile {
+    /// Where it is, or for an embedded scenario where it came from (`specs/scenarios/...`).
+    pub path: PathBuf,
+    embedded: Option<&'static str>,
+}
+
+impl TraceFile {
+    pub fn load(&self) -> Result<LoadedTrace, SpecError> {
+        match self.embedded {
+            Some(text) => pmacwd_trace::parse_yaml(&self.path, text),
+            None => pmacwd_trace::load_yaml(&self.path),
+        }
+    }
+
+    pub fn display(&self) -> std::path::Display<'_> {
+        self.path.display()
+    }
+}
+
+/// The scenario library: `scenarios/` of the `--specs` directory when one is given, otherwise
+/// the copy compiled into the binary, so that every subcommand works from any folder.
+pub fn scenario_library(specs: &Option<PathBuf>) -> Result<Vec<TraceFile>, String> {
+    match specs {
+        Some(dir) => trace_files(&[dir.join("scenarios")]),
+        None => Ok(pmacwd_specs::scenarios::SCENARIOS
+            .iter()
+            .map(|(name, text)| TraceFile { path: Path::new("specs/scenarios").join(name), embedded: Some(text) })
+            .collect()),
+    }
+}
+
 /// Trace files: each path a file, or a directory whose `.yaml` files are taken in name order.
-pub fn trace_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
-    let paths = if paths.is_empty() { vec![PathBuf::from("specs/scenarios")] } else { paths.to_vec() };
+pub fn trace_files(paths: &[PathBuf]) -> Result<Vec<TraceFile>, String> {
     let mut files = Vec::new();
     for p in paths {
         if p.is_dir() {
-            let entries = std::fs::read_dir(&p).map_err(|e| format!("{}: {e}", p.display()))?;
+            let entries = std::fs::read_dir(p).map_err(|e| format!("{}: {e}", p.display()))?;
             let mut found: Vec<PathBuf> = entries
                 .flatten()
                 .map(|e| e.path())
@@ -41,9 +73,9 @@ pub fn trace_files(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
             if found.is_empty() {
                 return Err(format!("{}: no .yaml traces in this directory", p.display()));
             }
-            files.extend(found);
+            files.extend(found.into_iter().map(|path| TraceFile { path, embedded: None }));
         } else if p.is_file() {
-            files.push(p);
+            files.push(TraceFile { path: p.clone(), embedded: None });
         } else {
             return Err(format!("{}: no such file or directory", p.display()));
         }

@@ -1,6 +1,6 @@
 //! `pmacwd conform`: the conformance suite against the compact core, with its coverage.
 
-use crate::common::{load_spec, trace_files};
+use crate::common::{load_spec, scenario_library, trace_files, TraceFile};
 use pmacwd_conformance::check::{planned_runs, Selection};
 use pmacwd_specs::Spec;
 use std::path::PathBuf;
@@ -25,11 +25,10 @@ pub fn conform(a: ConformArgs) -> ExitCode {
         Ok(s) => s,
         Err(code) => return code,
     };
-    let scenario_dir = a.scenarios.clone().unwrap_or_else(|| match &a.specs {
-        Some(d) => d.join("scenarios"),
-        None => PathBuf::from("specs/scenarios"),
-    });
-    let files = match trace_files(&[scenario_dir]) {
+    let files = match match &a.scenarios {
+        Some(dir) => trace_files(std::slice::from_ref(dir)),
+        None => scenario_library(&a.specs),
+    } {
         Ok(f) => f,
         Err(e) => {
             eprintln!("pmacwd: {e}");
@@ -158,14 +157,14 @@ pub struct ScenarioTally {
 /// its expectations checked on the core; divergences are printed as they are found.
 pub fn scenarios_on_core(
     spec: &Spec,
-    files: &[PathBuf],
+    files: &[TraceFile],
     coverage: &mut pmacwd_conformance::coverage::Coverage,
 ) -> Result<ScenarioTally, ExitCode> {
     use pmacwd_conformance::runner::{profiles_of, run_on_subject_observed, Failure};
     use pmacwd_conformance::subject::CoreSubject;
     let mut tally = ScenarioTally { runs: 0, expectations: 0, diverged: false };
     for file in files {
-        let loaded = pmacwd_trace::load_yaml(file).map_err(|e| {
+        let loaded = file.load().map_err(|e| {
             eprintln!("pmacwd: {e}");
             ExitCode::from(2)
         })?;

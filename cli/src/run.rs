@@ -1,6 +1,6 @@
 //! `pmacwd run`: traces on the reference model.
 
-use crate::common::{load_spec, trace_files};
+use crate::common::{load_spec, scenario_library, trace_files};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -10,7 +10,7 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
         Ok(s) => s,
         Err(code) => return code,
     };
-    let files = match trace_files(&paths) {
+    let files = match if paths.is_empty() { scenario_library(&specs) } else { trace_files(&paths) } {
         Ok(f) => f,
         Err(e) => {
             eprintln!("pmacwd: {e}");
@@ -19,7 +19,7 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
     };
     let (mut passed, mut diverged) = (0usize, 0usize);
     for file in &files {
-        let loaded = match pmacwd_trace::load_yaml(file) {
+        let loaded = match file.load() {
             Ok(l) => l,
             Err(e) => {
                 eprintln!("pmacwd: {e}");

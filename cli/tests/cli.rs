@@ -291,3 +291,26 @@ fn the_command_line_exit_codes_follow_the_verdict_and_a_malformed_line_is_unusab
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("bad.jsonl:4:"), "{stderr}");
 }
+
+#[test]
+fn the_scenario_library_is_found_from_any_folder() {
+    // The scenarios are compiled in: a user who runs the binary outside the checkout (or an
+    // installed `pmacwd`) gets the same library, not "specs/scenarios: no such file".
+    let elsewhere = TempDir::new("elsewhere");
+    let out = pmacwd().arg("run").current_dir(&*elsewhere).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        stdout.contains("ok        specs/scenarios/x25-keeps-the-lowest-counter-value-since-reset.yaml"),
+        "{stdout}"
+    );
+    let out = pmacwd()
+        .args(["conform", "--cases", "10", "--seed", "1", "--no-exhaustive"])
+        .current_dir(&*elsewhere)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    let scenarios = std::fs::read_dir(specs_dir().join("scenarios")).unwrap().count();
+    assert!(stdout.contains(&format!("{scenarios} scenarios,")), "{stdout}");
+}

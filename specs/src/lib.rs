@@ -16,7 +16,8 @@
 //! | `check.yaml` | [`check`] | the bounded configurations `pmacwd check` explores |
 //!
 //! Subdirectories (`scenarios/`, `captures/`) belong to the conformance suite and are not read
-//! here. Any other `.yaml` file in the directory is an error, so nothing is silently ignored.
+//! here; the scenario library is embedded as [`scenarios::SCENARIOS`] so that the command line
+//! finds it from any folder. Any other `.yaml` file in the directory is an error, so nothing is silently ignored.
 //!
 //! ## Conventions
 //!
@@ -47,6 +48,10 @@ pub mod config;
 mod error;
 pub mod facts;
 pub mod profiles;
+pub mod scenarios {
+    //! The scenario library of `specs/scenarios/`, compiled in (see `build.rs`).
+    include!(concat!(env!("OUT_DIR"), "/scenarios.rs"));
+}
 pub mod status;
 pub mod variables;
 pub mod vocab;
