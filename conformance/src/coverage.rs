@@ -127,7 +127,7 @@ impl Coverage {
         let state = State { controller: card.clone(), violations: 0 };
         self.states_checked += 1;
         for p in STATE_PROPERTIES {
-            let holds = (p.holds)(checker, &state);
+            let holds = (p.holds)(&checker.cfg, &state);
             match p.expectation {
                 Expectation::Sometimes if holds => *self.reached.entry(p.name).or_default() += 1,
                 Expectation::Always if !holds => *self.always_failed.entry(p.name).or_default() += 1,

@@ -22,3 +22,4 @@ pub mod controller;
 pub mod monitor;
 pub mod observe;
 pub mod properties;
+pub mod state;

@@ -8,8 +8,8 @@
 //! - reachability as `sometimes`: a witness must exist, or the configuration is too narrow to
 //!   show the behaviour at all.
 
-use crate::checker::{State, WatchdogModel};
 use crate::controller::TripCause;
+use crate::state::State;
 use pmacwd_specs::check::{ChecksumTarget, ResetKind};
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::{Bit12Meaning, StrobeStop};
@@ -28,7 +28,7 @@ pub struct StateProperty {
     pub expectation: Expectation,
     pub cite: &'static str,
     pub sentence: &'static str,
-    pub holds: fn(&WatchdogModel, &State) -> bool,
+    pub holds: fn(&ModelConfig, &State) -> bool,
     /// Whether the configuration offers the events this property needs; a `sometimes`
     /// property that does not apply is reported as such instead of as unreachable. Every
     /// `sometimes` property must be reached by some configuration of every profile (a test
@@ -62,12 +62,12 @@ fn has_command(cfg: &ModelConfig, f: fn(&HostCommand) -> bool) -> bool {
     cfg.commands.iter().any(f)
 }
 
-fn obs(m: &WatchdogModel, s: &State) -> Observation {
-    crate::observe::of(&s.controller, &m.cfg, Reply::None)
+fn obs(cfg: &ModelConfig, s: &State) -> Observation {
+    crate::observe::of(&s.controller, cfg, Reply::None)
 }
 
-fn x_bit(m: &WatchdogModel, s: &State, bit: (pmacwd_specs::status::WordId, u8)) -> bool {
-    let (x, y) = s.controller.status_words(&m.cfg);
+fn x_bit(cfg: &ModelConfig, s: &State, bit: (pmacwd_specs::status::WordId, u8)) -> bool {
+    let (x, y) = s.controller.status_words(cfg);
     let word = match bit.0 {
         pmacwd_specs::status::WordId::X => x,
         pmacwd_specs::status::WordId::Y => y,
@@ -90,7 +90,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "UM p.215",
         sentence: "All Servo, MACRO, and I/O ICs are forced into their reset states, which force discrete outputs off, and proportional outputs (DAC, PWM, PFM) to zero-level.",
-        holds: |m, s| !s.controller.tripped() || obs(m, s).outputs_forced_off,
+        holds: |cfg, s| !s.controller.tripped() || obs(cfg, s).outputs_forced_off,
     },
     StateProperty {
         name: "a tripped card lights the red watchdog LED",
@@ -99,7 +99,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "UM p.215",
         sentence: "the system is latched into a reset state, with a red LED indicating watchdog failure.",
-        holds: |m, s| !s.controller.tripped() || obs(m, s).led_red,
+        holds: |cfg, s| !s.controller.tripped() || obs(cfg, s).led_red,
     },
     StateProperty {
         name: "a tripped Turbo PMAC turns FEFCO/ on",
@@ -108,7 +108,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "UM p.215",
         sentence: "there is a solid-state open-collector output called FEFCO/ that is turned on when the timer trips.",
-        holds: |m, s| !s.controller.tripped() || obs(m, s).fefco_on,
+        holds: |cfg, s| !s.controller.tripped() || obs(cfg, s).fefco_on,
     },
     StateProperty {
         name: "a tripped Turbo PMAC2 changes its watchdog relay over",
@@ -117,7 +117,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "UM p.215",
         sentence: "In Turbo PMAC2 systems there is a hard-contact relay with both normally open and normally closed contacts.",
-        holds: |m, s| !s.controller.tripped() || obs(m, s).relay_tripped,
+        holds: |cfg, s| !s.controller.tripped() || obs(cfg, s).relay_tripped,
     },
     StateProperty {
         name: "a running card shows no trip on its LED, FEFCO/, relay or outputs",
@@ -126,8 +126,8 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "UM p.215",
         sentence: "FEFCO/ ... is turned on when the timer trips (and not otherwise).",
-        holds: |m, s| {
-            let o = obs(m, s);
+        holds: |cfg, s| {
+            let o = obs(cfg, s);
             s.controller.tripped() || !(o.led_red || o.fefco_on || o.relay_tripped || o.outputs_forced_off)
         },
     },
@@ -148,7 +148,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "UM p.215",
         sentence: "the timer must see a square wave input ... of a frequency greater than approximately 25 Hz.",
-        holds: |m, s| s.controller.cycles_since_strobe <= m.cfg.hardware_delay_cycles || s.controller.tripped(),
+        holds: |cfg, s| s.controller.cycles_since_strobe <= cfg.hardware_delay_cycles || s.controller.tripped(),
     },
     StateProperty {
         name: "a background starved for longer than the reset value plus the hardware delay means tripped",
@@ -157,9 +157,9 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "SRM p.57",
         sentence: "one background cycle must execute every I40 servo cycles, or the board will shut down.",
-        holds: |m, s| {
+        holds: |cfg, s| {
             let c = &s.controller;
-            !running(s) || i64::from(c.ghost.cycles_since_background) <= i64::from(c.ghost.last_reload) + i64::from(m.cfg.hardware_delay_cycles)
+            !running(s) || i64::from(c.ghost.cycles_since_background) <= i64::from(c.ghost.last_reload) + i64::from(cfg.hardware_delay_cycles)
         },
     },
     // ------------------------------------------------------------ the counter and X:$25
@@ -188,7 +188,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "UM p.215",
         sentence: "the servo-interrupt routine decrements a counter (as long as the counter is greater than zero).",
-        holds: |m, s| m.cfg.profile.choices.strobe_stop != StrobeStop::AtZero || s.controller.counter >= 0,
+        holds: |cfg, s| cfg.profile.choices.strobe_stop != StrobeStop::AtZero || s.controller.counter >= 0,
     },
     // ------------------------------------------------------------ checksums (UM p.217, SRM p.289)
     StateProperty {
@@ -198,9 +198,9 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "UM p.217",
         sentence: "it sets global status bits (bits 12 and 13 of X:$000006).",
-        holds: |m, s| {
+        holds: |cfg, s| {
             s.controller.checksum.error != Some(ChecksumTarget::Firmware)
-                || (x_bit(m, s, m.cfg.layout.checksum_error) && x_bit(m, s, m.cfg.layout.prom_checksum_active))
+                || (x_bit(cfg, s, cfg.layout.checksum_error) && x_bit(cfg, s, cfg.layout.prom_checksum_active))
         },
     },
     StateProperty {
@@ -210,9 +210,9 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "SRM p.289",
         sentence: "It is 0 if Turbo PMAC ... has found a user program checksum error (Bit 13 = 1).",
-        holds: |m, s| {
+        holds: |cfg, s| {
             s.controller.checksum.error != Some(ChecksumTarget::UserProgram)
-                || (x_bit(m, s, m.cfg.layout.checksum_error) && !x_bit(m, s, m.cfg.layout.prom_checksum_active))
+                || (x_bit(cfg, s, cfg.layout.checksum_error) && !x_bit(cfg, s, cfg.layout.prom_checksum_active))
         },
     },
     StateProperty {
@@ -222,7 +222,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "SRM p.289",
         sentence: "Bit 13 Any Memory Checksum Error: This bit is 1 if a checksum error has been detected for either the Turbo PMAC firmware or the user program buffer space.",
-        holds: |m, s| x_bit(m, s, m.cfg.layout.checksum_error) == s.controller.checksum.error.is_some(),
+        holds: |cfg, s| x_bit(cfg, s, cfg.layout.checksum_error) == s.controller.checksum.error.is_some(),
     },
     // ------------------------------------------------------------ reachability
     StateProperty {
@@ -232,7 +232,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "a load whose RTI tasks outlast their period",
         cite: "SRM p.289",
         sentence: "This bit is 1 if a real-time interrupt task has taken long enough so that it was still executing when the next real-time interrupt came.",
-        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.rti_reentry),
+        holds: |cfg, s| running(s) && x_bit(cfg, s, cfg.layout.rti_reentry),
     },
     StateProperty {
         name: "bit 9 (RTI warning) can be set",
@@ -241,7 +241,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "a load whose RTI tasks outlast their period",
         cite: "SRM p.290",
         sentence: "an RTI task (motion program or PLC 0) took more than one interrupt period.",
-        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.rti_warning),
+        holds: |cfg, s| running(s) && x_bit(cfg, s, cfg.layout.rti_warning),
     },
     StateProperty {
         name: "bit 20 (servo error) can be set",
@@ -250,7 +250,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "a load with more servo work than a cycle",
         cite: "SRM p.289",
         sentence: "This bit is 1 if Turbo PMAC could not properly complete its servo routines.",
-        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.servo_error),
+        holds: |cfg, s| running(s) && x_bit(cfg, s, cfg.layout.servo_error),
     },
     StateProperty {
         name: "a firmware checksum error can be found",
@@ -277,9 +277,9 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "SRM p.289",
         sentence: "This bit is 1 if Turbo PMAC is currently evaluating a firmware checksum (Bit 13 = 0).",
-        holds: |m, s| {
-            m.cfg.profile.choices.bit12_meaning == Bit12Meaning::FirmwareChecksumError
-                || (running(s) && x_bit(m, s, m.cfg.layout.prom_checksum_active) && !x_bit(m, s, m.cfg.layout.checksum_error))
+        holds: |cfg, s| {
+            cfg.profile.choices.bit12_meaning == Bit12Meaning::FirmwareChecksumError
+                || (running(s) && x_bit(cfg, s, cfg.layout.prom_checksum_active) && !x_bit(cfg, s, cfg.layout.checksum_error))
         },
     },
     StateProperty {
@@ -289,7 +289,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "",
         cite: "SRM p.289",
         sentence: "It is 0 if Turbo PMAC is evaluating a user program checksum (Bit 13 = 0).",
-        holds: |m, s| running(s) && s.controller.checksum.error.is_none() && s.controller.checksum.area == ChecksumTarget::UserProgram && !x_bit(m, s, m.cfg.layout.prom_checksum_active),
+        holds: |cfg, s| running(s) && s.controller.checksum.error.is_none() && s.controller.checksum.area == ChecksumTarget::UserProgram && !x_bit(cfg, s, cfg.layout.prom_checksum_active),
     },
     StateProperty {
         name: "bit 11 (DPRAM error) can be set",
@@ -298,7 +298,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "a reset that finds a DPRAM fault",
         cite: "SRM p.289",
         sentence: "This bit is 1 if Turbo PMAC detected an error in its automatic DPRAM check function at power-up/reset.",
-        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.dpram_error),
+        holds: |cfg, s| running(s) && x_bit(cfg, s, cfg.layout.dpram_error),
     },
     StateProperty {
         name: "bit 10 (flash error) can be set",
@@ -307,7 +307,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "a reset that finds a flash fault",
         cite: "SRM p.289",
         sentence: "This bit is 1 if Turbo PMAC detected a checksum error in reading saved data from the flash memory on board reset.",
-        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.flash_error),
+        holds: |cfg, s| running(s) && x_bit(cfg, s, cfg.layout.flash_error),
     },
     StateProperty {
         name: "second-word bit 19 (motion buffer open) can be set",
@@ -316,7 +316,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "an OPEN PROG command",
         cite: "GlobalStatus.py",
         sentence: "motion buffer (PROG or ROT) open.",
-        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.motion_buffer_open),
+        holds: |cfg, s| running(s) && x_bit(cfg, s, cfg.layout.motion_buffer_open),
     },
     StateProperty {
         name: "second-word bit 17 (PLC buffer open) can be set",
@@ -325,7 +325,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         needs: "an OPEN PLC command",
         cite: "GlobalStatus.py",
         sentence: "PLC buffer open.",
-        holds: |m, s| running(s) && x_bit(m, s, m.cfg.layout.plc_buffer_open),
+        holds: |cfg, s| running(s) && x_bit(cfg, s, cfg.layout.plc_buffer_open),
     },
     StateProperty {
         name: "the card can start in bootstrap mode",
