@@ -7,7 +7,7 @@ use pmacwd_model::checker::{State, WatchdogModel};
 use pmacwd_model::controller::TripCause;
 use pmacwd_model::properties::{Expectation, STATE_PROPERTIES};
 use pmacwd_specs::check::{ChecksumTarget, ResetKind};
-use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::config::{ModelConfig, StatusLayout};
 use pmacwd_specs::vocab::command::{Buffer, HostCommand};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::Spec;
@@ -151,7 +151,10 @@ impl Coverage {
             }
         }
         let set = bits.iter().filter(|(w, b, _)| self.bits_set.contains_key(&(*w, *b))).count();
-        let _ = writeln!(s, "status bits seen set: {set} of {} ({} are driven by the model)", bits.len(), DRIVEN_BITS);
+        // The bits the model sets or clears (the others are described in status.yaml but not
+        // modelled), counted from the model's layout.
+        let driven = StatusLayout::of(spec).map_or(0, |l| l.driven().len());
+        let _ = writeln!(s, "status bits seen set: {set} of {} ({driven} are driven by the model)", bits.len());
         for (word, bit, name) in &bits {
             if let Some(n) = self.bits_set.get(&(*word, *bit)) {
                 let _ = writeln!(s, "  {n:>10}  {word}{bit:<2} {name}");
@@ -180,7 +183,3 @@ impl Coverage {
         s
     }
 }
-
-/// The status bits the model sets or clears: X 22, 20, 13, 12, 11, 10, 9 and Y 19, 17 (the
-/// others are described in status.yaml but not modelled).
-const DRIVEN_BITS: usize = 9;

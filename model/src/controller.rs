@@ -480,7 +480,19 @@ impl Controller {
 
     /// X:$000006 and Y:$000006, built bit by bit from the named positions of `status.yaml`.
     pub fn status_words(&self, cfg: &ModelConfig) -> (u32, u32) {
-        let l = &cfg.layout;
+        // Destructured without `..`: a bit added to the layout is a compile error here until
+        // the model drives it.
+        let pmacwd_specs::config::StatusLayout {
+            rti_reentry,
+            servo_error,
+            checksum_error: checksum_error_bit,
+            prom_checksum_active,
+            dpram_error,
+            flash_error,
+            rti_warning,
+            motion_buffer_open,
+            plc_buffer_open,
+        } = cfg.layout;
         let engine = &self.checksum;
         // SRM p.289 / UM p.217: bit 13 is any checksum error.
         let checksum_error = engine.error.is_some();
@@ -497,15 +509,15 @@ impl Controller {
         let s = &self.status;
         let mut words = [0u32; 2];
         for (on, (word, bit)) in [
-            (s.rti_reentry, l.rti_reentry),
-            (s.servo_error, l.servo_error),
-            (checksum_error, l.checksum_error),
-            (bit12, l.prom_checksum_active),
-            (s.dpram_error, l.dpram_error),
-            (s.flash_error, l.flash_error),
-            (s.rti_warning, l.rti_warning),
-            (s.motion_buffer_open, l.motion_buffer_open),
-            (s.plc_buffer_open, l.plc_buffer_open),
+            (s.rti_reentry, rti_reentry),
+            (s.servo_error, servo_error),
+            (checksum_error, checksum_error_bit),
+            (bit12, prom_checksum_active),
+            (s.dpram_error, dpram_error),
+            (s.flash_error, flash_error),
+            (s.rti_warning, rti_warning),
+            (s.motion_buffer_open, motion_buffer_open),
+            (s.plc_buffer_open, plc_buffer_open),
         ] {
             if on {
                 words[match word {

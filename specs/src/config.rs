@@ -24,6 +24,59 @@ pub struct StatusLayout {
     pub plc_buffer_open: (WordId, u8),
 }
 
+impl StatusLayout {
+    /// Finds every bit the model drives in `status.yaml`, by name.
+    pub fn of(spec: &Spec) -> Result<StatusLayout, SpecError> {
+        let bit = |n: &str| {
+            spec.status.bit(n).ok_or_else(|| {
+                SpecError::at(
+                    &spec.dir.join("status.yaml"),
+                    crate::Position { line: 1, column: 1 },
+                    format!("the model needs a status bit named `{n}`"),
+                )
+            })
+        };
+        Ok(StatusLayout {
+            rti_reentry: bit("rti_reentry")?,
+            servo_error: bit("servo_error")?,
+            checksum_error: bit("checksum_error")?,
+            prom_checksum_active: bit("prom_checksum_active")?,
+            dpram_error: bit("dpram_error")?,
+            flash_error: bit("flash_error")?,
+            rti_warning: bit("rti_warning")?,
+            motion_buffer_open: bit("motion_buffer_open")?,
+            plc_buffer_open: bit("plc_buffer_open")?,
+        })
+    }
+
+    /// Every bit the model drives. Destructured without `..`: a new driven bit is a compile
+    /// error here, so counts derived from this list stay true.
+    pub fn driven(&self) -> [(WordId, u8); 9] {
+        let StatusLayout {
+            rti_reentry,
+            servo_error,
+            checksum_error,
+            prom_checksum_active,
+            dpram_error,
+            flash_error,
+            rti_warning,
+            motion_buffer_open,
+            plc_buffer_open,
+        } = *self;
+        [
+            rti_reentry,
+            servo_error,
+            checksum_error,
+            prom_checksum_active,
+            dpram_error,
+            flash_error,
+            rti_warning,
+            motion_buffer_open,
+            plc_buffer_open,
+        ]
+    }
+}
+
 /// The I-variable values restored by every reset (what was last saved to flash).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct SavedIVariables {
@@ -71,26 +124,7 @@ impl ModelConfig {
             .configurations
             .get(name)
             .ok_or_else(|| map.error("configurations", format!("no configuration named `{name}`")))?;
-        let bit = |n: &str| {
-            spec.status.bit(n).ok_or_else(|| {
-                SpecError::at(
-                    &spec.dir.join("status.yaml"),
-                    crate::Position { line: 1, column: 1 },
-                    format!("the model needs a status bit named `{n}`"),
-                )
-            })
-        };
-        let layout = StatusLayout {
-            rti_reentry: bit("rti_reentry")?,
-            servo_error: bit("servo_error")?,
-            checksum_error: bit("checksum_error")?,
-            prom_checksum_active: bit("prom_checksum_active")?,
-            dpram_error: bit("dpram_error")?,
-            flash_error: bit("flash_error")?,
-            rti_warning: bit("rti_warning")?,
-            motion_buffer_open: bit("motion_buffer_open")?,
-            plc_buffer_open: bit("plc_buffer_open")?,
-        };
+        let layout = StatusLayout::of(spec)?;
         let vars = &spec.variables;
         let range = |r: &crate::common::Range| (r.min, r.max);
         let (i8_range, i40_range, i41_range) =
