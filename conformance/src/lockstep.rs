@@ -27,21 +27,33 @@ impl fmt::Display for Disagreement {
 
 /// The fields in which two observations differ, as `field: model X, implementation Y`.
 pub fn differences(model: &Observation, subject: &Observation) -> Vec<String> {
+    // Destructured without `..`: a new observation is a compile error here until it is compared.
+    let Observation {
+        reply,
+        led_red,
+        fefco_on,
+        relay_tripped,
+        outputs_forced_off,
+        counter,
+        counter_min,
+        status_x,
+        status_y,
+    } = model;
     let mut out = Vec::new();
     let mut field = |name: &str, m: String, s: String| {
         if m != s {
             out.push(format!("{name}: model {m}, implementation {s}"));
         }
     };
-    field("reply", format!("{:?}", model.reply), format!("{:?}", subject.reply));
-    field("led_red", model.led_red.to_string(), subject.led_red.to_string());
-    field("fefco_on", model.fefco_on.to_string(), subject.fefco_on.to_string());
-    field("relay_tripped", model.relay_tripped.to_string(), subject.relay_tripped.to_string());
-    field("outputs_forced_off", model.outputs_forced_off.to_string(), subject.outputs_forced_off.to_string());
-    field("Y:$25", model.counter.to_string(), subject.counter.to_string());
-    field("X:$25", model.counter_min.to_string(), subject.counter_min.to_string());
-    field("X:$6", format!("{:06X}", model.status_x), format!("{:06X}", subject.status_x));
-    field("Y:$6", format!("{:06X}", model.status_y), format!("{:06X}", subject.status_y));
+    field("reply", format!("{reply:?}"), format!("{:?}", subject.reply));
+    field("led_red", led_red.to_string(), subject.led_red.to_string());
+    field("fefco_on", fefco_on.to_string(), subject.fefco_on.to_string());
+    field("relay_tripped", relay_tripped.to_string(), subject.relay_tripped.to_string());
+    field("outputs_forced_off", outputs_forced_off.to_string(), subject.outputs_forced_off.to_string());
+    field("Y:$25", counter.to_string(), subject.counter.to_string());
+    field("X:$25", counter_min.to_string(), subject.counter_min.to_string());
+    field("X:$6", format!("{status_x:06X}"), format!("{:06X}", subject.status_x));
+    field("Y:$6", format!("{status_y:06X}"), format!("{:06X}", subject.status_y));
     out
 }
 

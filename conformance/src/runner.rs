@@ -241,19 +241,34 @@ pub enum Mismatch {
 
 /// Compares one observation with one step's expectations; returns how many were checked.
 pub fn compare(spec: &Spec, e: &Expect, o: &Observation) -> Result<usize, Mismatch> {
+    // Destructured without `..`: a new expectation is a compile error here until it is
+    // compared (`window_cycles` qualifies `tripped` and is applied by the caller).
+    let Expect {
+        reply,
+        tripped,
+        led_red,
+        fefco_on,
+        relay_tripped,
+        outputs_forced_off,
+        counter,
+        counter_min,
+        window_cycles: _,
+        status_set,
+        status_clear,
+    } = e;
     let mut n = 0;
-    if let Some(r) = &e.reply {
+    if let Some(r) = reply {
         n += 1;
         if *r != o.reply.to_string() {
             return Err(Mismatch::Field("reply", r.clone(), o.reply.to_string()));
         }
     }
     for (what, expected, observed) in [
-        ("tripped", e.tripped, o.led_red),
-        ("red LED", e.led_red, o.led_red),
-        ("FEFCO/", e.fefco_on, o.fefco_on),
-        ("relay", e.relay_tripped, o.relay_tripped),
-        ("outputs forced off", e.outputs_forced_off, o.outputs_forced_off),
+        ("tripped", *tripped, o.led_red),
+        ("red LED", *led_red, o.led_red),
+        ("FEFCO/", *fefco_on, o.fefco_on),
+        ("relay", *relay_tripped, o.relay_tripped),
+        ("outputs forced off", *outputs_forced_off, o.outputs_forced_off),
     ] {
         if let Some(x) = expected {
             n += 1;
@@ -262,7 +277,7 @@ pub fn compare(spec: &Spec, e: &Expect, o: &Observation) -> Result<usize, Mismat
             }
         }
     }
-    for (what, expected, observed) in [("Y:$25", e.counter, o.counter), ("X:$25", e.counter_min, o.counter_min)] {
+    for (what, expected, observed) in [("Y:$25", *counter, o.counter), ("X:$25", *counter_min, o.counter_min)] {
         if let Some(x) = expected {
             n += 1;
             if x != observed {
@@ -270,7 +285,7 @@ pub fn compare(spec: &Spec, e: &Expect, o: &Observation) -> Result<usize, Mismat
             }
         }
     }
-    for (list, want, field) in [(&e.status_set, true, "status_set"), (&e.status_clear, false, "status_clear")] {
+    for (list, want, field) in [(status_set, true, "status_set"), (status_clear, false, "status_clear")] {
         for (j, name) in list.iter().enumerate() {
             let Some((word, bit)) = spec.status.bit(name) else {
                 return Err(Mismatch::UnknownBit(field, j, name.clone()));

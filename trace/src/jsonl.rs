@@ -166,35 +166,49 @@ fn model_event_json(e: &Event) -> serde_json::Value {
 }
 
 fn expect_json(e: &Expect) -> serde_json::Value {
+    // Destructured without `..`: a new expectation is a compile error here until it is written.
+    let Expect {
+        reply,
+        tripped,
+        led_red,
+        fefco_on,
+        relay_tripped,
+        outputs_forced_off,
+        counter,
+        counter_min,
+        window_cycles,
+        status_set,
+        status_clear,
+    } = e;
     let mut m = serde_json::Map::new();
-    if let Some(r) = &e.reply {
+    if let Some(r) = reply {
         m.insert("reply".into(), serde_json::json!(r));
     }
     for (k, v) in [
-        ("tripped", e.tripped),
-        ("led_red", e.led_red),
-        ("fefco_on", e.fefco_on),
-        ("relay_tripped", e.relay_tripped),
-        ("outputs_forced_off", e.outputs_forced_off),
+        ("tripped", tripped),
+        ("led_red", led_red),
+        ("fefco_on", fefco_on),
+        ("relay_tripped", relay_tripped),
+        ("outputs_forced_off", outputs_forced_off),
     ] {
         if let Some(v) = v {
             m.insert(k.into(), serde_json::json!(v));
         }
     }
-    if let Some(v) = e.window_cycles {
+    if let Some(v) = window_cycles {
         m.insert("window_cycles".into(), serde_json::json!(v));
     }
-    if let Some(v) = e.counter {
+    if let Some(v) = counter {
         m.insert("counter".into(), serde_json::json!(v));
     }
-    if let Some(v) = e.counter_min {
+    if let Some(v) = counter_min {
         m.insert("counter_min".into(), serde_json::json!(v));
     }
-    if !e.status_set.is_empty() {
-        m.insert("status_set".into(), serde_json::json!(e.status_set));
+    if !status_set.is_empty() {
+        m.insert("status_set".into(), serde_json::json!(status_set));
     }
-    if !e.status_clear.is_empty() {
-        m.insert("status_clear".into(), serde_json::json!(e.status_clear));
+    if !status_clear.is_empty() {
+        m.insert("status_clear".into(), serde_json::json!(status_clear));
     }
     serde_json::Value::Object(m)
 }

@@ -292,36 +292,50 @@ pub fn to_yaml(trace: &Trace) -> String {
             let _ = writeln!(s, "    note: {}", quote(n));
         }
         if !step.expect.is_empty() {
-            let e = &step.expect;
+            // Destructured without `..`: a new expectation is a compile error here until it
+            // is written.
+            let Expect {
+                reply,
+                tripped,
+                led_red,
+                fefco_on,
+                relay_tripped,
+                outputs_forced_off,
+                counter,
+                counter_min,
+                window_cycles,
+                status_set,
+                status_clear,
+            } = &step.expect;
             s.push_str("    expect:\n");
-            if let Some(v) = &e.reply {
+            if let Some(v) = reply {
                 let _ = writeln!(s, "      reply: {}", quote(v));
             }
             for (k, v) in [
-                ("tripped", e.tripped),
-                ("led_red", e.led_red),
-                ("fefco_on", e.fefco_on),
-                ("relay_tripped", e.relay_tripped),
-                ("outputs_forced_off", e.outputs_forced_off),
+                ("tripped", tripped),
+                ("led_red", led_red),
+                ("fefco_on", fefco_on),
+                ("relay_tripped", relay_tripped),
+                ("outputs_forced_off", outputs_forced_off),
             ] {
                 if let Some(v) = v {
                     let _ = writeln!(s, "      {k}: {v}");
                 }
             }
-            if let Some(v) = e.window_cycles {
+            if let Some(v) = window_cycles {
                 let _ = writeln!(s, "      window_cycles: {v}");
             }
-            if let Some(v) = e.counter {
+            if let Some(v) = counter {
                 let _ = writeln!(s, "      counter: {v}");
             }
-            if let Some(v) = e.counter_min {
+            if let Some(v) = counter_min {
                 let _ = writeln!(s, "      counter_min: {v}");
             }
-            if !e.status_set.is_empty() {
-                let _ = writeln!(s, "      status_set: [{}]", e.status_set.join(", "));
+            if !status_set.is_empty() {
+                let _ = writeln!(s, "      status_set: [{}]", status_set.join(", "));
             }
-            if !e.status_clear.is_empty() {
-                let _ = writeln!(s, "      status_clear: [{}]", e.status_clear.join(", "));
+            if !status_clear.is_empty() {
+                let _ = writeln!(s, "      status_clear: [{}]", status_clear.join(", "));
             }
         }
     }
