@@ -1,7 +1,7 @@
 //! `pmacwd decode`: a `???` reply explained bit by bit from `specs/status.yaml`.
 
-use crate::reply_text::{decode, DecodeError, StatusReply};
 use pmacwd_specs::status::WordId;
+use pmacwd_specs::vocab::reply_text::{decode, DecodeError, StatusReply};
 use pmacwd_specs::Spec;
 use std::fmt::Write as _;
 

@@ -12,6 +12,5 @@ pub mod import;
 pub mod lockstep;
 pub mod product;
 pub mod replay;
-pub mod reply_text;
 pub mod runner;
 pub mod subject;

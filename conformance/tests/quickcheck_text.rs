@@ -1,8 +1,8 @@
 //! Type-driven properties (quickcheck) of the two text formats a host sees: the `???` reply and
 //! the host-command syntax. Random inputs find the corner cases hand-picked examples miss.
 
-use pmacwd_conformance::reply_text::{decode, encode, StatusReply};
 use pmacwd_specs::vocab::command::{Buffer, HostCommand, Register};
+use pmacwd_specs::vocab::reply_text::{decode, encode, StatusReply};
 use quickcheck::{quickcheck, Arbitrary, Gen, TestResult};
 
 quickcheck! {

@@ -1,5 +1,6 @@
 //! The vocabulary: everything that can happen to a controller, and what it can answer.
 
+use super::reply_text::{self, StatusReply};
 use crate::check::{ChecksumTarget, Load, ResetEvent, ResetKind};
 use crate::vocab::command::HostCommand;
 use std::fmt;
@@ -53,8 +54,8 @@ impl fmt::Display for Reply {
             Reply::None => f.write_str("(none)"),
             Reply::Silence => f.write_str("(silence)"),
             Reply::Ack => f.write_str("(ack)"),
-            Reply::Status { x, y } => write!(f, "{x:06X}{y:06X}"),
-            Reply::Bootstrap => f.write_str("BOOTSTRAP PROM"),
+            Reply::Status { x, y } => f.write_str(&reply_text::encode(StatusReply::Words { x: *x, y: *y })),
+            Reply::Bootstrap => f.write_str(&reply_text::encode(StatusReply::Bootstrap)),
             Reply::Value(v) => write!(f, "{v}"),
             Reply::Hex(v) => write!(f, "{v:06X}"),
             Reply::Error(n) => write!(f, "ERR{n:03}"),

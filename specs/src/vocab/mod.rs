@@ -9,6 +9,7 @@
 pub mod command;
 pub mod event;
 pub mod observation;
+pub mod reply_text;
 
 pub use command::{Buffer, HostCommand, Register, Space};
 pub use event::{Event, Reply};
