@@ -2,7 +2,7 @@
 //!
 //! - Generated traces: 10,000 cases of up to 1,000 events over every (configuration, profile)
 //!   pair, weighted toward the edges (see `pmacwd_conformance::generate`). The seed is printed
-//!   first; `PMACWD_SEED=n cargo test --test lockstep` reruns one. A divergence is shrunk to a
+//!   first; `PMACWD_SEED=n cargo test -p pmacwd-conformance --test lockstep` reruns one. A divergence is shrunk to a
 //!   minimal trace, printed, and saved in `conformance/regressions/` (commit it: every later run
 //!   replays it).
 //! - Regression files: every trace in `conformance/regressions/` must run in lockstep.

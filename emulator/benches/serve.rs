@@ -2,7 +2,7 @@
 //! (VR_PMAC_GETRESPONSE out, the 14-byte reply back) and the sustained rate with several
 //! clients. Before criterion's figures it prints the percentiles of 10,000 single round trips.
 //!
-//! `cargo bench -p pmacwd-conformance --bench serve`
+//! `cargo bench -p pmacwd-emulator --bench serve`
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use pmacwd_emulator::card::{Card, Clock};
