@@ -8,6 +8,7 @@
 //! profile that chooses it diverged) or not covered by any profile.
 
 use crate::runner::{Mismatch, ModelLane};
+use pmacwd_specs::check::ProfileSelection;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::{Choices, Profile};
 use pmacwd_specs::yaml::SourceMap;
@@ -15,25 +16,27 @@ use pmacwd_specs::{Position, Spec, SpecError};
 use pmacwd_trace::jsonl::StepReader;
 use pmacwd_trace::{parse_yaml, Step, Trace, TraceEvent};
 use std::collections::VecDeque;
-use std::fs::File;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
 /// Where steps come from: a YAML trace (short, read whole) or a JSON Lines capture (streamed).
 pub enum Source {
     Yaml { trace: Trace, map: SourceMap, next: usize },
-    Jsonl(StepReader<BufReader<File>>),
+    Jsonl(StepReader<BufReader<std::fs::File>>),
 }
 
 impl Source {
-    /// Opens `path`, telling the forms apart by the first non-blank character (`{` is JSON Lines).
+    /// Opens `path`, telling the forms apart by the first non-blank character (`{` is JSON Lines;
+    /// a byte-order mark counts as blank). Only regular files are read; a YAML trace is read
+    /// whole up to [`pmacwd_specs::input::YAML_TRACE_BYTES_MAX`], a JSON Lines one streamed.
     pub fn open(path: &Path) -> Result<Source, SpecError> {
-        let file = File::open(path).map_err(|e| SpecError::whole_file(path, format!("cannot read: {e}")))?;
+        let file = pmacwd_specs::input::open_regular(path)?;
         let mut reader = BufReader::new(file);
         let first = loop {
             let buf = reader.fill_buf().map_err(|e| SpecError::whole_file(path, format!("cannot read: {e}")))?;
-            match buf.iter().position(|b| !b.is_ascii_whitespace()) {
-                Some(i) => break Some(buf[i]),
+            let bom = if buf.starts_with(&[0xEF, 0xBB, 0xBF]) { 3 } else { 0 };
+            match buf[bom..].iter().position(|b| !b.is_ascii_whitespace()) {
+                Some(i) => break Some(buf[bom + i]),
                 None if buf.is_empty() => break None,
                 None => {
                     let n = buf.len();
@@ -45,12 +48,37 @@ impl Source {
             None => Err(SpecError::whole_file(path, "empty trace")),
             Some(b'{') => Ok(Source::Jsonl(StepReader::new(path, reader)?)),
             Some(_) => {
-                let mut text = String::new();
-                std::io::Read::read_to_string(&mut reader, &mut text)
-                    .map_err(|e| SpecError::whole_file(path, format!("cannot read: {e}")))?;
+                let text = pmacwd_specs::input::read_text(path, pmacwd_specs::input::YAML_TRACE_BYTES_MAX)?;
                 let loaded = parse_yaml(path, &text)?;
                 Ok(Source::Yaml { trace: loaded.trace, map: loaded.map, next: 0 })
             }
+        }
+    }
+
+    /// The profiles the capture asks to be judged under (`all`, or the names it lists), each
+    /// name checked against the spec.
+    pub fn profiles(&self, spec: &Spec, path: &Path) -> Result<Vec<Profile>, SpecError> {
+        let (selection, at) = match self {
+            Source::Yaml { trace, map, .. } => (&trace.profiles, map.position("profiles")),
+            Source::Jsonl(r) => (&r.header.profiles, Position { line: 1, column: 1 }),
+        };
+        match selection {
+            ProfileSelection::Keyword(_) => Ok(spec.profiles.all()),
+            ProfileSelection::Named(names) => names
+                .iter()
+                .map(|n| {
+                    spec.profiles.get(n).ok_or_else(|| {
+                        SpecError::at(
+                            path,
+                            at,
+                            format!(
+                                "no profile named `{n}` (profiles: {})",
+                                spec.profiles.profiles.keys().cloned().collect::<Vec<_>>().join(", ")
+                            ),
+                        )
+                    })
+                })
+                .collect(),
         }
     }
 
@@ -200,7 +228,7 @@ pub fn replay(spec: &Spec, path: &Path) -> Result<ReplayReport, SpecError> {
     let mut source = Source::open(path)?;
     let configuration = source.configuration().to_string();
     let mut lanes = Vec::new();
-    for profile in spec.profiles.all() {
+    for profile in source.profiles(spec, path)? {
         let mut cfg = ModelConfig::from_spec(spec, &configuration, &profile).map_err(|_| {
             SpecError::at(
                 path,

@@ -47,6 +47,7 @@ pub mod common;
 pub mod config;
 mod error;
 pub mod facts;
+pub mod input;
 pub mod profiles;
 pub mod scenarios {
     //! The scenario library of `specs/scenarios/`, compiled in (see `build.rs`).
@@ -102,22 +103,26 @@ impl Spec {
     pub fn load_dir(dir: &Path) -> Result<Spec, SpecError> {
         let entries = std::fs::read_dir(dir)
             .map_err(|e| SpecError::whole_file(dir, format!("cannot read spec directory: {e}")))?;
-        for entry in entries.flatten() {
+        for entry in entries {
+            let entry = entry.map_err(|e| SpecError::whole_file(dir, format!("cannot read spec directory: {e}")))?;
             let path = entry.path();
             let name = entry.file_name().to_string_lossy().to_string();
             let is_yaml = name.ends_with(".yaml") || name.ends_with(".yml");
-            if path.is_file() && is_yaml && !FILES.iter().any(|(n, _)| *n == name) {
+            if !is_yaml {
+                continue;
+            }
+            if !FILES.iter().any(|(n, _)| *n == name) {
                 let known: Vec<&str> = FILES.iter().map(|(n, _)| *n).collect();
                 return Err(SpecError::whole_file(
                     &path,
                     format!("unexpected spec file (known files: {})", known.join(", ")),
                 ));
             }
+            // A directory, a FIFO or a dangling symlink with a spec file's name is an error
+            // here, not something skipped.
+            input::open_regular(&path)?;
         }
-        Self::from_texts(dir, |name| {
-            let path = dir.join(name);
-            std::fs::read_to_string(&path).map_err(|e| SpecError::whole_file(&path, format!("cannot read: {e}")))
-        })
+        Self::from_texts(dir, |name| input::read_text(&dir.join(name), input::SPEC_FILE_BYTES_MAX))
     }
 
     fn from_texts(dir: &Path, read: impl Fn(&str) -> Result<String, SpecError>) -> Result<Spec, SpecError> {

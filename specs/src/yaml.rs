@@ -21,17 +21,24 @@ use std::path::{Path, PathBuf};
 use yaml_rust2::parser::{Event, MarkedEventReceiver, Parser};
 use yaml_rust2::scanner::Marker;
 
-/// Positions of every key and sequence item of one file, by dotted path.
+/// Positions of every key and sequence item of one file, found by dotted path.
+///
+/// Stored as a tree (each node its own key and its parent), not as one full path per node, so
+/// that memory is linear in the file's size however deep or wide it is.
 #[derive(Clone, Debug, Default)]
 pub struct SourceMap {
     file: PathBuf,
-    positions: HashMap<String, Position>,
+    /// (parent node, key or item index) -> (node, position). Node 0 is the document root.
+    children: HashMap<(u32, Box<str>), (u32, Position)>,
 }
+
+/// The document root's node id.
+const ROOT: u32 = 0;
 
 impl SourceMap {
     /// Walks the events of `text`; fails on a syntax error or a duplicated mapping key.
     pub fn build(file: &Path, text: &str) -> Result<SourceMap, SpecError> {
-        let mut walker = Walker { file: file.to_path_buf(), stack: Vec::new(), positions: HashMap::new(), error: None };
+        let mut walker = Walker { file: file.to_path_buf(), stack: Vec::new(), children: HashMap::new(), error: None };
         let mut parser = Parser::new_from_str(text);
         if let Err(e) = parser.load(&mut walker, false) {
             let m = e.marker();
@@ -40,7 +47,7 @@ impl SourceMap {
         if let Some(e) = walker.error {
             return Err(e);
         }
-        Ok(SourceMap { file: file.to_path_buf(), positions: walker.positions })
+        Ok(SourceMap { file: file.to_path_buf(), children: walker.children })
     }
 
     pub fn file(&self) -> &Path {
@@ -48,18 +55,26 @@ impl SourceMap {
     }
 
     /// Position of the key or item at `path` (dotted, e.g. `profiles.um-215.readings`), or of
-    /// the nearest enclosing node that has one, or the start of the file.
+    /// the nearest enclosing node that has one, or the start of the file. A key that itself
+    /// contains dots is found too: the longest run of components that names a key wins.
     pub fn position(&self, path: &str) -> Position {
-        let mut p = path;
-        loop {
-            if let Some(pos) = self.positions.get(p) {
-                return *pos;
+        let parts: Vec<&str> = if path.is_empty() { Vec::new() } else { path.split('.').collect() };
+        let mut node = ROOT;
+        let mut found = Position { line: 1, column: 1 };
+        let mut i = 0;
+        'descend: while i < parts.len() {
+            for j in (i + 1..=parts.len()).rev() {
+                let key = parts[i..j].join(".");
+                if let Some((child, pos)) = self.children.get(&(node, key.into_boxed_str())) {
+                    node = *child;
+                    found = *pos;
+                    i = j;
+                    continue 'descend;
+                }
             }
-            match p.rfind('.') {
-                Some(i) => p = &p[..i],
-                None => return Position { line: 1, column: 1 },
-            }
+            break;
         }
+        found
     }
 
     /// Sorts dotted paths into the order they appear in the file, so that "the second one"
@@ -83,56 +98,58 @@ fn position_of(m: &Marker) -> Position {
 }
 
 enum Frame {
-    Map { path: String, key: Option<String>, keys: HashSet<String> },
-    Seq { path: String, index: usize },
+    Map { node: u32, key: Option<u32>, keys: HashSet<Box<str>> },
+    Seq { node: u32, index: usize },
 }
 
 struct Walker {
     file: PathBuf,
     stack: Vec<Frame>,
-    positions: HashMap<String, Position>,
+    children: HashMap<(u32, Box<str>), (u32, Position)>,
     error: Option<SpecError>,
 }
 
-fn join(parent: &str, child: &str) -> String {
-    if parent.is_empty() {
-        child.to_string()
-    } else {
-        format!("{parent}.{child}")
-    }
-}
-
 impl Walker {
+    fn add(&mut self, parent: u32, key: &str, pos: Position) -> u32 {
+        // Ids count from 1; the root is 0. A file has far fewer than 2^32 nodes (the input is
+        // bounded in bytes before it gets here).
+        let id = u32::try_from(self.children.len() + 1).unwrap_or(u32::MAX);
+        self.children.insert((parent, key.into()), (id, pos));
+        id
+    }
+
     /// Called for every node that is a value (scalar, alias or container start). Returns the
-    /// path of the node, or `None` when it is a mapping key (handled here) .
-    fn node(&mut self, scalar: Option<&str>, mark: Marker) -> Option<String> {
+    /// node id of a value, or `None` when it is a mapping key (handled here).
+    fn node(&mut self, scalar: Option<&str>, mark: Marker) -> Option<u32> {
         let pos = position_of(&mark);
         match self.stack.last_mut() {
-            None => Some(String::new()),
-            Some(Frame::Seq { path, index }) => {
-                let p = join(path, &index.to_string());
+            None => Some(ROOT),
+            Some(Frame::Seq { node, index }) => {
+                let (parent, i) = (*node, *index);
                 *index += 1;
-                self.positions.insert(p.clone(), pos);
-                Some(p)
+                Some(self.add(parent, &i.to_string(), pos))
             }
-            Some(Frame::Map { path, key, keys }) => match key.take() {
-                Some(k) => Some(join(path, &k)),
+            Some(Frame::Map { node, key, keys }) => match key.take() {
+                Some(k) => Some(k),
                 None => {
+                    let parent = *node;
                     let Some(k) = scalar else {
                         if self.error.is_none() {
                             self.error = Some(SpecError::at(&self.file, pos, "a mapping key must be a plain scalar"));
                         }
                         return None;
                     };
-                    if !keys.insert(k.to_string()) && self.error.is_none() {
+                    if !keys.insert(k.into()) && self.error.is_none() {
                         self.error = Some(SpecError::at(
                             &self.file,
                             pos,
                             format!("duplicate key `{k}` (an earlier entry has the same key)"),
                         ));
                     }
-                    self.positions.insert(join(path, k), pos);
-                    *key = Some(k.to_string());
+                    let id = self.add(parent, k, pos);
+                    if let Some(Frame::Map { key, .. }) = self.stack.last_mut() {
+                        *key = Some(id);
+                    }
                     None
                 }
             },
@@ -150,12 +167,12 @@ impl MarkedEventReceiver for Walker {
                 self.node(Some("*alias"), mark);
             }
             Event::MappingStart(..) => {
-                let path = self.node(None, mark).unwrap_or_default();
-                self.stack.push(Frame::Map { path, key: None, keys: HashSet::new() });
+                let node = self.node(None, mark).unwrap_or(ROOT);
+                self.stack.push(Frame::Map { node, key: None, keys: HashSet::new() });
             }
             Event::SequenceStart(..) => {
-                let path = self.node(None, mark).unwrap_or_default();
-                self.stack.push(Frame::Seq { path, index: 0 });
+                let node = self.node(None, mark).unwrap_or(ROOT);
+                self.stack.push(Frame::Seq { node, index: 0 });
             }
             Event::MappingEnd | Event::SequenceEnd => {
                 self.stack.pop();
@@ -220,5 +237,27 @@ mod tests {
         assert_eq!(err.position, Some(Position { line: 2, column: 1 }));
         assert!(err.message.contains("unknown field `nmae`"), "{}", err.message);
         assert!(!err.message.contains(" at line "), "{}", err.message);
+    }
+
+    #[test]
+    fn the_source_map_grows_with_the_file_not_with_the_depth_of_its_keys() {
+        // A long key with many children used to be stored once per child, inside every child's
+        // full path: a 200 KB file took 1 GB. Each node now keeps only its own key.
+        let long_key = "k".repeat(100_000);
+        // An explicit key (`? key`), since plain keys stop at 1,024 characters.
+        let mut text = format!("? {long_key}\n:\n");
+        for i in 0..10_000 {
+            text.push_str(&format!("  c{i}: 1\n"));
+        }
+        let map = SourceMap::build(Path::new("wide.yaml"), &text).unwrap();
+        let stored: usize = map.children.keys().map(|(_, k)| k.len()).sum();
+        assert!(stored <= text.len(), "{stored} key bytes kept for a {}-byte file", text.len());
+        assert_eq!(map.position(&format!("{long_key}.c9999")), Position { line: 10_002, column: 3 });
+    }
+
+    #[test]
+    fn a_key_with_dots_is_found_by_its_whole_name() {
+        let map = SourceMap::build(Path::new("t.yaml"), "versions:\n  1.947: {a: 1}\n").unwrap();
+        assert_eq!(map.position("versions.1.947.a"), Position { line: 2, column: 11 });
     }
 }

@@ -5,6 +5,7 @@
 use crate::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
 use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetKind};
 use pmacwd_specs::cite::Cites;
+use pmacwd_specs::input::Lines;
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::{Position, SpecError};
 use serde::Deserialize;
@@ -25,12 +26,11 @@ pub struct Header {
     pub profiles: ProfileSelection,
 }
 
-/// Reads steps one line at a time.
+/// Reads steps one line at a time; each line at most [`pmacwd_specs::input::LINE_BYTES_MAX`]
+/// bytes, so memory stays bounded whatever the file holds.
 pub struct StepReader<R: BufRead> {
     file: PathBuf,
-    input: R,
-    line: usize,
-    buffer: String,
+    lines: Lines<R>,
     pub header: Header,
 }
 
@@ -45,22 +45,16 @@ fn json_error(file: &Path, line: usize, e: &serde_json::Error) -> SpecError {
 }
 
 impl<R: BufRead> StepReader<R> {
-    pub fn new(file: &Path, mut input: R) -> Result<Self, SpecError> {
-        let mut buffer = String::new();
-        let mut line = 0;
-        loop {
-            buffer.clear();
-            line += 1;
-            let n =
-                input.read_line(&mut buffer).map_err(|e| SpecError::whole_file(file, format!("cannot read: {e}")))?;
-            if n == 0 {
-                return Err(SpecError::whole_file(file, "empty trace: the first line must be the header"));
+    pub fn new(file: &Path, input: R) -> Result<Self, SpecError> {
+        let mut lines = Lines::new(file, input);
+        let (line, text) = loop {
+            match lines.next()? {
+                None => return Err(SpecError::whole_file(file, "empty trace: the first line must be the header")),
+                Some((_, t)) if t.trim().is_empty() => continue,
+                Some(l) => break l,
             }
-            if !buffer.trim().is_empty() {
-                break;
-            }
-        }
-        let header: Header = serde_json::from_str(buffer.trim_end()).map_err(|e| json_error(file, line, &e))?;
+        };
+        let header: Header = serde_json::from_str(&text).map_err(|e| json_error(file, line, &e))?;
         let at = Position { line, column: 1 };
         if header.format != "pmacwd-trace" {
             return Err(SpecError::at(file, at, format!("`format` is `{}`, expected `pmacwd-trace`", header.format)));
@@ -72,27 +66,29 @@ impl<R: BufRead> StepReader<R> {
                 format!("trace format version {} is not supported (this build reads {FORMAT_VERSION})", header.version),
             ));
         }
-        Ok(StepReader { file: file.to_path_buf(), input, line, buffer, header })
+        if let ProfileSelection::Named(names) = &header.profiles {
+            if names.is_empty() {
+                return Err(SpecError::at(
+                    file,
+                    at,
+                    "an empty profile list runs nothing: name profiles, or write \"all\"",
+                ));
+            }
+        }
+        Ok(StepReader { file: file.to_path_buf(), lines, header })
     }
 
     /// The next step and its line number; `None` at the end. Blank lines are allowed.
     pub fn next_step(&mut self) -> Result<Option<(usize, Step)>, SpecError> {
         loop {
-            self.buffer.clear();
-            self.line += 1;
-            let n = self
-                .input
-                .read_line(&mut self.buffer)
-                .map_err(|e| SpecError::whole_file(&self.file, format!("cannot read: {e}")))?;
-            if n == 0 {
+            let Some((line, text)) = self.lines.next()? else {
                 return Ok(None);
-            }
-            let text = self.buffer.trim_end();
+            };
             if text.trim().is_empty() {
                 continue;
             }
-            let step: Step = serde_json::from_str(text).map_err(|e| json_error(&self.file, self.line, &e))?;
-            return Ok(Some((self.line, step)));
+            let step: Step = serde_json::from_str(&text).map_err(|e| json_error(&self.file, line, &e))?;
+            return Ok(Some((line, step)));
         }
     }
 }

@@ -142,12 +142,17 @@ impl<'de> Deserialize<'de> for Step {
                 let mut note = None;
                 while let Some(key) = map.next_key::<String>()? {
                     let e = match key.as_str() {
+                        // A key given twice would otherwise keep only its last value.
                         "expect" => {
-                            expect = Some(map.next_value::<Expect>()?);
+                            if expect.replace(map.next_value::<Expect>()?).is_some() {
+                                return Err(de::Error::custom("duplicate key `expect`"));
+                            }
                             continue;
                         }
                         "note" => {
-                            note = Some(map.next_value::<String>()?);
+                            if note.replace(map.next_value::<String>()?).is_some() {
+                                return Err(de::Error::custom("duplicate key `note`"));
+                            }
                             continue;
                         }
                         "servo" | "run" => {
@@ -232,11 +237,16 @@ pub fn parse_yaml(file: &Path, text: &str) -> Result<LoadedTrace, SpecError> {
     if trace.steps.is_empty() {
         return Err(map.error("steps", "a trace needs at least one step"));
     }
+    if let ProfileSelection::Named(names) = &trace.profiles {
+        if names.is_empty() {
+            return Err(map.error("profiles", "an empty profile list runs nothing: name profiles, or write `all`"));
+        }
+    }
     Ok(LoadedTrace { trace, map })
 }
 
 pub fn load_yaml(file: &Path) -> Result<LoadedTrace, SpecError> {
-    let text = std::fs::read_to_string(file).map_err(|e| SpecError::whole_file(file, format!("cannot read: {e}")))?;
+    let text = pmacwd_specs::input::read_text(file, pmacwd_specs::input::YAML_TRACE_BYTES_MAX)?;
     parse_yaml(file, &text)
 }
 

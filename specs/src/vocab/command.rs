@@ -102,6 +102,9 @@ pub const I_VARIABLE_MAX: u16 = 8191;
 impl HostCommand {
     pub fn parse(text: &str) -> Result<HostCommand, CommandError> {
         let t = text.trim();
+        if t.is_empty() {
+            return Err(CommandError("an empty command: write the command text, e.g. `???`".into()));
+        }
         let upper = t.to_ascii_uppercase();
         let compact: String = upper.split_whitespace().collect::<Vec<_>>().join(" ");
         if compact == "???" {
@@ -134,6 +137,10 @@ impl HostCommand {
                 Some(("Y", a)) => (Space::Y, a),
                 _ => return Ok(HostCommand::Unrecognized(t.to_string())),
             };
+            // Hex digits only: `from_str_radix` would also take a sign (`RHX:$+25`).
+            if addr.is_empty() || !addr.chars().all(|c| c.is_ascii_hexdigit()) {
+                return Ok(HostCommand::Unrecognized(t.to_string()));
+            }
             let Ok(address) = u32::from_str_radix(addr, 16) else {
                 return Ok(HostCommand::Unrecognized(t.to_string()));
             };
@@ -181,7 +188,10 @@ fn parse_value(v: &str) -> Option<i64> {
         None => (false, v),
     };
     let magnitude = match body.strip_prefix('$') {
-        Some(hex) if !hex.is_empty() && hex.len() <= 12 => i64::from_str_radix(hex, 16).ok()?,
+        // Hex digits only: `from_str_radix` would also take a sign (`I5=$-5`).
+        Some(hex) if !hex.is_empty() && hex.len() <= 12 && hex.chars().all(|c| c.is_ascii_hexdigit()) => {
+            i64::from_str_radix(hex, 16).ok()?
+        }
         Some(_) => return None,
         None if !body.is_empty() && body.len() <= 15 && body.chars().all(|c| c.is_ascii_digit()) => {
             body.parse().ok()?
@@ -244,5 +254,16 @@ mod tests {
     fn commands_the_model_cannot_represent_are_errors_not_guesses() {
         assert!(HostCommand::parse("RHX:$1234").unwrap_err().0.contains("no register"));
         assert!(HostCommand::parse("I9000=1").unwrap_err().0.contains("I0..I8191"));
+    }
+
+    #[test]
+    fn an_empty_command_is_an_error_and_signs_are_not_hex_digits() {
+        // A trace step `command: ""` used to run as an empty command; `$+25` and `$-5` were
+        // read as hex because the standard parser accepts a sign. A card answers neither as a
+        // register read or a write: they are unrecognized (ERR003).
+        assert!(HostCommand::parse("  ").unwrap_err().0.contains("empty command"));
+        assert_eq!(HostCommand::parse("RHX:$+25").unwrap(), HostCommand::Unrecognized("RHX:$+25".into()));
+        assert_eq!(HostCommand::parse("I5=$-5").unwrap(), HostCommand::Unrecognized("I5=$-5".into()));
+        assert_eq!(HostCommand::parse("I5=-$5").unwrap(), HostCommand::WriteI(5, -5));
     }
 }
