@@ -36,7 +36,10 @@ pub fn check(a: CheckArgs) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let threads = match crate::common::threads(threads) {
+        Ok(t) => t,
+        Err(code) => return code,
+    };
     let default_profile = spec.profiles.default_profile().name;
     println!("pmacwd check: {} runs from {}, {} threads", runs.len(), spec.dir.display(), threads);
     let mut failures = 0usize;

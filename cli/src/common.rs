@@ -14,6 +14,17 @@ pub fn unusable(msg: impl std::fmt::Display) -> ExitCode {
     ExitCode::from(2)
 }
 
+/// The checker threads for `--threads`: 1 to the machine's cores (default: all of them). More
+/// threads than cores only slow the checker down, and 0 would check nothing.
+pub fn threads(requested: Option<usize>) -> Result<usize, ExitCode> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    match requested {
+        None => Ok(cores),
+        Some(n) if (1..=cores).contains(&n) => Ok(n),
+        Some(n) => Err(unusable(format!("--threads {n}: give 1 to {cores} (the cores of this machine)"))),
+    }
+}
+
 /// The spec directory given with `--specs`, or the embedded one.
 pub fn load_spec(specs: &Option<PathBuf>) -> Result<Spec, ExitCode> {
     match specs {
@@ -76,6 +87,11 @@ pub fn trace_files(paths: &[PathBuf]) -> Result<Vec<TraceFile>, String> {
             files.extend(found.into_iter().map(|path| TraceFile { path, embedded: None }));
         } else if p.is_file() {
             files.push(TraceFile { path: p.clone(), embedded: None });
+        } else if p.exists() {
+            // A FIFO, a device: say what it is rather than "no such file".
+            return Err(pmacwd_specs::input::open_regular(p)
+                .err()
+                .map_or_else(|| format!("{}: not a regular file", p.display()), |e| e.to_string()));
         } else {
             return Err(format!("{}: no such file or directory", p.display()));
         }

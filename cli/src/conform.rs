@@ -21,6 +21,14 @@ pub fn conform(a: ConformArgs) -> ExitCode {
     use pmacwd_conformance::coverage::Coverage;
     use pmacwd_conformance::generate::{self, Settings};
     use pmacwd_conformance::subject::CoreSubject;
+    // Options are checked before any work starts.
+    let threads = match crate::common::threads(a.threads) {
+        Ok(t) => t,
+        Err(code) => return code,
+    };
+    if a.max_len == 0 {
+        return crate::common::unusable("--max-len 0: a generated trace has at least 1 step");
+    }
     let spec = match load_spec(&a.specs) {
         Ok(s) => s,
         Err(code) => return code,
@@ -110,7 +118,6 @@ pub fn conform(a: ConformArgs) -> ExitCode {
                 return ExitCode::from(2);
             }
         };
-        let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
         let mut total = 0;
         for cfg in runs {
             let r = pmacwd_conformance::product::check(cfg, threads);

@@ -163,6 +163,13 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // Output into a closed pipe (`pmacwd run | head`) ends the process quietly, as for other
+    // command-line tools, instead of a panic in `println!` (Rust ignores SIGPIPE by default).
+    // SAFETY: called before any other thread exists; SIG_DFL is a valid disposition.
+    #[cfg(unix)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     match cli.command {
         Command::Conform { cases, max_len, seed, scenarios, specs, no_exhaustive, save_regressions, threads } => {

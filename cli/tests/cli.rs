@@ -314,3 +314,38 @@ fn the_scenario_library_is_found_from_any_folder() {
     let scenarios = std::fs::read_dir(specs_dir().join("scenarios")).unwrap().count();
     assert!(stdout.contains(&format!("{scenarios} scenarios,")), "{stdout}");
 }
+
+#[test]
+fn output_into_a_closed_pipe_ends_quietly_without_a_panic() {
+    // `pmacwd check | head` closes the pipe early; a command-line tool stops there, it does not
+    // print a panic. The check's report is far larger than a pipe's buffer.
+    use std::io::Read;
+    let mut child = pmacwd()
+        .args(["check", "--no-conformance", "--threads", "1"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = [0u8; 10];
+    child.stdout.take().unwrap().read_exact(&mut first).unwrap();
+    // The read end is dropped here: the next writes fail with EPIPE.
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_ne!(out.status.code(), Some(101), "{stderr}");
+}
+
+#[test]
+fn checker_threads_outside_one_to_the_cores_are_refused_before_any_work() {
+    // `--threads 0` used to check 1 state and report every `sometimes` property as never
+    // reached (a false verdict); `--threads 100000` panicked spawning threads.
+    for command in ["check", "conform"] {
+        for n in ["0", "100000"] {
+            let out = pmacwd().args([command, "--threads", n]).output().unwrap();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{command} --threads {n}: {stderr}");
+            assert!(stderr.contains(&format!("--threads {n}: give 1 to")), "{stderr}");
+            assert!(out.stdout.is_empty(), "{command} --threads {n} did work before refusing");
+        }
+    }
+}

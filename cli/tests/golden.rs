@@ -236,10 +236,10 @@ const IMPORT: &[Case] = &[
         "import_to_a_file_reports_the_steps_written",
         &["import", "specs/captures/host-session.log", "--out", "<tmp>/imported.jsonl"],
     ),
-    // The configuration name is written into the trace as given; an unknown one is not
-    // refused (pinned as it is; see the report of this change).
+    // An unknown configuration is refused before anything is written: the trace would name a
+    // configuration that `replay` cannot find.
     case(
-        "import_with_an_unknown_configuration_names_it_in_the_trace",
+        "import_with_an_unknown_configuration_is_refused_with_exit_2",
         &["import", "specs/captures/host-session.log", "--configuration", "nope"],
     ),
     // A file that is not a host log: exit 2 with the line that is not one.

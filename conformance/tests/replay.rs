@@ -81,6 +81,9 @@ fn a_host_log_with_a_command_but_no_reply_or_a_stray_line_is_refused_with_its_li
     assert_eq!(err.position.map(|p| (p.line, p.column)), Some((3, 1)), "{err}");
     let err = import(Path::new("s.log"), "> RHX:$0\n< 1000000\n", "i40-zero").unwrap_err();
     assert!(err.message.contains("not a 24-bit hex word"), "{err}");
+    // A sign is not a hex digit: `+10` is no servo counter a card prints.
+    let err = import(Path::new("s.log"), "> RHX:$0\n< +10\n", "i40-zero").unwrap_err();
+    assert!(err.message.contains("not a 24-bit hex word"), "{err}");
 }
 
 #[test]

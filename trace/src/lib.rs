@@ -253,6 +253,16 @@ pub fn load_yaml(file: &Path) -> Result<LoadedTrace, SpecError> {
 /// Writes a trace back as YAML in the documented form (used to save shrunk failures and to
 /// check that parsing and writing round-trip).
 pub fn to_yaml(trace: &Trace) -> String {
+    let mut s = yaml_header(trace);
+    for step in &trace.steps {
+        s.push_str(&yaml_step(step));
+    }
+    s
+}
+
+/// The YAML form up to and including `steps:` (the trace's own steps are not written), so that
+/// a long trace can be written one [`yaml_step`] at a time.
+pub fn yaml_header(trace: &Trace) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     let _ = writeln!(s, "version: {}", trace.version);
@@ -270,7 +280,14 @@ pub fn to_yaml(trace: &Trace) -> String {
         }
     }
     s.push_str("steps:\n");
-    for step in &trace.steps {
+    s
+}
+
+/// One step of the YAML form, as a list item under `steps:`.
+pub fn yaml_step(step: &Step) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    {
         let event = match &step.event {
             TraceEvent::Run { cycles } => format!("run: {cycles}"),
             TraceEvent::Model(e) => match e {

@@ -55,7 +55,9 @@ pub fn decode(text: &str) -> Result<StatusReply, DecodeError> {
         }
         return Ok(StatusReply::Error(digits.parse().expect("three digits")));
     }
-    if t.len() != 12 {
+    // Counted in characters, as the message says: `00000000000é` is 12 characters, 13 bytes,
+    // and fails as a non-hex character below.
+    if t.chars().count() != 12 {
         return Err(DecodeError(format!(
             "`{}`: a ??? reply has 12 hex characters, this has {}",
             t.escape_debug(),
@@ -88,5 +90,7 @@ mod tests {
         assert!(decode("\u{7}ERR3\r").unwrap_err().0.contains("three digits"));
         assert_eq!(decode("\u{7}ERR003\r"), Ok(StatusReply::Error(3)));
         assert_eq!(decode("BOOTSTRAP PROM\r\u{6}"), Ok(StatusReply::Bootstrap));
+        // Twelve characters but not twelve bytes: the bad character is named, not the count.
+        assert!(decode("00000000000é").unwrap_err().0.contains("`é` is not a hex digit"));
     }
 }
