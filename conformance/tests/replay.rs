@@ -114,3 +114,27 @@ fn a_trip_seen_within_a_window_of_cycles_matches_a_model_trip_inside_the_window_
     assert!(matches!(run(4150, false, 5), Err(Failure::Diverged(_))), "8 cycles late is outside");
     assert!(matches!(run(4139, true, 0), Err(Failure::Diverged(_))), "no window: exact");
 }
+
+#[test]
+fn a_capture_naming_an_unknown_profile_is_unusable_input_not_a_verdict() {
+    // `replay` used to ignore the header's profile list: a misspelt profile was judged under
+    // every profile and could exit 0. The names are checked, and the capture is judged only
+    // under the profiles it names.
+    let spec = Spec::embedded().unwrap();
+    let dir = std::env::temp_dir().join(format!("pmacwd-replay-profiles-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let header = |profiles: &str| {
+        format!(
+            "{{\"format\":\"pmacwd-trace\",\"version\":1,\"description\":\"t\",\"configuration\":\"i40-zero\",\"profiles\":{profiles}}}\n{{\"command\":\"I40\",\"expect\":{{\"reply\":\"0\"}}}}\n"
+        )
+    };
+    let unknown = dir.join("unknown.jsonl");
+    std::fs::write(&unknown, header(r#"["um-215", "um215"]"#)).unwrap();
+    let e = replay(&spec, &unknown).err().expect("refused");
+    assert!(e.message.contains("no profile named `um215`"), "{e}");
+    let one = dir.join("one.jsonl");
+    std::fs::write(&one, header(r#"["um-215"]"#)).unwrap();
+    let r = replay(&spec, &one).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(r.profiles.iter().map(|p| p.profile.name.as_str()).collect::<Vec<_>>(), ["um-215"]);
+}

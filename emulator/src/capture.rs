@@ -24,7 +24,7 @@ use pmacwd_specs::check::{AllKeyword, ProfileSelection};
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_trace::jsonl as trace_jsonl;
-use pmacwd_trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
+use pmacwd_trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION, STEP_CYCLES_MAX};
 use std::io::{self, Write};
 
 /// Commands every host sends that the model does not know, each answered by one message.
@@ -91,7 +91,8 @@ impl<W: Write> CaptureWriter<W> {
 
     fn write_step(&mut self, mut step: Step) -> io::Result<()> {
         while self.pending_cycles > 0 {
-            let cycles = u32::try_from(self.pending_cycles).unwrap_or(u32::MAX);
+            // Long gaps become several steps: a reader takes at most STEP_CYCLES_MAX per step.
+            let cycles = u32::try_from(self.pending_cycles.min(u64::from(STEP_CYCLES_MAX))).unwrap_or(STEP_CYCLES_MAX);
             self.pending_cycles -= u64::from(cycles);
             self.write_line(Step { event: TraceEvent::Run { cycles }, expect: Expect::default(), note: None })?;
         }

@@ -103,6 +103,12 @@ impl Expect {
     }
 }
 
+/// The most servo cycles one `servo` or `run` step may take: 2^24, one turn of the card's
+/// servo counter X:$0 (about 2 hours at 2.25 kHz). A reader refuses more with the step's
+/// line, so one line of a trace cannot make `run` or `replay` spend minutes on it; longer
+/// spans are written as several steps (a capture does that by itself).
+pub const STEP_CYCLES_MAX: u32 = 1 << 24;
+
 /// The keys a step may have besides its one event key.
 const STEP_EXTRAS: [&str; 2] = ["expect", "note"];
 /// The event keys.
@@ -159,6 +165,12 @@ impl<'de> Deserialize<'de> for Step {
                             let cycles: u32 = map.next_value()?;
                             if cycles == 0 {
                                 return Err(de::Error::custom(format!("`{key}` needs at least 1 cycle")));
+                            }
+                            if cycles > STEP_CYCLES_MAX {
+                                return Err(de::Error::custom(format!(
+                                    "`{key}: {cycles}` is more than {STEP_CYCLES_MAX} servo cycles, the most one step \
+                                     takes; split it into several steps"
+                                )));
                             }
                             if key == "run" {
                                 TraceEvent::Run { cycles }
@@ -382,4 +394,52 @@ fn quote(s: &str) -> String {
     }
     out.push('"');
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEADER: &str =
+        r#"{"format":"pmacwd-trace","version":1,"description":"t","configuration":"i40-zero","profiles":"all"}"#;
+
+    fn jsonl(lines: &[&str]) -> Result<Trace, SpecError> {
+        let text = std::iter::once(HEADER).chain(lines.iter().copied()).collect::<Vec<_>>().join("\n");
+        jsonl::read_all(Path::new("t.jsonl"), text.as_bytes())
+    }
+
+    #[test]
+    fn a_step_longer_than_one_counter_turn_is_refused_at_its_line() {
+        // `{"servo": 2147483647}` used to run for minutes per profile; a reader now stops it
+        // with the line, and a capture writes long gaps as several steps.
+        let e = jsonl(&[r#"{"run": 16777216}"#, r#"{"servo": 2147483647}"#]).unwrap_err();
+        assert_eq!(e.position.map(|p| p.line), Some(3), "{e}");
+        assert!(e.message.contains("split it into several steps"), "{e}");
+        let yaml = "version: 1\ndescription: t\nconfiguration: i40-zero\nprofiles: all\nsteps:\n  - run: 16777217\n";
+        let e = parse_yaml(Path::new("t.yaml"), yaml).err().expect("refused");
+        assert_eq!(e.position.map(|p| p.line), Some(6), "{e}");
+    }
+
+    #[test]
+    fn a_key_given_twice_in_a_json_step_is_refused_not_overwritten() {
+        // JSON objects may repeat a key; serde would keep the last `expect` and silently drop
+        // the first, which could turn a failing expectation into a passing one.
+        let e = jsonl(&[r#"{"command":"???","expect":{"reply":"X"},"expect":{}}"#]).unwrap_err();
+        assert!(e.message.contains("duplicate key `expect`"), "{e}");
+        let e = jsonl(&[r#"{"command":"???","note":"a","note":"b"}"#]).unwrap_err();
+        assert!(e.message.contains("duplicate key `note`"), "{e}");
+        let e = jsonl(&[r#"{"command":"???","expect":{"reply":"X","reply":"Y"}}"#]).unwrap_err();
+        assert!(e.message.contains("duplicate field `reply`"), "{e}");
+    }
+
+    #[test]
+    fn an_empty_profile_list_is_refused_in_both_forms() {
+        // `profiles: []` used to run nothing and report "0 passed, 0 failed" with exit 0.
+        let text = HEADER.replace(r#""all""#, "[]") + "\n{\"servo\":1}\n";
+        let e = jsonl::read_all(Path::new("t.jsonl"), text.as_bytes()).unwrap_err();
+        assert!(e.message.contains("empty profile list"), "{e}");
+        let yaml = "version: 1\ndescription: t\nconfiguration: i40-zero\nprofiles: []\nsteps:\n  - servo: 1\n";
+        let e = parse_yaml(Path::new("t.yaml"), yaml).err().expect("refused");
+        assert_eq!(e.position.map(|p| p.line), Some(4), "{e}");
+    }
 }
