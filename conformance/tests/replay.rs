@@ -130,7 +130,7 @@ fn a_capture_naming_an_unknown_profile_is_unusable_input_not_a_verdict() {
     };
     let unknown = dir.join("unknown.jsonl");
     std::fs::write(&unknown, header(r#"["um-215", "um215"]"#)).unwrap();
-    let e = replay(&spec, &unknown).err().expect("refused");
+    let e = replay(&spec, &unknown).expect_err("refused");
     assert!(e.message.contains("no profile named `um215`"), "{e}");
     let one = dir.join("one.jsonl");
     std::fs::write(&one, header(r#"["um-215"]"#)).unwrap();
