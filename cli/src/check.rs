@@ -42,7 +42,7 @@ pub fn check(a: CheckArgs) -> ExitCode {
     };
     let default_profile = spec.profiles.default_profile().name;
     println!("pmacwd check: {} runs from {}, {} threads", runs.len(), spec.dir.display(), threads);
-    let mut failures = 0usize;
+    let (mut failures, mut incomplete) = (0usize, 0usize);
     let (mut states, mut seconds) = (0usize, 0f64);
     for (i, cfg) in runs.iter().cloned().enumerate() {
         eprint!("[{}] checking {} / {} ...\r", i + 1, cfg.configuration, cfg.profile.name);
@@ -50,7 +50,9 @@ pub fn check(a: CheckArgs) -> ExitCode {
         let report = run(cfg, threads);
         states += report.states;
         seconds += report.duration.as_secs_f64();
-        if !report.all_hold() {
+        if !report.complete {
+            incomplete += 1;
+        } else if !report.all_hold() {
             failures += 1;
         }
         print!("{}", format_report(&report, &default_profile, witnesses));
@@ -64,6 +66,11 @@ pub fn check(a: CheckArgs) -> ExitCode {
             format!("{failures} runs with failing properties")
         }
     );
+    if incomplete > 0 {
+        // A run cut short at the state bound proves nothing either way: unusable input.
+        eprintln!("pmacwd: {incomplete} runs stopped at the checker's state bound: no verdict for them");
+        return ExitCode::from(2);
+    }
     let mut diverged = false;
     if !no_conformance {
         match conformance_summary(&spec, &runs, &specs, threads) {
@@ -96,6 +103,10 @@ fn conformance_summary(
     for cfg in runs {
         let r = pmacwd_conformance::product::check(cfg.clone(), threads);
         pairs += r.states;
+        if !r.complete {
+            println!("  INCOMPLETE {} / {}: stopped at the state bound", r.configuration, r.profile);
+            return Err(ExitCode::from(2));
+        }
         if let Some((events, d)) = &r.divergence {
             diverged = true;
             println!("  DIVERGED  {} / {}: {d}\n  shortest path:", r.configuration, r.profile);

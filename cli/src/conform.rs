@@ -122,6 +122,11 @@ pub fn conform(a: ConformArgs) -> ExitCode {
         for cfg in runs {
             let r = pmacwd_conformance::product::check(cfg, threads);
             total += r.states;
+            if !r.complete {
+                // Cut short at the state bound: no verdict, so unusable input, not a pass.
+                println!("INCOMPLETE {} / {}: stopped at the state bound", r.configuration, r.profile);
+                return ExitCode::from(2);
+            }
             match &r.divergence {
                 None => println!(
                     "ok        {:<10} {:<20} {:>8} pair states, depth {:>3}, {:.2} s",

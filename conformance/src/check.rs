@@ -85,6 +85,14 @@ pub fn format_report(r: &RunReport, default_profile: &str, witnesses: bool) -> S
         r.duration.as_secs_f64(),
         thousands(r.states_per_second() as usize)
     );
+    if !r.complete {
+        let _ = writeln!(
+            s,
+            "   INCOMPLETE: the checker stopped at {} states (its bound); no verdict below is earned. \
+             Make the configuration smaller (I40, hardware delay, single_servo_cycles) to check it exhaustively.",
+            thousands(pmacwd_model::checker::STATES_MAX)
+        );
+    }
     for p in &r.properties {
         if !p.applicable {
             let _ = writeln!(s, "   n/a      sometimes {}  [{}]  (needs {})", p.name, p.cite, p.needs);

@@ -7,6 +7,7 @@
 use crate::lockstep::{differences, Disagreement};
 use pmacwd_bridge::{core_config, core_event, core_observation};
 use pmacwd_core as core;
+use pmacwd_model::checker::STATES_MAX;
 use pmacwd_model::checker::{Action, State, WatchdogModel};
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::vocab::event::Event;
@@ -92,6 +93,9 @@ impl Model for ProductModel {
 pub struct ProductReport {
     pub configuration: String,
     pub profile: String,
+    /// Whether every pair state was explored (the checker stops at
+    /// [`pmacwd_model::checker::STATES_MAX`]; an incomplete run proves nothing).
+    pub complete: bool,
     pub states: usize,
     pub depth: usize,
     pub duration: Duration,
@@ -109,7 +113,7 @@ pub fn check_product(product: ProductModel, threads: usize) -> ProductReport {
     let cfg = &product.model.cfg;
     let (configuration, profile) = (cfg.configuration.clone(), cfg.profile.name.clone());
     let start = Instant::now();
-    let checker = product.checker().threads(threads).spawn_bfs().join();
+    let checker = product.checker().threads(threads).target_state_count(STATES_MAX).spawn_bfs().join();
     let duration = start.elapsed();
     let product = checker.model();
     let divergence = checker.discovery(AGREE).map(|path| {
@@ -130,6 +134,7 @@ pub fn check_product(product: ProductModel, threads: usize) -> ProductReport {
     ProductReport {
         configuration,
         profile,
+        complete: checker.unique_state_count() < STATES_MAX,
         states: checker.unique_state_count(),
         depth: checker.max_depth(),
         duration,

@@ -135,3 +135,17 @@ fn the_fast_check_with_conjoined_always_properties_agrees_with_the_detailed_one(
         assert_eq!(verdicts(&fast), verdicts(&detailed), "{name}");
     }
 }
+
+#[test]
+fn a_run_stopped_at_the_state_bound_is_marked_incomplete_and_earns_no_verdict() {
+    // A configuration too large to explore (a real I40 with single servo cycles) used to grow
+    // for an hour; the checker now stops at a bound and the report says it is incomplete, so
+    // that `check` exits 2 instead of printing `sometimes` properties as NEVER reached.
+    let spec = Spec::embedded().unwrap();
+    let cfg = ModelConfig::from_spec(&spec, "timing", &spec.profiles.default_profile()).unwrap();
+    let cut = WatchdogModel::new(cfg.clone()).check_bounded(1, 1_000);
+    assert!(!cut.complete, "{} states", cut.states);
+    let text = pmacwd_conformance::check::format_report(&cut, "um-215", false);
+    assert!(text.contains("INCOMPLETE"), "{text}");
+    assert!(WatchdogModel::new(cfg).check(2).complete);
+}

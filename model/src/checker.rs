@@ -48,6 +48,12 @@ pub enum Canary {
     SupplyRestoreUntrips,
 }
 
+/// The most states one run explores. The configurations of `check.yaml` take at most about
+/// 750,000; a configuration whose state space is larger than this (a large I40 or hardware
+/// delay with single servo cycles, say) would take minutes to hours and gigabytes, so the
+/// checker stops here and the run is reported as incomplete instead of silently growing.
+pub const STATES_MAX: usize = 10_000_000;
+
 /// Longest jump, in servo cycles, before the checker gives up looking for a change.
 const JUMP_CYCLES_MAX: u32 = 1 << 20;
 
@@ -385,6 +391,10 @@ pub struct TraceStep {
 pub struct RunReport {
     pub configuration: String,
     pub profile: String,
+    /// Whether the whole reachable state space was explored. When the checker stopped at
+    /// [`STATES_MAX`], `always` properties are only known on the states seen and `sometimes`
+    /// properties may exist beyond them: the report earns no verdict.
+    pub complete: bool,
     pub states: usize,
     pub depth: usize,
     pub duration: Duration,
@@ -458,18 +468,24 @@ pub fn property_table() -> Vec<PropertyInfo> {
 impl WatchdogModel {
     /// Explores every reachable state breadth-first and reports each property.
     pub fn check(self, threads: usize) -> RunReport {
+        self.check_bounded(threads, STATES_MAX)
+    }
+
+    /// As [`WatchdogModel::check`], stopping after about `states_max` states; the report then
+    /// says it is incomplete.
+    pub fn check_bounded(self, threads: usize, states_max: usize) -> RunReport {
         if self.detailed {
-            return self.check_detailed(threads);
+            return self.check_detailed(threads, states_max);
         }
         let (cfg, canary) = (self.cfg.clone(), self.canary);
         let start = Instant::now();
-        let checker = self.checker().threads(threads).spawn_bfs().join();
+        let checker = self.checker().threads(threads).target_state_count(states_max).spawn_bfs().join();
         let duration = start.elapsed();
         let discoveries = checker.discoveries();
         if discoveries.contains_key(PROPERTY_IDS[0]) || discoveries.contains_key(PROPERTY_IDS[1]) {
             // Some `always` property fails: check each one on its own, for its verdict and its own
             // shortest counterexample.
-            let mut report = WatchdogModel { cfg, canary, detailed: true }.check_detailed(threads);
+            let mut report = WatchdogModel { cfg, canary, detailed: true }.check_detailed(threads, states_max);
             report.duration += duration;
             return report;
         }
@@ -494,6 +510,7 @@ impl WatchdogModel {
         RunReport {
             configuration: model.cfg.configuration.clone(),
             profile: model.cfg.profile.name.clone(),
+            complete: checker.unique_state_count() < states_max,
             states: checker.unique_state_count(),
             depth: checker.max_depth(),
             duration,
@@ -502,11 +519,11 @@ impl WatchdogModel {
     }
 
     /// One stateright property per named property.
-    fn check_detailed(self, threads: usize) -> RunReport {
+    fn check_detailed(self, threads: usize, states_max: usize) -> RunReport {
         let configuration = self.cfg.configuration.clone();
         let profile = self.cfg.profile.name.clone();
         let start = Instant::now();
-        let checker = self.checker().threads(threads).spawn_bfs().join();
+        let checker = self.checker().threads(threads).target_state_count(states_max).spawn_bfs().join();
         let duration = start.elapsed();
         let model = checker.model();
         let discoveries = checker.discoveries();
@@ -526,6 +543,7 @@ impl WatchdogModel {
         RunReport {
             configuration,
             profile,
+            complete: checker.unique_state_count() < states_max,
             states: checker.unique_state_count(),
             depth: checker.max_depth(),
             duration,
