@@ -38,9 +38,11 @@ const ROOT: u32 = 0;
 impl SourceMap {
     /// Walks the events of `text`; fails on a syntax error or a duplicated mapping key.
     pub fn build(file: &Path, text: &str) -> Result<SourceMap, SpecError> {
-        let mut walker = Walker { file: file.to_path_buf(), stack: Vec::new(), children: HashMap::new(), error: None };
+        let mut walker =
+            Walker { file: file.to_path_buf(), stack: Vec::new(), children: HashMap::new(), error: None, documents: 0 };
         let mut parser = Parser::new_from_str(text);
-        if let Err(e) = parser.load(&mut walker, false) {
+        // All documents are walked, so that a second one is an error with its position.
+        if let Err(e) = parser.load(&mut walker, true) {
             let m = e.marker();
             return Err(SpecError::at(file, position_of(m), format!("YAML syntax: {}", e.info())));
         }
@@ -107,6 +109,7 @@ struct Walker {
     stack: Vec<Frame>,
     children: HashMap<(u32, Box<str>), (u32, Position)>,
     error: Option<SpecError>,
+    documents: u32,
 }
 
 impl Walker {
@@ -159,12 +162,31 @@ impl Walker {
 
 impl MarkedEventReceiver for Walker {
     fn on_event(&mut self, ev: Event, mark: Marker) {
+        if self.error.is_some() {
+            return;
+        }
         match ev {
+            Event::DocumentStart => {
+                self.documents += 1;
+                if self.documents > 1 {
+                    self.error = Some(SpecError::at(
+                        &self.file,
+                        position_of(&mark),
+                        "a second YAML document (after `---`): a spec or trace file holds exactly one",
+                    ));
+                }
+            }
             Event::Scalar(value, ..) => {
                 self.node(Some(&value), mark);
             }
             Event::Alias(_) => {
-                self.node(Some("*alias"), mark);
+                // Aliases let a few lines expand into gigabytes (the "billion laughs"); no spec
+                // or trace needs them, so they are refused where they appear.
+                self.error = Some(SpecError::at(
+                    &self.file,
+                    position_of(&mark),
+                    "YAML aliases (`*name`) are not supported in spec and trace files: write the value out",
+                ));
             }
             Event::MappingStart(..) => {
                 let node = self.node(None, mark).unwrap_or(ROOT);
@@ -259,5 +281,17 @@ mod tests {
     fn a_key_with_dots_is_found_by_its_whole_name() {
         let map = SourceMap::build(Path::new("t.yaml"), "versions:\n  1.947: {a: 1}\n").unwrap();
         assert_eq!(map.position("versions.1.947.a"), Position { line: 2, column: 11 });
+    }
+
+    #[test]
+    fn aliases_and_second_documents_are_refused_where_they_appear() {
+        // An alias bomb used to stop inside serde_yaml with "repetition limit exceeded" and no
+        // position; a second document with no position at all.
+        let e = SourceMap::build(Path::new("t.yaml"), "a: &x [1, 2]\nb: [*x, *x]\n").unwrap_err();
+        assert_eq!(e.position, Some(Position { line: 2, column: 5 }));
+        assert!(e.message.contains("aliases"), "{}", e.message);
+        let e = SourceMap::build(Path::new("t.yaml"), "a: 1\n---\na: 2\n").unwrap_err();
+        assert_eq!(e.position.map(|p| p.line), Some(2), "{e:?}");
+        assert!(e.message.contains("second YAML document"), "{}", e.message);
     }
 }
