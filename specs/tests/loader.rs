@@ -183,3 +183,33 @@ fn a_stray_yaml_file_in_the_spec_directory_is_refused_rather_than_ignored() {
     assert!(err.file.ends_with("extra.yaml") && err.message.contains("unexpected spec file"), "{err}");
     assert_eq!(err.position, None::<Position>);
 }
+
+#[test]
+fn a_spec_file_that_is_not_a_regular_file_is_refused_not_read_or_skipped() {
+    // A FIFO named like a spec file used to block forever, a symlink to /dev/zero to read until
+    // memory ran out, and a directory named `*.yaml` was skipped silently. Each is an error
+    // naming the file and what it is.
+    let cases: [(&str, fn(&Path)); 3] = [
+        ("fifo", |p| {
+            let ok = std::process::Command::new("mkfifo").arg(p).status().is_ok_and(|s| s.success());
+            assert!(ok, "mkfifo");
+        }),
+        ("device", |p| std::os::unix::fs::symlink("/dev/zero", p).unwrap()),
+        ("directory", |p| std::fs::create_dir(p).unwrap()),
+    ];
+    for (tag, make) in cases {
+        let dir = std::env::temp_dir().join(format!("pmacwd-specs-{}-{tag}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        for f in Spec::file_names() {
+            if f != "status.yaml" {
+                std::fs::copy(specs_dir().join(f), dir.join(f)).unwrap();
+            }
+        }
+        make(&dir.join("status.yaml"));
+        let e = Spec::load_dir(&dir).unwrap_err();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(e.to_string().contains("status.yaml"), "{tag}: {e}");
+        assert!(e.message.contains("not a regular file"), "{tag}: {e}");
+    }
+}
