@@ -189,7 +189,8 @@ fn a_spec_file_that_is_not_a_regular_file_is_refused_not_read_or_skipped() {
     // A FIFO named like a spec file used to block forever, a symlink to /dev/zero to read until
     // memory ran out, and a directory named `*.yaml` was skipped silently. Each is an error
     // naming the file and what it is.
-    let cases: [(&str, fn(&Path)); 3] = [
+    type Make = fn(&Path);
+    let cases: [(&str, Make); 3] = [
         ("fifo", |p| {
             let ok = std::process::Command::new("mkfifo").arg(p).status().is_ok_and(|s| s.success());
             assert!(ok, "mkfifo");
