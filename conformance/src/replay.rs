@@ -49,6 +49,7 @@ impl Source {
             Some(b'{') => Ok(Source::Jsonl(StepReader::new(path, reader)?)),
             Some(_) => {
                 let text = pmacwd_specs::input::read_text(path, pmacwd_specs::input::YAML_TRACE_BYTES_MAX)?;
+
                 let loaded = parse_yaml(path, &text)?;
                 Ok(Source::Yaml { trace: loaded.trace, map: loaded.map, next: 0 })
             }

@@ -237,8 +237,24 @@ impl LoadedTrace {
     }
 }
 
+/// Whether the first line that is not blank or a `#` comment is a host log's `> command`.
+fn looks_like_host_log(text: &str) -> bool {
+    text.lines()
+        .map(str::trim_start)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .is_some_and(|l| l.starts_with("> "))
+}
+
 /// Parses a YAML trace.
 pub fn parse_yaml(file: &Path, text: &str) -> Result<LoadedTrace, SpecError> {
+    if looks_like_host_log(text) {
+        // A YAML syntax error would not tell the user what to do with a host log.
+        return Err(SpecError::whole_file(
+            file,
+            "this is a host log (`> command`, `< reply`), not a trace: turn it into one with \
+             `pmacwd import LOG --out trace.jsonl`, then use the trace (docs/capturing.md)",
+        ));
+    }
     let (trace, map): (Trace, SourceMap) = pmacwd_specs::yaml::parse(file, text)?;
     if trace.version != FORMAT_VERSION {
         return Err(map.error(
