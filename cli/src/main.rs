@@ -32,14 +32,21 @@ enum Command {
     /// core: `???`, I-variables with I41 lockout, X:$25, Y:$25, X:$0, `$$$`, `ver`, `cid`; the
     /// watchdog runs at the servo rate and a tripped card goes silent until INIT/ or power.
     /// Load and faults come through the control interface (docs/emulator.md).
+    #[command(after_help = "Exit codes: 0 stopped normally, 2 unusable arguments or a port that cannot be bound.")]
     Serve(serve::ServeArgs),
     /// Transparent proxy between a host program and a card that writes every request and reply,
     /// with timing, as a capture for `pmacwd replay` (docs/emulator.md).
+    #[command(
+        after_help = "Exit codes: 0 the sessions asked for ended and the capture is closed, 2 unusable arguments or a port that cannot be bound."
+    )]
     Record(record::RecordArgs),
     /// Model-check every profile at the bounded configurations of specs/check.yaml.
     ///
     /// Prints, per configuration and profile: states, depth, time, and every property with its
     /// verdict; the shortest counterexample of a violated property.
+    #[command(
+        after_help = "Exit codes: 0 every property holds and the core agrees with the model, 1 a property is violated or the core diverged, 2 unusable input (spec directory, options, a run too large to check)."
+    )]
     Check {
         /// Spec directory to check instead of the embedded one (the specs/ of this build).
         #[arg(long, value_name = "DIR")]
@@ -66,6 +73,7 @@ enum Command {
     /// PATH is a trace file or a directory of them (default: specs/scenarios). Prints one line
     /// per trace and profile, and for a divergence the step, line, expected and observed values
     /// and the events before it.
+    #[command(after_help = "Exit codes: 0 every expectation met, 1 a trace diverged, 2 unusable input.")]
     Run {
         /// Trace files or directories.
         #[arg(value_name = "PATH")]
@@ -81,8 +89,10 @@ enum Command {
     /// the EPICS pmac driver's hardware-problem mask flags it.
     ///
     /// REPLY is 12 hex characters (e.g. 400000080000), `BOOTSTRAP PROM`, or an error reply
-    /// (BEL ERRnnn CR). A malformed reply exits 2.
+    /// (BEL ERRnnn CR, or ERRnnn as a log writes it). A malformed reply exits 2.
+    #[command(after_help = "Exit codes: 0 explained, 2 not a reply a card sends.")]
     Decode {
+        /// The reply: 12 hex characters, `BOOTSTRAP PROM`, `BEL ERRnnn CR` or `ERRnnn`.
         #[arg(value_name = "REPLY")]
         reply: String,
         /// Print JSON instead of text.
@@ -98,7 +108,9 @@ enum Command {
     /// with the events before it and the number of diverging events, then which readings of the
     /// manuals the capture supports or rules out. Exit 0 when some profile explains the capture,
     /// 1 when none does, 2 for unusable input.
+    #[command(after_help = "Exit codes: 0 some profile explains the capture, 1 none does, 2 unusable input.")]
     Replay {
+        /// The capture: a trace in YAML or JSON Lines (a host log goes through `pmacwd import` first).
         #[arg(value_name = "FILE")]
         file: PathBuf,
         /// Output format.
@@ -117,6 +129,7 @@ enum Command {
     /// events applied, status bits seen set, properties reached. A generated divergence is
     /// shrunk, printed and saved as a regression trace. Exit 0 no divergence, 1 a divergence,
     /// 2 unusable input.
+    #[command(after_help = "Exit codes: 0 no divergence, 1 a divergence (shrunk and saved), 2 unusable input.")]
     Conform {
         /// Generated traces to run.
         #[arg(long, value_name = "N", default_value_t = 10_000)]
@@ -147,7 +160,9 @@ enum Command {
     ///
     /// The log format and how to capture one from a real controller: docs/capturing.md. Writes
     /// JSON Lines (or YAML with --yaml) to --out, or to standard output.
+    #[command(after_help = "Exit codes: 0 imported, 2 unusable input (the log's file, line and column say where).")]
     Import {
+        /// The host log: `> command` and `< reply` lines (docs/capturing.md).
         #[arg(value_name = "LOG")]
         log: PathBuf,
         /// Where to write the trace (default: standard output).

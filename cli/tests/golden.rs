@@ -192,8 +192,8 @@ const DECODE: &[Case] = &[
     // A malformed reply: exit 2, with or without --json.
     case("decode_of_a_malformed_reply_exits_2", &["decode", "zzz"]),
     case("decode_of_a_malformed_reply_as_json_exits_2", &["decode", "zzz", "--json"]),
-    // A reply without its BEL and CR is not an error reply: exit 2.
-    case("decode_of_a_bare_error_number_exits_2", &["decode", "ERR003"]),
+    // An error number as a log or a terminal writes it, without BEL and CR, is explained too.
+    case("decode_of_an_error_number_as_a_log_writes_it_explains_it", &["decode", "ERR003"]),
     // No reply at all: a usage error.
     case("decode_without_a_reply_is_a_usage_error", &["decode"]),
 ];

@@ -44,7 +44,7 @@ quickcheck! {
     /// Text of any other length, or with a non-hex character, is refused, never misread.
     fn malformed_reply_text_is_refused(text: String) -> TestResult {
         let t = text.trim_end_matches('\u{6}').trim_matches(|c: char| c == '\r' || c == '\n' || c == ' ');
-        let well_formed = (t.len() == 12 && t.chars().all(|c| c.is_ascii_hexdigit())) || t == "BOOTSTRAP PROM" || t.starts_with('\u{7}');
+        let well_formed = (t.len() == 12 && t.chars().all(|c| c.is_ascii_hexdigit())) || t == "BOOTSTRAP PROM" || t.starts_with('\u{7}') || t.starts_with("ERR");
         if well_formed {
             return TestResult::discard();
         }

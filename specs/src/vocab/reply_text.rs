@@ -43,10 +43,15 @@ pub fn decode(text: &str) -> Result<StatusReply, DecodeError> {
     if t == "BOOTSTRAP PROM" {
         return Ok(StatusReply::Bootstrap);
     }
-    if let Some(rest) = t.strip_prefix('\u{7}') {
-        let digits = rest
-            .strip_prefix("ERR")
-            .ok_or_else(|| DecodeError(format!("`{}`: BEL not followed by ERRnnn", text.escape_debug())))?;
+    // `BEL ERRnnn CR` as the card sends it, or `ERRnnn` as logs and terminals write it.
+    let error = match t.strip_prefix('\u{7}') {
+        Some(rest) => Some(
+            rest.strip_prefix("ERR")
+                .ok_or_else(|| DecodeError(format!("`{}`: BEL not followed by ERRnnn", text.escape_debug())))?,
+        ),
+        None => t.strip_prefix("ERR"),
+    };
+    if let Some(digits) = error {
         if digits.len() != 3 || !digits.chars().all(|c| c.is_ascii_digit()) {
             return Err(DecodeError(format!(
                 "`{}`: an error reply is BEL ERRnnn CR with three digits",
@@ -89,6 +94,8 @@ mod tests {
         assert!(decode("12345678901G").unwrap_err().0.contains("`G` is not a hex digit"));
         assert!(decode("\u{7}ERR3\r").unwrap_err().0.contains("three digits"));
         assert_eq!(decode("\u{7}ERR003\r"), Ok(StatusReply::Error(3)));
+        // As a log or a terminal writes it, without the BEL.
+        assert_eq!(decode("ERR003"), Ok(StatusReply::Error(3)));
         assert_eq!(decode("BOOTSTRAP PROM\r\u{6}"), Ok(StatusReply::Bootstrap));
         // Twelve characters but not twelve bytes: the bad character is named, not the count.
         assert!(decode("00000000000é").unwrap_err().0.contains("`é` is not a hex digit"));
