@@ -79,6 +79,7 @@ pub fn record(a: RecordArgs) -> ExitCode {
         silence: Duration::from_millis(a.silence_ms.max(1)),
         sessions: a.sessions,
         verbose: a.verbose,
+        thread_stack_bytes: None,
     };
     let proxy = match Proxy::start(Recorder::new(capture, servo_hz, a.virtual_time), options) {
         Ok(p) => p,

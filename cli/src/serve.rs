@@ -139,6 +139,7 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         clients_max: a.clients_max,
         idle_timeout: (a.idle_timeout > 0).then(|| Duration::from_secs(a.idle_timeout)),
         verbose: a.verbose,
+        thread_stack_bytes: None,
     };
     let server = match Server::start(card, options) {
         Ok(s) => s,

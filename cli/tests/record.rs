@@ -44,6 +44,7 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
         silence: Duration::from_millis(200),
         sessions: Some(1),
         verbose: false,
+        thread_stack_bytes: None,
     };
     let proxy = Proxy::start(Recorder::new(capture, model.servo_hz, false), options).unwrap();
 
@@ -171,6 +172,7 @@ fn every_recorded_reply_is_the_one_the_client_received_however_fast_or_impatient
         silence,
         sessions: Some(1),
         verbose: false,
+        thread_stack_bytes: None,
     };
     let proxy = Proxy::start(Recorder::new(capture, model.servo_hz, true), options).unwrap();
     let mut control = ControlClient(std::io::BufReader::new(TcpStream::connect(proxy.control_addr.unwrap()).unwrap()));
@@ -242,4 +244,39 @@ fn every_recorded_reply_is_the_one_the_client_received_however_fast_or_impatient
     let default = report.profiles.iter().find(|p| p.profile.name == model.profile.name).unwrap();
     assert!(default.consistent(), "{}", pmacwd_conformance::replay::to_text(&report, "um-215"));
     std::fs::remove_file(&path).ok();
+}
+
+#[test]
+fn a_session_whose_thread_cannot_start_is_closed_and_the_proxy_keeps_accepting() {
+    // When the system refuses a session's thread (here: a stack larger than the address
+    // space), that client's connection is closed and the proxy goes on accepting. Before, the
+    // accept thread panicked and every later client waited in the listen backlog, unanswered.
+    let server = Server::start(Card::default_card(Clock::Virtual), ServeOptions::free_loopback_port(8)).unwrap();
+    let out: Box<dyn Write + Send> = Box::new(Vec::new());
+    let capture = CaptureWriter::new(out, "spawn test", "i40-zero", Recorder::timing(2250, false)).unwrap();
+    let options = RecordOptions {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        target: server.local_addr.to_string(),
+        control: None,
+        servo_hz: 2250,
+        virtual_time: false,
+        silence: Duration::from_millis(200),
+        sessions: None,
+        verbose: false,
+        thread_stack_bytes: Some(1 << 60),
+    };
+    let proxy = Proxy::start(Recorder::new(capture, 2250, false), options).unwrap();
+    for k in 0..3 {
+        let mut c = TcpStream::connect(proxy.local_addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        c.write_all(&Header::getresponse(3).to_bytes()).unwrap();
+        let _ = c.write_all(b"???");
+        let mut b = [0u8; 16];
+        let r = c.read(&mut b);
+        assert!(
+            matches!(r, Ok(0)) || matches!(&r, Err(e) if e.kind() == std::io::ErrorKind::ConnectionReset),
+            "client {k}: closed, not left waiting: {r:?}"
+        );
+    }
+    server.stop();
 }

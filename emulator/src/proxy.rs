@@ -21,6 +21,7 @@
 //! commands seen on the proxied control interface of a `pmacwd serve --virtual-time`.
 //! Concurrent sessions share one timeline, in the order their exchanges complete.
 
+use crate::bounded::{spawn, CountedLog};
 use crate::capture::{CaptureWriter, Timing};
 use crate::framing::{ACK, BEL, CR};
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
@@ -46,6 +47,10 @@ pub struct RecordOptions {
     /// Stop after this many host sessions have ended.
     pub sessions: Option<u64>,
     pub verbose: bool,
+    /// The stack of each session's threads (`None`: the platform's default). A size the
+    /// system cannot give makes every session's thread fail to start, which is how the tests
+    /// reach that path.
+    pub thread_stack_bytes: Option<usize>,
 }
 
 /// The shared timeline and the capture.
@@ -113,6 +118,10 @@ struct Shared {
     sessions_ended: AtomicU64,
     stopping: AtomicBool,
     order: Order,
+    /// Sessions the system would not start a thread for.
+    spawn_failures: CountedLog,
+    /// Sessions whose card (or control interface) could not be reached.
+    unreachable: CountedLog,
 }
 
 impl Shared {
@@ -350,19 +359,30 @@ impl Proxy {
             None => None,
         };
         let control_addr = control.as_ref().map(|l| l.local_addr()).transpose()?;
+        let verbose = options.verbose;
         let shared = Arc::new(Shared {
             recorder: Mutex::new(Some(recorder)),
             options,
             sessions_ended: AtomicU64::new(0),
             stopping: AtomicBool::new(false),
             order: Order::new(),
+            spawn_failures: CountedLog::new("pmacwd record", "sessions closed for want of a thread", verbose),
+            unreachable: CountedLog::new("pmacwd record", "sessions closed: the card could not be reached", verbose),
         });
         let mut accept = Vec::new();
         let s = shared.clone();
-        accept.push(thread::spawn(move || accept_hosts(listener, local_addr, s)));
+        accept.push(spawn("record: accept hosts".into(), None, move || accept_hosts(listener, local_addr, s))?);
         if let Some(l) = control {
             let s = shared.clone();
-            accept.push(thread::spawn(move || accept_control(l, s)));
+            match spawn("record: accept control".into(), None, move || accept_control(l, s)) {
+                Ok(t) => accept.push(t),
+                Err(e) => {
+                    // No proxy without the control interface it was asked for.
+                    shared.stopping.store(true, Ordering::SeqCst);
+                    let _ = TcpStream::connect(local_addr);
+                    return Err(e);
+                }
+            }
         }
         Ok(Proxy { shared, local_addr, control_addr, accept })
     }
@@ -378,6 +398,8 @@ impl Proxy {
 
     fn close(self) -> io::Result<(u64, u64, Vec<String>)> {
         self.shared.stopping.store(true, Ordering::SeqCst);
+        self.shared.spawn_failures.flush();
+        self.shared.unreachable.flush();
         if let Some(a) = self.control_addr {
             let _ = TcpStream::connect(a);
         }
@@ -397,17 +419,19 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
         let Ok(client) = client else { continue };
         next += 1;
         let id = next;
-        let card = match TcpStream::connect(&shared.options.target) {
-            Ok(c) => c,
-            Err(e) => {
-                eprintln!("pmacwd record: session {id}: cannot reach the card at {}: {e}", shared.options.target);
-                continue;
-            }
-        };
         let s = shared.clone();
-        thread::spawn(move || {
+        // The card is reached from the session's own thread: a card slow to answer the
+        // connection holds up that session only, never the accepting of others.
+        let started = spawn(format!("record: session {id}"), shared.options.thread_stack_bytes, move || {
+            let card = match TcpStream::connect(&s.options.target) {
+                Ok(c) => c,
+                Err(e) => {
+                    s.unreachable.report(&format!("session {id}: cannot reach the card at {}: {e}", s.options.target));
+                    return;
+                }
+            };
             s.log(&format!("session {id} opened"));
-            host_session(client, card, &s);
+            host_session(client, card, &s, id);
             s.log(&format!("session {id} ended"));
             let ended = s.sessions_ended.fetch_add(1, Ordering::SeqCst) + 1;
             if s.options.sessions.is_some_and(|n| ended >= n) {
@@ -416,10 +440,14 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
                 let _ = TcpStream::connect(own);
             }
         });
+        if let Err(e) = started {
+            // The client's socket went with the closure: that connection is closed.
+            shared.spawn_failures.report(&format!("session {id}: cannot start its thread: {e}"));
+        }
     }
 }
 
-fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>) {
+fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>, id: u64) {
     let session = Arc::new(Mutex::new(Session::new()));
     let (Ok(client_w), Ok(card_r), Ok(card_w)) = (client.try_clone(), card.try_clone(), card.try_clone()) else {
         return;
@@ -429,7 +457,19 @@ fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>) {
     let replies = {
         let shared = shared.clone();
         let session = session.clone();
-        thread::spawn(move || replies_to_host(card_r, client_w, &shared, &session))
+        spawn(format!("record: replies {id}"), shared.options.thread_stack_bytes, move || {
+            replies_to_host(card_r, client_w, &shared, &session)
+        })
+    };
+    let replies = match replies {
+        Ok(r) => r,
+        Err(e) => {
+            // Without a thread for the replies the session cannot be proxied: close both ends.
+            let _ = client.shutdown(Shutdown::Both);
+            let _ = card.shutdown(Shutdown::Both);
+            shared.spawn_failures.report(&format!("session {id}: cannot start its reply thread: {e}"));
+            return;
+        }
     };
     requests_to_card(client, card_w, shared, &session);
     let _ = card.shutdown(Shutdown::Write);
@@ -557,19 +597,23 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
             return;
         }
         let Ok(client) = client else { continue };
-        let card = match TcpStream::connect(&target) {
-            Ok(c) => c,
-            Err(e) => {
-                eprintln!("pmacwd record: cannot reach the control interface at {target}: {e}");
-                continue;
-            }
-        };
         let s = shared.clone();
-        thread::spawn(move || {
+        let target = target.clone();
+        let started = spawn("record: control".into(), shared.options.thread_stack_bytes, move || {
+            let card = match TcpStream::connect(&target) {
+                Ok(c) => c,
+                Err(e) => {
+                    s.unreachable.report(&format!("cannot reach the control interface at {target}: {e}"));
+                    return;
+                }
+            };
             if let Err(e) = control_session(client, card, &s) {
                 s.log(&format!("control session: {e}"));
             }
         });
+        if let Err(e) = started {
+            shared.spawn_failures.report(&format!("control session: cannot start its thread: {e}"));
+        }
     }
 }
 

@@ -8,6 +8,7 @@
 //! `clients_max` connections are open, the one idle longest makes room for a new one
 //! (half-open connections are never the ones in use).
 
+use crate::bounded::{spawn, CountedLog};
 use crate::card::Card;
 use crate::control::Control;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
@@ -31,6 +32,10 @@ pub struct ServeOptions {
     pub clients_max: usize,
     pub idle_timeout: Option<Duration>,
     pub verbose: bool,
+    /// The stack of each connection's thread (`None`: the platform's default). A size the
+    /// system cannot give makes every connection's thread fail to start, which is how the
+    /// tests reach that path.
+    pub thread_stack_bytes: Option<usize>,
 }
 
 impl ServeOptions {
@@ -42,6 +47,7 @@ impl ServeOptions {
             clients_max,
             idle_timeout: None,
             verbose: false,
+            thread_stack_bytes: None,
         }
     }
 }
@@ -52,6 +58,8 @@ pub struct Stats {
     pub connections: AtomicU64,
     pub refused_requests: AtomicU64,
     pub evicted: AtomicU64,
+    /// Connections closed because the system would not start a thread for them.
+    pub spawn_failures: AtomicU64,
 }
 
 struct Connection {
@@ -67,6 +75,8 @@ struct Shared {
     connections: Mutex<Vec<Connection>>,
     stats: Stats,
     stopping: AtomicBool,
+    /// Connections the system would not start a thread for.
+    spawn_failures: CountedLog,
 }
 
 impl Shared {
@@ -102,6 +112,7 @@ impl Server {
             None => None,
         };
         let control_addr = control.as_ref().map(|l| l.local_addr()).transpose()?;
+        let verbose = options.verbose;
         let shared = Arc::new(Shared {
             card: Mutex::new(card),
             started: Instant::now(),
@@ -109,13 +120,22 @@ impl Server {
             connections: Mutex::new(Vec::new()),
             stats: Stats::default(),
             stopping: AtomicBool::new(false),
+            spawn_failures: CountedLog::new("pmacwd serve", "connections closed for want of a thread", verbose),
         });
         let mut threads = Vec::new();
         let s = shared.clone();
-        threads.push(thread::spawn(move || accept_hosts(listener, s)));
+        threads.push(spawn("serve: accept hosts".into(), None, move || accept_hosts(listener, s))?);
         if let Some(l) = control {
             let s = shared.clone();
-            threads.push(thread::spawn(move || accept_control(l, s)));
+            match spawn("serve: accept control".into(), None, move || accept_control(l, s)) {
+                Ok(t) => threads.push(t),
+                Err(e) => {
+                    // No server without its control interface: stop the host listener again.
+                    shared.stopping.store(true, Ordering::SeqCst);
+                    let _ = TcpStream::connect(local_addr);
+                    return Err(e);
+                }
+            }
         }
         Ok(Server { shared, local_addr, control_addr, threads })
     }
@@ -150,6 +170,7 @@ impl Server {
         for t in self.threads.drain(..) {
             let _ = t.join();
         }
+        self.shared.spawn_failures.flush();
     }
 }
 
@@ -183,7 +204,7 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
         }
         shared.stats.connections.fetch_add(1, Ordering::Relaxed);
         let s = shared.clone();
-        thread::spawn(move || {
+        let started = spawn(format!("serve: host #{id}"), shared.options.thread_stack_bytes, move || {
             let peer = stream.peer_addr().map_or_else(|_| "?".into(), |a| a.to_string());
             s.log(&format!("#{id} {peer} connected"));
             match host_session(stream, &s, &last_active_ms) {
@@ -199,6 +220,17 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
             }
             s.connections.lock().unwrap_or_else(|e| e.into_inner()).retain(|c| c.id != id);
         });
+        if let Err(e) = started {
+            // The thread's closure, and the stream it owned, are gone; the table's handle is
+            // the last one: close it, and keep accepting.
+            let mut conns = shared.connections.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some(i) = conns.iter().position(|c| c.id == id) {
+                let _ = conns.swap_remove(i).stream.shutdown(std::net::Shutdown::Both);
+            }
+            drop(conns);
+            shared.stats.spawn_failures.fetch_add(1, Ordering::Relaxed);
+            shared.spawn_failures.report(&format!("host connection #{id}: cannot start its thread: {e}"));
+        }
     }
 }
 
@@ -288,13 +320,19 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
         }
         open.fetch_add(1, Ordering::SeqCst);
         let s = shared.clone();
-        let open = open.clone();
-        thread::spawn(move || {
+        let open_now = open.clone();
+        let started = spawn("serve: control".into(), shared.options.thread_stack_bytes, move || {
             if let Err(e) = control_session(stream, &s) {
                 s.log(&format!("control connection: {e}"));
             }
-            open.fetch_sub(1, Ordering::SeqCst);
+            open_now.fetch_sub(1, Ordering::SeqCst);
         });
+        if let Err(e) = started {
+            // The stream went with the closure: that connection is closed.
+            open.fetch_sub(1, Ordering::SeqCst);
+            shared.stats.spawn_failures.fetch_add(1, Ordering::Relaxed);
+            shared.spawn_failures.report(&format!("control connection: cannot start its thread: {e}"));
+        }
     }
 }
 

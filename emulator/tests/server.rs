@@ -43,7 +43,11 @@ fn ask(c: &mut TcpStream, line: &str) -> Vec<u8> {
 /// Whether the server closed this connection (end of stream, or reset).
 fn closed(c: &mut TcpStream) -> bool {
     let mut b = [0u8; 16];
-    matches!(c.read(&mut b), Ok(0)) || matches!(c.read(&mut b), Err(e) if e.kind() == ErrorKind::ConnectionReset)
+    match c.read(&mut b) {
+        Ok(0) => true,
+        Err(e) => matches!(e.kind(), ErrorKind::ConnectionReset | ErrorKind::ConnectionAborted),
+        Ok(_) => false,
+    }
 }
 
 #[test]
@@ -199,4 +203,30 @@ fn a_hundred_concurrent_clients_each_get_their_own_answers() {
     let status = ask(&mut c, "???");
     // Bit 12 follows the checksum pass on the wall clock; the rest stays clear.
     assert!(status == b"001000000000\r\x06" || status == b"000000000000\r\x06", "still serving: {status:?}");
+}
+
+#[test]
+fn a_connection_whose_thread_cannot_start_is_closed_and_the_server_keeps_accepting() {
+    // When the system refuses a connection's thread (here: a stack larger than the address
+    // space), that connection is closed and the accept loop goes on. Before, the accept thread
+    // panicked: every later client waited in the listen backlog, unanswered, while the process
+    // stayed up. Each of these clients must see its connection closed, not a timeout.
+    let options = ServeOptions {
+        control: Some("127.0.0.1:0".parse().unwrap()),
+        thread_stack_bytes: Some(1 << 60),
+        ..ServeOptions::free_loopback_port(8)
+    };
+    let s = Server::start(Card::default_card(Clock::Virtual), options).expect("a free loopback port");
+    for k in 0..3 {
+        let mut c = connect(&s);
+        // The write may already find the connection closed.
+        let _ = c.write_all(&Header::getresponse(3).to_bytes()).and_then(|()| c.write_all(b"???"));
+        assert!(closed(&mut c), "host client {k} closed, not left waiting");
+    }
+    let mut control = TcpStream::connect(s.control_addr.unwrap()).unwrap();
+    control.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let _ = control.write_all(b"state\n");
+    assert!(closed(&mut control), "the control client too");
+    assert_eq!(s.stats().spawn_failures.load(Ordering::Relaxed), 4);
+    s.stop();
 }
