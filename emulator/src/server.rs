@@ -9,7 +9,7 @@
 //! (half-open connections are never the ones in use).
 
 use crate::bounded::{spawn, CountedLog};
-use crate::card::Card;
+use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
 use crate::control::Control;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
 use std::io::{self, BufRead, BufReader, Read, Write};
@@ -21,6 +21,16 @@ use std::time::{Duration, Instant};
 
 /// A reply that cannot be written in this time closes the connection.
 pub const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
+/// On the wall clock the card is brought up to date this often even when no one asks, so that
+/// a request after a long silence finds at most this much time to catch up: at
+/// [`SERVO_HZ_MAX`], 10,000 servo cycles, within one lock hold ([`CYCLES_PER_HOLD_MAX`]),
+/// for ten wake-ups a second of a few microseconds each. Without it, a card idle for a day
+/// ran its 200 million cycles (about a second) before answering the next request.
+pub const CATCH_UP_INTERVAL: Duration = Duration::from_millis(100);
+const _: () = assert!(
+    SERVO_HZ_MAX as u128 * CATCH_UP_INTERVAL.as_millis() / 1000 <= CYCLES_PER_HOLD_MAX as u128,
+    "a catch-up between two wake-ups fits one lock hold"
+);
 /// A control line longer than this is refused (the commands are a few words).
 const CONTROL_LINE_BYTES_MAX: u64 = 1024;
 const CONTROL_CLIENTS_MAX: usize = 16;
@@ -84,6 +94,19 @@ impl Shared {
         // A panic elsewhere must not take the card down with it: the state stays usable.
         self.card.lock().unwrap_or_else(|e| e.into_inner())
     }
+    /// The card, caught up with its clock: the servo cycles due when the call began run
+    /// [`CYCLES_PER_HOLD_MAX`] at a time, with the lock released between chunks, so that no
+    /// one waits behind a long catch-up for more than one chunk.
+    fn card_now(&self) -> MutexGuard<'_, Card> {
+        let mut card = self.card();
+        let target = card.due_cycles();
+        while !card.run_towards(target) {
+            drop(card);
+            thread::yield_now();
+            card = self.card();
+        }
+        card
+    }
     fn now_ms(&self) -> u64 {
         u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX)
     }
@@ -123,8 +146,18 @@ impl Server {
             spawn_failures: CountedLog::new("pmacwd serve", "connections closed for want of a thread", verbose),
         });
         let mut threads = Vec::new();
+        if let Clock::Wall { .. } = shared.card().clock() {
+            let s = shared.clone();
+            threads.push(spawn("serve: keep time".into(), None, move || keep_time(&s))?);
+        }
         let s = shared.clone();
-        threads.push(spawn("serve: accept hosts".into(), None, move || accept_hosts(listener, s))?);
+        match spawn("serve: accept hosts".into(), None, move || accept_hosts(listener, s)) {
+            Ok(t) => threads.push(t),
+            Err(e) => {
+                shared.stopping.store(true, Ordering::SeqCst);
+                return Err(e);
+            }
+        }
         if let Some(l) = control {
             let s = shared.clone();
             match spawn("serve: accept control".into(), None, move || accept_control(l, s)) {
@@ -171,6 +204,14 @@ impl Server {
             let _ = t.join();
         }
         self.shared.spawn_failures.flush();
+    }
+}
+
+/// Brings the card up to date every [`CATCH_UP_INTERVAL`] until the server stops.
+fn keep_time(shared: &Shared) {
+    while !shared.stopping.load(Ordering::SeqCst) {
+        thread::sleep(CATCH_UP_INTERVAL);
+        drop(shared.card_now());
     }
 }
 
@@ -260,7 +301,7 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
                 if !read_or_end(&mut reader, &mut data)? && data_bytes > 0 {
                     return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the client left mid-request"));
                 }
-                let answer = shared.card().line(trim_line(&data));
+                let answer = shared.card_now().line(trim_line(&data));
                 pending.clear();
                 sent = 0;
                 match answer {
@@ -276,7 +317,7 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
                     }
                 }
             }
-            Request::NextPacket => (!shared.card().tripped()).then(|| {
+            Request::NextPacket => (!shared.card_now().tripped()).then(|| {
                 if sent < pending.len() {
                     next_packet(&pending, &mut sent)
                 } else {
@@ -284,14 +325,14 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
                     vec![0]
                 }
             }),
-            Request::ReadReady => (!shared.card().tripped()).then(|| vec![0, u8::from(sent < pending.len())]),
+            Request::ReadReady => (!shared.card_now().tripped()).then(|| vec![0, u8::from(sent < pending.len())]),
             Request::Flush => {
                 pending.clear();
                 sent = 0;
                 // The card answers the flush with a CTRL-X.
-                (!shared.card().tripped()).then(|| vec![0x18])
+                (!shared.card_now().tripped()).then(|| vec![0x18])
             }
-            Request::Control(c) => shared.card().control_character(c),
+            Request::Control(c) => shared.card_now().control_character(c),
         };
         // A tripped card says nothing: the host's read times out (UM p.215).
         if let Some(bytes) = reply {
@@ -357,9 +398,34 @@ fn control_session(stream: TcpStream, shared: &Shared) -> io::Result<()> {
             continue;
         }
         let reply = match Control::parse(text) {
-            Ok(c) => shared.card().control(c),
+            Ok(Control::Step { cycles }) => step_in_chunks(shared, cycles),
+            Ok(c) => shared.card_now().control(c),
             Err(e) => format!("error: {e}"),
         };
         writeln!(writer, "{reply}")?;
+    }
+}
+
+/// `step N` run [`CYCLES_PER_HOLD_MAX`] cycles per lock hold, so that hosts keep getting
+/// answers during a long step (`step 1000000000` is about 4 s of servo cycles). A host that
+/// asks meanwhile sees the card part-way through the step, as a host of a running card
+/// would; the emulator's own capture records the exchange between the cycles before and
+/// after it. The reply is the step's, as if it had run at once.
+fn step_in_chunks(shared: &Shared, cycles: u32) -> String {
+    let mut done = 0u32;
+    loop {
+        let n = (cycles - done).min(CYCLES_PER_HOLD_MAX);
+        let reply = shared.card_now().control(Control::Step { cycles: n });
+        if !reply.starts_with("ok") {
+            return reply;
+        }
+        done += n;
+        if done == cycles {
+            return Card::step_reply(cycles);
+        }
+        if shared.stopping.load(Ordering::SeqCst) {
+            return format!("error: the emulator is stopping: {done} of the {cycles} servo cycles ran");
+        }
+        thread::yield_now();
     }
 }

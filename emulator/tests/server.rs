@@ -230,3 +230,45 @@ fn a_connection_whose_thread_cannot_start_is_closed_and_the_server_keeps_accepti
     assert_eq!(s.stats().spawn_failures.load(Ordering::Relaxed), 4);
     s.stop();
 }
+
+#[test]
+fn hosts_keep_getting_answers_while_a_long_step_runs() {
+    // `step 4000000000` is some 16 s of servo cycles. It used to hold the card's lock for all
+    // of it, and every host waited; the server now runs it in chunks of CYCLES_PER_HOLD_MAX
+    // and releases the lock between them. What is checked is the order of events, not a
+    // time: a host's `???` is answered while the step's own reply has not come yet.
+    let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
+    let s = Server::start(Card::default_card(Clock::Virtual), options).expect("a free loopback port");
+    let mut control = TcpStream::connect(s.control_addr.unwrap()).unwrap();
+    control.write_all(b"step 4000000000\n").unwrap();
+    // The step has begun once `state` on a second control connection shows cycles moving.
+    let mut watcher = std::io::BufReader::new(TcpStream::connect(s.control_addr.unwrap()).unwrap());
+    let cycles = |w: &mut std::io::BufReader<TcpStream>| -> u64 {
+        w.get_mut().write_all(b"state\n").unwrap();
+        let mut line = String::new();
+        std::io::BufRead::read_line(w, &mut line).unwrap();
+        let at = line.find("cycles=").expect("state names the cycles") + "cycles=".len();
+        line[at..].split_whitespace().next().unwrap().parse().unwrap()
+    };
+    while cycles(&mut watcher) == 0 {
+        std::thread::yield_now();
+    }
+    let mut host = connect(&s);
+    for _ in 0..3 {
+        // Twelve hex digits, CR, ACK (bit 12 follows the checksum pass the step is in).
+        let status = ask(&mut host, "???");
+        assert!(status.len() == 14 && status.ends_with(b"\r\x06"), "{status:?}");
+    }
+    control.set_read_timeout(Some(Duration::from_millis(1))).unwrap();
+    let mut b = [0u8; 64];
+    let still_stepping =
+        matches!(control.read(&mut b), Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut));
+    assert!(still_stepping, "the host was answered before the step ended");
+    assert!(cycles(&mut watcher) < 4_000_000_000);
+    // Stopping the server ends the step early.
+    s.stop();
+    control.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let mut reply = String::new();
+    std::io::BufRead::read_line(&mut std::io::BufReader::new(control), &mut reply).unwrap();
+    assert!(reply.starts_with("error: the emulator is stopping"), "{reply}");
+}
