@@ -2,7 +2,7 @@
 
 use crate::common::{create_capture, model_config, unusable};
 use pmacwd_bridge::core_config;
-use pmacwd_emulator::card::{Card, Clock, Identity, SAVED_DEFAULT};
+use pmacwd_emulator::card::{servo_rate, Card, Clock, Identity, SAVED_DEFAULT};
 use pmacwd_emulator::server::{ServeOptions, Server};
 use std::io::Write;
 use std::net::SocketAddr;
@@ -31,7 +31,8 @@ pub struct ServeArgs {
     /// Spec directory to use instead of the embedded one.
     #[arg(long, value_name = "DIR")]
     pub specs: Option<PathBuf>,
-    /// Servo interrupt rate (default: the configuration's).
+    /// Servo interrupt rate, 1..100000 (default: the configuration's; 100 kHz is above any
+    /// servo clock a real card sustains, docs/emulator.md "Limits").
     #[arg(long, value_name = "HZ")]
     pub servo_hz: Option<u32>,
     /// Time moves only by `step` and `servo` on the control interface (for tests).
@@ -114,10 +115,10 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         Ok(s) => s,
         Err(e) => return unusable(e),
     };
-    let servo_hz = a.servo_hz.unwrap_or(model.servo_hz);
-    if servo_hz == 0 {
-        return unusable("--servo-hz must be at least 1");
-    }
+    let servo_hz = match servo_rate(a.servo_hz, model.servo_hz, &a.configuration) {
+        Ok(hz) => hz,
+        Err(e) => return unusable(e),
+    };
     let clock = if a.virtual_time { Clock::Virtual } else { Clock::Wall { start: Instant::now(), servo_hz } };
     let identity = Identity { version: a.version_text.clone(), card_id: a.card_id.clone() };
     let mut card = Card::power_on(cfg, &saved, clock, identity);

@@ -314,3 +314,33 @@ fn the_scenario_library_is_found_from_any_folder() {
     let scenarios = std::fs::read_dir(specs_dir().join("scenarios")).unwrap().count();
     assert!(stdout.contains(&format!("{scenarios} scenarios,")), "{stdout}");
 }
+
+#[test]
+fn serve_and_record_refuse_a_servo_clock_outside_1_to_the_maximum_naming_the_range() {
+    // `serve --servo-hz 4294967295` used to start, and each request then had to run every
+    // servo cycle due (4 billion a second), which the card's lock never finished. Both
+    // subcommands now refuse a rate outside 1..SERVO_HZ_MAX, before listening, with exit 2
+    // and the range; `--help` names the range.
+    use pmacwd_emulator::card::SERVO_HZ_MAX;
+    let range = format!("ranges 1..{SERVO_HZ_MAX} Hz");
+    let tmp = TempDir::new("servo-hz");
+    for hz in ["4294967295".to_string(), (SERVO_HZ_MAX + 1).to_string(), "0".to_string()] {
+        let serve =
+            pmacwd().args(["serve", "--listen", "127.0.0.1:0", "--no-control", "--servo-hz", &hz]).output().unwrap();
+        let stderr = String::from_utf8_lossy(&serve.stderr);
+        assert_eq!(serve.status.code(), Some(2), "serve --servo-hz {hz}: {stderr}");
+        assert!(stderr.contains(&format!("--servo-hz {hz}: the servo clock {range}")), "{stderr}");
+        let record = pmacwd()
+            .args(["record", "--listen", "127.0.0.1:0", "--target", "127.0.0.1:1", "--servo-hz", &hz, "--out"])
+            .arg(tmp.join("c.jsonl"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&record.stderr);
+        assert_eq!(record.status.code(), Some(2), "record --servo-hz {hz}: {stderr}");
+        assert!(stderr.contains(&range), "{stderr}");
+    }
+    for subcommand in ["serve", "record"] {
+        let help = pmacwd().args([subcommand, "--help"]).output().unwrap();
+        assert!(String::from_utf8_lossy(&help.stdout).contains(&format!("1..{SERVO_HZ_MAX}")), "{subcommand} --help");
+    }
+}

@@ -40,6 +40,21 @@ impl Default for Identity {
 /// under 0.1% of a core, so the card always catches up with the wall clock.
 pub const SERVO_HZ_MAX: u32 = 100_000;
 
+/// The servo rate to run at: `flag` (`--servo-hz`), or else the configuration's; refused,
+/// with the range, unless it is 1..[`SERVO_HZ_MAX`].
+pub fn servo_rate(flag: Option<u32>, configuration_hz: u32, configuration: &str) -> Result<u32, String> {
+    let hz = flag.unwrap_or(configuration_hz);
+    if (1..=SERVO_HZ_MAX).contains(&hz) {
+        return Ok(hz);
+    }
+    Err(match flag {
+        Some(_) => format!("--servo-hz {hz}: the servo clock ranges 1..{SERVO_HZ_MAX} Hz"),
+        None => format!(
+            "configuration {configuration} has a servo clock of {hz} Hz; the emulator's ranges 1..{SERVO_HZ_MAX} Hz (give --servo-hz)"
+        ),
+    })
+}
+
 /// The most servo cycles the card runs in one call (a catch-up with the wall clock, or one
 /// chunk of a `step`), so that whoever shares it behind a lock waits at most that long: about
 /// 0.4 ms at the measured 4 ns a cycle (a few times a `???` round trip on loopback), while
