@@ -3,7 +3,7 @@
 use crate::common::{create_capture, model_config, unusable};
 use pmacwd_bridge::core_config;
 use pmacwd_emulator::card::{servo_rate, Card, Clock, Identity, SAVED_DEFAULT};
-use pmacwd_emulator::server::{ServeOptions, Server};
+use pmacwd_emulator::server::{ServeOptions, Server, CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS};
 use std::io::Write;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -57,6 +57,10 @@ pub struct ServeArgs {
     /// Close a host connection silent this long (0: never).
     #[arg(long, value_name = "SECONDS", default_value_t = 600)]
     pub idle_timeout: u64,
+    /// Close a control connection silent this long (0: never); when 16 are open, the one idle
+    /// longest is closed for a newcomer.
+    #[arg(long, value_name = "SECONDS", default_value_t = CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS)]
+    pub control_idle_timeout: u64,
     /// Log connections and their ends to standard error.
     #[arg(long)]
     pub verbose: bool,
@@ -139,6 +143,7 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         control: (!a.no_control).then_some(a.control),
         clients_max: a.clients_max,
         idle_timeout: (a.idle_timeout > 0).then(|| Duration::from_secs(a.idle_timeout)),
+        control_idle_timeout: (a.control_idle_timeout > 0).then(|| Duration::from_secs(a.control_idle_timeout)),
         verbose: a.verbose,
         thread_stack_bytes: None,
     };

@@ -4,16 +4,18 @@
 //!
 //! What keeps the server from wedging: a request the card cannot follow (unknown code, a
 //! length beyond its 1,492-byte buffer) closes that connection; a write that does not complete
-//! in `WRITE_TIMEOUT` closes it; connections idle past `idle_timeout` are closed; and when
-//! `clients_max` connections are open, the one idle longest makes room for a new one
-//! (half-open connections are never the ones in use).
+//! in `WRITE_TIMEOUT` closes it; connections idle past `idle_timeout` (control connections:
+//! `control_idle_timeout`) are closed; and when `clients_max` host connections (or
+//! [`CONTROL_CLIENTS_MAX`] control connections) are open, the one idle longest makes room for
+//! a new one (half-open connections are never the ones in use). The card's lock is held for
+//! at most [`CYCLES_PER_HOLD_MAX`] servo cycles at a time.
 
 use crate::bounded::{spawn, CountedLog};
 use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
 use crate::control::Control;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
 use std::io::{self, BufRead, BufReader, Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread;
@@ -33,7 +35,14 @@ const _: () = assert!(
 );
 /// A control line longer than this is refused (the commands are a few words).
 const CONTROL_LINE_BYTES_MAX: u64 = 1024;
-const CONTROL_CLIENTS_MAX: usize = 16;
+/// Control connections open at once; a newcomer beyond it closes the one idle longest. A test
+/// bench uses one or two; sixteen leave room for several benches and a person with `nc`, and
+/// bound the threads the control port can cost.
+pub const CONTROL_CLIENTS_MAX: usize = 16;
+/// A control connection silent this long is closed (`serve --control-idle-timeout`), as a host
+/// connection is after `--idle-timeout`: ten minutes outlast any pause of a bench between
+/// two commands, and free what a client that left without closing holds.
+pub const CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS: u64 = 600;
 
 #[derive(Clone, Debug)]
 pub struct ServeOptions {
@@ -41,6 +50,8 @@ pub struct ServeOptions {
     pub control: Option<SocketAddr>,
     pub clients_max: usize,
     pub idle_timeout: Option<Duration>,
+    /// A control connection silent this long is closed (`None`: never).
+    pub control_idle_timeout: Option<Duration>,
     pub verbose: bool,
     /// The stack of each connection's thread (`None`: the platform's default). A size the
     /// system cannot give makes every connection's thread fail to start, which is how the
@@ -49,13 +60,14 @@ pub struct ServeOptions {
 }
 
 impl ServeOptions {
-    /// A free port on loopback, no control interface, no idle timeout (for tests and benches).
+    /// A free port on loopback, no control interface, no idle timeouts (for tests and benches).
     pub fn free_loopback_port(clients_max: usize) -> ServeOptions {
         ServeOptions {
             listen: SocketAddr::from(([127, 0, 0, 1], 0)),
             control: None,
             clients_max,
             idle_timeout: None,
+            control_idle_timeout: None,
             verbose: false,
             thread_stack_bytes: None,
         }
@@ -67,7 +79,10 @@ impl ServeOptions {
 pub struct Stats {
     pub connections: AtomicU64,
     pub refused_requests: AtomicU64,
+    /// Host connections closed to make room for a newcomer.
     pub evicted: AtomicU64,
+    /// Control connections closed to make room for a newcomer.
+    pub control_evicted: AtomicU64,
     /// Connections closed because the system would not start a thread for them.
     pub spawn_failures: AtomicU64,
 }
@@ -78,11 +93,71 @@ struct Connection {
     last_active_ms: Arc<AtomicU64>,
 }
 
+/// The open connections of one kind (hosts, or control clients), at most `max` of them: a
+/// newcomer to a full table closes the one idle longest, so that connections that went
+/// silent (a half-open socket, a client that never closes) can never lock a new client out.
+struct Table {
+    max: usize,
+    open: Mutex<Vec<Connection>>,
+    next_id: AtomicU64,
+}
+
+impl Table {
+    fn new(max: usize) -> Table {
+        Table { max: max.max(1), open: Mutex::new(Vec::new()), next_id: AtomicU64::new(0) }
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Vec<Connection>> {
+        self.open.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Enters `stream`, closing the connection idle longest if the table is full: its id and
+    /// the clock its thread keeps up to date, and the id of the connection closed, if any.
+    fn admit(&self, stream: &TcpStream, now_ms: u64) -> io::Result<(u64, Arc<AtomicU64>, Option<u64>)> {
+        let handle = stream.try_clone()?;
+        let id = self.next_id.fetch_add(1, Ordering::Relaxed) + 1;
+        let last_active_ms = Arc::new(AtomicU64::new(now_ms));
+        let mut open = self.lock();
+        let mut evicted = None;
+        if open.len() >= self.max {
+            let idlest =
+                open.iter().enumerate().min_by_key(|(_, c)| c.last_active_ms.load(Ordering::Relaxed)).map(|(i, _)| i);
+            if let Some(i) = idlest {
+                let old = open.swap_remove(i);
+                let _ = old.stream.shutdown(Shutdown::Both);
+                evicted = Some(old.id);
+            }
+        }
+        open.push(Connection { id, stream: handle, last_active_ms: last_active_ms.clone() });
+        Ok((id, last_active_ms, evicted))
+    }
+
+    /// The connection's thread ended: it leaves the table.
+    fn forget(&self, id: u64) {
+        self.lock().retain(|c| c.id != id);
+    }
+
+    /// Closes the connection and takes it out of the table.
+    fn close(&self, id: u64) {
+        let mut open = self.lock();
+        if let Some(i) = open.iter().position(|c| c.id == id) {
+            let _ = open.swap_remove(i).stream.shutdown(Shutdown::Both);
+        }
+    }
+
+    fn close_all(&self) {
+        for c in self.lock().iter() {
+            let _ = c.stream.shutdown(Shutdown::Both);
+        }
+    }
+}
+
 struct Shared {
     card: Mutex<Card>,
     started: Instant,
     options: ServeOptions,
-    connections: Mutex<Vec<Connection>>,
+    hosts: Table,
+    controls: Table,
     stats: Stats,
     stopping: AtomicBool,
     /// Connections the system would not start a thread for.
@@ -139,8 +214,9 @@ impl Server {
         let shared = Arc::new(Shared {
             card: Mutex::new(card),
             started: Instant::now(),
+            hosts: Table::new(options.clients_max),
+            controls: Table::new(CONTROL_CLIENTS_MAX),
             options,
-            connections: Mutex::new(Vec::new()),
             stats: Stats::default(),
             stopping: AtomicBool::new(false),
             spawn_failures: CountedLog::new("pmacwd serve", "connections closed for want of a thread", verbose),
@@ -197,9 +273,8 @@ impl Server {
         if let Some(a) = self.control_addr {
             let _ = TcpStream::connect(a);
         }
-        for c in self.shared.connections.lock().unwrap_or_else(|e| e.into_inner()).iter() {
-            let _ = c.stream.shutdown(std::net::Shutdown::Both);
-        }
+        self.shared.hosts.close_all();
+        self.shared.controls.close_all();
         for t in self.threads.drain(..) {
             let _ = t.join();
         }
@@ -216,32 +291,15 @@ fn keep_time(shared: &Shared) {
 }
 
 fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
-    let mut next_id = 0u64;
     for stream in listener.incoming() {
         if shared.stopping.load(Ordering::SeqCst) {
             return;
         }
         let Ok(stream) = stream else { continue };
-        next_id += 1;
-        let id = next_id;
-        let last_active_ms = Arc::new(AtomicU64::new(shared.now_ms()));
-        let Ok(handle) = stream.try_clone() else { continue };
-        {
-            let mut conns = shared.connections.lock().unwrap_or_else(|e| e.into_inner());
-            if conns.len() >= shared.options.clients_max.max(1) {
-                let idlest = conns
-                    .iter()
-                    .enumerate()
-                    .min_by_key(|(_, c)| c.last_active_ms.load(Ordering::Relaxed))
-                    .map(|(i, _)| i);
-                if let Some(i) = idlest {
-                    let old = conns.swap_remove(i);
-                    let _ = old.stream.shutdown(std::net::Shutdown::Both);
-                    shared.stats.evicted.fetch_add(1, Ordering::Relaxed);
-                    shared.log(&format!("{} clients open: closed #{}, idle longest", conns.len() + 1, old.id));
-                }
-            }
-            conns.push(Connection { id, stream: handle, last_active_ms: last_active_ms.clone() });
+        let Ok((id, last_active_ms, evicted)) = shared.hosts.admit(&stream, shared.now_ms()) else { continue };
+        if let Some(old) = evicted {
+            shared.stats.evicted.fetch_add(1, Ordering::Relaxed);
+            shared.log(&format!("{} hosts open: closed #{old}, idle longest", shared.hosts.max));
         }
         shared.stats.connections.fetch_add(1, Ordering::Relaxed);
         let s = shared.clone();
@@ -259,17 +317,13 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
                     }
                 }
             }
-            s.connections.lock().unwrap_or_else(|e| e.into_inner()).retain(|c| c.id != id);
+            s.hosts.forget(id);
         });
         if let Err(e) = started {
             // The thread's closure, and the stream it owned, are gone; the table's handle is
             // the last one: close it, and keep accepting.
-            let mut conns = shared.connections.lock().unwrap_or_else(|e| e.into_inner());
-            if let Some(i) = conns.iter().position(|c| c.id == id) {
-                let _ = conns.swap_remove(i).stream.shutdown(std::net::Shutdown::Both);
-            }
-            drop(conns);
             shared.stats.spawn_failures.fetch_add(1, Ordering::Relaxed);
+            shared.hosts.close(id);
             shared.spawn_failures.report(&format!("host connection #{id}: cannot start its thread: {e}"));
         }
     }
@@ -349,36 +403,35 @@ fn next_packet(pending: &[u8], sent: &mut usize) -> Vec<u8> {
 }
 
 fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
-    let open = Arc::new(AtomicU64::new(0));
     for stream in listener.incoming() {
         if shared.stopping.load(Ordering::SeqCst) {
             return;
         }
-        let Ok(mut stream) = stream else { continue };
-        if open.load(Ordering::SeqCst) as usize >= CONTROL_CLIENTS_MAX {
-            let _ = writeln!(stream, "error: {CONTROL_CLIENTS_MAX} control connections are open already");
-            continue;
+        let Ok(stream) = stream else { continue };
+        let Ok((id, last_active_ms, evicted)) = shared.controls.admit(&stream, shared.now_ms()) else { continue };
+        if let Some(old) = evicted {
+            shared.stats.control_evicted.fetch_add(1, Ordering::Relaxed);
+            shared.log(&format!("{CONTROL_CLIENTS_MAX} control connections open: closed c{old}, idle longest"));
         }
-        open.fetch_add(1, Ordering::SeqCst);
         let s = shared.clone();
-        let open_now = open.clone();
-        let started = spawn("serve: control".into(), shared.options.thread_stack_bytes, move || {
-            if let Err(e) = control_session(stream, &s) {
-                s.log(&format!("control connection: {e}"));
+        let started = spawn(format!("serve: control c{id}"), shared.options.thread_stack_bytes, move || {
+            if let Err(e) = control_session(stream, &s, &last_active_ms) {
+                s.log(&format!("control connection c{id}: {e}"));
             }
-            open_now.fetch_sub(1, Ordering::SeqCst);
+            s.controls.forget(id);
         });
         if let Err(e) = started {
-            // The stream went with the closure: that connection is closed.
-            open.fetch_sub(1, Ordering::SeqCst);
+            // As for hosts: close the table's handle, the last one, and keep accepting.
             shared.stats.spawn_failures.fetch_add(1, Ordering::Relaxed);
-            shared.spawn_failures.report(&format!("control connection: cannot start its thread: {e}"));
+            shared.controls.close(id);
+            shared.spawn_failures.report(&format!("control connection c{id}: cannot start its thread: {e}"));
         }
     }
 }
 
-fn control_session(stream: TcpStream, shared: &Shared) -> io::Result<()> {
+fn control_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) -> io::Result<()> {
     stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
+    stream.set_read_timeout(shared.options.control_idle_timeout)?;
     let mut writer = stream.try_clone()?;
     let mut reader = BufReader::new(stream);
     let mut line = Vec::new();
@@ -388,6 +441,7 @@ fn control_session(stream: TcpStream, shared: &Shared) -> io::Result<()> {
         if n == 0 {
             return Ok(());
         }
+        last_active_ms.store(shared.now_ms(), Ordering::Relaxed);
         if line.last() != Some(&b'\n') && n as u64 == CONTROL_LINE_BYTES_MAX {
             writeln!(writer, "error: a control line is at most {CONTROL_LINE_BYTES_MAX} bytes")?;
             return Ok(());
@@ -398,7 +452,7 @@ fn control_session(stream: TcpStream, shared: &Shared) -> io::Result<()> {
             continue;
         }
         let reply = match Control::parse(text) {
-            Ok(Control::Step { cycles }) => step_in_chunks(shared, cycles),
+            Ok(Control::Step { cycles }) => step_in_chunks(shared, cycles, last_active_ms),
             Ok(c) => shared.card_now().control(c),
             Err(e) => format!("error: {e}"),
         };
@@ -411,7 +465,7 @@ fn control_session(stream: TcpStream, shared: &Shared) -> io::Result<()> {
 /// asks meanwhile sees the card part-way through the step, as a host of a running card
 /// would; the emulator's own capture records the exchange between the cycles before and
 /// after it. The reply is the step's, as if it had run at once.
-fn step_in_chunks(shared: &Shared, cycles: u32) -> String {
+fn step_in_chunks(shared: &Shared, cycles: u32, last_active_ms: &AtomicU64) -> String {
     let mut done = 0u32;
     loop {
         let n = (cycles - done).min(CYCLES_PER_HOLD_MAX);
@@ -426,6 +480,8 @@ fn step_in_chunks(shared: &Shared, cycles: u32) -> String {
         if shared.stopping.load(Ordering::SeqCst) {
             return format!("error: the emulator is stopping: {done} of the {cycles} servo cycles ran");
         }
+        // A connection stepping is busy, not idle: it is not the one to close for a newcomer.
+        last_active_ms.store(shared.now_ms(), Ordering::Relaxed);
         thread::yield_now();
     }
 }
