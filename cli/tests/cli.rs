@@ -344,3 +344,63 @@ fn serve_and_record_refuse_a_servo_clock_outside_1_to_the_maximum_naming_the_ran
         assert!(String::from_utf8_lossy(&help.stdout).contains(&format!("1..{SERVO_HZ_MAX}")), "{subcommand} --help");
     }
 }
+
+/// A `pmacwd serve` on a free loopback port, and the address it printed.
+fn serve_on_a_free_port(extra: &[&str]) -> (std::process::Child, std::net::SocketAddr) {
+    use std::io::BufRead;
+    let mut child = pmacwd()
+        .args(["serve", "--listen", "127.0.0.1:0", "--no-control"])
+        .args(extra)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufReader::new(child.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
+    // "pmacwd serve: Turbo PMAC emulator on 127.0.0.1:PORT (no control interface), ..."
+    let addr = first.split(" on ").nth(1).and_then(|r| r.split(' ').next()).expect("the address line");
+    (child, addr.parse().unwrap())
+}
+
+/// Sends `n` headers with an unknown request code, each on its own connection, and waits
+/// until the server has closed each.
+fn send_bad_headers(addr: std::net::SocketAddr, n: usize) {
+    use std::io::{Read, Write};
+    for _ in 0..n {
+        let mut c = std::net::TcpStream::connect(addr).unwrap();
+        c.set_read_timeout(Some(std::time::Duration::from_secs(5))).unwrap();
+        c.write_all(&[0x40, 0x12, 0, 0, 0, 0, 0, 0]).unwrap();
+        let mut b = [0u8; 8];
+        let r = c.read(&mut b);
+        assert!(matches!(r, Ok(0)) || r.is_err_and(|e| e.kind() != std::io::ErrorKind::WouldBlock), "closed");
+    }
+}
+
+#[test]
+fn protocol_errors_are_summed_up_on_one_line_without_verbose_and_each_logged_with_it() {
+    // Every protocol error used to be a line on standard error, verbose or not (53,595 lines
+    // in 3 minutes from one misbehaving client). Without --verbose they are now counted and
+    // summed up at most once per SUMMARY_INTERVAL (60 s): 200 errors in a moment make the
+    // first summary line only. With --verbose each has its line.
+    use std::io::{BufRead, Read};
+    let (mut quiet, addr) = serve_on_a_free_port(&[]);
+    send_bad_headers(addr, 200);
+    let mut stderr = std::io::BufReader::new(quiet.stderr.take().unwrap());
+    let mut first = String::new();
+    stderr.read_line(&mut first).unwrap();
+    quiet.kill().unwrap();
+    quiet.wait().unwrap();
+    assert!(first.contains("protocol errors, each closing its connection: 1 since the last summary"), "{first}");
+    assert!(first.contains("unknown request code 0x12"), "{first}");
+    let mut rest = String::new();
+    stderr.read_to_string(&mut rest).unwrap();
+    assert_eq!(rest, "", "one line for 200 errors");
+
+    let (mut verbose, addr) = serve_on_a_free_port(&["--verbose"]);
+    send_bad_headers(addr, 20);
+    let stderr = std::io::BufReader::new(verbose.stderr.take().unwrap());
+    let each = stderr.lines().map(Result::unwrap).filter(|l| l.contains("unknown request code 0x12")).take(20).count();
+    verbose.kill().unwrap();
+    verbose.wait().unwrap();
+    assert_eq!(each, 20);
+}

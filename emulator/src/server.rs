@@ -162,6 +162,10 @@ struct Shared {
     stopping: AtomicBool,
     /// Connections the system would not start a thread for.
     spawn_failures: CountedLog,
+    /// Requests the card cannot follow (each closes its connection): logged one by one only
+    /// with `verbose`, otherwise summed up, so that a client sending garbage in a loop cannot
+    /// fill standard error.
+    protocol_errors: CountedLog,
 }
 
 impl Shared {
@@ -220,6 +224,7 @@ impl Server {
             stats: Stats::default(),
             stopping: AtomicBool::new(false),
             spawn_failures: CountedLog::new("pmacwd serve", "connections closed for want of a thread", verbose),
+            protocol_errors: CountedLog::new("pmacwd serve", "protocol errors, each closing its connection", verbose),
         });
         let mut threads = Vec::new();
         if let Clock::Wall { .. } = shared.card().clock() {
@@ -279,6 +284,7 @@ impl Server {
             let _ = t.join();
         }
         self.shared.spawn_failures.flush();
+        self.shared.protocol_errors.flush();
     }
 }
 
@@ -309,9 +315,10 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
             match host_session(stream, &s, &last_active_ms) {
                 Ok(()) => s.log(&format!("#{id} {peer} closed")),
                 Err(e) => {
-                    // Protocol errors are always worth a line; I/O endings only when verbose.
+                    // Protocol errors are counted (each logged with --verbose); I/O endings
+                    // are logged only with --verbose.
                     if e.kind() == io::ErrorKind::InvalidData {
-                        eprintln!("pmacwd serve: #{id} {peer}: {e}; connection closed");
+                        s.protocol_errors.report(&format!("#{id} {peer}: {e}; connection closed"));
                     } else {
                         s.log(&format!("#{id} {peer}: {e}"));
                     }
