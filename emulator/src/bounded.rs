@@ -8,6 +8,7 @@
 //! connection and keep accepting.
 
 use std::io;
+use std::net::TcpStream;
 use std::sync::Mutex;
 use std::thread::{Builder, JoinHandle};
 use std::time::{Duration, Instant};
@@ -25,6 +26,25 @@ pub fn spawn<T: Send + 'static>(
         builder = builder.stack_size(bytes);
     }
     builder.spawn(f)
+}
+
+/// After an accept fails (mostly for want of a file descriptor, EMFILE), the accept loop
+/// waits this long before the next: retrying at once would spin a core for as long as the
+/// descriptors stay taken. 50 ms bounds that to 20 tries a second and delays a client by at
+/// most 50 ms once descriptors come free.
+pub const ACCEPT_ERROR_PAUSE: Duration = Duration::from_millis(50);
+
+/// The connection an accept loop got, or `None` after the failure is counted in `errors` and
+/// the loop has paused for [`ACCEPT_ERROR_PAUSE`].
+pub fn accepted(r: io::Result<TcpStream>, errors: &CountedLog) -> Option<TcpStream> {
+    match r {
+        Ok(s) => Some(s),
+        Err(e) => {
+            errors.report(&format!("cannot accept a connection: {e}"));
+            std::thread::sleep(ACCEPT_ERROR_PAUSE);
+            None
+        }
+    }
 }
 
 /// Without `--verbose`, one line per kind of problem at most this often: a client that sends
@@ -138,5 +158,16 @@ mod tests {
         assert_eq!(cut("short", 10), "short");
         assert_eq!(cut("ééééé", 8), "éé...");
         assert!(cut(&"x".repeat(1000), 240).len() <= 240);
+    }
+
+    #[test]
+    fn a_failed_accept_is_counted_and_skipped() {
+        // EMFILE from accept used to be skipped silently and retried at once (a spinning
+        // core while descriptors stay taken); now it is counted for the log and the loop
+        // pauses before the next try.
+        let errors = CountedLog::new("test", "failed accepts", false);
+        let refused = accepted(Err(io::Error::from_raw_os_error(24)), &errors);
+        assert!(refused.is_none());
+        assert_eq!(errors.total(), 1);
     }
 }

@@ -21,7 +21,7 @@
 //! commands seen on the proxied control interface of a `pmacwd serve --virtual-time`.
 //! Concurrent sessions share one timeline, in the order their exchanges complete.
 
-use crate::bounded::{spawn, CountedLog};
+use crate::bounded::{accepted, spawn, CountedLog};
 use crate::capture::{CaptureWriter, Timing};
 use crate::framing::{ACK, BEL, CR};
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
@@ -122,6 +122,8 @@ struct Shared {
     spawn_failures: CountedLog,
     /// Sessions whose card (or control interface) could not be reached.
     unreachable: CountedLog,
+    /// Accepts that failed (no file descriptor left, mostly).
+    accept_errors: CountedLog,
 }
 
 impl Shared {
@@ -368,6 +370,7 @@ impl Proxy {
             order: Order::new(),
             spawn_failures: CountedLog::new("pmacwd record", "sessions closed for want of a thread", verbose),
             unreachable: CountedLog::new("pmacwd record", "sessions closed: the card could not be reached", verbose),
+            accept_errors: CountedLog::new("pmacwd record", "failed accepts", verbose),
         });
         let mut accept = Vec::new();
         let s = shared.clone();
@@ -400,6 +403,7 @@ impl Proxy {
         self.shared.stopping.store(true, Ordering::SeqCst);
         self.shared.spawn_failures.flush();
         self.shared.unreachable.flush();
+        self.shared.accept_errors.flush();
         if let Some(a) = self.control_addr {
             let _ = TcpStream::connect(a);
         }
@@ -416,7 +420,7 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
         if shared.stopping.load(Ordering::SeqCst) {
             return;
         }
-        let Ok(client) = client else { continue };
+        let Some(client) = accepted(client, &shared.accept_errors) else { continue };
         next += 1;
         let id = next;
         let s = shared.clone();
@@ -596,7 +600,7 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
         if shared.stopping.load(Ordering::SeqCst) {
             return;
         }
-        let Ok(client) = client else { continue };
+        let Some(client) = accepted(client, &shared.accept_errors) else { continue };
         let s = shared.clone();
         let target = target.clone();
         let started = spawn("record: control".into(), shared.options.thread_stack_bytes, move || {

@@ -10,7 +10,7 @@
 //! a new one (half-open connections are never the ones in use). The card's lock is held for
 //! at most [`CYCLES_PER_HOLD_MAX`] servo cycles at a time.
 
-use crate::bounded::{spawn, CountedLog};
+use crate::bounded::{accepted, spawn, CountedLog};
 use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
 use crate::control::Control;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
@@ -166,6 +166,8 @@ struct Shared {
     /// with `verbose`, otherwise summed up, so that a client sending garbage in a loop cannot
     /// fill standard error.
     protocol_errors: CountedLog,
+    /// Accepts that failed (no file descriptor left, mostly).
+    accept_errors: CountedLog,
 }
 
 impl Shared {
@@ -225,6 +227,7 @@ impl Server {
             stopping: AtomicBool::new(false),
             spawn_failures: CountedLog::new("pmacwd serve", "connections closed for want of a thread", verbose),
             protocol_errors: CountedLog::new("pmacwd serve", "protocol errors, each closing its connection", verbose),
+            accept_errors: CountedLog::new("pmacwd serve", "failed accepts", verbose),
         });
         let mut threads = Vec::new();
         if let Clock::Wall { .. } = shared.card().clock() {
@@ -285,6 +288,7 @@ impl Server {
         }
         self.shared.spawn_failures.flush();
         self.shared.protocol_errors.flush();
+        self.shared.accept_errors.flush();
     }
 }
 
@@ -301,8 +305,14 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
         if shared.stopping.load(Ordering::SeqCst) {
             return;
         }
-        let Ok(stream) = stream else { continue };
-        let Ok((id, last_active_ms, evicted)) = shared.hosts.admit(&stream, shared.now_ms()) else { continue };
+        let Some(stream) = accepted(stream, &shared.accept_errors) else { continue };
+        let (id, last_active_ms, evicted) = match shared.hosts.admit(&stream, shared.now_ms()) {
+            Ok(admitted) => admitted,
+            Err(e) => {
+                shared.accept_errors.report(&format!("cannot keep a host connection: {e}"));
+                continue;
+            }
+        };
         if let Some(old) = evicted {
             shared.stats.evicted.fetch_add(1, Ordering::Relaxed);
             shared.log(&format!("{} hosts open: closed #{old}, idle longest", shared.hosts.max));
@@ -414,8 +424,14 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
         if shared.stopping.load(Ordering::SeqCst) {
             return;
         }
-        let Ok(stream) = stream else { continue };
-        let Ok((id, last_active_ms, evicted)) = shared.controls.admit(&stream, shared.now_ms()) else { continue };
+        let Some(stream) = accepted(stream, &shared.accept_errors) else { continue };
+        let (id, last_active_ms, evicted) = match shared.controls.admit(&stream, shared.now_ms()) {
+            Ok(admitted) => admitted,
+            Err(e) => {
+                shared.accept_errors.report(&format!("cannot keep a control connection: {e}"));
+                continue;
+            }
+        };
         if let Some(old) = evicted {
             shared.stats.control_evicted.fetch_add(1, Ordering::Relaxed);
             shared.log(&format!("{CONTROL_CLIENTS_MAX} control connections open: closed c{old}, idle longest"));
