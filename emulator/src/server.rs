@@ -12,9 +12,9 @@
 
 use crate::bounded::{accepted, spawn, CountedLog};
 use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
-use crate::control::Control;
+use crate::control::{read_line_max, Control, CONTROL_LINE_BYTES_MAX};
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
-use std::io::{self, BufRead, BufReader, Read, Write};
+use std::io::{self, BufReader, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -33,8 +33,6 @@ const _: () = assert!(
     SERVO_HZ_MAX as u128 * CATCH_UP_INTERVAL.as_millis() / 1000 <= CYCLES_PER_HOLD_MAX as u128,
     "a catch-up between two wake-ups fits one lock hold"
 );
-/// A control line longer than this is refused (the commands are a few words).
-const CONTROL_LINE_BYTES_MAX: u64 = 1024;
 /// Control connections open at once; a newcomer beyond it closes the one idle longest. A test
 /// bench uses one or two; sixteen leave room for several benches and a person with `nc`, and
 /// bound the threads the control port can cost.
@@ -459,16 +457,16 @@ fn control_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU6
     let mut reader = BufReader::new(stream);
     let mut line = Vec::new();
     loop {
-        line.clear();
-        let n = reader.by_ref().take(CONTROL_LINE_BYTES_MAX).read_until(b'\n', &mut line)?;
-        if n == 0 {
-            return Ok(());
+        match read_line_max(&mut reader, &mut line, CONTROL_LINE_BYTES_MAX) {
+            Ok(true) => {}
+            Ok(false) => return Ok(()),
+            Err(e) if e.kind() == io::ErrorKind::InvalidData => {
+                writeln!(writer, "error: {e}")?;
+                return Ok(());
+            }
+            Err(e) => return Err(e),
         }
         last_active_ms.store(shared.now_ms(), Ordering::Relaxed);
-        if line.last() != Some(&b'\n') && n as u64 == CONTROL_LINE_BYTES_MAX {
-            writeln!(writer, "error: a control line is at most {CONTROL_LINE_BYTES_MAX} bytes")?;
-            return Ok(());
-        }
         let text = String::from_utf8_lossy(&line);
         let text = text.trim();
         if text.is_empty() {

@@ -327,3 +327,21 @@ fn a_control_connection_silent_past_its_idle_timeout_is_closed() {
     assert!(t.elapsed() >= Duration::from_millis(150));
     s.stop();
 }
+
+#[test]
+fn a_control_line_longer_than_the_maximum_closes_that_control_connection_with_an_error() {
+    // The control port reads at most CONTROL_LINE_BYTES_MAX bytes of a line, so a client that
+    // never sends a newline cannot grow the server's memory; it gets an error line and its
+    // connection is closed, and other control clients are served as before. (Twice the
+    // maximum in one write, read whole by the server, so the close is clean.)
+    use pmacwd_emulator::control::CONTROL_LINE_BYTES_MAX;
+    let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
+    let s = Server::start(Card::default_card(Clock::Virtual), options).expect("a free loopback port");
+    let mut long = control_client(&s);
+    long.get_mut().write_all(&vec![b'x'; 2 * CONTROL_LINE_BYTES_MAX]).unwrap();
+    let mut reply = String::new();
+    let _ = long.read_to_string(&mut reply);
+    assert_eq!(reply, format!("error: a control line is at most {CONTROL_LINE_BYTES_MAX} bytes\n"));
+    assert!(control_command(&mut control_client(&s), "state").starts_with("ok tripped=false"));
+    s.stop();
+}
