@@ -98,6 +98,12 @@ fn saved_values(texts: &[String], cfg: &mut pmacwd_core::Config) -> Result<Vec<(
                 range(pmacwd_core::I41_MAX)?;
                 cfg.saved_i41 = v as u8;
             }
+            3 | 6 => {
+                // The framing variables, as a host write of them is checked (MODEL).
+                range(pmacwd_emulator::framing::FRAMING_VALUE_MAX)?;
+                saved.retain(|(k, _)| *k != n);
+                saved.push((n, v));
+            }
             _ => {
                 saved.retain(|(k, _)| *k != n);
                 saved.push((n, v));

@@ -404,3 +404,17 @@ fn protocol_errors_are_summed_up_on_one_line_without_verbose_and_each_logged_wit
     verbose.wait().unwrap();
     assert_eq!(each, 20);
 }
+
+#[test]
+fn serve_refuses_a_saved_framing_value_outside_0_to_3() {
+    // A saved I3 or I6 outside 0..3 would frame every reply after a reset as its low bits do
+    // (I3 = 4: no ACK at all); host writes of such values are refused (MODEL), and so are
+    // saved ones, before the server starts.
+    for saved in ["I3=4", "I6=-1"] {
+        let out =
+            pmacwd().args(["serve", "--listen", "127.0.0.1:0", "--no-control", "--saved", saved]).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{saved}: {stderr}");
+        assert!(stderr.contains("ranges 0..3"), "{stderr}");
+    }
+}

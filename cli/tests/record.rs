@@ -425,3 +425,30 @@ fn a_reply_longer_than_the_proxy_keeps_is_forwarded_whole_and_recorded_cut() {
     assert!(text.contains(&format!("had {dropped} more bytes than the {REPLY_RECORDED_BYTES_MAX} kept")), "{text}");
     assert!(text.len() < 8_000, "the capture keeps notes, not the reply: {} bytes", text.len());
 }
+
+#[test]
+fn the_emulator_s_own_capture_of_a_refused_i3_write_replays_as_consistent() {
+    // `serve --record` with a client that writes I3=4 (refused by the emulator, MODEL; taken
+    // by the model) and reads I3 back: the refused write is left out of the capture, so the
+    // replay's model holds the I3 the card held and the read compares equal.
+    let spec = pmacwd_specs::Spec::embedded().unwrap();
+    let path = std::env::temp_dir().join(format!("pmacwd-record-i3-{}.jsonl", std::process::id()));
+    let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
+    let mut card = Card::default_card(Clock::Virtual);
+    card.record(CaptureWriter::new(out, "I3=4", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap());
+    let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
+    {
+        let mut c = TcpStream::connect(server.local_addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        assert_eq!(ask(&mut c, "i6=1 i3=2 ver"), b"1.947\r\x06");
+        assert_eq!(ask(&mut c, "I3=4"), b"\x07ERR003\r");
+        assert_eq!(ask(&mut c, "I3"), b"2\r\x06");
+    }
+    assert!(server.with_card(|c| c.finish_recording()).is_empty());
+    server.stop();
+    let report = pmacwd_conformance::replay::replay(&spec, &path).unwrap();
+    let default = spec.profiles.default_profile();
+    let lane = report.profiles.iter().find(|p| p.profile.name == default.name).unwrap();
+    assert!(lane.consistent(), "{}", pmacwd_conformance::replay::to_text(&report, &default.name));
+    std::fs::remove_file(&path).ok();
+}

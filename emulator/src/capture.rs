@@ -20,7 +20,7 @@
 //! `window_cycles` instead of an exact `(silence)`.
 
 use crate::bounded::cut;
-use crate::framing::{self, ReadAnswer};
+use crate::framing::{self, framing_write_out_of_range, ReadAnswer, FRAMING_VALUE_MAX};
 use pmacwd_specs::check::{AllKeyword, ProfileSelection};
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
@@ -223,11 +223,17 @@ impl<W: Write> CaptureWriter<W> {
         let command_step = |c: HostCommand, expect: Expect, note: Option<String>| {
             Matched::Step(Step { event: TraceEvent::Model(Event::Command(c)), expect, note })
         };
-        // Every command as a step expecting `expect`; those a trace cannot hold as notes.
+        // Every command as a step expecting `expect`; those a trace cannot hold as notes. So is
+        // a write of I3 or I6 outside 0..3: the emulator refuses it (MODEL,
+        // `framing::FRAMING_VALUE_MAX`) where the model would take it, and a replay that took
+        // it would then read back a value the card never held.
         let each_command = |expect: Expect| -> Vec<Matched> {
             commands
                 .iter()
                 .map(|c| match HostCommand::parse(c) {
+                    Ok(HostCommand::WriteI(n, v)) if framing_write_out_of_range(n, v) => Matched::Note(format!(
+                        "`{c}` left out: I{n} ranges 0..{FRAMING_VALUE_MAX} (SRM p.37, PMAC2 SRM p.25), which the emulator enforces and the model does not"
+                    )),
                     Ok(h) => command_step(h, expect.clone(), None),
                     Err(e) => Matched::Note(format!("`{c}` left out: {}", e.0)),
                 })
@@ -447,5 +453,23 @@ mod tests {
         assert_eq!(left.len(), NOTES_PER_STEP_MAX + 1);
         assert!(left[..NOTES_PER_STEP_MAX].iter().all(|n| n.len() <= NOTE_BYTES_MAX));
         assert_eq!(left[NOTES_PER_STEP_MAX], "92 more notes like these omitted");
+    }
+
+    #[test]
+    fn a_refused_framing_write_is_left_out_of_the_replay() {
+        // The emulator answers `I3=4` with ERR003 (MODEL); the model would take it. A reply
+        // with an error cannot be matched to a write (the error may be a later command's),
+        // so the line's commands become steps without expectations, which a replay executes:
+        // the model would then hold I3 = 4 and a later read of I3 (compared: the capture wrote
+        // I3) would diverge. The refused write is left out, as a note.
+        let t = capture(
+            Timing::Exact,
+            &[("i6=1 i3=2", Some(b"\x06")), ("I3=4", Some(b"\x07ERR003\r")), ("I3", Some(b"2\r\x06"))],
+        );
+        let r = replies(&t);
+        assert_eq!(r.iter().filter(|(c, _)| c == "I3=4").count(), 0, "{r:?}");
+        assert_eq!(r.last(), Some(&("I3".to_string(), Some("2".to_string()))));
+        let note = t.steps.iter().find_map(|s| s.note.as_deref()).unwrap();
+        assert!(note.contains("`I3=4` left out: I3 ranges 0..3"), "{note}");
     }
 }

@@ -5,7 +5,7 @@
 
 use crate::capture::CaptureWriter;
 use crate::control::{Control, HELP};
-use crate::framing::{split_commands, Answer, Framing};
+use crate::framing::{framing_write_out_of_range, split_commands, Answer, Framing};
 use pmacwd_bridge::{core_command, core_event, spec_load};
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
@@ -271,6 +271,13 @@ impl Card {
         let Ok(command) = HostCommand::parse(text) else {
             return Answer::Error(3);
         };
+        // I3 and I6 range 0..3; a write outside it is refused and changes nothing (MODEL,
+        // `framing::FRAMING_VALUE_MAX`). Neither lies in a range I41 locks (SRM p.57).
+        if let HostCommand::WriteI(n, v) = command {
+            if framing_write_out_of_range(n, v) {
+                return Answer::Error(3);
+            }
+        }
         match self.core.command(&self.cfg, core_command(&command), &mut self.store) {
             core::Reply::None | core::Reply::Ack | core::Reply::Silence => Answer::Nothing,
             core::Reply::Status { x, y } => {
@@ -435,5 +442,16 @@ mod tests {
         }
         assert_eq!(c.cycles, target);
         assert_eq!(calls, target.div_ceil(u64::from(CYCLES_PER_HOLD_MAX)));
+    }
+
+    #[test]
+    fn a_framing_write_outside_0_to_3_is_refused_and_the_framing_stays() {
+        // `I3=4` used to be stored, and its low bits (0) then framed every reply: no ACK ever
+        // again, so clients hung. Now it is ERR003 (MODEL, FRAMING_VALUE_MAX) and I3 stays 2.
+        let mut c = card();
+        assert_eq!(c.line(b"I3=4").unwrap(), b"\x07ERR003\r");
+        assert_eq!(c.line(b"I6=-1").unwrap(), b"\x07ERR003\r");
+        assert_eq!(c.line(b"I3 I6").unwrap(), b"2\r1\r\x06", "both unchanged, the line acknowledged");
+        assert_eq!(c.line(b"I3=3 I3=2").unwrap(), b"\x06", "0..3 are written as before");
     }
 }

@@ -345,3 +345,15 @@ fn a_control_line_longer_than_the_maximum_closes_that_control_connection_with_an
     assert!(control_command(&mut control_client(&s), "state").starts_with("ok tripped=false"));
     s.stop();
 }
+
+#[test]
+fn a_client_that_writes_i3_4_still_gets_terminated_replies_afterwards() {
+    // I3 ranges 0..3 (SRM p.37). `I3=4` used to be stored and framed as I3 = 0: no ACK after
+    // any later line, so the client waited for ever. It is now refused with ERR003, whose CR
+    // ends the reply, and the lines after it are acknowledged as before.
+    let s = server(Clock::Virtual, 8, None);
+    let mut c = connect(&s);
+    assert_eq!(ask(&mut c, "I3=4"), b"\x07ERR003\r");
+    assert_eq!(ask(&mut c, "???"), b"001000000000\r\x06");
+    assert_eq!(ask(&mut c, "I3"), b"2\r\x06");
+}
