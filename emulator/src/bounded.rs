@@ -60,8 +60,11 @@ pub const REASON_BYTES_MAX: usize = 240;
 
 /// Problems of one kind that clients (or the system) cause: with `verbose`, each is logged on
 /// its own line; without it they are counted, and a one-line summary (the count and the last
-/// reason) is printed when the first comes and then at most once per [`SUMMARY_INTERVAL`], and
-/// by [`CountedLog::flush`] at shutdown. Standard error stays bounded whatever clients do.
+/// reason) is printed when the first comes and then at most once per [`SUMMARY_INTERVAL`]:
+/// by the next report after the interval, by [`CountedLog::flush_due`] (which the servers
+/// call from a housekeeping thread, so that the count of a burst is not held back until the
+/// next problem) or by [`CountedLog::flush`] at shutdown. Standard error stays bounded
+/// whatever clients do.
 pub struct CountedLog {
     program: &'static str,
     /// What the problems are called in a summary, in the plural: "protocol errors".
@@ -96,6 +99,15 @@ impl CountedLog {
         w.count = w.count.saturating_add(1);
         w.last = cut(reason, REASON_BYTES_MAX);
         if w.summarized_at.is_none_or(|t| t.elapsed() >= SUMMARY_INTERVAL) {
+            self.summarize(&mut w);
+        }
+    }
+
+    /// Prints what was counted since the last summary, if anything and if the last summary is
+    /// [`SUMMARY_INTERVAL`] old.
+    pub fn flush_due(&self) {
+        let mut w = self.window.lock().unwrap_or_else(|e| e.into_inner());
+        if w.count > 0 && w.summarized_at.is_none_or(|t| t.elapsed() >= SUMMARY_INTERVAL) {
             self.summarize(&mut w);
         }
     }

@@ -458,6 +458,12 @@ impl Proxy {
         let mut accept = Vec::new();
         let s = shared.clone();
         accept.push(spawn("record: accept hosts".into(), None, move || accept_hosts(listener, local_addr, s))?);
+        let s = shared.clone();
+        if let Err(e) = spawn("record: summaries".into(), None, move || summaries(&s)) {
+            shared.stopping.store(true, Ordering::SeqCst);
+            let _ = TcpStream::connect(local_addr);
+            return Err(e);
+        }
         if let Some(l) = control {
             let s = shared.clone();
             match spawn("record: accept control".into(), None, move || accept_control(l, s)) {
@@ -493,6 +499,20 @@ impl Proxy {
         match self.shared.recorder().take() {
             Some(r) => r.finish(),
             None => Ok((0, 0, vec!["the capture was closed early after a write error".into()])),
+        }
+    }
+}
+
+/// How often the proxy looks whether a summary of its logs is due: a summary comes at most
+/// every [`crate::bounded::SUMMARY_INTERVAL`], so a second's delay on it is nothing.
+const SUMMARY_CHECK_INTERVAL: Duration = Duration::from_secs(1);
+
+/// Until the proxy stops: prints the summaries of the logs that are due.
+fn summaries(shared: &Shared) {
+    while !shared.stopping.load(Ordering::SeqCst) {
+        thread::sleep(SUMMARY_CHECK_INTERVAL);
+        for log in [&shared.spawn_failures, &shared.unreachable, &shared.accept_errors] {
+            log.flush_due();
         }
     }
 }

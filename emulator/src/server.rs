@@ -228,10 +228,8 @@ impl Server {
             accept_errors: CountedLog::new("pmacwd serve", "failed accepts", verbose),
         });
         let mut threads = Vec::new();
-        if let Clock::Wall { .. } = shared.card().clock() {
-            let s = shared.clone();
-            threads.push(spawn("serve: keep time".into(), None, move || keep_time(&s))?);
-        }
+        let s = shared.clone();
+        threads.push(spawn("serve: housekeeping".into(), None, move || housekeeping(&s))?);
         let s = shared.clone();
         match spawn("serve: accept hosts".into(), None, move || accept_hosts(listener, s)) {
             Ok(t) => threads.push(t),
@@ -290,11 +288,18 @@ impl Server {
     }
 }
 
-/// Brings the card up to date every [`CATCH_UP_INTERVAL`] until the server stops.
-fn keep_time(shared: &Shared) {
+/// Until the server stops, every [`CATCH_UP_INTERVAL`]: brings a wall-clock card up to date,
+/// and prints the summaries of the logs that are due.
+fn housekeeping(shared: &Shared) {
+    let wall_clock = matches!(shared.card().clock(), Clock::Wall { .. });
     while !shared.stopping.load(Ordering::SeqCst) {
         thread::sleep(CATCH_UP_INTERVAL);
-        drop(shared.card_now());
+        if wall_clock {
+            drop(shared.card_now());
+        }
+        for log in [&shared.spawn_failures, &shared.protocol_errors, &shared.accept_errors] {
+            log.flush_due();
+        }
     }
 }
 
