@@ -47,7 +47,8 @@ pub struct RecordArgs {
     /// exchange is on disk as soon as it completes).
     #[arg(long, value_name = "N")]
     pub sessions: Option<u64>,
-    /// Log sessions to standard error.
+    /// Log sessions, and each session the card refused or no thread could be started for,
+    /// to standard error (without it, those are summed up on one line at most once a minute).
     #[arg(long)]
     pub verbose: bool,
 }

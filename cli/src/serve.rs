@@ -61,7 +61,8 @@ pub struct ServeArgs {
     /// longest is closed for a newcomer.
     #[arg(long, value_name = "SECONDS", default_value_t = CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS)]
     pub control_idle_timeout: u64,
-    /// Log connections and their ends to standard error.
+    /// Log connections, their ends and each protocol error to standard error (without it,
+    /// protocol errors are summed up on one line at most once a minute).
     #[arg(long)]
     pub verbose: bool,
 }

@@ -418,3 +418,19 @@ fn serve_refuses_a_saved_framing_value_outside_0_to_3() {
         assert!(stderr.contains("ranges 0..3"), "{stderr}");
     }
 }
+
+#[test]
+fn serve_s_help_names_the_limits_its_flags_bound_as_the_emulator_defines_them() {
+    // The help text states limits as numbers; this keeps them equal to the constants that
+    // enforce them (a constant changed without its help fails here).
+    use pmacwd_emulator::bounded::SUMMARY_INTERVAL;
+    use pmacwd_emulator::card::SERVO_HZ_MAX;
+    use pmacwd_emulator::server::{CONTROL_CLIENTS_MAX, CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS};
+    let help = pmacwd().args(["serve", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(help.contains(&format!("1..{SERVO_HZ_MAX} ")), "{help}");
+    assert!(help.contains(&format!("when {CONTROL_CLIENTS_MAX} are open")), "{help}");
+    assert!(help.contains(&format!("[default: {CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS}]")), "{help}");
+    assert_eq!(SUMMARY_INTERVAL.as_secs(), 60, "the help says `once a minute`");
+    assert!(help.contains("at most once a minute"), "{help}");
+}
