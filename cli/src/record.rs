@@ -47,8 +47,9 @@ pub struct RecordArgs {
     /// exchange is on disk as soon as it completes).
     #[arg(long, value_name = "N")]
     pub sessions: Option<u64>,
-    /// Log sessions, and each session the card refused or no thread could be started for,
-    /// to standard error (without it, those are summed up on one line at most once a minute).
+    /// Log sessions, and each one whose card could not be reached or whose thread could not
+    /// be started, to standard error (without it, those are summed up on one line at most once
+    /// a minute).
     #[arg(long)]
     pub verbose: bool,
 }
