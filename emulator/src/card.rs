@@ -48,7 +48,7 @@ pub fn servo_rate(flag: Option<u32>, configuration_hz: u32, configuration: &str)
         return Ok(hz);
     }
     Err(match flag {
-        Some(_) => format!("--servo-hz {hz}: the servo clock ranges 1..{SERVO_HZ_MAX} Hz"),
+        Some(_) => format!("--servo-hz {hz}: the servo clock ranges 1..{SERVO_HZ_MAX} Hz (at least 1, at most {SERVO_HZ_MAX})"),
         None => format!(
             "configuration {configuration} has a servo clock of {hz} Hz; the emulator's ranges 1..{SERVO_HZ_MAX} Hz (give --servo-hz)"
         ),
