@@ -26,7 +26,8 @@ pub struct RecordArgs {
     /// Spec directory to use instead of the embedded one.
     #[arg(long, value_name = "DIR")]
     pub specs: Option<PathBuf>,
-    /// The card's servo rate (default: the configuration's).
+    /// The card's servo rate, 1..100000 (default: the configuration's; docs/emulator.md
+    /// "Limits").
     #[arg(long, value_name = "HZ")]
     pub servo_hz: Option<u32>,
     /// Also proxy an emulator's control interface: listen here ...
@@ -46,7 +47,9 @@ pub struct RecordArgs {
     /// exchange is on disk as soon as it completes).
     #[arg(long, value_name = "N")]
     pub sessions: Option<u64>,
-    /// Log sessions to standard error.
+    /// Log sessions, and each one whose card could not be reached or whose thread could not
+    /// be started, to standard error (without it, those are summed up on one line at most once
+    /// a minute).
     #[arg(long)]
     pub verbose: bool,
 }
@@ -56,10 +59,10 @@ pub fn record(a: RecordArgs) -> ExitCode {
         Ok(c) => c,
         Err(e) => return unusable(e),
     };
-    let servo_hz = a.servo_hz.unwrap_or(model.servo_hz);
-    if servo_hz == 0 {
-        return unusable("--servo-hz must be at least 1");
-    }
+    let servo_hz = match pmacwd_emulator::card::servo_rate(a.servo_hz, model.servo_hz, &a.configuration) {
+        Ok(hz) => hz,
+        Err(e) => return unusable(e),
+    };
     let timing = Recorder::timing(servo_hz, a.virtual_time);
     let description = format!(
         "recorded by pmacwd record from {} ({})",
@@ -79,6 +82,7 @@ pub fn record(a: RecordArgs) -> ExitCode {
         silence: Duration::from_millis(a.silence_ms.max(1)),
         sessions: a.sessions,
         verbose: a.verbose,
+        thread_stack_bytes: None,
     };
     let proxy = match Proxy::start(Recorder::new(capture, servo_hz, a.virtual_time), options) {
         Ok(p) => p,

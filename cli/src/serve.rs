@@ -2,8 +2,8 @@
 
 use crate::common::{create_capture, model_config, unusable};
 use pmacwd_bridge::core_config;
-use pmacwd_emulator::card::{Card, Clock, Identity, SAVED_DEFAULT};
-use pmacwd_emulator::server::{ServeOptions, Server};
+use pmacwd_emulator::card::{servo_rate, Card, Clock, Identity, SAVED_DEFAULT};
+use pmacwd_emulator::server::{ServeOptions, Server, CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS};
 use std::io::Write;
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -31,7 +31,8 @@ pub struct ServeArgs {
     /// Spec directory to use instead of the embedded one.
     #[arg(long, value_name = "DIR")]
     pub specs: Option<PathBuf>,
-    /// Servo interrupt rate (default: the configuration's).
+    /// Servo interrupt rate, 1..100000 (default: the configuration's; 100 kHz is above any
+    /// servo clock a real card sustains, docs/emulator.md "Limits").
     #[arg(long, value_name = "HZ")]
     pub servo_hz: Option<u32>,
     /// Time moves only by `step` and `servo` on the control interface (for tests).
@@ -56,7 +57,12 @@ pub struct ServeArgs {
     /// Close a host connection silent this long (0: never).
     #[arg(long, value_name = "SECONDS", default_value_t = 600)]
     pub idle_timeout: u64,
-    /// Log connections and their ends to standard error.
+    /// Close a control connection silent this long (0: never); when 16 are open, the one idle
+    /// longest is closed for a newcomer.
+    #[arg(long, value_name = "SECONDS", default_value_t = CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS)]
+    pub control_idle_timeout: u64,
+    /// Log connections, their ends and each protocol error to standard error (without it,
+    /// protocol errors are summed up on one line at most once a minute).
     #[arg(long)]
     pub verbose: bool,
 }
@@ -93,6 +99,12 @@ fn saved_values(texts: &[String], cfg: &mut pmacwd_core::Config) -> Result<Vec<(
                 range(pmacwd_core::I41_MAX)?;
                 cfg.saved_i41 = v as u8;
             }
+            3 | 6 => {
+                // The framing variables, as a host write of them is checked (MODEL).
+                range(pmacwd_emulator::framing::FRAMING_VALUE_MAX)?;
+                saved.retain(|(k, _)| *k != n);
+                saved.push((n, v));
+            }
             _ => {
                 saved.retain(|(k, _)| *k != n);
                 saved.push((n, v));
@@ -114,10 +126,10 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         Ok(s) => s,
         Err(e) => return unusable(e),
     };
-    let servo_hz = a.servo_hz.unwrap_or(model.servo_hz);
-    if servo_hz == 0 {
-        return unusable("--servo-hz must be at least 1");
-    }
+    let servo_hz = match servo_rate(a.servo_hz, model.servo_hz, &a.configuration) {
+        Ok(hz) => hz,
+        Err(e) => return unusable(e),
+    };
     let clock = if a.virtual_time { Clock::Virtual } else { Clock::Wall { start: Instant::now(), servo_hz } };
     let identity = Identity { version: a.version_text.clone(), card_id: a.card_id.clone() };
     let mut card = Card::power_on(cfg, &saved, clock, identity);
@@ -138,7 +150,9 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         control: (!a.no_control).then_some(a.control),
         clients_max: a.clients_max,
         idle_timeout: (a.idle_timeout > 0).then(|| Duration::from_secs(a.idle_timeout)),
+        control_idle_timeout: (a.control_idle_timeout > 0).then(|| Duration::from_secs(a.control_idle_timeout)),
         verbose: a.verbose,
+        thread_stack_bytes: None,
     };
     let server = match Server::start(card, options) {
         Ok(s) => s,

@@ -316,6 +316,126 @@ fn the_scenario_library_is_found_from_any_folder() {
 }
 
 #[test]
+fn serve_and_record_refuse_a_servo_clock_outside_1_to_the_maximum_naming_the_range() {
+    // `serve --servo-hz 4294967295` used to start, and each request then had to run every
+    // servo cycle due (4 billion a second), which the card's lock never finished. Both
+    // subcommands now refuse a rate outside 1..SERVO_HZ_MAX, before listening, with exit 2
+    // and the range; `--help` names the range.
+    use pmacwd_emulator::card::SERVO_HZ_MAX;
+    let range = format!("ranges 1..{SERVO_HZ_MAX} Hz");
+    let tmp = TempDir::new("servo-hz");
+    for hz in ["4294967295".to_string(), (SERVO_HZ_MAX + 1).to_string(), "0".to_string()] {
+        let serve =
+            pmacwd().args(["serve", "--listen", "127.0.0.1:0", "--no-control", "--servo-hz", &hz]).output().unwrap();
+        let stderr = String::from_utf8_lossy(&serve.stderr);
+        assert_eq!(serve.status.code(), Some(2), "serve --servo-hz {hz}: {stderr}");
+        assert!(stderr.contains(&format!("--servo-hz {hz}: the servo clock {range}")), "{stderr}");
+        let record = pmacwd()
+            .args(["record", "--listen", "127.0.0.1:0", "--target", "127.0.0.1:1", "--servo-hz", &hz, "--out"])
+            .arg(tmp.join("c.jsonl"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&record.stderr);
+        assert_eq!(record.status.code(), Some(2), "record --servo-hz {hz}: {stderr}");
+        assert!(stderr.contains(&range), "{stderr}");
+    }
+    for subcommand in ["serve", "record"] {
+        let help = pmacwd().args([subcommand, "--help"]).output().unwrap();
+        assert!(String::from_utf8_lossy(&help.stdout).contains(&format!("1..{SERVO_HZ_MAX}")), "{subcommand} --help");
+    }
+}
+
+/// A `pmacwd serve` on a free loopback port, and the address it printed.
+fn serve_on_a_free_port(extra: &[&str]) -> (std::process::Child, std::net::SocketAddr) {
+    use std::io::BufRead;
+    let mut child = pmacwd()
+        .args(["serve", "--listen", "127.0.0.1:0", "--no-control"])
+        .args(extra)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufReader::new(child.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
+    // "pmacwd serve: Turbo PMAC emulator on 127.0.0.1:PORT (no control interface), ..."
+    let addr = first.split(" on ").nth(1).and_then(|r| r.split(' ').next()).expect("the address line");
+    (child, addr.parse().unwrap())
+}
+
+/// Sends `n` headers with an unknown request code, each on its own connection, and waits
+/// until the server has closed each.
+fn send_bad_headers(addr: std::net::SocketAddr, n: usize) {
+    use std::io::{Read, Write};
+    for _ in 0..n {
+        let mut c = std::net::TcpStream::connect(addr).unwrap();
+        c.set_read_timeout(Some(std::time::Duration::from_secs(5))).unwrap();
+        c.write_all(&[0x40, 0x12, 0, 0, 0, 0, 0, 0]).unwrap();
+        let mut b = [0u8; 8];
+        let r = c.read(&mut b);
+        assert!(matches!(r, Ok(0)) || r.is_err_and(|e| e.kind() != std::io::ErrorKind::WouldBlock), "closed");
+    }
+}
+
+#[test]
+fn protocol_errors_are_summed_up_on_one_line_without_verbose_and_each_logged_with_it() {
+    // Every protocol error used to be a line on standard error, verbose or not (53,595 lines
+    // in 3 minutes from one misbehaving client). Without --verbose they are now counted and
+    // summed up at most once per SUMMARY_INTERVAL (60 s): 200 errors in a moment make the
+    // first summary line only. With --verbose each has its line.
+    use std::io::{BufRead, Read};
+    let (mut quiet, addr) = serve_on_a_free_port(&[]);
+    send_bad_headers(addr, 200);
+    let mut stderr = std::io::BufReader::new(quiet.stderr.take().unwrap());
+    let mut first = String::new();
+    stderr.read_line(&mut first).unwrap();
+    quiet.kill().unwrap();
+    quiet.wait().unwrap();
+    assert!(first.contains("protocol errors, each closing its connection: 1 since the last summary"), "{first}");
+    assert!(first.contains("unknown request code 0x12"), "{first}");
+    let mut rest = String::new();
+    stderr.read_to_string(&mut rest).unwrap();
+    assert_eq!(rest, "", "one line for 200 errors");
+
+    let (mut verbose, addr) = serve_on_a_free_port(&["--verbose"]);
+    send_bad_headers(addr, 20);
+    let stderr = std::io::BufReader::new(verbose.stderr.take().unwrap());
+    let each = stderr.lines().map(Result::unwrap).filter(|l| l.contains("unknown request code 0x12")).take(20).count();
+    verbose.kill().unwrap();
+    verbose.wait().unwrap();
+    assert_eq!(each, 20);
+}
+
+#[test]
+fn serve_refuses_a_saved_framing_value_outside_0_to_3() {
+    // A saved I3 or I6 outside 0..3 would frame every reply after a reset as its low bits do
+    // (I3 = 4: no ACK at all); host writes of such values are refused (MODEL), and so are
+    // saved ones, before the server starts.
+    for saved in ["I3=4", "I6=-1"] {
+        let out =
+            pmacwd().args(["serve", "--listen", "127.0.0.1:0", "--no-control", "--saved", saved]).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{saved}: {stderr}");
+        assert!(stderr.contains("ranges 0..3"), "{stderr}");
+    }
+}
+
+#[test]
+fn serve_s_help_names_the_limits_its_flags_bound_as_the_emulator_defines_them() {
+    // The help text states limits as numbers; this keeps them equal to the constants that
+    // enforce them (a constant changed without its help fails here).
+    use pmacwd_emulator::bounded::SUMMARY_INTERVAL;
+    use pmacwd_emulator::card::SERVO_HZ_MAX;
+    use pmacwd_emulator::server::{CONTROL_CLIENTS_MAX, CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS};
+    let help = pmacwd().args(["serve", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(help.contains(&format!("1..{SERVO_HZ_MAX} ")), "{help}");
+    assert!(help.contains(&format!("when {CONTROL_CLIENTS_MAX} are open")), "{help}");
+    assert!(help.contains(&format!("[default: {CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS}]")), "{help}");
+    assert_eq!(SUMMARY_INTERVAL.as_secs(), 60, "the help says `once a minute`");
+    assert!(help.contains("at most once a minute"), "{help}");
+}
+
+#[test]
 fn output_into_a_closed_pipe_ends_quietly_without_a_panic() {
     // `pmacwd check | head` closes the pipe early; a command-line tool stops there, it does not
     // print a panic. The check's report is far larger than a pipe's buffer.

@@ -44,6 +44,7 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
         silence: Duration::from_millis(200),
         sessions: Some(1),
         verbose: false,
+        thread_stack_bytes: None,
     };
     let proxy = Proxy::start(Recorder::new(capture, model.servo_hz, false), options).unwrap();
 
@@ -171,6 +172,7 @@ fn every_recorded_reply_is_the_one_the_client_received_however_fast_or_impatient
         silence,
         sessions: Some(1),
         verbose: false,
+        thread_stack_bytes: None,
     };
     let proxy = Proxy::start(Recorder::new(capture, model.servo_hz, true), options).unwrap();
     let mut control = ControlClient(std::io::BufReader::new(TcpStream::connect(proxy.control_addr.unwrap()).unwrap()));
@@ -241,5 +243,212 @@ fn every_recorded_reply_is_the_one_the_client_received_however_fast_or_impatient
     let report = pmacwd_conformance::replay::replay(&spec, &path).unwrap();
     let default = report.profiles.iter().find(|p| p.profile.name == model.profile.name).unwrap();
     assert!(default.consistent(), "{}", pmacwd_conformance::replay::to_text(&report, "um-215"));
+    std::fs::remove_file(&path).ok();
+}
+
+#[test]
+fn a_session_whose_thread_cannot_start_is_closed_and_the_proxy_keeps_accepting() {
+    // When the system refuses a session's thread (here: a stack larger than the address
+    // space), that client's connection is closed and the proxy goes on accepting. Before, the
+    // accept thread panicked and every later client waited in the listen backlog, unanswered.
+    let server = Server::start(Card::default_card(Clock::Virtual), ServeOptions::free_loopback_port(8)).unwrap();
+    let out: Box<dyn Write + Send> = Box::new(Vec::new());
+    let capture = CaptureWriter::new(out, "spawn test", "i40-zero", Recorder::timing(2250, false)).unwrap();
+    let options = RecordOptions {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        target: server.local_addr.to_string(),
+        control: None,
+        servo_hz: 2250,
+        virtual_time: false,
+        silence: Duration::from_millis(200),
+        sessions: None,
+        verbose: false,
+        thread_stack_bytes: Some(1 << 60),
+    };
+    let proxy = Proxy::start(Recorder::new(capture, 2250, false), options).unwrap();
+    for k in 0..3 {
+        let mut c = TcpStream::connect(proxy.local_addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        c.write_all(&Header::getresponse(3).to_bytes()).unwrap();
+        let _ = c.write_all(b"???");
+        let mut b = [0u8; 16];
+        let r = c.read(&mut b);
+        assert!(
+            matches!(r, Ok(0)) || matches!(&r, Err(e) if e.kind() == std::io::ErrorKind::ConnectionReset),
+            "client {k}: closed, not left waiting: {r:?}"
+        );
+    }
+    server.stop();
+}
+
+/// A capture written to memory that the test can read while the proxy still holds the writer.
+#[derive(Clone, Default)]
+struct SharedBuffer(std::sync::Arc<std::sync::Mutex<Vec<u8>>>);
+
+impl Write for SharedBuffer {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        self.0.lock().unwrap().extend_from_slice(b);
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// A proxy in front of an emulator in virtual time (control interface proxied too), writing
+/// its capture to the returned buffer; it stops after one host session.
+fn proxy_to_an_emulator() -> (Server, Proxy, SharedBuffer) {
+    let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
+    let server = Server::start(Card::default_card(Clock::Virtual), options).unwrap();
+    let buffer = SharedBuffer::default();
+    let out: Box<dyn Write + Send> = Box::new(buffer.clone());
+    let capture = CaptureWriter::new(out, "bounds test", "i40-zero", Recorder::timing(2250, true)).unwrap();
+    let options = RecordOptions {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        target: server.local_addr.to_string(),
+        control: Some(("127.0.0.1:0".parse().unwrap(), server.control_addr.unwrap().to_string())),
+        servo_hz: 2250,
+        virtual_time: true,
+        silence: Duration::from_millis(500),
+        sessions: Some(1),
+        verbose: false,
+        thread_stack_bytes: None,
+    };
+    let proxy = Proxy::start(Recorder::new(capture, 2250, true), options).unwrap();
+    (server, proxy, buffer)
+}
+
+#[test]
+fn forwarded_requests_the_capture_does_not_record_are_counted_not_noted_one_by_one() {
+    // A host polling READREADY made one note per request, each waiting in memory for the next
+    // step (118 MB for a million). They are now counted by request code and written as one
+    // note with the next exchange, and what follows the last exchange as one note at the end.
+    const POLLS: usize = 10_000;
+    let (server, proxy, buffer) = proxy_to_an_emulator();
+    let readready: [u8; 8] = [0xC0, 0xC2, 0, 0, 0, 0, 0, 2];
+    {
+        let mut c = TcpStream::connect(proxy.local_addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        for _ in 0..2 {
+            // Sent at once, then their 2-byte replies read back.
+            c.write_all(&readready.repeat(POLLS)).unwrap();
+            let mut replies = vec![0u8; 2 * POLLS];
+            c.read_exact(&mut replies).unwrap();
+            assert!(replies.chunks(2).all(|r| r == [0, 0]), "nothing waiting");
+            assert_eq!(ask(&mut c, "???"), b"001000000000\r\x06");
+        }
+        c.write_all(&readready.repeat(3)).unwrap();
+        let mut replies = [0u8; 6];
+        c.read_exact(&mut replies).unwrap();
+    }
+    let (exchanges, _, left) = proxy.wait().unwrap();
+    assert_eq!(exchanges, 2);
+    assert_eq!(left, ["requests forwarded, not recorded (code x count): 0xC2 x 3"]);
+    let text = String::from_utf8(buffer.0.lock().unwrap().clone()).unwrap();
+    assert!(text.len() < 2_000, "{} bytes of capture", text.len());
+    assert_eq!(text.matches("0xC2 x 10000").count(), 2, "{text}");
+    server.stop();
+}
+
+#[test]
+fn a_control_line_without_its_newline_closes_that_control_session_with_an_error() {
+    // The proxy buffered a control line until its newline came, without limit (528 MB for a
+    // client that never sent one). It now reads at most CONTROL_LINE_BYTES_MAX bytes, then
+    // answers with an error line and closes that control connection; the proxy goes on.
+    use pmacwd_emulator::control::CONTROL_LINE_BYTES_MAX;
+    let (server, proxy, _) = proxy_to_an_emulator();
+    let mut c = TcpStream::connect(proxy.control_addr.unwrap()).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    // Twice the maximum with no newline, in one write: the proxy reads it all before it
+    // closes, so that the close is a clean end and not a reset that could drop the reply.
+    // (An endless line is `control::read_line_max`'s unit test.)
+    c.write_all(&vec![b'x'; 2 * CONTROL_LINE_BYTES_MAX]).unwrap();
+    let mut reply = String::new();
+    let _ = c.read_to_string(&mut reply);
+    assert_eq!(reply, format!("error: a control line is at most {CONTROL_LINE_BYTES_MAX} bytes\n"));
+    let mut again = std::io::BufReader::new(TcpStream::connect(proxy.control_addr.unwrap()).unwrap());
+    again.get_mut().write_all(b"state\n").unwrap();
+    let mut state = String::new();
+    std::io::BufRead::read_line(&mut again, &mut state).unwrap();
+    assert!(state.starts_with("ok tripped=false"), "{state}");
+    server.stop();
+}
+
+#[test]
+fn a_reply_longer_than_the_proxy_keeps_is_forwarded_whole_and_recorded_cut() {
+    // The proxy kept every byte of a reply until its end came: a card (or anything at the
+    // target) that never ends its reply grew the session's memory without limit. It now keeps
+    // REPLY_RECORDED_BYTES_MAX bytes for the capture and counts the rest, which it still
+    // forwards unchanged. A fake card answers one line with 300 KiB, then CR and ACK.
+    use pmacwd_emulator::proxy::REPLY_RECORDED_BYTES_MAX;
+    const REPLY_BYTES: usize = 300 * 1024;
+    let card = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let target = card.local_addr().unwrap().to_string();
+    let fake = std::thread::spawn(move || {
+        let (mut c, _) = card.accept().unwrap();
+        let mut request = [0u8; 11];
+        c.read_exact(&mut request).unwrap();
+        let mut reply = vec![b'A'; REPLY_BYTES];
+        reply.extend_from_slice(b"\r\x06");
+        c.write_all(&reply).unwrap();
+        let _ = c.read_to_end(&mut Vec::new());
+    });
+    let buffer = SharedBuffer::default();
+    let out: Box<dyn Write + Send> = Box::new(buffer.clone());
+    let capture = CaptureWriter::new(out, "long reply", "i40-zero", Recorder::timing(2250, false)).unwrap();
+    let options = RecordOptions {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        target,
+        control: None,
+        servo_hz: 2250,
+        virtual_time: false,
+        silence: Duration::from_secs(2),
+        sessions: Some(1),
+        verbose: false,
+        thread_stack_bytes: None,
+    };
+    let proxy = Proxy::start(Recorder::new(capture, 2250, false), options).unwrap();
+    {
+        let mut c = TcpStream::connect(proxy.local_addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        c.write_all(&Header::getresponse(3).to_bytes()).unwrap();
+        c.write_all(b"???").unwrap();
+        let mut got = vec![0u8; REPLY_BYTES + 2];
+        c.read_exact(&mut got).unwrap();
+        assert!(got.ends_with(b"A\r\x06"), "forwarded whole");
+    }
+    let (exchanges, _, _) = proxy.wait().unwrap();
+    fake.join().unwrap();
+    assert_eq!(exchanges, 1);
+    let text = String::from_utf8(buffer.0.lock().unwrap().clone()).unwrap();
+    let dropped = REPLY_BYTES + 2 - REPLY_RECORDED_BYTES_MAX;
+    assert!(text.contains(&format!("had {dropped} more bytes than the {REPLY_RECORDED_BYTES_MAX} kept")), "{text}");
+    assert!(text.len() < 8_000, "the capture keeps notes, not the reply: {} bytes", text.len());
+}
+
+#[test]
+fn the_emulator_s_own_capture_of_a_refused_i3_write_replays_as_consistent() {
+    // `serve --record` with a client that writes I3=4 (refused by the emulator, MODEL; taken
+    // by the model) and reads I3 back: the refused write is left out of the capture, so the
+    // replay's model holds the I3 the card held and the read compares equal.
+    let spec = pmacwd_specs::Spec::embedded().unwrap();
+    let path = std::env::temp_dir().join(format!("pmacwd-record-i3-{}.jsonl", std::process::id()));
+    let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
+    let mut card = Card::default_card(Clock::Virtual);
+    card.record(CaptureWriter::new(out, "I3=4", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap());
+    let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
+    {
+        let mut c = TcpStream::connect(server.local_addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        assert_eq!(ask(&mut c, "i6=1 i3=2 ver"), b"1.947\r\x06");
+        assert_eq!(ask(&mut c, "I3=4"), b"\x07ERR003\r");
+        assert_eq!(ask(&mut c, "I3"), b"2\r\x06");
+    }
+    assert!(server.with_card(|c| c.finish_recording()).is_empty());
+    server.stop();
+    let report = pmacwd_conformance::replay::replay(&spec, &path).unwrap();
+    let default = spec.profiles.default_profile();
+    let lane = report.profiles.iter().find(|p| p.profile.name == default.name).unwrap();
+    assert!(lane.consistent(), "{}", pmacwd_conformance::replay::to_text(&report, &default.name));
     std::fs::remove_file(&path).ok();
 }

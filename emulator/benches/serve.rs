@@ -1,11 +1,14 @@
 //! `pmacwd serve` on loopback, as a host program feels it: the round trip of one `???`
 //! (VR_PMAC_GETRESPONSE out, the 14-byte reply back) and the sustained rate with several
 //! clients. Before criterion's figures it prints the percentiles of 10,000 single round trips.
+//! Also the longest the card's lock is held at a time: one chunk of `CYCLES_PER_HOLD_MAX`
+//! servo cycles with background (a catch-up or a part of `step`).
 //!
 //! `cargo bench -p pmacwd-emulator --bench serve`
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use pmacwd_emulator::card::{Card, Clock};
+use pmacwd_emulator::card::{Card, Clock, CYCLES_PER_HOLD_MAX};
+use pmacwd_emulator::control::Control;
 use pmacwd_emulator::protocol::Header;
 use pmacwd_emulator::server::{ServeOptions, Server};
 use std::io::{Read, Write};
@@ -99,6 +102,13 @@ fn bench(c: &mut Criterion) {
     });
     g.finish();
     server.stop();
+
+    let mut g = c.benchmark_group("card");
+    let mut card = Card::default_card(Clock::Virtual);
+    let chunk = Control::Step { cycles: CYCLES_PER_HOLD_MAX };
+    g.throughput(Throughput::Elements(u64::from(CYCLES_PER_HOLD_MAX)));
+    g.bench_function(format!("one lock hold: step {CYCLES_PER_HOLD_MAX}"), |b| b.iter(|| card.control(chunk)));
+    g.finish();
 }
 
 criterion_group!(benches, bench);

@@ -19,7 +19,8 @@
 //! With timing from a host's clock, a silence becomes `tripped: true` with a window of
 //! `window_cycles` instead of an exact `(silence)`.
 
-use crate::framing::{self, ReadAnswer};
+use crate::bounded::cut;
+use crate::framing::{self, framing_write_out_of_range, ReadAnswer, FRAMING_VALUE_MAX};
 use pmacwd_specs::check::{AllKeyword, ProfileSelection};
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
@@ -29,6 +30,61 @@ use std::io::{self, Write};
 
 /// Commands every host sends that the model does not know, each answered by one message.
 const IDENTITY_COMMANDS: [&str; 2] = ["VER", "CID"];
+
+/// Notes kept verbatim for one step: the first few say what happened, and beyond them a
+/// count says how many more there were. A line of unknown commands makes a note per command
+/// and a client can send such lines forever before any step is written (850 MB of notes in
+/// 5 s were measured before this bound); eight keep every note of a normal exchange (a
+/// handshake line has three commands) and the whole line stays a few kilobytes.
+pub const NOTES_PER_STEP_MAX: usize = 8;
+
+/// One note is cut to this many bytes. Notes quote a command and, when a reply cannot be
+/// matched, the reply: a full command line is 1,492 bytes (the card's buffer), so a note is
+/// cut before it can carry whole lines; 512 bytes keep the command, the reason and the start
+/// of the reply, which is what a reader needs to find the exchange.
+pub const NOTE_BYTES_MAX: usize = 512;
+
+/// The notes waiting for a step, bounded in count ([`NOTES_PER_STEP_MAX`]) and size
+/// ([`NOTE_BYTES_MAX`] each): the first are kept, the rest only counted.
+#[derive(Debug, Default)]
+struct Notes {
+    kept: Vec<String>,
+    omitted: u64,
+}
+
+impl Notes {
+    fn push(&mut self, note: String) {
+        if self.kept.len() < NOTES_PER_STEP_MAX {
+            self.kept.push(cut(&note, NOTE_BYTES_MAX));
+        } else {
+            self.omitted = self.omitted.saturating_add(1);
+        }
+    }
+
+    fn append(&mut self, other: Notes) {
+        let omitted = other.omitted;
+        for n in other.kept {
+            self.push(n);
+        }
+        self.omitted = self.omitted.saturating_add(omitted);
+    }
+
+    /// The notes as a list, the count of those left out last.
+    fn into_list(self) -> Vec<String> {
+        let mut list = self.kept;
+        if self.omitted > 0 {
+            let s = if self.omitted == 1 { "" } else { "s" };
+            list.push(format!("{} more note{s} like these omitted", self.omitted));
+        }
+        list
+    }
+
+    /// The notes as one step's note (`None`: no notes).
+    fn into_note(self) -> Option<String> {
+        let list = self.into_list();
+        (!list.is_empty()).then(|| list.join("; "))
+    }
+}
 
 /// How exact the capture's timing is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -48,7 +104,7 @@ pub struct CaptureWriter<W: Write> {
     pending_cycles: u64,
     /// I-variables written since the last reset: the model knows their values.
     written: Vec<bool>,
-    pending_notes: Vec<String>,
+    pending_notes: Notes,
     pub steps: u64,
 }
 
@@ -78,7 +134,7 @@ impl<W: Write> CaptureWriter<W> {
             timing,
             pending_cycles: 0,
             written: vec![false; usize::from(pmacwd_core::I_VARIABLE_MAX) + 1],
-            pending_notes: Vec::new(),
+            pending_notes: Notes::default(),
             steps: 0,
         })
     }
@@ -89,18 +145,21 @@ impl<W: Write> CaptureWriter<W> {
         self.pending_cycles = self.pending_cycles.saturating_add(cycles);
     }
 
-    fn write_step(&mut self, mut step: Step) -> io::Result<()> {
+    /// Writes `step` after the `run` steps due; its note gathers the notes waiting, its own,
+    /// and `after` (notes about commands that followed it in its line), within the bounds.
+    fn write_step(&mut self, mut step: Step, after: Notes) -> io::Result<()> {
         while self.pending_cycles > 0 {
             // Long gaps become several steps: a reader takes at most STEP_CYCLES_MAX per step.
             let cycles = u32::try_from(self.pending_cycles.min(u64::from(STEP_CYCLES_MAX))).unwrap_or(STEP_CYCLES_MAX);
             self.pending_cycles -= u64::from(cycles);
             self.write_line(Step { event: TraceEvent::Run { cycles }, expect: Expect::default(), note: None })?;
         }
-        if !self.pending_notes.is_empty() {
-            let mut notes = std::mem::take(&mut self.pending_notes);
-            notes.extend(step.note.take());
-            step.note = Some(notes.join("; "));
+        let mut notes = std::mem::take(&mut self.pending_notes);
+        if let Some(own) = step.note.take() {
+            notes.push(own);
         }
+        notes.append(after);
+        step.note = notes.into_note();
         if let TraceEvent::Model(Event::Reset(_) | Event::Command(HostCommand::Reset)) = step.event {
             self.written.fill(false);
         }
@@ -121,32 +180,29 @@ impl<W: Write> CaptureWriter<W> {
                 self.elapse(u64::from(cycles));
                 Ok(())
             }
-            _ => self.write_step(step),
+            _ => self.write_step(step, Notes::default()),
         }
     }
 
     /// A command line and its reply (`None`: no reply came).
     pub fn exchange(&mut self, line: &str, reply: Option<&[u8]>) -> io::Result<()> {
         // A note goes with the line's step before it, or with the next step written.
-        let mut last: Option<Step> = None;
+        let mut last: Option<(Step, Notes)> = None;
         for m in self.match_line(line, reply) {
-            match (m, &mut last) {
-                (Matched::Step(s), _) => {
-                    if let Some(previous) = last.replace(s) {
-                        self.write_step(previous)?;
+            match m {
+                Matched::Step(s) => {
+                    if let Some((previous, after)) = last.replace((s, Notes::default())) {
+                        self.write_step(previous, after)?;
                     }
                 }
-                (Matched::Note(n), Some(step)) => {
-                    step.note = Some(match step.note.take() {
-                        Some(old) => format!("{old}; {n}"),
-                        None => n,
-                    })
-                }
-                (Matched::Note(n), None) => self.pending_notes.push(n),
+                Matched::Note(n) => match &mut last {
+                    Some((_, after)) => after.push(n),
+                    None => self.pending_notes.push(n),
+                },
             }
         }
         match last {
-            Some(step) => self.write_step(step),
+            Some((step, after)) => self.write_step(step, after),
             None => Ok(()),
         }
     }
@@ -156,10 +212,11 @@ impl<W: Write> CaptureWriter<W> {
         self.pending_notes.push(note);
     }
 
-    /// Notes that found no step to go with (at the end of a capture).
+    /// Notes that found no step to go with (at the end of a capture), within the same bounds
+    /// as a step's.
     pub fn finish(mut self) -> io::Result<Vec<String>> {
         self.out.flush()?;
-        Ok(std::mem::take(&mut self.pending_notes))
+        Ok(std::mem::take(&mut self.pending_notes).into_list())
     }
 
     fn match_line(&mut self, line: &str, reply: Option<&[u8]>) -> Vec<Matched> {
@@ -167,11 +224,17 @@ impl<W: Write> CaptureWriter<W> {
         let command_step = |c: HostCommand, expect: Expect, note: Option<String>| {
             Matched::Step(Step { event: TraceEvent::Model(Event::Command(c)), expect, note })
         };
-        // Every command as a step expecting `expect`; those a trace cannot hold as notes.
+        // Every command as a step expecting `expect`; those a trace cannot hold as notes. So is
+        // a write of I3 or I6 outside 0..3: the emulator refuses it (MODEL,
+        // `framing::FRAMING_VALUE_MAX`) where the model would take it, and a replay that took
+        // it would then read back a value the card never held.
         let each_command = |expect: Expect| -> Vec<Matched> {
             commands
                 .iter()
                 .map(|c| match HostCommand::parse(c) {
+                    Ok(HostCommand::WriteI(n, v)) if framing_write_out_of_range(n, v) => Matched::Note(format!(
+                        "`{c}` left out: I{n} ranges 0..{FRAMING_VALUE_MAX} (SRM p.37, PMAC2 SRM p.25), which the emulator enforces and the model does not"
+                    )),
                     Ok(h) => command_step(h, expect.clone(), None),
                     Err(e) => Matched::Note(format!("`{c}` left out: {}", e.0)),
                 })
@@ -355,5 +418,59 @@ mod tests {
         let notes: Vec<&str> = t.steps.iter().filter_map(|s| s.note.as_deref()).collect();
         assert!(notes.iter().any(|n| n.contains("the card accepted `#1J+`")));
         assert!(notes.iter().any(|n| n.contains("fewer answers than commands")));
+    }
+
+    #[test]
+    fn notes_waiting_for_a_step_stay_bounded_however_many_lines_bring_them() {
+        // A client that sends only commands the model cannot hold (I-variables beyond I8191
+        // or with numbers too long to read) makes notes and no steps; the notes wait for the
+        // next step. Before the bound they grew without limit (850 MB in 5 s) and the step
+        // that finally came was one line of hundreds of MB. Now the first NOTES_PER_STEP_MAX
+        // are kept, each cut to NOTE_BYTES_MAX, and the rest are counted.
+        let long = format!("I9{}", "0".repeat(1400));
+        let mut buf = Vec::new();
+        let mut w = CaptureWriter::new(&mut buf, "test", "i40-zero", Timing::Exact).unwrap();
+        for _ in 0..10_000 {
+            w.exchange(&format!("{long} I9000"), Some(b"\x07ERR003\r")).unwrap();
+        }
+        w.exchange("???", Some(b"000000000000\r\x06")).unwrap();
+        assert!(w.finish().unwrap().is_empty(), "the notes went with the `???` step");
+        let longest = buf.split(|b| *b == b'\n').map(<[u8]>::len).max().unwrap();
+        assert!(longest <= NOTES_PER_STEP_MAX * (NOTE_BYTES_MAX + 2) + 200, "one step line is {longest} bytes");
+        let t = read_all(Path::new("capture.jsonl"), buf.as_slice()).unwrap();
+        let note = t.steps.last().unwrap().note.clone().unwrap();
+        assert!(note.contains("19992 more notes like these omitted"), "{}", &note[note.len() - 80..]);
+    }
+
+    #[test]
+    fn notes_left_at_the_end_are_bounded_too() {
+        // The notes that no step took are handed back by finish, within the same bounds.
+        let mut buf = Vec::new();
+        let mut w = CaptureWriter::new(&mut buf, "test", "i40-zero", Timing::Exact).unwrap();
+        for k in 0..100 {
+            w.note(format!("note {k}: {}", "z".repeat(2000)));
+        }
+        let left = w.finish().unwrap();
+        assert_eq!(left.len(), NOTES_PER_STEP_MAX + 1);
+        assert!(left[..NOTES_PER_STEP_MAX].iter().all(|n| n.len() <= NOTE_BYTES_MAX));
+        assert_eq!(left[NOTES_PER_STEP_MAX], "92 more notes like these omitted");
+    }
+
+    #[test]
+    fn a_refused_framing_write_is_left_out_of_the_replay() {
+        // The emulator answers `I3=4` with ERR003 (MODEL); the model would take it. A reply
+        // with an error cannot be matched to a write (the error may be a later command's),
+        // so the line's commands become steps without expectations, which a replay executes:
+        // the model would then hold I3 = 4 and a later read of I3 (compared: the capture wrote
+        // I3) would diverge. The refused write is left out, as a note.
+        let t = capture(
+            Timing::Exact,
+            &[("i6=1 i3=2", Some(b"\x06")), ("I3=4", Some(b"\x07ERR003\r")), ("I3", Some(b"2\r\x06"))],
+        );
+        let r = replies(&t);
+        assert_eq!(r.iter().filter(|(c, _)| c == "I3=4").count(), 0, "{r:?}");
+        assert_eq!(r.last(), Some(&("I3".to_string(), Some("2".to_string()))));
+        let note = t.steps.iter().find_map(|s| s.note.as_deref()).unwrap();
+        assert!(note.contains("`I3=4` left out: I3 ranges 0..3"), "{note}");
     }
 }

@@ -5,7 +5,7 @@
 
 use crate::capture::CaptureWriter;
 use crate::control::{Control, HELP};
-use crate::framing::{split_commands, Answer, Framing};
+use crate::framing::{framing_write_out_of_range, split_commands, Answer, Framing};
 use pmacwd_bridge::{core_command, core_event, spec_load};
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
@@ -31,11 +31,41 @@ impl Default for Identity {
     }
 }
 
+/// The fastest servo clock the card runs at. MODEL: the clock registers allow tens of MHz
+/// (I7000 = 0, SRM p.214-216), so the bound is the CPU's: on a 20 MHz PMAC the servo update
+/// costs about 30 us per motor plus 30 us of general tasks (PMAC Quick Reference Guide p.8),
+/// and a Turbo CPU some ten times faster still needs several microseconds per cycle with one
+/// motor; 100 kHz is above any rate a real card sustains (the default is 2.26 kHz). For the
+/// emulator it bounds the work of time: at about 4 ns a cycle, 100 kHz of servo cycles cost
+/// under 0.1% of a core, so the card always catches up with the wall clock.
+pub const SERVO_HZ_MAX: u32 = 100_000;
+
+/// The servo rate to run at: `flag` (`--servo-hz`), or else the configuration's; refused,
+/// with the range, unless it is 1..[`SERVO_HZ_MAX`].
+pub fn servo_rate(flag: Option<u32>, configuration_hz: u32, configuration: &str) -> Result<u32, String> {
+    let hz = flag.unwrap_or(configuration_hz);
+    if (1..=SERVO_HZ_MAX).contains(&hz) {
+        return Ok(hz);
+    }
+    Err(match flag {
+        Some(_) => format!("--servo-hz {hz}: the servo clock ranges 1..{SERVO_HZ_MAX} Hz (at least 1, at most {SERVO_HZ_MAX})"),
+        None => format!(
+            "configuration {configuration} has a servo clock of {hz} Hz; the emulator's ranges 1..{SERVO_HZ_MAX} Hz (give --servo-hz)"
+        ),
+    })
+}
+
+/// The most servo cycles the card runs in one call (a catch-up with the wall clock, or one
+/// chunk of a `step`), so that whoever shares it behind a lock waits at most that long: about
+/// 0.4 ms at the measured 4 ns a cycle (a few times a `???` round trip on loopback), while
+/// the cost of taking the lock again (well under a microsecond) stays negligible.
+pub const CYCLES_PER_HOLD_MAX: u32 = 100_000;
+
 /// How time passes for the card.
 #[derive(Clone, Copy, Debug)]
 pub enum Clock {
-    /// The servo rate against the wall clock: the cycles due are run before every request and
-    /// control command (an idle card costs nothing between them).
+    /// The servo rate against the wall clock (at most [`SERVO_HZ_MAX`]): the cycles due are
+    /// run before every request and control command, [`CYCLES_PER_HOLD_MAX`] at a time.
     Wall { start: Instant, servo_hz: u32 },
     /// Only `step` and `servo` on the control interface move time (for tests).
     Virtual,
@@ -108,6 +138,11 @@ impl Card {
         Card::power_on(pmacwd_bridge::core_config(&model), &SAVED_DEFAULT, clock, Identity::default())
     }
 
+    /// How time passes for this card.
+    pub fn clock(&self) -> Clock {
+        self.clock
+    }
+
     /// Records every exchange and event from now on.
     pub fn record(&mut self, capture: CaptureWriter<Box<dyn Write + Send>>) {
         self.capture = Some(capture);
@@ -132,13 +167,35 @@ impl Card {
         }
     }
 
-    /// Runs the servo cycles the wall clock says are due.
-    fn catch_up(&mut self) {
-        if let Clock::Wall { start, servo_hz } = self.clock {
-            let due = start.elapsed().as_nanos().saturating_mul(u128::from(servo_hz)) / 1_000_000_000;
-            let due = u64::try_from(due).unwrap_or(u64::MAX);
-            self.run(due.saturating_sub(self.cycles));
+    /// The servo cycles that have passed since power-up by the card's clock: on the wall clock
+    /// those due by now, in virtual time those run so far.
+    pub fn due_cycles(&self) -> u64 {
+        match self.clock {
+            Clock::Wall { start, servo_hz } => {
+                let due = start.elapsed().as_nanos().saturating_mul(u128::from(servo_hz)) / 1_000_000_000;
+                u64::try_from(due).unwrap_or(u64::MAX)
+            }
+            Clock::Virtual => self.cycles,
         }
+    }
+
+    /// Runs the cycles still to run up to `target` (a [`Card::due_cycles`]), at most
+    /// [`CYCLES_PER_HOLD_MAX`] of them; `true` once the card has reached `target`. A caller
+    /// that holds the card behind a lock releases it between calls, so that no one waits
+    /// longer than one call for it.
+    pub fn run_towards(&mut self, target: u64) -> bool {
+        let n = target.saturating_sub(self.cycles).min(u64::from(CYCLES_PER_HOLD_MAX));
+        if n > 0 {
+            self.run(n);
+        }
+        self.cycles >= target
+    }
+
+    /// Runs the servo cycles the wall clock says are due, at most [`CYCLES_PER_HOLD_MAX`] of
+    /// them: a caller that let the card fall further behind catches up over several calls.
+    fn catch_up(&mut self) {
+        let target = self.due_cycles();
+        self.run_towards(target);
     }
 
     /// `n` servo cycles, a background cycle completing after each one in which the load allows
@@ -214,6 +271,13 @@ impl Card {
         let Ok(command) = HostCommand::parse(text) else {
             return Answer::Error(3);
         };
+        // I3 and I6 range 0..3; a write outside it is refused and changes nothing (MODEL,
+        // `framing::FRAMING_VALUE_MAX`). Neither lies in a range I41 locks (SRM p.57).
+        if let HostCommand::WriteI(n, v) = command {
+            if framing_write_out_of_range(n, v) {
+                return Answer::Error(3);
+            }
+        }
         match self.core.command(&self.cfg, core_command(&command), &mut self.store) {
             core::Reply::None | core::Reply::Ack | core::Reply::Silence => Answer::Nothing,
             core::Reply::Status { x, y } => {
@@ -269,9 +333,9 @@ impl Card {
                     .into();
             }
             Control::Step { cycles } => {
+                // A caller that shares the card splits long steps (`CYCLES_PER_HOLD_MAX`).
                 self.run(u64::from(cycles));
-                let step = Step { event: TraceEvent::Run { cycles }, expect: Expect::default(), note: None };
-                return format!("ok {}", step_line(&step));
+                return Card::step_reply(cycles);
             }
             Control::Servo { cycles } => Event::Servo { cycles },
             Control::State => return format!("ok {}", self.state()),
@@ -285,6 +349,12 @@ impl Card {
         let line = step_line(&step);
         self.captured(|c| c.event(step));
         format!("ok {line}")
+    }
+
+    /// The reply to `step N`: `ok` and the trace step (also when the server ran it in chunks).
+    pub fn step_reply(cycles: u32) -> String {
+        let step = Step { event: TraceEvent::Run { cycles }, expect: Expect::default(), note: None };
+        format!("ok {}", step_line(&step))
     }
 
     /// What a bench can see of the card, on one line.
@@ -348,5 +418,40 @@ mod tests {
         let mut c = card();
         assert_eq!(c.line(b"i3=0 I40").unwrap(), b"0\r", "no ACK under I3 = 0");
         assert_eq!(c.line(b"$$$").unwrap(), b"\x06", "$$$ restores the saved I3 = 2");
+    }
+
+    #[test]
+    fn one_call_runs_at_most_one_chunk_of_the_cycles_due() {
+        // A card far behind the wall clock (here ten seconds at the fastest servo clock: a
+        // million cycles) catches up CYCLES_PER_HOLD_MAX cycles per call, so that a caller
+        // holding it behind a lock can let others in between chunks; the calls still reach
+        // the target exactly.
+        let start = Instant::now() - std::time::Duration::from_secs(10);
+        let mut c = card();
+        c.clock = Clock::Wall { start, servo_hz: SERVO_HZ_MAX };
+        let target = c.due_cycles();
+        assert!(target >= 1_000_000);
+        assert!(!c.run_towards(target));
+        assert_eq!(c.cycles, u64::from(CYCLES_PER_HOLD_MAX));
+        let mut calls = 1;
+        loop {
+            calls += 1;
+            if c.run_towards(target) {
+                break;
+            }
+        }
+        assert_eq!(c.cycles, target);
+        assert_eq!(calls, target.div_ceil(u64::from(CYCLES_PER_HOLD_MAX)));
+    }
+
+    #[test]
+    fn a_framing_write_outside_0_to_3_is_refused_and_the_framing_stays() {
+        // `I3=4` used to be stored, and its low bits (0) then framed every reply: no ACK ever
+        // again, so clients hung. Now it is ERR003 (MODEL, FRAMING_VALUE_MAX) and I3 stays 2.
+        let mut c = card();
+        assert_eq!(c.line(b"I3=4").unwrap(), b"\x07ERR003\r");
+        assert_eq!(c.line(b"I6=-1").unwrap(), b"\x07ERR003\r");
+        assert_eq!(c.line(b"I3 I6").unwrap(), b"2\r1\r\x06", "both unchanged, the line acknowledged");
+        assert_eq!(c.line(b"I3=3 I3=2").unwrap(), b"\x06", "0..3 are written as before");
     }
 }

@@ -20,6 +20,31 @@
 //! ```
 
 use pmacwd_specs::check::{ChecksumTarget, ResetEvent, ResetKind};
+use std::io::{self, BufRead, Read};
+
+/// A control line (its newline included) is at most this long; a longer one closes its
+/// connection with an error line, on the emulator's control port and on the proxy's. The
+/// longest command is `power dpram_fault flash_fault bootstrap` (39 bytes) and a reply is a
+/// few hundred bytes (`help`), so 1,024 leaves room for spacing and future commands while a
+/// client that never sends a newline holds at most a kilobyte.
+pub const CONTROL_LINE_BYTES_MAX: usize = 1024;
+
+/// Reads one line into `line` (cleared first), newline included, of at most `bytes_max`
+/// bytes: `Ok(true)` for a line (or the bytes before the end of the stream), `Ok(false)` at
+/// the end of the stream, and an error of kind `InvalidData` for a longer line, after which
+/// the stream has no next line to find.
+pub fn read_line_max(reader: &mut impl BufRead, line: &mut Vec<u8>, bytes_max: usize) -> io::Result<bool> {
+    line.clear();
+    let limit = u64::try_from(bytes_max).unwrap_or(u64::MAX);
+    let n = reader.by_ref().take(limit).read_until(b'\n', line)?;
+    if n == 0 {
+        return Ok(false);
+    }
+    if line.last() != Some(&b'\n') && n == bytes_max {
+        return Err(io::Error::new(io::ErrorKind::InvalidData, format!("a control line is at most {bytes_max} bytes")));
+    }
+    Ok(true)
+}
 
 /// One control command.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -156,5 +181,22 @@ mod tests {
         assert!(Control::parse("load speed=3").unwrap_err().contains("`speed`"));
         assert!(Control::parse("init now").unwrap_err().contains("unexpected `now`"));
         assert!(Control::parse("servo").unwrap_err().contains("missing number"));
+    }
+
+    #[test]
+    fn a_line_longer_than_the_maximum_is_an_error_not_a_growing_buffer() {
+        // A control client that never sends a newline used to be buffered without limit (528
+        // MB measured through the proxy); the reader stops at the maximum and says so.
+        let mut line = Vec::new();
+        let mut ok = io::BufReader::new(&b"state\nhelp"[..]);
+        assert!(read_line_max(&mut ok, &mut line, 16).unwrap());
+        assert_eq!(line, b"state\n");
+        assert!(read_line_max(&mut ok, &mut line, 16).unwrap());
+        assert_eq!(line, b"help", "the last bytes before the end");
+        assert!(!read_line_max(&mut ok, &mut line, 16).unwrap());
+        let endless = io::repeat(b'x').take(1 << 30);
+        let e = read_line_max(&mut io::BufReader::new(endless), &mut line, CONTROL_LINE_BYTES_MAX).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::InvalidData);
+        assert!(line.len() <= CONTROL_LINE_BYTES_MAX);
     }
 }

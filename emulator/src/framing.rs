@@ -23,6 +23,19 @@
 //! show the `BEL` in place of the acknowledgement; that the rest of the line is dropped is this
 //! emulator's reading, and `pmacwd record` assumes the same when it aligns answers).
 
+/// I3 and I6 range 0 to 3 (SRM p.37 for I3; PMAC2 SRM p.25 for I6, whose text the Turbo card
+/// shares). MODEL: the manuals do not say what the card does with a write outside the range.
+/// The emulator answers ERR003 ("data error or unrecognized command") and leaves the variable
+/// as it was, as the model and the core do for I8, I40 and I41. Keeping only the two low bits
+/// instead would turn `I3=4` into I3 = 0, under which a valid line gets no acknowledgement at
+/// all and a client waiting for one hangs.
+pub const FRAMING_VALUE_MAX: i64 = 3;
+
+/// Whether writing `value` to I-variable `n` is refused as outside the range of I3 or I6.
+pub fn framing_write_out_of_range(n: u16, value: i64) -> bool {
+    matches!(n, 3 | 6) && !(0..=FRAMING_VALUE_MAX).contains(&value)
+}
+
 pub const LF: u8 = 0x0A;
 pub const CR: u8 = 0x0D;
 pub const ACK: u8 = 0x06;
@@ -72,7 +85,8 @@ pub struct Framing {
 }
 
 impl Framing {
-    /// Only the two low bits of I3 and I6 select a mode (their range is 0 to 3).
+    /// Only the two low bits of I3 and I6 select a mode (their range is 0 to 3, and writes
+    /// outside it are refused: [`FRAMING_VALUE_MAX`]; saved values are checked too).
     fn i3(self) -> i64 {
         self.i3 & 3
     }

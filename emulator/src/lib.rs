@@ -2,6 +2,7 @@
 //! compact core, and a recording proxy (`pmacwd record`) that writes host sessions as
 //! captures in the trace format. `docs/emulator.md` is the user's guide.
 
+pub mod bounded;
 pub mod capture;
 pub mod card;
 pub mod control;

@@ -21,17 +21,32 @@
 //! commands seen on the proxied control interface of a `pmacwd serve --virtual-time`.
 //! Concurrent sessions share one timeline, in the order their exchanges complete.
 
+use crate::bounded::{accepted, spawn, CountedLog};
 use crate::capture::{CaptureWriter, Timing};
+use crate::control::{read_line_max, CONTROL_LINE_BYTES_MAX};
 use crate::framing::{ACK, BEL, CR};
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
 use pmacwd_trace::Step;
-use std::collections::{BTreeSet, VecDeque};
-use std::io::{self, BufRead, BufReader, Read, Write};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::io::{self, BufReader, Read, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread;
 use std::time::{Duration, Instant};
+
+/// A reply line from the proxied control interface is at most this long, its newline
+/// included; a longer one ends that control session with an error line. The emulator's
+/// longest reply (`help`) is about 400 bytes and a step's JSON a few hundred: ten times that
+/// leaves room while a target that never ends its line costs at most 4 KiB.
+pub const CONTROL_REPLY_BYTES_MAX: usize = 4096;
+
+/// The bytes of one reply kept for the capture; the rest are forwarded and counted, not
+/// kept. The emulator's longest reply is 4,850 bytes (a full line of `???`); a real card's
+/// listing of a program can be longer, and a reply the model cannot match is only a note.
+/// 256 KiB keeps every reply a capture can compare while a card that never ends its reply
+/// costs a session at most that.
+pub const REPLY_RECORDED_BYTES_MAX: usize = 256 * 1024;
 
 #[derive(Clone, Debug)]
 pub struct RecordOptions {
@@ -46,6 +61,10 @@ pub struct RecordOptions {
     /// Stop after this many host sessions have ended.
     pub sessions: Option<u64>,
     pub verbose: bool,
+    /// The stack of each session's threads (`None`: the platform's default). A size the
+    /// system cannot give makes every session's thread fail to start, which is how the tests
+    /// reach that path.
+    pub thread_stack_bytes: Option<usize>,
 }
 
 /// The shared timeline and the capture.
@@ -56,11 +75,23 @@ pub struct Recorder {
     virtual_time: bool,
     cycles_written: u64,
     pub exchanges: u64,
+    /// Requests forwarded but not recorded since the last exchange, by request code: written
+    /// as one note with the next exchange (or at the end), not one note each (a million
+    /// READREADY polls were 118 MB of notes before).
+    not_recorded: BTreeMap<u8, u64>,
 }
 
 impl Recorder {
     pub fn new(capture: CaptureWriter<Box<dyn Write + Send>>, servo_hz: u32, virtual_time: bool) -> Recorder {
-        Recorder { capture, start: Instant::now(), servo_hz, virtual_time, cycles_written: 0, exchanges: 0 }
+        Recorder {
+            capture,
+            start: Instant::now(),
+            servo_hz,
+            virtual_time,
+            cycles_written: 0,
+            exchanges: 0,
+            not_recorded: BTreeMap::new(),
+        }
     }
 
     /// The timing a capture made with these options has.
@@ -89,19 +120,39 @@ impl Recorder {
     fn exchange(&mut self, at: Instant, line: &str, reply: Option<&[u8]>) -> io::Result<()> {
         self.advance_to(at);
         self.exchanges += 1;
+        self.note_not_recorded();
         self.capture.exchange(line, reply)
     }
 
     fn event(&mut self, at: Instant, step: Step) -> io::Result<()> {
         self.advance_to(at);
+        self.note_not_recorded();
         self.capture.event(step)
+    }
+
+    /// A request forwarded to the card that the capture does not record (READREADY, FLUSH,
+    /// SENDLINE, ...): counted by its code.
+    fn count_not_recorded(&mut self, code: u8) {
+        let n = self.not_recorded.entry(code).or_insert(0);
+        *n = n.saturating_add(1);
+    }
+
+    /// The requests counted since the last exchange, as one note for the next step.
+    fn note_not_recorded(&mut self) {
+        if self.not_recorded.is_empty() {
+            return;
+        }
+        let counts: Vec<String> =
+            std::mem::take(&mut self.not_recorded).into_iter().map(|(code, n)| format!("0x{code:02X} x {n}")).collect();
+        self.capture.note(format!("requests forwarded, not recorded (code x count): {}", counts.join(", ")));
     }
 
     fn capture_note(&mut self, note: String) {
         self.capture.note(note);
     }
 
-    pub fn finish(self) -> io::Result<(u64, u64, Vec<String>)> {
+    pub fn finish(mut self) -> io::Result<(u64, u64, Vec<String>)> {
+        self.note_not_recorded();
         let steps = self.capture.steps;
         Ok((self.exchanges, steps, self.capture.finish()?))
     }
@@ -113,6 +164,12 @@ struct Shared {
     sessions_ended: AtomicU64,
     stopping: AtomicBool,
     order: Order,
+    /// Sessions the system would not start a thread for.
+    spawn_failures: CountedLog,
+    /// Sessions whose card (or control interface) could not be reached.
+    unreachable: CountedLog,
+    /// Accepts that failed (no file descriptor left, mostly).
+    accept_errors: CountedLog,
 }
 
 impl Shared {
@@ -155,7 +212,12 @@ struct Awaiting {
     /// The command line, for a VR_PMAC_GETRESPONSE; other requests are forwarded, not recorded.
     line: Option<String>,
     end: ReplyEnd,
+    /// The reply's first [`REPLY_RECORDED_BYTES_MAX`] bytes.
     bytes: Vec<u8>,
+    /// The reply's bytes beyond those kept.
+    bytes_dropped: u64,
+    /// The reply's last byte, kept or not (an error ends at a CR after a digit).
+    last_byte: Option<u8>,
     /// Inside an error message (after its BEL), for [`ReplyEnd::Line`].
     in_error: bool,
 }
@@ -185,10 +247,10 @@ impl Awaiting {
                             self.in_error = true;
                             false
                         }
-                        CR => self.in_error && self.bytes.last().is_some_and(u8::is_ascii_digit),
+                        CR => self.in_error && self.last_byte.is_some_and(|l| l.is_ascii_digit()),
                         _ => false,
                     };
-                    self.bytes.push(b);
+                    self.keep(b);
                     if ends {
                         return (i + 1, true);
                     }
@@ -196,6 +258,21 @@ impl Awaiting {
                 (new.len(), false)
             }
         }
+    }
+
+    /// One byte of a line's reply: kept up to [`REPLY_RECORDED_BYTES_MAX`], counted beyond.
+    fn keep(&mut self, b: u8) {
+        if self.bytes.len() < REPLY_RECORDED_BYTES_MAX {
+            self.bytes.push(b);
+        } else {
+            self.bytes_dropped = self.bytes_dropped.saturating_add(1);
+        }
+        self.last_byte = Some(b);
+    }
+
+    /// Whether any reply byte came.
+    fn answered(&self) -> bool {
+        self.last_byte.is_some() || !self.bytes.is_empty()
     }
 }
 
@@ -222,7 +299,16 @@ impl Session {
             self.clock_from = now;
         }
         let id = shared.order.forwarded();
-        self.waiting.push_back(Awaiting { id, sent: now, line, end, bytes: Vec::new(), in_error: false });
+        self.waiting.push_back(Awaiting {
+            id,
+            sent: now,
+            line,
+            end,
+            bytes: Vec::new(),
+            bytes_dropped: 0,
+            last_byte: None,
+            in_error: false,
+        });
     }
 
     /// A new request came while the oldest has part of a reply whose end the proxy cannot
@@ -230,7 +316,7 @@ impl Session {
     /// on, so that reply ends here. A request with no reply byte yet keeps waiting: the card
     /// answers in order, or the silence closes it.
     fn host_moved_on(&mut self, shared: &Shared) {
-        if self.waiting.front().is_some_and(|a| !a.bytes.is_empty()) {
+        if self.waiting.front().is_some_and(Awaiting::answered) {
             self.resolve_front(shared);
         }
     }
@@ -262,8 +348,16 @@ impl Session {
     fn resolve_front(&mut self, shared: &Shared) {
         let Some(a) = self.waiting.pop_front() else { return };
         if let Some(line) = &a.line {
-            let reply = (!a.bytes.is_empty()).then_some(a.bytes.as_slice());
-            shared.record(|r| r.exchange(a.sent, line, reply));
+            let reply = a.answered().then_some(a.bytes.as_slice());
+            let dropped = a.bytes_dropped;
+            shared.record(|r| {
+                if dropped > 0 {
+                    r.capture_note(format!(
+                        "the reply to `{line}` had {dropped} more bytes than the {REPLY_RECORDED_BYTES_MAX} kept: forwarded, not recorded"
+                    ));
+                }
+                r.exchange(a.sent, line, reply)
+            });
         }
         // The next request's wait for its reply counts from here.
         self.clock_from = Instant::now();
@@ -350,19 +444,37 @@ impl Proxy {
             None => None,
         };
         let control_addr = control.as_ref().map(|l| l.local_addr()).transpose()?;
+        let verbose = options.verbose;
         let shared = Arc::new(Shared {
             recorder: Mutex::new(Some(recorder)),
             options,
             sessions_ended: AtomicU64::new(0),
             stopping: AtomicBool::new(false),
             order: Order::new(),
+            spawn_failures: CountedLog::new("pmacwd record", "sessions closed for want of a thread", verbose),
+            unreachable: CountedLog::new("pmacwd record", "sessions closed: the card could not be reached", verbose),
+            accept_errors: CountedLog::new("pmacwd record", "failed accepts", verbose),
         });
         let mut accept = Vec::new();
         let s = shared.clone();
-        accept.push(thread::spawn(move || accept_hosts(listener, local_addr, s)));
+        accept.push(spawn("record: accept hosts".into(), None, move || accept_hosts(listener, local_addr, s))?);
+        let s = shared.clone();
+        if let Err(e) = spawn("record: summaries".into(), None, move || summaries(&s)) {
+            shared.stopping.store(true, Ordering::SeqCst);
+            let _ = TcpStream::connect(local_addr);
+            return Err(e);
+        }
         if let Some(l) = control {
             let s = shared.clone();
-            accept.push(thread::spawn(move || accept_control(l, s)));
+            match spawn("record: accept control".into(), None, move || accept_control(l, s)) {
+                Ok(t) => accept.push(t),
+                Err(e) => {
+                    // No proxy without the control interface it was asked for.
+                    shared.stopping.store(true, Ordering::SeqCst);
+                    let _ = TcpStream::connect(local_addr);
+                    return Err(e);
+                }
+            }
         }
         Ok(Proxy { shared, local_addr, control_addr, accept })
     }
@@ -378,6 +490,9 @@ impl Proxy {
 
     fn close(self) -> io::Result<(u64, u64, Vec<String>)> {
         self.shared.stopping.store(true, Ordering::SeqCst);
+        self.shared.spawn_failures.flush();
+        self.shared.unreachable.flush();
+        self.shared.accept_errors.flush();
         if let Some(a) = self.control_addr {
             let _ = TcpStream::connect(a);
         }
@@ -388,26 +503,42 @@ impl Proxy {
     }
 }
 
+/// How often the proxy looks whether a summary of its logs is due: a summary comes at most
+/// every [`crate::bounded::SUMMARY_INTERVAL`], so a second's delay on it is nothing.
+const SUMMARY_CHECK_INTERVAL: Duration = Duration::from_secs(1);
+
+/// Until the proxy stops: prints the summaries of the logs that are due.
+fn summaries(shared: &Shared) {
+    while !shared.stopping.load(Ordering::SeqCst) {
+        thread::sleep(SUMMARY_CHECK_INTERVAL);
+        for log in [&shared.spawn_failures, &shared.unreachable, &shared.accept_errors] {
+            log.flush_due();
+        }
+    }
+}
+
 fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
     let mut next = 0u64;
     for client in listener.incoming() {
         if shared.stopping.load(Ordering::SeqCst) {
             return;
         }
-        let Ok(client) = client else { continue };
+        let Some(client) = accepted(client, &shared.accept_errors) else { continue };
         next += 1;
         let id = next;
-        let card = match TcpStream::connect(&shared.options.target) {
-            Ok(c) => c,
-            Err(e) => {
-                eprintln!("pmacwd record: session {id}: cannot reach the card at {}: {e}", shared.options.target);
-                continue;
-            }
-        };
         let s = shared.clone();
-        thread::spawn(move || {
+        // The card is reached from the session's own thread: a card slow to answer the
+        // connection holds up that session only, never the accepting of others.
+        let started = spawn(format!("record: session {id}"), shared.options.thread_stack_bytes, move || {
+            let card = match TcpStream::connect(&s.options.target) {
+                Ok(c) => c,
+                Err(e) => {
+                    s.unreachable.report(&format!("session {id}: cannot reach the card at {}: {e}", s.options.target));
+                    return;
+                }
+            };
             s.log(&format!("session {id} opened"));
-            host_session(client, card, &s);
+            host_session(client, card, &s, id);
             s.log(&format!("session {id} ended"));
             let ended = s.sessions_ended.fetch_add(1, Ordering::SeqCst) + 1;
             if s.options.sessions.is_some_and(|n| ended >= n) {
@@ -416,10 +547,14 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
                 let _ = TcpStream::connect(own);
             }
         });
+        if let Err(e) = started {
+            // The client's socket went with the closure: that connection is closed.
+            shared.spawn_failures.report(&format!("session {id}: cannot start its thread: {e}"));
+        }
     }
 }
 
-fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>) {
+fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>, id: u64) {
     let session = Arc::new(Mutex::new(Session::new()));
     let (Ok(client_w), Ok(card_r), Ok(card_w)) = (client.try_clone(), card.try_clone(), card.try_clone()) else {
         return;
@@ -429,7 +564,19 @@ fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>) {
     let replies = {
         let shared = shared.clone();
         let session = session.clone();
-        thread::spawn(move || replies_to_host(card_r, client_w, &shared, &session))
+        spawn(format!("record: replies {id}"), shared.options.thread_stack_bytes, move || {
+            replies_to_host(card_r, client_w, &shared, &session)
+        })
+    };
+    let replies = match replies {
+        Ok(r) => r,
+        Err(e) => {
+            // Without a thread for the replies the session cannot be proxied: close both ends.
+            let _ = client.shutdown(Shutdown::Both);
+            let _ = card.shutdown(Shutdown::Both);
+            shared.spawn_failures.report(&format!("session {id}: cannot start its reply thread: {e}"));
+            return;
+        }
     };
     requests_to_card(client, card_w, shared, &session);
     let _ = card.shutdown(Shutdown::Write);
@@ -467,7 +614,7 @@ fn requests_to_card(client: TcpStream, mut card: TcpStream, shared: &Shared, ses
             let code = h.request;
             let not_recorded = |shared: &Shared| {
                 shared.record(|r| {
-                    r.capture_note(format!("request 0x{code:02X} forwarded, not recorded"));
+                    r.count_not_recorded(code);
                     Ok(())
                 })
             };
@@ -479,7 +626,7 @@ fn requests_to_card(client: TcpStream, mut card: TcpStream, shared: &Shared, ses
                 }
                 Ok(Request::NextPacket) => {
                     // The next packet of a long reply still coming belongs to that reply.
-                    let continues = s.waiting.back().is_some_and(|a| a.line.is_some() && !a.bytes.is_empty());
+                    let continues = s.waiting.back().is_some_and(|a| a.line.is_some() && a.answered());
                     if !continues {
                         s.host_moved_on(shared);
                         if code != VR_PMAC_GETBUFFER {
@@ -556,20 +703,24 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
         if shared.stopping.load(Ordering::SeqCst) {
             return;
         }
-        let Ok(client) = client else { continue };
-        let card = match TcpStream::connect(&target) {
-            Ok(c) => c,
-            Err(e) => {
-                eprintln!("pmacwd record: cannot reach the control interface at {target}: {e}");
-                continue;
-            }
-        };
+        let Some(client) = accepted(client, &shared.accept_errors) else { continue };
         let s = shared.clone();
-        thread::spawn(move || {
+        let target = target.clone();
+        let started = spawn("record: control".into(), shared.options.thread_stack_bytes, move || {
+            let card = match TcpStream::connect(&target) {
+                Ok(c) => c,
+                Err(e) => {
+                    s.unreachable.report(&format!("cannot reach the control interface at {target}: {e}"));
+                    return;
+                }
+            };
             if let Err(e) = control_session(client, card, &s) {
                 s.log(&format!("control session: {e}"));
             }
         });
+        if let Err(e) = started {
+            shared.spawn_failures.report(&format!("control session: cannot start its thread: {e}"));
+        }
     }
 }
 
@@ -579,12 +730,19 @@ fn control_session(client: TcpStream, card: TcpStream, shared: &Shared) -> io::R
     let mut to_card = card.try_clone()?;
     let mut from_client = BufReader::new(client);
     let mut from_card = BufReader::new(card);
-    let (mut line, mut reply) = (String::new(), String::new());
+    let (mut line, mut reply) = (Vec::new(), Vec::new());
     loop {
-        line.clear();
-        if from_client.read_line(&mut line)? == 0 {
-            return Ok(());
+        match read_line_max(&mut from_client, &mut line, CONTROL_LINE_BYTES_MAX) {
+            Ok(true) => {}
+            Ok(false) => return Ok(()),
+            Err(e) if e.kind() == io::ErrorKind::InvalidData => {
+                // As the emulator's own control port answers: an error line, then the end.
+                writeln!(to_client, "error: {e}")?;
+                return Ok(());
+            }
+            Err(e) => return Err(e),
         }
+        let text = String::from_utf8_lossy(&line);
         // The card sees this command after every host request forwarded before it has been
         // answered or found silent, and the capture has them in that order.
         let limit = shared.options.silence.saturating_mul(4).max(Duration::from_secs(2));
@@ -592,21 +750,30 @@ fn control_session(client: TcpStream, card: TcpStream, shared: &Shared) -> io::R
             shared.record(|r| {
                 r.capture_note(format!(
                     "control `{}` forwarded while host requests still waited for replies after {} ms: their order is uncertain",
-                    line.trim_end(),
+                    text.trim_end(),
                     limit.as_millis()
                 ));
                 Ok(())
             });
         }
-        to_card.write_all(line.as_bytes())?;
-        reply.clear();
-        if from_card.read_line(&mut reply)? == 0 {
-            return Ok(());
+        to_card.write_all(&line)?;
+        match read_line_max(&mut from_card, &mut reply, CONTROL_REPLY_BYTES_MAX) {
+            Ok(true) => {}
+            Ok(false) => return Ok(()),
+            Err(e) if e.kind() == io::ErrorKind::InvalidData => {
+                writeln!(
+                    to_client,
+                    "error: the control interface at the target sent a reply over {CONTROL_REPLY_BYTES_MAX} bytes"
+                )?;
+                return Ok(());
+            }
+            Err(e) => return Err(e),
         }
         let at = Instant::now();
         // Recorded before the reply goes on, as host replies are: the client's next request
         // cannot reach the capture ahead of this event.
-        if let Some(json) = reply.trim_end().strip_prefix("ok {").map(|rest| format!("{{{rest}")) {
+        let text = String::from_utf8_lossy(&reply);
+        if let Some(json) = text.trim_end().strip_prefix("ok {").map(|rest| format!("{{{rest}")) {
             match serde_json::from_str::<Step>(&json) {
                 Ok(step) => shared.record(|r| r.event(at, step)),
                 Err(e) => shared.record(|r| {
@@ -615,6 +782,6 @@ fn control_session(client: TcpStream, card: TcpStream, shared: &Shared) -> io::R
                 }),
             }
         }
-        to_client.write_all(reply.as_bytes())?;
+        to_client.write_all(&reply)?;
     }
 }

@@ -4,15 +4,18 @@
 //!
 //! What keeps the server from wedging: a request the card cannot follow (unknown code, a
 //! length beyond its 1,492-byte buffer) closes that connection; a write that does not complete
-//! in `WRITE_TIMEOUT` closes it; connections idle past `idle_timeout` are closed; and when
-//! `clients_max` connections are open, the one idle longest makes room for a new one
-//! (half-open connections are never the ones in use).
+//! in `WRITE_TIMEOUT` closes it; connections idle past `idle_timeout` (control connections:
+//! `control_idle_timeout`) are closed; and when `clients_max` host connections (or
+//! [`CONTROL_CLIENTS_MAX`] control connections) are open, the one idle longest makes room for
+//! a new one (half-open connections are never the ones in use). The card's lock is held for
+//! at most [`CYCLES_PER_HOLD_MAX`] servo cycles at a time.
 
-use crate::card::Card;
-use crate::control::Control;
+use crate::bounded::{accepted, spawn, CountedLog};
+use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
+use crate::control::{read_line_max, Control, CONTROL_LINE_BYTES_MAX};
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
-use std::io::{self, BufRead, BufReader, Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::io::{self, BufReader, Write};
+use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread;
@@ -20,9 +23,24 @@ use std::time::{Duration, Instant};
 
 /// A reply that cannot be written in this time closes the connection.
 pub const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
-/// A control line longer than this is refused (the commands are a few words).
-const CONTROL_LINE_BYTES_MAX: u64 = 1024;
-const CONTROL_CLIENTS_MAX: usize = 16;
+/// On the wall clock the card is brought up to date this often even when no one asks, so that
+/// a request after a long silence finds at most this much time to catch up: at
+/// [`SERVO_HZ_MAX`], 10,000 servo cycles, within one lock hold ([`CYCLES_PER_HOLD_MAX`]),
+/// for ten wake-ups a second of a few microseconds each. Without it, a card idle for a day
+/// ran its 200 million cycles (about a second) before answering the next request.
+pub const CATCH_UP_INTERVAL: Duration = Duration::from_millis(100);
+const _: () = assert!(
+    SERVO_HZ_MAX as u128 * CATCH_UP_INTERVAL.as_millis() / 1000 <= CYCLES_PER_HOLD_MAX as u128,
+    "a catch-up between two wake-ups fits one lock hold"
+);
+/// Control connections open at once; a newcomer beyond it closes the one idle longest. A test
+/// bench uses one or two; sixteen leave room for several benches and a person with `nc`, and
+/// bound the threads the control port can cost.
+pub const CONTROL_CLIENTS_MAX: usize = 16;
+/// A control connection silent this long is closed (`serve --control-idle-timeout`), as a host
+/// connection is after `--idle-timeout`: ten minutes outlast any pause of a bench between
+/// two commands, and free what a client that left without closing holds.
+pub const CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS: u64 = 600;
 
 #[derive(Clone, Debug)]
 pub struct ServeOptions {
@@ -30,18 +48,26 @@ pub struct ServeOptions {
     pub control: Option<SocketAddr>,
     pub clients_max: usize,
     pub idle_timeout: Option<Duration>,
+    /// A control connection silent this long is closed (`None`: never).
+    pub control_idle_timeout: Option<Duration>,
     pub verbose: bool,
+    /// The stack of each connection's thread (`None`: the platform's default). A size the
+    /// system cannot give makes every connection's thread fail to start, which is how the
+    /// tests reach that path.
+    pub thread_stack_bytes: Option<usize>,
 }
 
 impl ServeOptions {
-    /// A free port on loopback, no control interface, no idle timeout (for tests and benches).
+    /// A free port on loopback, no control interface, no idle timeouts (for tests and benches).
     pub fn free_loopback_port(clients_max: usize) -> ServeOptions {
         ServeOptions {
             listen: SocketAddr::from(([127, 0, 0, 1], 0)),
             control: None,
             clients_max,
             idle_timeout: None,
+            control_idle_timeout: None,
             verbose: false,
+            thread_stack_bytes: None,
         }
     }
 }
@@ -51,7 +77,12 @@ impl ServeOptions {
 pub struct Stats {
     pub connections: AtomicU64,
     pub refused_requests: AtomicU64,
+    /// Host connections closed to make room for a newcomer.
     pub evicted: AtomicU64,
+    /// Control connections closed to make room for a newcomer.
+    pub control_evicted: AtomicU64,
+    /// Connections closed because the system would not start a thread for them.
+    pub spawn_failures: AtomicU64,
 }
 
 struct Connection {
@@ -60,19 +91,100 @@ struct Connection {
     last_active_ms: Arc<AtomicU64>,
 }
 
+/// The open connections of one kind (hosts, or control clients), at most `max` of them: a
+/// newcomer to a full table closes the one idle longest, so that connections that went
+/// silent (a half-open socket, a client that never closes) can never lock a new client out.
+struct Table {
+    max: usize,
+    open: Mutex<Vec<Connection>>,
+    next_id: AtomicU64,
+}
+
+impl Table {
+    fn new(max: usize) -> Table {
+        Table { max: max.max(1), open: Mutex::new(Vec::new()), next_id: AtomicU64::new(0) }
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Vec<Connection>> {
+        self.open.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Enters `stream`, closing the connection idle longest if the table is full: its id and
+    /// the clock its thread keeps up to date, and the id of the connection closed, if any.
+    fn admit(&self, stream: &TcpStream, now_ms: u64) -> io::Result<(u64, Arc<AtomicU64>, Option<u64>)> {
+        let handle = stream.try_clone()?;
+        let id = self.next_id.fetch_add(1, Ordering::Relaxed) + 1;
+        let last_active_ms = Arc::new(AtomicU64::new(now_ms));
+        let mut open = self.lock();
+        let mut evicted = None;
+        if open.len() >= self.max {
+            let idlest =
+                open.iter().enumerate().min_by_key(|(_, c)| c.last_active_ms.load(Ordering::Relaxed)).map(|(i, _)| i);
+            if let Some(i) = idlest {
+                let old = open.swap_remove(i);
+                let _ = old.stream.shutdown(Shutdown::Both);
+                evicted = Some(old.id);
+            }
+        }
+        open.push(Connection { id, stream: handle, last_active_ms: last_active_ms.clone() });
+        Ok((id, last_active_ms, evicted))
+    }
+
+    /// The connection's thread ended: it leaves the table.
+    fn forget(&self, id: u64) {
+        self.lock().retain(|c| c.id != id);
+    }
+
+    /// Closes the connection and takes it out of the table.
+    fn close(&self, id: u64) {
+        let mut open = self.lock();
+        if let Some(i) = open.iter().position(|c| c.id == id) {
+            let _ = open.swap_remove(i).stream.shutdown(Shutdown::Both);
+        }
+    }
+
+    fn close_all(&self) {
+        for c in self.lock().iter() {
+            let _ = c.stream.shutdown(Shutdown::Both);
+        }
+    }
+}
+
 struct Shared {
     card: Mutex<Card>,
     started: Instant,
     options: ServeOptions,
-    connections: Mutex<Vec<Connection>>,
+    hosts: Table,
+    controls: Table,
     stats: Stats,
     stopping: AtomicBool,
+    /// Connections the system would not start a thread for.
+    spawn_failures: CountedLog,
+    /// Requests the card cannot follow (each closes its connection): logged one by one only
+    /// with `verbose`, otherwise summed up, so that a client sending garbage in a loop cannot
+    /// fill standard error.
+    protocol_errors: CountedLog,
+    /// Accepts that failed (no file descriptor left, mostly).
+    accept_errors: CountedLog,
 }
 
 impl Shared {
     fn card(&self) -> MutexGuard<'_, Card> {
         // A panic elsewhere must not take the card down with it: the state stays usable.
         self.card.lock().unwrap_or_else(|e| e.into_inner())
+    }
+    /// The card, caught up with its clock: the servo cycles due when the call began run
+    /// [`CYCLES_PER_HOLD_MAX`] at a time, with the lock released between chunks, so that no
+    /// one waits behind a long catch-up for more than one chunk.
+    fn card_now(&self) -> MutexGuard<'_, Card> {
+        let mut card = self.card();
+        let target = card.due_cycles();
+        while !card.run_towards(target) {
+            drop(card);
+            thread::yield_now();
+            card = self.card();
+        }
+        card
     }
     fn now_ms(&self) -> u64 {
         u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX)
@@ -102,20 +214,41 @@ impl Server {
             None => None,
         };
         let control_addr = control.as_ref().map(|l| l.local_addr()).transpose()?;
+        let verbose = options.verbose;
         let shared = Arc::new(Shared {
             card: Mutex::new(card),
             started: Instant::now(),
+            hosts: Table::new(options.clients_max),
+            controls: Table::new(CONTROL_CLIENTS_MAX),
             options,
-            connections: Mutex::new(Vec::new()),
             stats: Stats::default(),
             stopping: AtomicBool::new(false),
+            spawn_failures: CountedLog::new("pmacwd serve", "connections closed for want of a thread", verbose),
+            protocol_errors: CountedLog::new("pmacwd serve", "protocol errors, each closing its connection", verbose),
+            accept_errors: CountedLog::new("pmacwd serve", "failed accepts", verbose),
         });
         let mut threads = Vec::new();
         let s = shared.clone();
-        threads.push(thread::spawn(move || accept_hosts(listener, s)));
+        threads.push(spawn("serve: housekeeping".into(), None, move || housekeeping(&s))?);
+        let s = shared.clone();
+        match spawn("serve: accept hosts".into(), None, move || accept_hosts(listener, s)) {
+            Ok(t) => threads.push(t),
+            Err(e) => {
+                shared.stopping.store(true, Ordering::SeqCst);
+                return Err(e);
+            }
+        }
         if let Some(l) = control {
             let s = shared.clone();
-            threads.push(thread::spawn(move || accept_control(l, s)));
+            match spawn("serve: accept control".into(), None, move || accept_control(l, s)) {
+                Ok(t) => threads.push(t),
+                Err(e) => {
+                    // No server without its control interface: stop the host listener again.
+                    shared.stopping.store(true, Ordering::SeqCst);
+                    let _ = TcpStream::connect(local_addr);
+                    return Err(e);
+                }
+            }
         }
         Ok(Server { shared, local_addr, control_addr, threads })
     }
@@ -144,61 +277,75 @@ impl Server {
         if let Some(a) = self.control_addr {
             let _ = TcpStream::connect(a);
         }
-        for c in self.shared.connections.lock().unwrap_or_else(|e| e.into_inner()).iter() {
-            let _ = c.stream.shutdown(std::net::Shutdown::Both);
-        }
+        self.shared.hosts.close_all();
+        self.shared.controls.close_all();
         for t in self.threads.drain(..) {
             let _ = t.join();
+        }
+        self.shared.spawn_failures.flush();
+        self.shared.protocol_errors.flush();
+        self.shared.accept_errors.flush();
+    }
+}
+
+/// Until the server stops, every [`CATCH_UP_INTERVAL`]: brings a wall-clock card up to date,
+/// and prints the summaries of the logs that are due.
+fn housekeeping(shared: &Shared) {
+    let wall_clock = matches!(shared.card().clock(), Clock::Wall { .. });
+    while !shared.stopping.load(Ordering::SeqCst) {
+        thread::sleep(CATCH_UP_INTERVAL);
+        if wall_clock {
+            drop(shared.card_now());
+        }
+        for log in [&shared.spawn_failures, &shared.protocol_errors, &shared.accept_errors] {
+            log.flush_due();
         }
     }
 }
 
 fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
-    let mut next_id = 0u64;
     for stream in listener.incoming() {
         if shared.stopping.load(Ordering::SeqCst) {
             return;
         }
-        let Ok(stream) = stream else { continue };
-        next_id += 1;
-        let id = next_id;
-        let last_active_ms = Arc::new(AtomicU64::new(shared.now_ms()));
-        let Ok(handle) = stream.try_clone() else { continue };
-        {
-            let mut conns = shared.connections.lock().unwrap_or_else(|e| e.into_inner());
-            if conns.len() >= shared.options.clients_max.max(1) {
-                let idlest = conns
-                    .iter()
-                    .enumerate()
-                    .min_by_key(|(_, c)| c.last_active_ms.load(Ordering::Relaxed))
-                    .map(|(i, _)| i);
-                if let Some(i) = idlest {
-                    let old = conns.swap_remove(i);
-                    let _ = old.stream.shutdown(std::net::Shutdown::Both);
-                    shared.stats.evicted.fetch_add(1, Ordering::Relaxed);
-                    shared.log(&format!("{} clients open: closed #{}, idle longest", conns.len() + 1, old.id));
-                }
+        let Some(stream) = accepted(stream, &shared.accept_errors) else { continue };
+        let (id, last_active_ms, evicted) = match shared.hosts.admit(&stream, shared.now_ms()) {
+            Ok(admitted) => admitted,
+            Err(e) => {
+                shared.accept_errors.report(&format!("cannot keep a host connection: {e}"));
+                continue;
             }
-            conns.push(Connection { id, stream: handle, last_active_ms: last_active_ms.clone() });
+        };
+        if let Some(old) = evicted {
+            shared.stats.evicted.fetch_add(1, Ordering::Relaxed);
+            shared.log(&format!("{} hosts open: closed #{old}, idle longest", shared.hosts.max));
         }
         shared.stats.connections.fetch_add(1, Ordering::Relaxed);
         let s = shared.clone();
-        thread::spawn(move || {
+        let started = spawn(format!("serve: host #{id}"), shared.options.thread_stack_bytes, move || {
             let peer = stream.peer_addr().map_or_else(|_| "?".into(), |a| a.to_string());
             s.log(&format!("#{id} {peer} connected"));
             match host_session(stream, &s, &last_active_ms) {
                 Ok(()) => s.log(&format!("#{id} {peer} closed")),
                 Err(e) => {
-                    // Protocol errors are always worth a line; I/O endings only when verbose.
+                    // Protocol errors are counted (each logged with --verbose); I/O endings
+                    // are logged only with --verbose.
                     if e.kind() == io::ErrorKind::InvalidData {
-                        eprintln!("pmacwd serve: #{id} {peer}: {e}; connection closed");
+                        s.protocol_errors.report(&format!("#{id} {peer}: {e}; connection closed"));
                     } else {
                         s.log(&format!("#{id} {peer}: {e}"));
                     }
                 }
             }
-            s.connections.lock().unwrap_or_else(|e| e.into_inner()).retain(|c| c.id != id);
+            s.hosts.forget(id);
         });
+        if let Err(e) = started {
+            // The thread's closure, and the stream it owned, are gone; the table's handle is
+            // the last one: close it, and keep accepting.
+            shared.stats.spawn_failures.fetch_add(1, Ordering::Relaxed);
+            shared.hosts.close(id);
+            shared.spawn_failures.report(&format!("host connection #{id}: cannot start its thread: {e}"));
+        }
     }
 }
 
@@ -228,7 +375,7 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
                 if !read_or_end(&mut reader, &mut data)? && data_bytes > 0 {
                     return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the client left mid-request"));
                 }
-                let answer = shared.card().line(trim_line(&data));
+                let answer = shared.card_now().line(trim_line(&data));
                 pending.clear();
                 sent = 0;
                 match answer {
@@ -244,7 +391,7 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
                     }
                 }
             }
-            Request::NextPacket => (!shared.card().tripped()).then(|| {
+            Request::NextPacket => (!shared.card_now().tripped()).then(|| {
                 if sent < pending.len() {
                     next_packet(&pending, &mut sent)
                 } else {
@@ -252,14 +399,14 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
                     vec![0]
                 }
             }),
-            Request::ReadReady => (!shared.card().tripped()).then(|| vec![0, u8::from(sent < pending.len())]),
+            Request::ReadReady => (!shared.card_now().tripped()).then(|| vec![0, u8::from(sent < pending.len())]),
             Request::Flush => {
                 pending.clear();
                 sent = 0;
                 // The card answers the flush with a CTRL-X.
-                (!shared.card().tripped()).then(|| vec![0x18])
+                (!shared.card_now().tripped()).then(|| vec![0x18])
             }
-            Request::Control(c) => shared.card().control_character(c),
+            Request::Control(c) => shared.card_now().control_character(c),
         };
         // A tripped card says nothing: the host's read times out (UM p.215).
         if let Some(bytes) = reply {
@@ -276,52 +423,91 @@ fn next_packet(pending: &[u8], sent: &mut usize) -> Vec<u8> {
 }
 
 fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
-    let open = Arc::new(AtomicU64::new(0));
     for stream in listener.incoming() {
         if shared.stopping.load(Ordering::SeqCst) {
             return;
         }
-        let Ok(mut stream) = stream else { continue };
-        if open.load(Ordering::SeqCst) as usize >= CONTROL_CLIENTS_MAX {
-            let _ = writeln!(stream, "error: {CONTROL_CLIENTS_MAX} control connections are open already");
-            continue;
-        }
-        open.fetch_add(1, Ordering::SeqCst);
-        let s = shared.clone();
-        let open = open.clone();
-        thread::spawn(move || {
-            if let Err(e) = control_session(stream, &s) {
-                s.log(&format!("control connection: {e}"));
+        let Some(stream) = accepted(stream, &shared.accept_errors) else { continue };
+        let (id, last_active_ms, evicted) = match shared.controls.admit(&stream, shared.now_ms()) {
+            Ok(admitted) => admitted,
+            Err(e) => {
+                shared.accept_errors.report(&format!("cannot keep a control connection: {e}"));
+                continue;
             }
-            open.fetch_sub(1, Ordering::SeqCst);
+        };
+        if let Some(old) = evicted {
+            shared.stats.control_evicted.fetch_add(1, Ordering::Relaxed);
+            shared.log(&format!("{CONTROL_CLIENTS_MAX} control connections open: closed c{old}, idle longest"));
+        }
+        let s = shared.clone();
+        let started = spawn(format!("serve: control c{id}"), shared.options.thread_stack_bytes, move || {
+            if let Err(e) = control_session(stream, &s, &last_active_ms) {
+                s.log(&format!("control connection c{id}: {e}"));
+            }
+            s.controls.forget(id);
         });
+        if let Err(e) = started {
+            // As for hosts: close the table's handle, the last one, and keep accepting.
+            shared.stats.spawn_failures.fetch_add(1, Ordering::Relaxed);
+            shared.controls.close(id);
+            shared.spawn_failures.report(&format!("control connection c{id}: cannot start its thread: {e}"));
+        }
     }
 }
 
-fn control_session(stream: TcpStream, shared: &Shared) -> io::Result<()> {
+fn control_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) -> io::Result<()> {
     stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
+    stream.set_read_timeout(shared.options.control_idle_timeout)?;
     let mut writer = stream.try_clone()?;
     let mut reader = BufReader::new(stream);
     let mut line = Vec::new();
     loop {
-        line.clear();
-        let n = reader.by_ref().take(CONTROL_LINE_BYTES_MAX).read_until(b'\n', &mut line)?;
-        if n == 0 {
-            return Ok(());
+        match read_line_max(&mut reader, &mut line, CONTROL_LINE_BYTES_MAX) {
+            Ok(true) => {}
+            Ok(false) => return Ok(()),
+            Err(e) if e.kind() == io::ErrorKind::InvalidData => {
+                writeln!(writer, "error: {e}")?;
+                return Ok(());
+            }
+            Err(e) => return Err(e),
         }
-        if line.last() != Some(&b'\n') && n as u64 == CONTROL_LINE_BYTES_MAX {
-            writeln!(writer, "error: a control line is at most {CONTROL_LINE_BYTES_MAX} bytes")?;
-            return Ok(());
-        }
+        last_active_ms.store(shared.now_ms(), Ordering::Relaxed);
         let text = String::from_utf8_lossy(&line);
         let text = text.trim();
         if text.is_empty() {
             continue;
         }
         let reply = match Control::parse(text) {
-            Ok(c) => shared.card().control(c),
+            Ok(Control::Step { cycles }) => step_in_chunks(shared, cycles, last_active_ms),
+            Ok(c) => shared.card_now().control(c),
             Err(e) => format!("error: {e}"),
         };
         writeln!(writer, "{reply}")?;
+    }
+}
+
+/// `step N` run [`CYCLES_PER_HOLD_MAX`] cycles per lock hold, so that hosts keep getting
+/// answers during a long step (`step 1000000000` is about 4 s of servo cycles). A host that
+/// asks meanwhile sees the card part-way through the step, as a host of a running card
+/// would; the emulator's own capture records the exchange between the cycles before and
+/// after it. The reply is the step's, as if it had run at once.
+fn step_in_chunks(shared: &Shared, cycles: u32, last_active_ms: &AtomicU64) -> String {
+    let mut done = 0u32;
+    loop {
+        let n = (cycles - done).min(CYCLES_PER_HOLD_MAX);
+        let reply = shared.card_now().control(Control::Step { cycles: n });
+        if !reply.starts_with("ok") {
+            return reply;
+        }
+        done += n;
+        if done == cycles {
+            return Card::step_reply(cycles);
+        }
+        if shared.stopping.load(Ordering::SeqCst) {
+            return format!("error: the emulator is stopping: {done} of the {cycles} servo cycles ran");
+        }
+        // A connection stepping is busy, not idle: it is not the one to close for a newcomer.
+        last_active_ms.store(shared.now_ms(), Ordering::Relaxed);
+        thread::yield_now();
     }
 }

@@ -43,7 +43,11 @@ fn ask(c: &mut TcpStream, line: &str) -> Vec<u8> {
 /// Whether the server closed this connection (end of stream, or reset).
 fn closed(c: &mut TcpStream) -> bool {
     let mut b = [0u8; 16];
-    matches!(c.read(&mut b), Ok(0)) || matches!(c.read(&mut b), Err(e) if e.kind() == ErrorKind::ConnectionReset)
+    match c.read(&mut b) {
+        Ok(0) => true,
+        Err(e) => matches!(e.kind(), ErrorKind::ConnectionReset | ErrorKind::ConnectionAborted),
+        Ok(_) => false,
+    }
 }
 
 #[test]
@@ -199,4 +203,157 @@ fn a_hundred_concurrent_clients_each_get_their_own_answers() {
     let status = ask(&mut c, "???");
     // Bit 12 follows the checksum pass on the wall clock; the rest stays clear.
     assert!(status == b"001000000000\r\x06" || status == b"000000000000\r\x06", "still serving: {status:?}");
+}
+
+#[test]
+fn a_connection_whose_thread_cannot_start_is_closed_and_the_server_keeps_accepting() {
+    // When the system refuses a connection's thread (here: a stack larger than the address
+    // space), that connection is closed and the accept loop goes on. Before, the accept thread
+    // panicked: every later client waited in the listen backlog, unanswered, while the process
+    // stayed up. Each of these clients must see its connection closed, not a timeout.
+    let options = ServeOptions {
+        control: Some("127.0.0.1:0".parse().unwrap()),
+        thread_stack_bytes: Some(1 << 60),
+        ..ServeOptions::free_loopback_port(8)
+    };
+    let s = Server::start(Card::default_card(Clock::Virtual), options).expect("a free loopback port");
+    for k in 0..3 {
+        let mut c = connect(&s);
+        // The write may already find the connection closed.
+        let _ = c.write_all(&Header::getresponse(3).to_bytes()).and_then(|()| c.write_all(b"???"));
+        assert!(closed(&mut c), "host client {k} closed, not left waiting");
+    }
+    let mut control = TcpStream::connect(s.control_addr.unwrap()).unwrap();
+    control.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let _ = control.write_all(b"state\n");
+    assert!(closed(&mut control), "the control client too");
+    assert_eq!(s.stats().spawn_failures.load(Ordering::Relaxed), 4);
+    s.stop();
+}
+
+#[test]
+fn hosts_keep_getting_answers_while_a_long_step_runs() {
+    // `step 4000000000` is some 16 s of servo cycles. It used to hold the card's lock for all
+    // of it, and every host waited; the server now runs it in chunks of CYCLES_PER_HOLD_MAX
+    // and releases the lock between them. What is checked is the order of events, not a
+    // time: a host's `???` is answered while the step's own reply has not come yet.
+    let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
+    let s = Server::start(Card::default_card(Clock::Virtual), options).expect("a free loopback port");
+    let mut control = TcpStream::connect(s.control_addr.unwrap()).unwrap();
+    control.write_all(b"step 4000000000\n").unwrap();
+    // The step has begun once `state` on a second control connection shows cycles moving.
+    let mut watcher = std::io::BufReader::new(TcpStream::connect(s.control_addr.unwrap()).unwrap());
+    let cycles = |w: &mut std::io::BufReader<TcpStream>| -> u64 {
+        w.get_mut().write_all(b"state\n").unwrap();
+        let mut line = String::new();
+        std::io::BufRead::read_line(w, &mut line).unwrap();
+        let at = line.find("cycles=").expect("state names the cycles") + "cycles=".len();
+        line[at..].split_whitespace().next().unwrap().parse().unwrap()
+    };
+    while cycles(&mut watcher) == 0 {
+        std::thread::yield_now();
+    }
+    let mut host = connect(&s);
+    for _ in 0..3 {
+        // Twelve hex digits, CR, ACK (bit 12 follows the checksum pass the step is in).
+        let status = ask(&mut host, "???");
+        assert!(status.len() == 14 && status.ends_with(b"\r\x06"), "{status:?}");
+    }
+    control.set_read_timeout(Some(Duration::from_millis(1))).unwrap();
+    let mut b = [0u8; 64];
+    let still_stepping =
+        matches!(control.read(&mut b), Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut));
+    assert!(still_stepping, "the host was answered before the step ended");
+    assert!(cycles(&mut watcher) < 4_000_000_000);
+    // Stopping the server closes the control connection and ends the step early.
+    s.stop();
+    control.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    let mut reply = String::new();
+    let _ = std::io::BufRead::read_line(&mut std::io::BufReader::new(control), &mut reply);
+    assert!(reply.is_empty() || reply.starts_with("error: the emulator is stopping"), "{reply}");
+}
+
+/// A control connection to `s` whose reads give up after 5 s.
+fn control_client(s: &Server) -> std::io::BufReader<TcpStream> {
+    let c = TcpStream::connect(s.control_addr.expect("a control interface")).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    std::io::BufReader::new(c)
+}
+
+/// One control command and its reply line.
+fn control_command(c: &mut std::io::BufReader<TcpStream>, line: &str) -> String {
+    c.get_mut().write_all(format!("{line}\n").as_bytes()).unwrap();
+    let mut reply = String::new();
+    std::io::BufRead::read_line(c, &mut reply).unwrap();
+    reply
+}
+
+#[test]
+fn idle_control_connections_make_room_for_a_new_control_client() {
+    // CONTROL_CLIENTS_MAX silent control connections used to lock every other control client
+    // out, with no timeout. Now a newcomer to a full table closes the one idle longest, as
+    // for hosts, so a bench can always get in.
+    use pmacwd_emulator::server::CONTROL_CLIENTS_MAX;
+    let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
+    let s = Server::start(Card::default_card(Clock::Virtual), options).expect("a free loopback port");
+    let mut silent: Vec<_> = (0..CONTROL_CLIENTS_MAX).map(|_| control_client(&s)).collect();
+    // Each has been admitted once it answers; the first then stays silent longest.
+    for c in silent.iter_mut() {
+        assert!(control_command(c, "state").starts_with("ok tripped=false"));
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let mut newcomer = control_client(&s);
+    assert!(control_command(&mut newcomer, "state").starts_with("ok tripped=false"), "the newcomer got in");
+    assert_eq!(s.stats().control_evicted.load(Ordering::Relaxed), 1);
+    assert!(closed(silent[0].get_mut()), "the control connection idle longest was closed");
+    assert!(control_command(&mut silent[1], "state").starts_with("ok"), "the others stay");
+    s.stop();
+}
+
+#[test]
+fn a_control_connection_silent_past_its_idle_timeout_is_closed() {
+    // Control connections had no timeout: one left open by a client that went away held its
+    // thread and its place for ever. Now they close after `control_idle_timeout`.
+    let options = ServeOptions {
+        control: Some("127.0.0.1:0".parse().unwrap()),
+        control_idle_timeout: Some(Duration::from_millis(200)),
+        ..ServeOptions::free_loopback_port(8)
+    };
+    let s = Server::start(Card::default_card(Clock::Virtual), options).expect("a free loopback port");
+    let mut c = control_client(&s);
+    assert!(control_command(&mut c, "state").starts_with("ok"));
+    let t = Instant::now();
+    assert!(closed(c.get_mut()));
+    assert!(t.elapsed() >= Duration::from_millis(150));
+    s.stop();
+}
+
+#[test]
+fn a_control_line_longer_than_the_maximum_closes_that_control_connection_with_an_error() {
+    // The control port reads at most CONTROL_LINE_BYTES_MAX bytes of a line, so a client that
+    // never sends a newline cannot grow the server's memory; it gets an error line and its
+    // connection is closed, and other control clients are served as before. (Twice the
+    // maximum in one write, read whole by the server, so the close is clean.)
+    use pmacwd_emulator::control::CONTROL_LINE_BYTES_MAX;
+    let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
+    let s = Server::start(Card::default_card(Clock::Virtual), options).expect("a free loopback port");
+    let mut long = control_client(&s);
+    long.get_mut().write_all(&vec![b'x'; 2 * CONTROL_LINE_BYTES_MAX]).unwrap();
+    let mut reply = String::new();
+    let _ = long.read_to_string(&mut reply);
+    assert_eq!(reply, format!("error: a control line is at most {CONTROL_LINE_BYTES_MAX} bytes\n"));
+    assert!(control_command(&mut control_client(&s), "state").starts_with("ok tripped=false"));
+    s.stop();
+}
+
+#[test]
+fn a_client_that_writes_i3_4_still_gets_terminated_replies_afterwards() {
+    // I3 ranges 0..3 (SRM p.37). `I3=4` used to be stored and framed as I3 = 0: no ACK after
+    // any later line, so the client waited for ever. It is now refused with ERR003, whose CR
+    // ends the reply, and the lines after it are acknowledged as before.
+    let s = server(Clock::Virtual, 8, None);
+    let mut c = connect(&s);
+    assert_eq!(ask(&mut c, "I3=4"), b"\x07ERR003\r");
+    assert_eq!(ask(&mut c, "???"), b"001000000000\r\x06");
+    assert_eq!(ask(&mut c, "I3"), b"2\r\x06");
 }
