@@ -87,6 +87,20 @@ fn a_host_log_with_a_command_but_no_reply_or_a_stray_line_is_refused_with_its_li
 }
 
 #[test]
+fn a_host_log_whose_command_holds_control_characters_imports_to_a_trace_that_reads_back_as_yaml() {
+    // Found by the fuzz target host_log: `I130\x01\0\0\0=5` is kept for an ERR003 reply, and
+    // the YAML form (`pmacwd import --yaml`) wrote its NUL raw, so the trace did not read back.
+    let log = "# comments and blank lines are allowets and blank lines are allowed\n> ???\n< 000000000000\n\
+               > RHX:$0\n< 01A2B3\n> I130=5\n<\n> ???\n< (timed\n> ???\n< 000000000000\n> OPEN 0\n\
+               < 01Ats and blank lines are allowets and blank lines are allo2B3\n> I130\x01\0\0\0=5\n<\n\
+               > ???\n< (timeout)\n";
+    let trace = pmacwd_conformance::import::import(Path::new("s.log"), log, "i40-zero").unwrap();
+    let yaml = pmacwd_trace::to_yaml(&trace);
+    let again = pmacwd_trace::parse_yaml(Path::new("s.yaml"), &yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}")).trace;
+    assert_eq!(format!("{trace:?}"), format!("{again:?}"));
+}
+
+#[test]
 fn the_time_between_two_servo_counter_reads_becomes_a_run_step_even_across_the_wrap() {
     use pmacwd_trace::TraceEvent;
     let t =

@@ -94,8 +94,16 @@ pub struct Spec {
 impl Spec {
     /// The spec compiled into the binary: the `specs/` directory of this source tree.
     pub fn embedded() -> Result<Spec, SpecError> {
-        Self::from_texts(Path::new("specs"), |name| {
-            Ok(FILES.iter().find(|(n, _)| *n == name).map(|(_, t)| t.to_string()).unwrap_or_default())
+        Self::from_named_texts(Path::new("specs"), &FILES)
+    }
+
+    /// Loads spec files held in memory, as (file name, text) pairs, as if they were the files
+    /// of `dir`; a file missing from `files` reads as empty. The entry point of the fuzz
+    /// targets (`fuzz/`), which must not touch the disk; not part of the API.
+    #[doc(hidden)]
+    pub fn from_named_texts(dir: &Path, files: &[(&str, &str)]) -> Result<Spec, SpecError> {
+        Self::from_texts(dir, |name| {
+            Ok(files.iter().find(|(n, _)| *n == name).map(|(_, t)| t.to_string()).unwrap_or_default())
         })
     }
 

@@ -44,7 +44,7 @@ impl SourceMap {
         // All documents are walked, so that a second one is an error with its position.
         if let Err(e) = parser.load(&mut walker, true) {
             let m = e.marker();
-            return Err(SpecError::at(file, position_of(m), format!("YAML syntax: {}", e.info())));
+            return Err(SpecError::at(file, within(text, position_of(m)), format!("YAML syntax: {}", e.info())));
         }
         if let Some(e) = walker.error {
             return Err(e);
@@ -97,6 +97,30 @@ impl SourceMap {
 fn position_of(m: &Marker) -> Position {
     // yaml-rust2 counts lines from 1 and columns from 0.
     Position { line: m.line(), column: m.col() + 1 }
+}
+
+/// `p`, or the end of `text` when `p` lies beyond it. At the end of a text without a final line
+/// break the parsers report the start of the line after the last, which does not exist: an
+/// editor asked to go there goes nowhere. Lines end as the YAML scanner ends them (`\r\n`,
+/// `\r`, `\n`); columns count characters.
+fn within(text: &str, p: Position) -> Position {
+    let mut end = Position { line: 1, column: 1 };
+    let mut chars = text.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c == '\r' || c == '\n' {
+            if c == '\r' && chars.peek() == Some(&'\n') {
+                chars.next();
+            }
+            end = Position { line: end.line + 1, column: 1 };
+        } else {
+            end.column += 1;
+        }
+    }
+    if (p.line, p.column) > (end.line, end.column) {
+        end
+    } else {
+        p
+    }
 }
 
 enum Frame {
@@ -208,7 +232,9 @@ impl MarkedEventReceiver for Walker {
 pub fn parse<T: DeserializeOwned>(file: &Path, text: &str) -> Result<(T, SourceMap), SpecError> {
     let map = SourceMap::build(file, text)?;
     let value: T = serde_yaml::from_str(text).map_err(|e| match e.location() {
-        Some(l) => SpecError::at(file, Position { line: l.line(), column: l.column() }, strip_location(&e)),
+        Some(l) => {
+            SpecError::at(file, within(text, Position { line: l.line(), column: l.column() }), strip_location(&e))
+        }
         None => SpecError::whole_file(file, e.to_string()),
     })?;
     Ok((value, map))
@@ -281,6 +307,29 @@ mod tests {
     fn a_key_with_dots_is_found_by_its_whole_name() {
         let map = SourceMap::build(Path::new("t.yaml"), "versions:\n  1.947: {a: 1}\n").unwrap();
         assert_eq!(map.position("versions.1.947.a"), Position { line: 2, column: 11 });
+    }
+
+    #[test]
+    fn a_syntax_error_at_the_end_of_a_file_without_a_final_line_break_points_at_its_last_line() {
+        // Found by the fuzz target yaml_trace: the parser reported line 8 of this 7-line trace,
+        // a line that does not exist. It is now the end of the last line.
+        let text = "version: 1\ndescription: >\n  PLC 0 taking all the CPU the servo leaves starves the \
+                    background, which never gets to reset\n  the counter: the watchdog trips exactly as if the \
+                    background had stopped.\ncite: [UM p.236, SRM p.42]\nconfiguration: i40-zero\n\
+                    profiles: [umhe model refuses i";
+        let e = SourceMap::build(Path::new("t.yaml"), text).unwrap_err();
+        assert_eq!(e.position, Some(Position { line: 7, column: 32 }), "{e}");
+        // The same with other line ends, and an error inside the text keeps its position.
+        for (text, at) in [
+            ("a: [x", (1, 6)),
+            ("a: 1\r\nb: [x", (2, 6)),
+            ("a: 1\rb: [x", (2, 6)),
+            ("a: [x\n", (2, 1)),
+            ("a: \"x", (1, 4)),
+        ] {
+            let e = SourceMap::build(Path::new("t.yaml"), text).unwrap_err();
+            assert_eq!(e.position.map(|p| (p.line, p.column)), Some(at), "{text:?}: {e}");
+        }
     }
 
     #[test]

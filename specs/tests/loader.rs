@@ -214,3 +214,16 @@ fn a_spec_file_that_is_not_a_regular_file_is_refused_not_read_or_skipped() {
         assert!(e.message.contains("not a regular file"), "{tag}: {e}");
     }
 }
+
+#[test]
+fn a_spec_file_cut_off_mid_line_is_refused_at_its_last_line_not_past_it() {
+    // Found by the fuzz target spec_loader: check.yaml cut off after `commands:ld be used to d`
+    // (no final line break) was refused at line 273 of a 272-line file.
+    let (result, edited) = load_edited("cut-off", "check.yaml", |t| {
+        let at = t.find("    commands:").expect("check.yaml has commands");
+        format!("{}commands:ld be used to d", &t[..at + 4])
+    });
+    let last = edited.lines().count();
+    let e = expect_error(result, last, "YAML syntax");
+    assert_eq!(e.position.map(|p| p.column), Some(edited.lines().last().unwrap().chars().count() + 1), "{e}");
+}

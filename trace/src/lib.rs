@@ -387,29 +387,45 @@ pub fn yaml_step(step: &Step) -> String {
                 let _ = writeln!(s, "      counter_min: {v}");
             }
             if !status_set.is_empty() {
-                let _ = writeln!(s, "      status_set: [{}]", status_set.join(", "));
+                let _ = writeln!(s, "      status_set: [{}]", quoted_list(status_set));
             }
             if !status_clear.is_empty() {
-                let _ = writeln!(s, "      status_clear: [{}]", status_clear.join(", "));
+                let _ = writeln!(s, "      status_clear: [{}]", quoted_list(status_clear));
             }
         }
     }
     s
 }
 
-/// A YAML double-quoted string.
+/// A YAML double-quoted string that reads back as `s`, whatever it holds: a character YAML
+/// does not allow in a document (C0 and C1 controls, DEL, U+FEFF, U+FFFE, U+FFFF) or would
+/// fold as a line break (CR, LF, NEL, LS, PS) is written as an escape.
 fn quote(s: &str) -> String {
+    use std::fmt::Write as _;
     let mut out = String::from("\"");
     for c in s.chars() {
         match c {
             '"' => out.push_str("\\\""),
             '\\' => out.push_str("\\\\"),
             '\n' => out.push_str("\\n"),
+            '\r' => out.push_str("\\r"),
+            '\t' => out.push_str("\\t"),
+            '\u{0}'..='\u{1F}' | '\u{7F}'..='\u{9F}' => {
+                let _ = write!(out, "\\x{:02X}", u32::from(c));
+            }
+            '\u{2028}' | '\u{2029}' | '\u{FEFF}' | '\u{FFFE}' | '\u{FFFF}' => {
+                let _ = write!(out, "\\u{:04X}", u32::from(c));
+            }
             c => out.push(c),
         }
     }
     out.push('"');
     out
+}
+
+/// A YAML flow sequence of quoted strings.
+fn quoted_list(items: &[String]) -> String {
+    items.iter().map(|i| quote(i)).collect::<Vec<_>>().join(", ")
 }
 
 #[cfg(test)]
@@ -422,6 +438,49 @@ mod tests {
     fn jsonl(lines: &[&str]) -> Result<Trace, SpecError> {
         let text = std::iter::once(HEADER).chain(lines.iter().copied()).collect::<Vec<_>>().join("\n");
         jsonl::read_all(Path::new("t.jsonl"), text.as_bytes())
+    }
+
+    /// `trace` written as YAML and read again, compared field by field.
+    fn yaml_round_trip(trace: &Trace) {
+        let yaml = to_yaml(trace);
+        let again = parse_yaml(Path::new("t.yaml"), &yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}")).trace;
+        assert_eq!(format!("{trace:?}"), format!("{again:?}"), "{yaml}");
+    }
+
+    #[test]
+    fn a_trace_whose_texts_hold_control_characters_writes_yaml_that_reads_back_the_same() {
+        // Found by the fuzz target jsonl_trace: a DEL in a JSON description was written raw
+        // into the YAML form, which YAML refuses ("control characters are not allowed").
+        let capture = "{\"format\":\"pmacwd-trace\",\"version\":1,\"description\":\"SYNTHETIC: the card still!answres \
+                       200 servo cycles after its co:unter arn out, with no backgr\u{7f}und cycle: no reading??? allows \
+                       that.\",\"configuration\":\"i40-zero\",\"profiles\":\"all\"}\n{\"servo\":8600}\n\
+                       {\"command\":\"??Y:$25\",\"expect\":{\"reply\":\"000000\"}}\n";
+        yaml_round_trip(&jsonl::read_all(Path::new("t.jsonl"), capture.as_bytes()).unwrap());
+        // Found by the fuzz target host_log: a host command `I130\x01\0\0\0=5` (kept for an
+        // ERR003 reply) was written with its NUL, where YAML's reader stops.
+        let mut trace = jsonl::read_all(Path::new("t.jsonl"), capture.as_bytes()).unwrap();
+        trace.steps[1].event = TraceEvent::Model(Event::Command(HostCommand::parse("I130\u{1}\0\0\0=5").unwrap()));
+        // Every character YAML would refuse or fold, in every text the writer quotes.
+        let odd =
+            "a\0b\u{1}\t\r\n\u{1b}\u{7f}\u{85}\u{9f}\u{2028}\u{2029}\u{feff}\u{fffe}\u{ffff} \"\\ é \u{10ffff} end ";
+        trace.description = odd.into();
+        trace.configuration = odd.into();
+        trace.profiles = ProfileSelection::Named(vec![odd.into(), "all".into()]);
+        trace.steps[1].note = Some(odd.into());
+        trace.steps[1].expect.reply = Some(odd.into());
+        yaml_round_trip(&trace);
+    }
+
+    #[test]
+    fn status_bit_names_that_are_not_plain_yaml_words_write_yaml_that_reads_back_the_same() {
+        // The writer listed `status_set` and `status_clear` unquoted: `[a, b]` for one name
+        // `a, b`, a YAML error for `]`, a boolean for `true`.
+        let mut trace =
+            jsonl::read_all(Path::new("t.jsonl"), format!("{HEADER}\n{{\"servo\":1}}\n").as_bytes()).unwrap();
+        let names: Vec<String> = ["a, b", "]", "true", "", "#x", "- y", "rti_reentry"].map(String::from).into();
+        trace.steps[0].expect.status_set = names.clone();
+        trace.steps[0].expect.status_clear = names;
+        yaml_round_trip(&trace);
     }
 
     #[test]

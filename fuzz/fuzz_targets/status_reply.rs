@@ -1,0 +1,42 @@
+//! The `???` reply text, `pmacwd_specs::vocab::reply_text::{decode, encode}`.
+//!
+//! Invariants:
+//! - `decode` never panics, and refuses with a reason;
+//! - a decoded reply re-encodes to the same text, normalized: without the surrounding
+//!   CR/LF/space and trailing ACK `decode` ignores, hex in upper case; and decodes again to
+//!   the same reply;
+//! - `encode` then `decode` round-trips for every reply built from the input's bytes: any two
+//!   24-bit words, `BOOTSTRAP PROM`, and every three-digit error ERR000 to ERR999.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use pmacwd_specs::vocab::reply_text::{decode, encode, StatusReply};
+
+/// What `decode` looks at: the text without what it ignores, hex digits upper-cased.
+fn normalized(text: &str) -> String {
+    text.trim_end_matches('\u{6}').trim_matches(|c: char| c == '\r' || c == '\n' || c == ' ').to_ascii_uppercase()
+}
+
+fuzz_target!(|data: &[u8]| {
+    if let Ok(text) = std::str::from_utf8(data) {
+        match decode(text) {
+            Ok(reply) => {
+                let again = encode(reply);
+                assert_eq!(normalized(&again), normalized(text), "{reply:?} encodes to another text");
+                assert_eq!(decode(&again), Ok(reply), "`{}` does not decode back", again.escape_debug());
+            }
+            Err(e) => assert!(!e.0.is_empty(), "a refusal without a reason"),
+        }
+    }
+
+    // A reply built from the bytes: encode, then decode.
+    let word = |b: &[u8]| b.iter().fold(0u32, |w, &x| (w << 8) | u32::from(x));
+    let reply = match data.first().map(|b| b % 3) {
+        Some(0) if data.len() >= 7 => StatusReply::Words { x: word(&data[1..4]), y: word(&data[4..7]) },
+        Some(1) if data.len() >= 3 => StatusReply::Error((word(&data[1..3]) % 1000) as u16),
+        Some(2) => StatusReply::Bootstrap,
+        _ => return,
+    };
+    let text = encode(reply);
+    assert_eq!(decode(&text), Ok(reply), "`{}` does not decode back", text.escape_debug());
+});
