@@ -181,6 +181,10 @@ pub fn parse_reply(bytes: &[u8]) -> Result<ParsedReply, String> {
                 }
                 if bytes[j..].starts_with(b"ERR") {
                     let digits = bytes.get(j + 3..j + 6).ok_or("an ERR without three digits")?;
+                    if !digits.iter().all(u8::is_ascii_digit) {
+                        // Digits only: `parse` would also take a sign (`ERR+03`).
+                        return Err(format!("`ERR{}` is not ERRnnn", digits.escape_ascii()));
+                    }
                     let text = std::str::from_utf8(digits).map_err(|_| "an ERR without three digits")?;
                     let n: u16 = text.parse().map_err(|_| format!("`ERR{}` is not ERRnnn", text.escape_debug()))?;
                     answers.push(ReadAnswer::Error(Some(n)));
@@ -272,6 +276,17 @@ mod tests {
         assert_eq!(split_commands("i6=1 i3=2 ver"), ["i6=1", "i3=2", "ver"]);
         assert_eq!(split_commands(" ???  OPEN PLC 1 I130\r"), ["???", "OPEN PLC 1", "I130"]);
         assert!(split_commands("\r\n").is_empty());
+    }
+
+    #[test]
+    fn an_error_number_is_three_digits_and_a_sign_is_not_one() {
+        // Found by the fuzz target framing: `BEL ERR+03` was read as ERR003, an error number
+        // the card never printed that way.
+        for reply in [&b"\x07ERR+03"[..], b"\x07ERR-03\r", b"\x07ERR 03\r", b"\x07\rERR+3\r"] {
+            let e = parse_reply(reply).unwrap_err();
+            assert!(e.contains("is not ERRnnn"), "{}: {e}", reply.escape_ascii());
+        }
+        assert_eq!(parse_reply(b"\x07ERR003\r").unwrap().answers, [ReadAnswer::Error(Some(3))]);
     }
 
     #[test]
