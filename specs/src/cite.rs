@@ -130,7 +130,8 @@ impl fmt::Display for Cite {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.source.token())?;
         if let Some(p) = &self.page {
-            if p.starts_with("s.") {
+            // Only FACTS reads a bare `s.N`; any other source wrote `p.s.57` and reads only that.
+            if self.source == Source::Facts && p.starts_with("s.") {
                 write!(f, " {p}")?;
             } else {
                 write!(f, " p.{p}")?;
@@ -200,5 +201,16 @@ mod tests {
         assert!(Cite::parse("UM 215").unwrap_err().contains("expected `p.N`"));
         assert!(Cite::parse("Manual p.3").unwrap_err().contains("unknown source"));
         assert!(Cite::parse("M-FILE p.3").unwrap_err().contains("has no pages"));
+    }
+
+    #[test]
+    fn a_page_that_starts_with_s_prints_back_as_a_citation_that_parses() {
+        // Found by the fuzz target yaml_trace: `SRM p.s.57` was accepted and printed as
+        // `SRM s.57`, which only FACTS reads, so a trace with it did not read back.
+        for text in ["SRM p.s.57", "UM p.s.1-s.2", "FACTS s.6", "FACTS p.s.6", "FACTS p.6"] {
+            let cite = Cite::parse(text).unwrap();
+            assert_eq!(Cite::parse(&cite.to_string()), Ok(cite.clone()), "{text} prints as {cite}");
+        }
+        assert_eq!(Cite::parse("SRM p.s.57").unwrap().to_string(), "SRM p.s.57");
     }
 }

@@ -46,7 +46,8 @@ impl SourceMap {
             let m = e.marker();
             return Err(SpecError::at(file, within(text, position_of(m)), format!("YAML syntax: {}", e.info())));
         }
-        if let Some(e) = walker.error {
+        if let Some(mut e) = walker.error {
+            e.position = e.position.map(|p| within(text, p));
             return Err(e);
         }
         Ok(SourceMap { file: file.to_path_buf(), children: walker.children })
@@ -330,6 +331,15 @@ mod tests {
             let e = SourceMap::build(Path::new("t.yaml"), text).unwrap_err();
             assert_eq!(e.position.map(|p| (p.line, p.column)), Some(at), "{text:?}: {e}");
         }
+    }
+
+    #[test]
+    fn a_duplicated_empty_key_at_the_end_of_a_file_is_reported_inside_the_file() {
+        // Found by the fuzz target yaml_trace: two empty explicit keys (`?`); the parser marks
+        // the second at the end of the stream, which was reported as line 6 of a 5-line file.
+        let e = SourceMap::build(Path::new("t.yaml"), "?\n\n?\n\n#\0\0\0\0\0\0\0c").unwrap_err();
+        assert!(e.message.contains("duplicate key ``"), "{e}");
+        assert_eq!(e.position, Some(Position { line: 5, column: 10 }), "{e}");
     }
 
     #[test]
