@@ -19,6 +19,10 @@
 //!
 //! then review the change with `git diff cli/tests/golden`.
 
+mod common;
+
+use common::TempDir;
+
 use std::collections::BTreeSet;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -384,29 +388,11 @@ fn blessing() -> bool {
     std::env::var("PMACWD_BLESS").is_ok_and(|v| v == "1")
 }
 
-/// A temporary directory, removed when the test is done with it.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(group: &str) -> TempDir {
-        let dir = std::env::temp_dir().join(format!("pmacwd-golden-{}-{group}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        TempDir(dir)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 /// Runs every case of a group (after `setup` has prepared the temporary directory), then
 /// either writes the golden files (PMACWD_BLESS=1) or compares with them and fails naming
 /// every case that differs, with its first differing line.
 fn verify(group: &str, cases: &[Case], setup: impl FnOnce(&Path)) {
-    let tmp = TempDir::new(group);
+    let tmp = TempDir::new(&format!("golden-{group}"));
     setup(&tmp.0);
     let mut failures = Vec::new();
     for c in cases {
