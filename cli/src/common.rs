@@ -111,12 +111,10 @@ pub fn model_config(
     }
     .map_err(|e| e.to_string())?;
     let profile = match profile {
-        Some(name) => spec.profiles.get(name).ok_or_else(|| {
-            format!(
-                "no profile named `{name}` (profiles: {})",
-                spec.profiles.profiles.keys().cloned().collect::<Vec<_>>().join(", ")
-            )
-        })?,
+        Some(name) => spec
+            .profiles
+            .get(name)
+            .ok_or_else(|| format!("no profile named `{name}` (profiles: {})", spec.profiles.names()))?,
         None => spec.profiles.default_profile(),
     };
     ModelConfig::from_spec(&spec, configuration, &profile).map_err(|e| e.to_string())

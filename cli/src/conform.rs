@@ -33,10 +33,11 @@ pub fn conform(a: ConformArgs) -> ExitCode {
         Ok(s) => s,
         Err(code) => return code,
     };
-    let files = match match &a.scenarios {
+    let found = match &a.scenarios {
         Some(dir) => trace_files(std::slice::from_ref(dir)),
         None => scenario_library(&a.specs),
-    } {
+    };
+    let files = match found {
         Ok(f) => f,
         Err(e) => {
             eprintln!("pmacwd: {e}");

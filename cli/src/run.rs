@@ -10,7 +10,9 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
         Ok(s) => s,
         Err(code) => return code,
     };
-    let files = match if paths.is_empty() { scenario_library(&specs) } else { trace_files(&paths) } {
+    // No path: the scenario library.
+    let found = if paths.is_empty() { scenario_library(&specs) } else { trace_files(&paths) };
+    let files = match found {
         Ok(f) => f,
         Err(e) => {
             eprintln!("pmacwd: {e}");

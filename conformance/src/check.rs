@@ -2,7 +2,6 @@
 
 use pmacwd_model::checker::{PropertyResult, RunReport, TraceStep, WatchdogModel};
 use pmacwd_model::properties::Expectation;
-use pmacwd_specs::check::ProfileSelection;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::{Spec, SpecError};
 use std::fmt::Write as _;
@@ -41,10 +40,11 @@ pub fn planned_runs(spec: &Spec, sel: &Selection) -> Result<Vec<ModelConfig>, Sp
         if sel.configuration.as_ref().is_some_and(|c| *c != run.configuration) {
             continue;
         }
-        let profiles = match &run.profiles {
-            ProfileSelection::Keyword(_) => spec.profiles.all(),
-            ProfileSelection::Named(names) => names.iter().filter_map(|n| spec.profiles.get(n)).collect(),
-        };
+        // The loader has checked every name of check.yaml's runs.
+        let profiles = spec
+            .profiles
+            .select(&run.profiles)
+            .map_err(|(_, n)| SpecError::whole_file(&spec.dir.join("check.yaml"), format!("no profile named `{n}`")))?;
         for profile in profiles {
             if sel.profile.as_ref().is_some_and(|p| *p != profile.name) {
                 continue;

@@ -8,7 +8,6 @@
 //! profile that chooses it diverged) or not covered by any profile.
 
 use crate::runner::{Mismatch, ModelLane};
-use pmacwd_specs::check::ProfileSelection;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::{Choices, Profile};
 use pmacwd_specs::yaml::SourceMap;
@@ -63,24 +62,9 @@ impl Source {
             Source::Yaml { trace, map, .. } => (&trace.profiles, map.position("profiles")),
             Source::Jsonl(r) => (&r.header.profiles, Position { line: 1, column: 1 }),
         };
-        match selection {
-            ProfileSelection::Keyword(_) => Ok(spec.profiles.all()),
-            ProfileSelection::Named(names) => names
-                .iter()
-                .map(|n| {
-                    spec.profiles.get(n).ok_or_else(|| {
-                        SpecError::at(
-                            path,
-                            at,
-                            format!(
-                                "no profile named `{n}` (profiles: {})",
-                                spec.profiles.profiles.keys().cloned().collect::<Vec<_>>().join(", ")
-                            ),
-                        )
-                    })
-                })
-                .collect(),
-        }
+        spec.profiles.select(selection).map_err(|(_, n)| {
+            SpecError::at(path, at, format!("no profile named `{n}` (profiles: {})", spec.profiles.names()))
+        })
     }
 
     pub fn configuration(&self) -> &str {

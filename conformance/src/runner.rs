@@ -1,7 +1,6 @@
 //! Runs a trace on the reference model and compares every expected observation.
 
 use pmacwd_model::controller::Controller;
-use pmacwd_specs::check::ProfileSelection;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::Profile;
 use pmacwd_specs::status::WordId;
@@ -53,18 +52,9 @@ pub enum Failure {
 
 /// The profiles a trace's expectations hold under.
 pub fn profiles_of(spec: &Spec, loaded: &LoadedTrace) -> Result<Vec<Profile>, SpecError> {
-    match &loaded.trace.profiles {
-        ProfileSelection::Keyword(_) => Ok(spec.profiles.all()),
-        ProfileSelection::Named(names) => names
-            .iter()
-            .enumerate()
-            .map(|(i, n)| {
-                spec.profiles
-                    .get(n)
-                    .ok_or_else(|| loaded.map.error(&format!("profiles.{i}"), format!("no profile named `{n}`")))
-            })
-            .collect(),
-    }
+    spec.profiles
+        .select(&loaded.trace.profiles)
+        .map_err(|(i, n)| loaded.map.error(&format!("profiles.{i}"), format!("no profile named `{n}`")))
 }
 
 /// The model as a trace drives it: the controller, its configuration, and how many servo

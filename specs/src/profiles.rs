@@ -280,4 +280,20 @@ impl Profiles {
         );
         v
     }
+
+    /// The profiles a selection names (`all`: every profile, the default first), or the first
+    /// name that is not a profile, with its index in the list.
+    pub fn select(&self, selection: &crate::check::ProfileSelection) -> Result<Vec<Profile>, (usize, String)> {
+        match selection {
+            crate::check::ProfileSelection::Keyword(_) => Ok(self.all()),
+            crate::check::ProfileSelection::Named(names) => {
+                names.iter().enumerate().map(|(i, n)| self.get(n).ok_or_else(|| (i, n.clone()))).collect()
+            }
+        }
+    }
+
+    /// The profile names, for error messages.
+    pub fn names(&self) -> String {
+        self.profiles.keys().cloned().collect::<Vec<_>>().join(", ")
+    }
 }
