@@ -459,21 +459,22 @@ impl Proxy {
         let s = shared.clone();
         accept.push(spawn("record: accept hosts".into(), None, move || accept_hosts(listener, local_addr, s))?);
         let s = shared.clone();
-        if let Err(e) = spawn("record: summaries".into(), None, move || summaries(&s)) {
+        // A thread that cannot start stops the ones already running (the accept loop wakes on a
+        // connection and sees the flag).
+        let abandon = |e: io::Error| {
             shared.stopping.store(true, Ordering::SeqCst);
             let _ = TcpStream::connect(local_addr);
-            return Err(e);
+            Err(e)
+        };
+        if let Err(e) = spawn("record: summaries".into(), None, move || summaries(&s)) {
+            return abandon(e);
         }
         if let Some(l) = control {
             let s = shared.clone();
             match spawn("record: accept control".into(), None, move || accept_control(l, s)) {
                 Ok(t) => accept.push(t),
-                Err(e) => {
-                    // No proxy without the control interface it was asked for.
-                    shared.stopping.store(true, Ordering::SeqCst);
-                    let _ = TcpStream::connect(local_addr);
-                    return Err(e);
-                }
+                // No proxy without the control interface it was asked for.
+                Err(e) => return abandon(e),
             }
         }
         Ok(Proxy { shared, local_addr, control_addr, accept })
