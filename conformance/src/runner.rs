@@ -57,6 +57,18 @@ pub fn profiles_of(spec: &Spec, loaded: &LoadedTrace) -> Result<Vec<Profile>, Sp
         .map_err(|(i, n)| loaded.map.error(&format!("profiles.{i}"), format!("no profile named `{n}`")))
 }
 
+/// `Ok` for an event a deterministic run can apply; `elapsed` and `restart` say only what a host
+/// saw, and only `pmacwd replay`, which searches for what happened, can judge them.
+pub fn deterministic(event: &TraceEvent) -> Result<(), String> {
+    match event {
+        TraceEvent::Elapsed { .. } | TraceEvent::Restart => Err(format!(
+            "`{event}` leaves open what happened; a deterministic run cannot choose it: judge this \
+             trace with `pmacwd replay`"
+        )),
+        TraceEvent::Model(_) | TraceEvent::Run { .. } => Ok(()),
+    }
+}
+
 /// The model as a trace drives it: the controller, its configuration, and how many servo
 /// cycles have passed since it tripped (its own counter X:$0 stops with the processor), which
 /// timing windows need.
@@ -83,6 +95,7 @@ impl ModelLane {
     /// divergence); `run` completes a background cycle after every servo cycle in which the
     /// load allows one.
     pub fn apply(&mut self, event: &TraceEvent) -> Result<Reply, String> {
+        deterministic(event)?;
         let reply = match event {
             TraceEvent::Model(Event::Background) if !self.card.background_possible() => {
                 return Err(if self.card.tripped() {
@@ -98,6 +111,7 @@ impl ModelLane {
                 Reply::None
             }
             TraceEvent::Model(e) => self.card.apply(&self.cfg, e),
+            TraceEvent::Elapsed { .. } | TraceEvent::Restart => unreachable!("refused by `deterministic`"),
             TraceEvent::Run { cycles } => {
                 for _ in 0..*cycles {
                     self.servo_cycle();
@@ -321,6 +335,7 @@ pub fn run_on_subject_observed<S: crate::subject::Subject>(
     let cfg = trace_config(spec, loaded, profile)?;
     let mut pair = crate::lockstep::Pair::<S>::power_on(&cfg);
     run_steps(loaded, |step| {
+        deterministic(&step.event).map_err(|why| Mismatch::Field("event", "an event a run can apply".into(), why))?;
         let obs = match pair.apply_trace_event(&step.event) {
             Ok(Some(obs)) => obs,
             Ok(None) => return Err(no_background("neither the model nor the implementation can complete one".into())),
@@ -335,6 +350,7 @@ pub fn run_on_subject_observed<S: crate::subject::Subject>(
         let event = match &step.event {
             TraceEvent::Model(e) => e.clone(),
             TraceEvent::Run { cycles } => Event::Servo { cycles: *cycles },
+            TraceEvent::Elapsed { .. } | TraceEvent::Restart => unreachable!("refused by `deterministic`"),
         };
         observe(&cfg, &event, &pair.model);
         if step.expect.window_cycles.is_some() {

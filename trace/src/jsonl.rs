@@ -131,6 +131,14 @@ pub fn header_line(trace: &Trace) -> String {
 pub fn step_line(step: &Step) -> String {
     let event = match &step.event {
         TraceEvent::Run { cycles } => serde_json::json!({ "run": cycles }),
+        TraceEvent::Elapsed { cycles_min, cycles_max: Some(max) } if max == cycles_min => {
+            serde_json::json!({ "elapsed": cycles_min })
+        }
+        TraceEvent::Elapsed { cycles_min, cycles_max: Some(max) } => {
+            serde_json::json!({ "elapsed": { "min": cycles_min, "max": max } })
+        }
+        TraceEvent::Elapsed { cycles_min, cycles_max: None } => serde_json::json!({ "elapsed": { "min": cycles_min } }),
+        TraceEvent::Restart => serde_json::json!({ "restart": 1 }),
         TraceEvent::Model(e) => model_event_json(e),
     };
     let mut v = event;

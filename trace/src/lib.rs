@@ -47,10 +47,22 @@ pub struct Trace {
 /// the background is not observed (a host log): N servo cycles with a background cycle
 /// completing after each one in which the load allows it. The harness expands `run` into the
 /// model's own events, so any implementation can be driven by it.
+///
+/// Two more events say what a host log knows and no more, for `replay`, which searches for
+/// what happened: `elapsed` (servo cycles passed, as the card's X:$0 or the host's clock
+/// measured them, and nothing is known of what happened meanwhile) and `restart` (the card
+/// restarted, by INIT/, power or another host's `$$$`: the log cannot say which). A
+/// deterministic run of the model (`run`, `conform`) refuses them.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TraceEvent {
     Model(Event),
     Run { cycles: u32 },
+    /// Between `cycles_min` and `cycles_max` servo cycles (unbounded if `None`) pass unseen:
+    /// background cycles, load, supply dips, checksum progress and trips are for replay to
+    /// choose.
+    Elapsed { cycles_min: u32, cycles_max: Option<u32> },
+    /// The card restarted unseen (INIT/, power cycle, or `$$$` from another host).
+    Restart,
 }
 
 impl fmt::Display for TraceEvent {
@@ -58,6 +70,16 @@ impl fmt::Display for TraceEvent {
         match self {
             TraceEvent::Model(e) => e.fmt(f),
             TraceEvent::Run { cycles } => write!(f, "run {cycles} servo cycles, background whenever possible"),
+            TraceEvent::Elapsed { cycles_min, cycles_max: Some(max) } if max == cycles_min => {
+                write!(f, "{cycles_min} servo cycles pass unseen")
+            }
+            TraceEvent::Elapsed { cycles_min, cycles_max: Some(max) } => {
+                write!(f, "{cycles_min} to {max} servo cycles pass unseen")
+            }
+            TraceEvent::Elapsed { cycles_min, cycles_max: None } => {
+                write!(f, "at least {cycles_min} servo cycles pass unseen")
+            }
+            TraceEvent::Restart => f.write_str("the card restarts unseen (INIT/, power or `$$$`)"),
         }
     }
 }
@@ -112,8 +134,57 @@ pub const STEP_CYCLES_MAX: u32 = 1 << 24;
 /// The keys a step may have besides its one event key.
 const STEP_EXTRAS: [&str; 2] = ["expect", "note"];
 /// The event keys.
-const EVENT_KEYS: [&str; 9] =
-    ["servo", "run", "background", "load", "command", "supply_mv", "reset", "checksum_fault", "clear_rti_reentry"];
+const EVENT_KEYS: [&str; 11] = [
+    "servo",
+    "run",
+    "elapsed",
+    "background",
+    "load",
+    "command",
+    "supply_mv",
+    "reset",
+    "restart",
+    "checksum_fault",
+    "clear_rti_reentry",
+];
+
+/// `elapsed: N` or `elapsed: {min: A, max: B}` (`max` optional: unbounded).
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum ElapsedForm {
+    Exact(u32),
+    Range(ElapsedRange),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ElapsedRange {
+    min: u32,
+    #[serde(default)]
+    max: Option<u32>,
+}
+
+fn elapsed_event<E: de::Error>(form: ElapsedForm) -> Result<TraceEvent, E> {
+    let (min, max) = match form {
+        ElapsedForm::Exact(n) => (n, Some(n)),
+        ElapsedForm::Range(r) => (r.min, r.max),
+    };
+    if let Some(max) = max {
+        if max < min {
+            return Err(E::custom(format!("`elapsed`: max {max} is below min {min}")));
+        }
+        if max > STEP_CYCLES_MAX {
+            return Err(E::custom(format!(
+                "`elapsed` up to {max} servo cycles is more than {STEP_CYCLES_MAX}, the most one step \
+                 takes; split it into several steps, or leave `max` out for an unbounded time"
+            )));
+        }
+    }
+    if min > STEP_CYCLES_MAX {
+        return Err(E::custom(format!("`elapsed` of at least {min} servo cycles is more than {STEP_CYCLES_MAX}; split it")));
+    }
+    Ok(TraceEvent::Elapsed { cycles_min: min, cycles_max: max })
+}
 
 impl<'de> Deserialize<'de> for Step {
     /// A step is a bare word (`background`, `clear_rti_reentry`) or a mapping with exactly one
@@ -131,6 +202,9 @@ impl<'de> Deserialize<'de> for Step {
             }
             fn visit_str<E: de::Error>(self, v: &str) -> Result<Step, E> {
                 let event = match v {
+                    "restart" => {
+                        return Ok(Step { event: TraceEvent::Restart, expect: Expect::default(), note: None })
+                    }
                     "background" => Event::Background,
                     "clear_rti_reentry" => Event::ClearRtiReentry,
                     other => {
@@ -177,6 +251,16 @@ impl<'de> Deserialize<'de> for Step {
                             } else {
                                 TraceEvent::Model(Event::Servo { cycles })
                             }
+                        }
+                        "elapsed" => elapsed_event(map.next_value::<ElapsedForm>()?)?,
+                        "restart" => {
+                            let n: u32 = map.next_value()?;
+                            if n != 1 {
+                                return Err(de::Error::custom(
+                                    "`restart` takes no count other than 1; write one step per occurrence",
+                                ));
+                            }
+                            TraceEvent::Restart
                         }
                         "background" | "clear_rti_reentry" => {
                             let n: u32 = map.next_value()?;
@@ -318,6 +402,14 @@ pub fn yaml_step(step: &Step) -> String {
     {
         let event = match &step.event {
             TraceEvent::Run { cycles } => format!("run: {cycles}"),
+            TraceEvent::Elapsed { cycles_min, cycles_max: Some(max) } if max == cycles_min => {
+                format!("elapsed: {cycles_min}")
+            }
+            TraceEvent::Elapsed { cycles_min, cycles_max: Some(max) } => {
+                format!("elapsed: {{min: {cycles_min}, max: {max}}}")
+            }
+            TraceEvent::Elapsed { cycles_min, cycles_max: None } => format!("elapsed: {{min: {cycles_min}}}"),
+            TraceEvent::Restart => "restart: 1".into(),
             TraceEvent::Model(e) => match e {
                 Event::Servo { cycles } => format!("servo: {cycles}"),
                 Event::Background => "background: 1".into(),
