@@ -15,13 +15,12 @@ pub fn replay_file(file: &std::path::Path, format: Format, specs: Option<PathBuf
         Ok(s) => s,
         Err(code) => return code,
     };
-    match pmacwd_conformance::replay::replay(&spec, file) {
+    use pmacwd_conformance::explain::report;
+    match report::explain(&spec, file, None) {
         Ok(report) => {
             match format {
-                Format::Text => {
-                    print!("{}", pmacwd_conformance::replay::to_text(&report, &spec.profiles.default_profile().name))
-                }
-                Format::Json => println!("{}", pmacwd_conformance::replay::to_json(&report)),
+                Format::Text => print!("{}", report::to_text(&report)),
+                Format::Json => println!("{}", report::to_json(&report)),
             }
             if report.explained() {
                 ExitCode::SUCCESS

@@ -11,6 +11,7 @@
 pub mod check;
 pub mod coverage;
 pub mod decode;
+pub mod explain;
 pub mod generate;
 pub mod import;
 pub mod lockstep;

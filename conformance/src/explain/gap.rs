@@ -1,0 +1,330 @@
+//! What a card can have become after servo cycles the host did not see.
+//!
+//! A host log says only that N servo cycles passed (X:$0 read twice). In between, background
+//! cycles completed whenever the load allowed, the load itself may have changed, the supply
+//! may have dipped. The search does not enumerate those schedules one by one (2^N of them);
+//! it runs the model on a few *plans*, families of schedules chosen so that every observation
+//! a host can make next is produced by one of them:
+//!
+//! - where the last background cycle fell (`tail`: cycles since it) decides Y:$25;
+//! - the deepest run-down before it (a late first background cycle, or a stretch without one)
+//!   decides X:$25, which no rule reads, so the search keeps X:$25 as an interval over the
+//!   plans that differ only in it;
+//! - one background cycle more or less flips the checksum engine's area (bit 12);
+//! - an RTI overrun (bits 22, 9), a checksum fault (bits 13, 12), a supply dip or a starved
+//!   background (a trip) are added when the next observations call for them.
+//!
+//! Every plan is run on the model itself ([`super::sim`]), so what the search keeps is what
+//! the model reaches. That the plans miss no observation is checked, not argued: the property
+//! tests in `tests/explain.rs` generate model runs with random schedules and loads, hide what
+//! a host cannot see, and require the search to explain them.
+
+use super::sim::{self, Sim};
+use pmacwd_model::controller::Controller;
+use pmacwd_specs::check::ChecksumTarget;
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::profiles::StrobeStop;
+use pmacwd_specs::vocab::event::Event;
+use std::collections::HashMap;
+
+/// What the steps right after a gap observe, before anything changes the card: the search
+/// aims its plans at these. (Hints only narrow what is tried; every successor is still
+/// checked against the steps themselves.)
+#[derive(Clone, Debug, Default)]
+pub struct Hints {
+    /// Whether the first command after the gap got no reply.
+    pub silent: Option<bool>,
+    /// Y:$25 as read.
+    pub counter: Option<i32>,
+    /// X:$25 as read.
+    pub counter_min: Option<i32>,
+    /// A status read shows bit 22 or bit 9 set.
+    pub overrun_seen: bool,
+    /// A status read shows bit 13 set.
+    pub checksum_error_seen: bool,
+}
+
+/// How a gap begins, before background cycles follow whenever the load allows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Lead {
+    /// The first background cycle at the first chance.
+    Steady,
+    /// No background cycle for the first `j` servo cycles; one after the `j`-th.
+    FirstAfter(u32),
+    /// A background cycle after the first servo cycle, then none for `s` cycles, then one.
+    Stretch(u32),
+    /// PLC 0 takes longer than an RTI period until an RTI overruns, then the light load again.
+    Overrun,
+    /// Memory corruption the checksum will find.
+    Fault(ChecksumTarget),
+}
+
+/// One family of schedules for a gap.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Plan {
+    /// The card is tripped or in bootstrap: servo cycles change nothing.
+    Idle { cycles: u32 },
+    /// The supply dips below its minimum at the start of the gap and comes back (UM p.215).
+    Undervoltage { cycles: u32 },
+    /// No background cycle completes in the whole gap (or until the card trips).
+    Starved { cycles: u32 },
+    /// `lead`, then background cycles whenever the load allows (one fewer if `skip`), the last
+    /// one `tail` servo cycles before the end of the gap.
+    Schedule { cycles: u32, lead: Lead, skip: bool, tail: u32 },
+}
+
+impl Plan {
+    pub fn cycles(&self) -> u32 {
+        match *self {
+            Plan::Idle { cycles }
+            | Plan::Undervoltage { cycles }
+            | Plan::Starved { cycles }
+            | Plan::Schedule { cycles, .. } => cycles,
+        }
+    }
+}
+
+/// Runs `plan` from `card`; `None` if the model cannot follow it (a background cycle the load
+/// does not allow, a lead longer than the gap).
+pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool) -> Option<Sim<'a>> {
+    let mut sim = Sim::new(cfg, card.clone(), record);
+    match plan {
+        Plan::Idle { cycles } => sim.servo(cycles),
+        Plan::Undervoltage { cycles } => {
+            // UM p.215: below about 4.75 V the relay trips and the card shuts down; the
+            // trip is latched, so the supply coming back changes nothing until a reset.
+            sim.event(Event::Supply { millivolts: cfg.supply_min_millivolts.saturating_sub(1) });
+            sim.event(Event::Supply { millivolts: cfg.supply_min_millivolts.max(5000) });
+            sim.servo(cycles);
+        }
+        Plan::Starved { cycles } => {
+            let ran = sim.servo_until_trip(u64::from(cycles));
+            // A tripped card's servo cycles change nothing; written for the witness's timing.
+            sim.servo(cycles - ran as u32);
+        }
+        Plan::Schedule { cycles, lead, skip, tail } => {
+            if sim.card.load != sim::light_load() {
+                sim.event(Event::Load(sim::light_load()));
+            }
+            let last = cycles.checked_sub(tail)?;
+            let lead_ends_with_background = match lead {
+                Lead::Steady => false,
+                Lead::FirstAfter(j) => {
+                    if j == 0 || j > last {
+                        return None;
+                    }
+                    sim.servo(j);
+                    if !sim.background() {
+                        return None;
+                    }
+                    true
+                }
+                Lead::Stretch(s) => {
+                    if s == 0 || 1 + s > last {
+                        return None;
+                    }
+                    sim.servo(1);
+                    if !sim.background() {
+                        return None;
+                    }
+                    sim.servo(s);
+                    if !sim.background() {
+                        return None;
+                    }
+                    true
+                }
+                Lead::Overrun => {
+                    let load = sim::overrun_load(cfg, sim.card.i8);
+                    sim.event(Event::Load(load));
+                    let limit = 3 * (u32::from(sim.card.i8) + 1) + 2;
+                    let mut n = 0;
+                    let mut overran = false;
+                    while n < limit && !overran && !sim.card.tripped() {
+                        overran = sim.card.servo_cycle(cfg).rti_overrun;
+                        n += 1;
+                    }
+                    sim.cycles += u64::from(n);
+                    if let Some(events) = &mut sim.events {
+                        events.push(pmacwd_trace::TraceEvent::Model(Event::Servo { cycles: n }));
+                    }
+                    sim.event(Event::Load(sim::light_load()));
+                    if !overran || u64::from(last) < sim.cycles {
+                        return None;
+                    }
+                    false
+                }
+                Lead::Fault(area) => {
+                    sim.event(Event::ChecksumFault(area));
+                    false
+                }
+            };
+            let middle = u64::from(last).checked_sub(sim.cycles)? as u32;
+            if middle == 0 {
+                if !lead_ends_with_background || skip {
+                    return None;
+                }
+            } else {
+                if skip {
+                    if middle < 2 {
+                        return None;
+                    }
+                    sim.servo(1);
+                    sim.greedy(middle - 1);
+                } else {
+                    sim.greedy(middle);
+                }
+                if !sim.card.tripped() && sim.card.ghost.cycles_since_background != 0 {
+                    return None;
+                }
+            }
+            sim.servo(tail);
+        }
+    }
+    Some(sim)
+}
+
+/// One successor: the card after the gap, with X:$25 anywhere in `min_lo..=card.counter_min`.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    pub card: Controller,
+    pub min_lo: i32,
+    /// The plan reaching the top of the interval, and one reaching its bottom.
+    pub plan_hi: Plan,
+    pub plan_lo: Plan,
+}
+
+/// Servo cycles from `card` without a background cycle until it trips (at most `max`).
+fn cycles_to_trip(cfg: &ModelConfig, card: &Controller, max: u64) -> u64 {
+    let mut probe = card.clone();
+    let mut n = 0;
+    while n < max && !probe.tripped() {
+        probe.servo_cycle(cfg);
+        n += 1;
+    }
+    if probe.tripped() {
+        n
+    } else {
+        u64::MAX
+    }
+}
+
+/// Every card the search keeps after `cycles` unseen servo cycles from `card`, grouped so
+/// that cards differing only in X:$25 are one outcome with an interval.
+pub fn successors(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -> Vec<Outcome> {
+    let mut plans: Vec<Plan> = Vec::new();
+    if card.tripped() || card.bootstrap {
+        plans.push(Plan::Idle { cycles });
+    } else {
+        let r = cfg.reset_value(card.i40);
+        let delay = i64::from(cfg.hardware_delay_cycles);
+        let may_be_silent = hints.silent != Some(false);
+        if may_be_silent {
+            plans.push(Plan::Undervoltage { cycles });
+        }
+        // No background cycle at all: the counter runs down from where it is.
+        let starved_counter = match cfg.profile.choices.strobe_stop {
+            StrobeStop::AtZero => (i64::from(card.counter) - i64::from(cycles)).max(0),
+            StrobeStop::BelowZero => i64::from(card.counter) - i64::from(cycles),
+        };
+        if may_be_silent || hints.counter.is_none_or(|c| i64::from(c) == starved_counter) {
+            plans.push(Plan::Starved { cycles });
+        }
+        // Cycles since the last background cycle, from Y:$25 when it is read.
+        let tail_max = u64::from(cycles.saturating_sub(1)).min((i64::from(r) + delay + 2).max(0) as u64) as u32;
+        let tails: Vec<u32> = match hints.counter {
+            Some(c) if hints.silent == Some(false) || hints.silent.is_none() => {
+                let mut t = Vec::new();
+                let k = i64::from(r) - i64::from(c);
+                if c == 0 && cfg.profile.choices.strobe_stop == StrobeStop::AtZero {
+                    // At zero the counter stays: any tail from R on, until the trip.
+                    t.extend((r.max(0) as u32)..=tail_max);
+                } else if (0..=i64::from(tail_max)).contains(&k) {
+                    t.push(k as u32);
+                }
+                t
+            }
+            _ => (0..=tail_max).collect(),
+        };
+        let c0 = i64::from(card.counter);
+        let mut leads = vec![Lead::Steady];
+        match hints.counter_min {
+            Some(m) => {
+                let m = i64::from(m);
+                if c0 - m >= 1 {
+                    leads.push(Lead::FirstAfter((c0 - m) as u32));
+                }
+                if i64::from(r) - m >= 1 {
+                    leads.push(Lead::Stretch((i64::from(r) - m) as u32));
+                }
+            }
+            None => {
+                // The deepest run-downs that do not trip the card: the rest of the interval.
+                let bound = (i64::from(r) + delay + 4 * (i64::from(card.i8) + 2)).max(1) as u64;
+                let first = cycles_to_trip(cfg, card, bound).saturating_sub(1).min(u64::from(cycles));
+                if first >= 1 {
+                    leads.push(Lead::FirstAfter(first as u32));
+                }
+                let mut reloaded = Sim::new(cfg, card.clone(), false);
+                reloaded.servo(1);
+                if reloaded.background() {
+                    let stretch = cycles_to_trip(cfg, &reloaded.card, bound).saturating_sub(1).min(u64::from(cycles));
+                    if stretch >= 1 {
+                        leads.push(Lead::Stretch(stretch as u32));
+                    }
+                }
+            }
+        }
+        if hints.overrun_seen {
+            leads.push(Lead::Overrun);
+        }
+        if hints.checksum_error_seen {
+            leads.push(Lead::Fault(ChecksumTarget::Firmware));
+            leads.push(Lead::Fault(ChecksumTarget::UserProgram));
+        }
+        for &tail in &tails {
+            for &lead in &leads {
+                for skip in [false, true] {
+                    let lead = match lead {
+                        // A lead deeper than the gap allows is the deepest the gap allows.
+                        Lead::FirstAfter(j) => Lead::FirstAfter(j.min(cycles - tail)),
+                        Lead::Stretch(s) => Lead::Stretch(s.min((cycles - tail).saturating_sub(1))),
+                        l => l,
+                    };
+                    plans.push(Plan::Schedule { cycles, lead, skip, tail });
+                }
+            }
+        }
+    }
+    group(cfg, card, plans)
+}
+
+/// Runs every plan and merges the results that differ only in X:$25 into intervals.
+fn group(cfg: &ModelConfig, card: &Controller, plans: Vec<Plan>) -> Vec<Outcome> {
+    let mut by_state: HashMap<Controller, Outcome> = HashMap::new();
+    let mut seen = std::collections::HashSet::new();
+    for plan in plans {
+        if !seen.insert(plan) {
+            continue;
+        }
+        let Some(sim) = run(cfg, card, plan, false) else { continue };
+        let mut end = sim.card;
+        super::normalize(&mut end);
+        let min = end.counter_min;
+        let mut key = end.clone();
+        key.counter_min = i32::MIN;
+        by_state
+            .entry(key)
+            .and_modify(|o| {
+                if min > o.card.counter_min {
+                    o.card.counter_min = min;
+                    o.plan_hi = plan;
+                }
+                if min < o.min_lo {
+                    o.min_lo = min;
+                    o.plan_lo = plan;
+                }
+            })
+            .or_insert(Outcome { card: end, min_lo: min, plan_hi: plan, plan_lo: plan });
+    }
+    by_state.into_values().collect()
+}

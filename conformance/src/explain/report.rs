@@ -1,0 +1,371 @@
+//! The replay verdict: which combinations of readings explain a capture, what each reading's
+//! options come to, one explanation, and, when the card fell silent, the diagnosis.
+
+use super::lanes::{self, LaneDef, READINGS};
+use super::search::{self, Death, Lane};
+use super::witness::{self, Witness};
+use crate::replay::Source;
+use pmacwd_model::controller::TripCause;
+use pmacwd_specs::{Position, Spec, SpecError};
+use std::path::{Path, PathBuf};
+
+/// What a capture says about one option of one reading.
+#[derive(Clone, Debug)]
+pub enum OptionVerdict {
+    /// Some combination choosing it explains the capture: how many lanes do.
+    Supported(usize),
+    /// No combination choosing it explains the capture; the one that lasted longest died here.
+    RuledOut(Death),
+}
+
+#[derive(Clone, Debug)]
+pub struct ReadingVerdict {
+    pub reading: &'static str,
+    pub options: Vec<(&'static str, OptionVerdict)>,
+    /// Why the capture cannot judge this reading, if it cannot (both options then share lanes).
+    pub not_exercised: Option<&'static str>,
+}
+
+#[derive(Clone, Debug)]
+pub struct LaneSummary {
+    pub label: String,
+    pub combinations: usize,
+    pub death: Option<Death>,
+    pub candidates_end: usize,
+    pub candidates_peak: usize,
+}
+
+/// Why a card that fell silent may have tripped.
+#[derive(Clone, Debug, Default)]
+pub struct Diagnosis {
+    pub possible: Vec<String>,
+    pub ruled_out: Vec<String>,
+}
+
+pub struct Report {
+    pub file: PathBuf,
+    pub description: String,
+    pub configuration: String,
+    pub events: u64,
+    pub lanes: Vec<LaneSummary>,
+    pub readings: Vec<ReadingVerdict>,
+    /// The named profiles of `profiles.yaml` the capture was judged under: (name, default,
+    /// explains).
+    pub profiles: Vec<(String, bool, bool)>,
+    /// The lane the explanation is for, and the explanation.
+    pub witness: Option<(String, Witness)>,
+    pub diagnosis: Option<Diagnosis>,
+}
+
+impl Report {
+    pub fn explained(&self) -> bool {
+        self.lanes.iter().any(|l| l.death.is_none())
+    }
+}
+
+const STARVED: &str = "the background stopped completing (PLC 0 or other RTI tasks overrunning, a servo load \
+                       beyond the cycle, or one background task too long), the watchdog counter ran out and the \
+                       strobe stopped (UM p.215)";
+const UNDERVOLTAGE: &str = "the logic supply dipped below its minimum, about 4.75 V (UM p.215)";
+
+/// Judges the capture at `path` (configuration `configuration`, or the capture's own).
+pub fn explain(spec: &Spec, path: &Path, configuration: Option<&str>) -> Result<Report, SpecError> {
+    let source = Source::open(path)?;
+    let configuration = configuration.unwrap_or(source.configuration()).to_string();
+    let description = source.description().to_string();
+    let profiles = source.profiles(spec, path)?;
+    drop(source);
+    if !spec.check.configurations.contains_key(&configuration) {
+        return Err(SpecError::at(
+            path,
+            Position { line: 1, column: 1 },
+            format!(
+                "no configuration named `{configuration}` in check.yaml (configurations: {})",
+                spec.check.configurations.keys().cloned().collect::<Vec<_>>().join(", ")
+            ),
+        ));
+    }
+    let all = profiles.len() == spec.profiles.all().len();
+    let defs = lanes::lanes(spec, &configuration, if all { None } else { Some(&profiles) })?;
+    let (done, events) = search::search(spec, path, &configuration, defs.clone(), false)?;
+
+    let summaries: Vec<LaneSummary> = done
+        .iter()
+        .map(|l| LaneSummary {
+            label: lanes::label(&l.def.choices),
+            combinations: l.def.combinations.len(),
+            death: l.death.clone(),
+            candidates_end: l.cands.len(),
+            candidates_peak: l.peak,
+        })
+        .collect();
+    let readings = READINGS
+        .iter()
+        .enumerate()
+        .map(|(r, (reading, options))| {
+            let options = options
+                .iter()
+                .enumerate()
+                .filter(|(o, _)| done.iter().any(|l| l.def.combinations.iter().any(|c| c[r] == *o)))
+                .map(|(o, name)| {
+                    let choosing = || done.iter().filter(move |l| l.def.combinations.iter().any(|c| c[r] == o));
+                    let alive = choosing().filter(|l| l.alive()).count();
+                    let v = if alive > 0 {
+                        OptionVerdict::Supported(alive)
+                    } else {
+                        let latest =
+                            choosing().filter_map(|l| l.death.clone()).max_by_key(|d| d.event).expect("a lane died");
+                        OptionVerdict::RuledOut(latest)
+                    };
+                    (*name, v)
+                })
+                .collect();
+            ReadingVerdict { reading, options, not_exercised: lanes::not_exercised(spec, &configuration, r) }
+        })
+        .collect();
+    let named = profiles
+        .iter()
+        .map(|p| {
+            let o = lanes::options_of(&p.choices);
+            let explains = done.iter().any(|l| l.alive() && l.def.combinations.contains(&o));
+            (p.name.clone(), p.name == spec.profiles.default_profile().name, explains)
+        })
+        .collect();
+    let diagnosis = diagnose(&done);
+
+    // The explanation: the default profile's lane if it explains, else the first that does,
+    // searched again with its choices recorded.
+    let default = lanes::options_of(&spec.profiles.default_profile().choices);
+    let chosen = done
+        .iter()
+        .find(|l| l.alive() && l.def.combinations.contains(&default))
+        .or_else(|| done.iter().find(|l| l.alive()))
+        .map(|l| l.def.clone());
+    let witness = match chosen {
+        Some(def) => Some(witness_for(spec, path, &configuration, def)?),
+        None => None,
+    };
+    Ok(Report {
+        file: path.to_path_buf(),
+        description,
+        configuration,
+        events,
+        lanes: summaries,
+        readings,
+        profiles: named,
+        witness,
+        diagnosis,
+    })
+}
+
+fn witness_for(spec: &Spec, path: &Path, configuration: &str, def: LaneDef) -> Result<(String, Witness), SpecError> {
+    let label = lanes::label(&def.choices);
+    let (lanes, _) = search::search(spec, path, configuration, vec![def], true)?;
+    let lane: &Lane = &lanes[0];
+    // Prefer a running card at the end, then the shallowest X:$25.
+    let best = lane
+        .cands
+        .iter()
+        .min_by_key(|c| (c.card.tripped(), -c.card.counter_min, c.cpu))
+        .and_then(|c| c.node.clone())
+        .ok_or_else(|| SpecError::whole_file(path, "the second search found no explanation the first one found"))?;
+    let mut w = witness::build(&lane.cfg, path, &best)?;
+    w.cpu_decided = lane.cands.iter().all(|c| c.cpu == w.cpu);
+    Ok((label, w))
+}
+
+/// When some explaining card is tripped at the end: every cause that remains possible.
+fn diagnose(lanes: &[Lane]) -> Option<Diagnosis> {
+    let alive: Vec<&Lane> = lanes.iter().filter(|l| l.alive()).collect();
+    let tripped: Vec<_> = alive.iter().flat_map(|l| l.cands.iter()).filter(|c| c.card.tripped()).collect();
+    if tripped.is_empty() {
+        return None;
+    }
+    let mut d = Diagnosis::default();
+    let has = |cause: TripCause| tripped.iter().any(|c| c.card.trip == Some(cause));
+    if has(TripCause::StrobeTimeout) {
+        let overran = tripped.iter().any(|c| c.card.trip == Some(TripCause::StrobeTimeout) && c.card.status.rti_reentry);
+        let mut s = STARVED.to_string();
+        if overran {
+            s.push_str("; RTI overruns (bit 22) had been seen, which points at PLC 0 or move planning");
+        }
+        d.possible.push(s);
+    } else {
+        d.ruled_out.push(format!(
+            "{STARVED}: ruled out, the card fell silent sooner than its counter could run out from the last \
+             value read plus the hardware delay"
+        ));
+    }
+    if has(TripCause::Undervoltage) {
+        d.possible.push(format!("{UNDERVOLTAGE}: a host log cannot rule it out"));
+    }
+    if alive.iter().flat_map(|l| l.cands.iter()).any(|c| !c.card.tripped()) {
+        d.possible.push("no trip at all: nothing after this point shows the card silent".into());
+    }
+    Some(d)
+}
+
+fn option_text(o: &str, v: &OptionVerdict) -> String {
+    match v {
+        OptionVerdict::Supported(n) => {
+            format!("{o}: supported ({n} combination{} explain the capture)", if *n == 1 { "" } else { "s" })
+        }
+        OptionVerdict::RuledOut(d) => format!(
+            "{o}: RULED OUT (no combination with it explains the capture; the last to fail failed at event {} \
+             (line {}): {}: expected {}, observed {})",
+            d.event, d.line, d.what, d.expected, d.observed
+        ),
+    }
+}
+
+pub fn to_text(r: &Report) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "replay {}: {} events, configuration {}", r.file.display(), r.events, r.configuration);
+    let _ = writeln!(s, "  {}", r.description.split_whitespace().collect::<Vec<_>>().join(" "));
+    let alive = r.lanes.iter().filter(|l| l.death.is_none()).count();
+    let _ = writeln!(
+        s,
+        "combinations of readings searched: {}; {} explain the capture",
+        r.lanes.len(),
+        if alive == 0 { "none".to_string() } else { alive.to_string() }
+    );
+    s.push_str("readings:\n");
+    for rv in &r.readings {
+        match rv.not_exercised {
+            Some(why) => {
+                let _ = writeln!(s, "  {}: not exercised: {why}", rv.reading);
+            }
+            None => {
+                let supported = rv.options.iter().filter(|(_, v)| matches!(v, OptionVerdict::Supported(_))).count();
+                let state = match (supported, rv.options.len()) {
+                    (0, _) => "no option explains the capture",
+                    (1, 2) => "decided",
+                    (1, _) => "only this option was judged",
+                    _ => "undecided: both options explain the capture",
+                };
+                let _ = writeln!(s, "  {}: {state}", rv.reading);
+                for (o, v) in &rv.options {
+                    let _ = writeln!(s, "      {}", option_text(o, v));
+                }
+            }
+        }
+    }
+    if !r.profiles.is_empty() {
+        s.push_str("named profiles:\n");
+        for (name, default, explains) in &r.profiles {
+            let tag = if *default { " (default)" } else { "" };
+            let _ =
+                writeln!(s, "  {:<30} {}", format!("{name}{tag}"), if *explains { "explains" } else { "does not explain" });
+        }
+    }
+    if let Some((label, w)) = &r.witness {
+        let _ = writeln!(s, "explanation (readings: {label}):");
+        let cpu = ["DSP56303", "DSP56309", "DSP56311", "DSP56321"][usize::from(w.cpu & 3)];
+        if w.cpu_decided {
+            let _ = writeln!(s, "  the card's CPU is a {cpu} (bits 21 of ???, SRM p.289)");
+        }
+        if w.story.is_empty() {
+            s.push_str("  a background cycle completed in every gap soon enough: nothing unusual happened unseen\n");
+        }
+        for line in &w.story {
+            let _ = writeln!(s, "  {line}");
+        }
+        let _ = writeln!(s, "  (the whole behaviour as a trace: --witness FILE, {} steps)", w.steps.len());
+    }
+    if let Some(d) = &r.diagnosis {
+        s.push_str("diagnosis: the card is silent at the end; why it tripped (UM p.215, \"Diagnosing Cause of Watchdog Timer Trip\"):\n");
+        for p in &d.possible {
+            let _ = writeln!(s, "  possible: {p}");
+        }
+        for p in &d.ruled_out {
+            let _ = writeln!(s, "  {p}");
+        }
+    }
+    if alive == 0 {
+        s.push_str("why not:\n");
+        let mut deaths: Vec<&LaneSummary> = r.lanes.iter().collect();
+        deaths.sort_by_key(|l| std::cmp::Reverse(l.death.as_ref().map(|d| d.event)));
+        for l in deaths.iter().take(3) {
+            if let Some(d) = &l.death {
+                let _ = writeln!(
+                    s,
+                    "  {}: event {} (line {}): {}: expected {}, observed {} ({} candidate state{} before it)",
+                    l.label,
+                    d.event,
+                    d.line,
+                    d.what,
+                    d.expected,
+                    d.observed,
+                    d.candidates,
+                    if d.candidates == 1 { "" } else { "s" }
+                );
+            }
+        }
+    }
+    let _ = writeln!(
+        s,
+        "verdict: {}",
+        if alive == 0 {
+            "no correct card explains this capture, under any combination of readings".to_string()
+        } else {
+            "explained: a correct card can produce this capture".to_string()
+        }
+    );
+    s
+}
+
+fn death_json(d: &Death) -> serde_json::Value {
+    serde_json::json!({"event": d.event, "line": d.line, "what": d.what, "expected": d.expected,
+        "observed": d.observed, "candidates_before": d.candidates})
+}
+
+pub fn to_json(r: &Report) -> String {
+    let readings: serde_json::Map<String, serde_json::Value> = r
+        .readings
+        .iter()
+        .map(|rv| {
+            let opts: serde_json::Map<String, serde_json::Value> = rv
+                .options
+                .iter()
+                .map(|(o, v)| {
+                    let v = match v {
+                        OptionVerdict::Supported(n) => serde_json::json!({"verdict": "supported", "explaining": n}),
+                        OptionVerdict::RuledOut(d) => {
+                            serde_json::json!({"verdict": "ruled_out", "last_failure": death_json(d)})
+                        }
+                    };
+                    (o.to_string(), v)
+                })
+                .collect();
+            (
+                rv.reading.to_string(),
+                serde_json::json!({"not_exercised": rv.not_exercised, "options": opts}),
+            )
+        })
+        .collect();
+    let lanes: Vec<serde_json::Value> = r
+        .lanes
+        .iter()
+        .map(|l| {
+            serde_json::json!({"readings": l.label, "combinations": l.combinations, "explains": l.death.is_none(),
+                "failure": l.death.as_ref().map(death_json), "candidates_end": l.candidates_end,
+                "candidates_peak": l.candidates_peak})
+        })
+        .collect();
+    let profiles: Vec<serde_json::Value> = r
+        .profiles
+        .iter()
+        .map(|(n, d, e)| serde_json::json!({"profile": n, "default": d, "explains": e}))
+        .collect();
+    serde_json::json!({
+        "file": r.file.display().to_string(), "events": r.events, "configuration": r.configuration,
+        "explained": r.explained(), "readings": readings, "lanes": lanes, "profiles": profiles,
+        "explanation": r.witness.as_ref().map(|(label, w)| serde_json::json!({
+            "readings": label, "cpu_type": w.cpu, "story": w.story, "trace_steps": w.steps.len(),
+            "lowest_counter_min": w.lowest_min,
+        })),
+        "diagnosis": r.diagnosis.as_ref().map(|d| serde_json::json!({"possible": d.possible, "ruled_out": d.ruled_out})),
+    })
+    .to_string()
+}

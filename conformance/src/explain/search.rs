@@ -1,0 +1,417 @@
+//! The search itself: every lane's candidates, advanced one capture step at a time.
+
+use super::gap::{self, Hints};
+use super::lanes::LaneDef;
+use super::sim::{self, Sim};
+use super::witness::{Node, NodeKind};
+use super::{normalize, CANDIDATES_MAX};
+use crate::replay::Source;
+use crate::runner::{compare, Mismatch};
+use pmacwd_model::controller::Controller;
+use pmacwd_specs::check::{ResetEvent, ResetKind};
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::profiles::Profile;
+use pmacwd_specs::status::WordId;
+use pmacwd_specs::vocab::command::{HostCommand, Register};
+use pmacwd_specs::vocab::event::{Event, Reply};
+use pmacwd_specs::vocab::reply_text::{self, StatusReply};
+use pmacwd_specs::{Position, Spec, SpecError};
+use pmacwd_trace::{Step, TraceEvent};
+use std::collections::{HashMap, VecDeque};
+use std::path::Path;
+use std::rc::Rc;
+
+/// How far the search looks past a gap for the observations that aim its plans.
+const LOOKAHEAD_STEPS: usize = 32;
+
+/// A candidate: one model state the capture so far allows.
+#[derive(Clone, Debug)]
+pub struct Cand {
+    pub card: Controller,
+    /// X:$25 is anywhere in `min_lo..=card.counter_min`.
+    pub min_lo: i32,
+    /// The CPU type, 0..=3 (SRM p.289: X bit 21 is bit 1, Y bit 21 is bit 0).
+    pub cpu: u8,
+    pub node: Option<Rc<Node>>,
+}
+
+/// Where a lane died.
+#[derive(Clone, Debug)]
+pub struct Death {
+    pub event: u64,
+    pub line: usize,
+    pub what: String,
+    pub expected: String,
+    pub observed: String,
+    /// Candidates alive just before.
+    pub candidates: usize,
+}
+
+pub struct Lane {
+    pub def: LaneDef,
+    pub cfg: ModelConfig,
+    pub cands: Vec<Cand>,
+    pub death: Option<Death>,
+    pub peak: usize,
+}
+
+/// The capture's steps with a window to look ahead.
+pub struct Reader {
+    source: Source,
+    ahead: VecDeque<(usize, Step)>,
+    pub events: u64,
+}
+
+fn read_only(step: &Step) -> bool {
+    matches!(
+        step.event,
+        TraceEvent::Model(Event::Command(HostCommand::GlobalStatus | HostCommand::ReadI(_) | HostCommand::ReadHex(_)))
+    )
+}
+
+/// A 24-bit word as a host reads it, sign-extended (Y:$25 and X:$25 are signed).
+fn signed_word(text: &str) -> Option<i32> {
+    let v = u32::from_str_radix(text.trim(), 16).ok().filter(|v| *v <= 0xFF_FFFF && !text.trim().is_empty())?;
+    Some(((v << 8) as i32) >> 8)
+}
+
+impl Reader {
+    pub fn new(source: Source) -> Reader {
+        Reader { source, ahead: VecDeque::new(), events: 0 }
+    }
+
+    pub fn next(&mut self) -> Result<Option<(usize, Step)>, SpecError> {
+        let s = match self.ahead.pop_front() {
+            Some(s) => Some(s),
+            None => self.source.next_step()?,
+        };
+        if s.is_some() {
+            self.events += 1;
+        }
+        Ok(s)
+    }
+
+    /// What the read-only steps after the current one observe.
+    pub fn hints(&mut self, spec: &Spec) -> Result<Hints, SpecError> {
+        let mut h = Hints::default();
+        let mut i = 0;
+        loop {
+            if i == self.ahead.len() {
+                if i >= LOOKAHEAD_STEPS {
+                    break;
+                }
+                match self.source.next_step()? {
+                    Some(s) => self.ahead.push_back(s),
+                    None => break,
+                }
+            }
+            let step = &self.ahead[i].1;
+            if !read_only(step) {
+                break;
+            }
+            let TraceEvent::Model(Event::Command(cmd)) = &step.event else { break };
+            let reply = step.expect.reply.as_deref();
+            if h.silent.is_none() {
+                h.silent = reply.map(|r| r == "(silence)");
+            }
+            if let Some(c) = step.expect.counter {
+                h.counter = Some(c);
+            }
+            if let Some(m) = step.expect.counter_min {
+                h.counter_min = Some(m);
+            }
+            match (cmd, reply) {
+                (HostCommand::ReadHex(Register::WatchdogCounter), Some(r)) => h.counter = signed_word(r).or(h.counter),
+                (HostCommand::ReadHex(Register::WatchdogMinimum), Some(r)) => {
+                    h.counter_min = signed_word(r).or(h.counter_min)
+                }
+                (HostCommand::GlobalStatus, Some(r)) => {
+                    if let Ok(StatusReply::Words { x, y }) = reply_text::decode(r) {
+                        let on = |name: &str| {
+                            spec.status.bit(name).is_some_and(|(w, b)| {
+                                (match w {
+                                    WordId::X => x,
+                                    WordId::Y => y,
+                                }) & (1 << b)
+                                    != 0
+                            })
+                        };
+                        h.overrun_seen |= on("rti_reentry") || on("rti_warning");
+                        h.checksum_error_seen |= on("checksum_error");
+                    }
+                }
+                _ => {}
+            }
+            for name in &step.expect.status_set {
+                h.overrun_seen |= name == "rti_reentry" || name == "rti_warning";
+                h.checksum_error_seen |= name == "checksum_error";
+            }
+            i += 1;
+        }
+        Ok(h)
+    }
+}
+
+/// The servo cycle counts a gap is tried with: all of an exact gap; for a range, enough to
+/// give every RTI phase at the shortest time and at a time long enough for any run-down.
+fn cycle_set(min: u32, max: Option<u32>, card: &Controller, cfg: &ModelConfig) -> Vec<u32> {
+    if max == Some(min) {
+        return vec![min];
+    }
+    let max = u64::from(max.unwrap_or(pmacwd_trace::STEP_CYCLES_MAX));
+    let period = u64::from(card.i8) + 1;
+    let long = u64::from(min)
+        + 2 * (u64::from(cfg.reset_value(card.i40).unsigned_abs()) + u64::from(cfg.hardware_delay_cycles) + 2 * period);
+    let mut out: Vec<u32> = Vec::new();
+    for start in [u64::from(min), long] {
+        for n in start..start + period {
+            if n <= max && !out.contains(&(n as u32)) {
+                out.push(n as u32);
+            }
+        }
+    }
+    if out.is_empty() {
+        out.push(max as u32);
+    }
+    out
+}
+
+/// The status words with the CPU type bits of `cpu` (SRM p.289).
+fn with_cpu(spec: &Spec, cpu: u8, (x, y): (u32, u32)) -> (u32, u32) {
+    let mut w = [x, y];
+    for (name, on) in [("cpu_type_bit1", cpu & 2 != 0), ("cpu_type_bit0", cpu & 1 != 0)] {
+        if let (true, Some((word, bit))) = (on, spec.status.bit(name)) {
+            w[match word {
+                WordId::X => 0,
+                WordId::Y => 1,
+            }] |= 1 << bit;
+        }
+    }
+    (w[0], w[1])
+}
+
+/// What a candidate shows after `reply`, CPU type included.
+fn observation(spec: &Spec, cfg: &ModelConfig, c: &Cand, reply: Reply) -> pmacwd_specs::vocab::Observation {
+    let mut obs = pmacwd_model::observe::of(&c.card, cfg, reply);
+    let (x, y) = with_cpu(spec, c.cpu, (obs.status_x, obs.status_y));
+    obs.status_x = x;
+    obs.status_y = y;
+    obs.reply = match reply {
+        Reply::Status { .. } => Reply::Status { x, y },
+        Reply::Hex(v) if matches!(reply, Reply::Hex(_)) => Reply::Hex(v),
+        r => r,
+    };
+    obs
+}
+
+/// The X:$25 value a step reads, if it reads one.
+fn min_read(step: &Step) -> Option<i32> {
+    match (&step.event, step.expect.reply.as_deref()) {
+        (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::WatchdogMinimum))), Some(r)) => {
+            signed_word(r)
+        }
+        _ => None,
+    }
+    .or(step.expect.counter_min)
+}
+
+/// The reset-time findings a `restart` may have had (SRM p.289, bits 10 and 11; bootstrap).
+fn restart_variants() -> Vec<ResetEvent> {
+    let mut v = Vec::new();
+    for bootstrap in [false, true] {
+        for dpram_fault in [false, true] {
+            for flash_fault in [false, true] {
+                v.push(ResetEvent { kind: ResetKind::Init, dpram_fault, flash_fault, bootstrap });
+            }
+        }
+    }
+    v
+}
+
+impl Lane {
+    pub fn new(spec: &Spec, configuration: &str, def: LaneDef, record: bool) -> Result<Lane, SpecError> {
+        let profile = Profile { name: super::lanes::label(&def.choices), choices: def.choices };
+        let mut cfg = ModelConfig::from_spec(spec, configuration, &profile)?;
+        // MODEL (replay): X:$0 is timing (the `elapsed` steps), not state; the load is the
+        // search's choice, starting light; a checksum pass may end at any background cycle.
+        cfg.servo_counter_mask = 0;
+        cfg.loads = vec![sim::light_load()];
+        cfg.pass_cycles.firmware = 1;
+        cfg.pass_cycles.user_program = 1;
+        let mut card = Controller::power_on(&cfg);
+        normalize(&mut card);
+        let cands = (0..4u8)
+            .map(|cpu| Cand {
+                card: card.clone(),
+                min_lo: card.counter_min,
+                cpu,
+                node: record.then(|| Rc::new(Node { parent: None, event: 0, kind: NodeKind::Start { cpu } })),
+            })
+            .collect();
+        Ok(Lane { def, cfg, cands, death: None, peak: 4 })
+    }
+
+    pub fn alive(&self) -> bool {
+        self.death.is_none()
+    }
+
+    /// Advances every candidate over one step; `Err` for a capture the search cannot judge.
+    pub fn step(
+        &mut self,
+        spec: &Spec,
+        file: &Path,
+        event_no: u64,
+        line: usize,
+        step: &Step,
+        hints: &Hints,
+    ) -> Result<(), SpecError> {
+        if self.death.is_some() {
+            return Ok(());
+        }
+        let record = self.cands.first().is_some_and(|c| c.node.is_some());
+        let cfg = &self.cfg;
+        let mut next: HashMap<(Controller, i32, u8), Cand> = HashMap::new();
+        let mut first_failure: Option<(String, String, String)> = None;
+        let before = self.cands.len();
+        let insert = |c: Cand, next: &mut HashMap<(Controller, i32, u8), Cand>| -> Result<(), SpecError> {
+            let key = (c.card.clone(), c.min_lo, c.cpu);
+            next.entry(key).or_insert(c);
+            if next.len() > CANDIDATES_MAX {
+                return Err(SpecError::at(
+                    file,
+                    Position { line, column: 1 },
+                    format!(
+                        "the capture leaves more than {CANDIDATES_MAX} states of the card possible here (under \
+                         the readings {}); read Y:$25 and X:$25 more often, or shorten the gaps without a \
+                         reply (docs/replay.md, bounds)",
+                        super::lanes::label(&self.def.choices)
+                    ),
+                ));
+            }
+            Ok(())
+        };
+        for cand in std::mem::take(&mut self.cands) {
+            let mut results: Vec<(Cand, Reply)> = Vec::new();
+            match &step.event {
+                TraceEvent::Elapsed { cycles_min, cycles_max } => {
+                    for n in cycle_set(*cycles_min, *cycles_max, &cand.card, cfg) {
+                        for o in gap::successors(cfg, &cand.card, n, hints) {
+                            let node = cand.node.as_ref().filter(|_| record).map(|p| {
+                                Rc::new(Node {
+                                    parent: Some(p.clone()),
+                                    event: event_no,
+                                    kind: NodeKind::Gap {
+                                        plan_hi: o.plan_hi,
+                                        plan_lo: o.plan_lo,
+                                        lo: o.min_lo,
+                                        end: o.card.clone(),
+                                    },
+                                })
+                            });
+                            let min_lo = cand.min_lo.min(o.min_lo);
+                            results.push((Cand { card: o.card, min_lo, cpu: cand.cpu, node }, Reply::None));
+                        }
+                    }
+                }
+                TraceEvent::Restart => {
+                    for reset in restart_variants() {
+                        let mut card = cand.card.clone();
+                        card.apply(cfg, &Event::Reset(reset));
+                        normalize(&mut card);
+                        let node = cand.node.as_ref().map(|p| {
+                            Rc::new(Node { parent: Some(p.clone()), event: event_no, kind: NodeKind::Restart(reset) })
+                        });
+                        let min_lo = card.counter_min;
+                        results.push((Cand { card, min_lo, cpu: cand.cpu, node }, Reply::None));
+                    }
+                }
+                TraceEvent::Run { cycles } => {
+                    let mut s = Sim::new(cfg, cand.card.clone(), false);
+                    s.greedy(*cycles);
+                    let mut card = s.card;
+                    normalize(&mut card);
+                    results.push((Cand { card, ..cand.clone() }, Reply::None));
+                }
+                TraceEvent::Model(Event::Background) if !cand.card.background_possible() => {
+                    first_failure.get_or_insert((
+                        "event".into(),
+                        "a background cycle can complete".into(),
+                        "the model cannot complete one here".into(),
+                    ));
+                }
+                TraceEvent::Model(e) => {
+                    let mut c = cand.clone();
+                    // X:$25 read: the interval narrows to the value read, if it holds it.
+                    if let Some(v) = min_read(step) {
+                        if (c.min_lo..=c.card.counter_min).contains(&v) {
+                            if c.min_lo != c.card.counter_min {
+                                c.node = c.node.as_ref().map(|p| {
+                                    Rc::new(Node { parent: Some(p.clone()), event: event_no, kind: NodeKind::Pin(v) })
+                                });
+                            }
+                            c.card.counter_min = v;
+                            c.min_lo = v;
+                        }
+                    }
+                    let reply = c.card.apply(cfg, e);
+                    normalize(&mut c.card);
+                    results.push((c, reply));
+                }
+            }
+            for (c, reply) in results {
+                let obs = observation(spec, cfg, &c, reply);
+                match compare(spec, &step.expect, &obs) {
+                    Ok(_) => insert(c, &mut next)?,
+                    Err(Mismatch::UnknownBit(_, _, name)) => {
+                        return Err(SpecError::at(
+                            file,
+                            Position { line, column: 1 },
+                            format!("no status bit named `{name}` in status.yaml"),
+                        ))
+                    }
+                    Err(Mismatch::Field(what, expected, observed)) => {
+                        first_failure.get_or_insert((what.to_string(), expected, observed));
+                    }
+                }
+            }
+        }
+        self.cands = next.into_values().collect();
+        self.peak = self.peak.max(self.cands.len());
+        if self.cands.is_empty() {
+            let (what, expected, observed) =
+                first_failure.unwrap_or_else(|| ("event".into(), "a state of the card".into(), "none".into()));
+            self.death = Some(Death { event: event_no, line, what, expected, observed, candidates: before });
+        }
+        Ok(())
+    }
+}
+
+/// Searches `path` on `lanes`; `record` keeps witness chains (for one lane).
+pub fn search(
+    spec: &Spec,
+    path: &Path,
+    configuration: &str,
+    defs: Vec<LaneDef>,
+    record: bool,
+) -> Result<(Vec<Lane>, u64), SpecError> {
+    let mut lanes = defs
+        .into_iter()
+        .map(|d| Lane::new(spec, configuration, d, record))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| SpecError::whole_file(path, format!("configuration `{configuration}`: {e}")))?;
+    let mut reader = Reader::new(Source::open(path)?);
+    while let Some((line, step)) = reader.next()? {
+        let event_no = reader.events;
+        if lanes.iter().all(|l| !l.alive()) {
+            continue;
+        }
+        let hints = if matches!(step.event, TraceEvent::Elapsed { .. }) { reader.hints(spec)? } else { Hints::default() };
+        for lane in &mut lanes {
+            lane.step(spec, path, event_no, line, &step, &hints)?;
+        }
+    }
+    if reader.events == 0 {
+        return Err(SpecError::whole_file(path, "the capture has no events"));
+    }
+    Ok((lanes, reader.events))
+}

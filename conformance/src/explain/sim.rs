@@ -1,0 +1,133 @@
+//! The model driven by a chosen schedule of unseen events, recording them as trace events.
+//!
+//! Everything the search concludes about a gap comes from running the reference model's own
+//! rules here (`Controller::servo_cycle`, `background_cycle`, `apply`): a successor the search
+//! keeps is a state the model really reaches, and the events recorded are its witness.
+
+use pmacwd_model::controller::Controller;
+use pmacwd_specs::check::Load;
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::vocab::event::Event;
+use pmacwd_trace::TraceEvent;
+
+/// The load the search runs a card at when nothing says otherwise: no motors, no PLC 0 and a
+/// background cycle of one CPU unit, so that a background cycle can complete after every
+/// servo cycle. With it, *when* background cycles complete is the search's choice alone.
+pub fn light_load() -> Load {
+    Load { motors: 0, plc0_units: 0, background_units: 1 }
+}
+
+/// A PLC 0 just longer than one RTI period: the next RTI finds the task set still running
+/// (SRM p.289, bit 22; SRM p.290, bit 9), while the background gets no CPU time meanwhile.
+pub fn overrun_load(cfg: &ModelConfig, i8: u8) -> Load {
+    let units = u32::from(cfg.cpu.cycle_units) * (u32::from(i8) + 1) + 1;
+    Load { motors: 0, plc0_units: u16::try_from(units).unwrap_or(u16::MAX), background_units: 1 }
+}
+
+/// A card being driven, with the events that drove it when `record` is on.
+pub struct Sim<'a> {
+    pub cfg: &'a ModelConfig,
+    pub card: Controller,
+    /// Servo cycles simulated so far.
+    pub cycles: u64,
+    pub events: Option<Vec<TraceEvent>>,
+}
+
+impl<'a> Sim<'a> {
+    pub fn new(cfg: &'a ModelConfig, card: Controller, record: bool) -> Sim<'a> {
+        Sim { cfg, card, cycles: 0, events: record.then(Vec::new) }
+    }
+
+    fn push(&mut self, e: TraceEvent) {
+        if let Some(events) = &mut self.events {
+            // Consecutive servo runs are written as one step.
+            if let (Some(TraceEvent::Model(Event::Servo { cycles: a })), TraceEvent::Model(Event::Servo { cycles: b })) =
+                (events.last_mut(), &e)
+            {
+                if let Some(sum) = a.checked_add(*b) {
+                    *a = sum;
+                    return;
+                }
+            }
+            events.push(e);
+        }
+    }
+
+    /// `n` servo cycles with no background cycle completing.
+    pub fn servo(&mut self, n: u32) {
+        if n == 0 {
+            return;
+        }
+        for _ in 0..n {
+            self.card.servo_cycle(self.cfg);
+        }
+        self.cycles += u64::from(n);
+        self.push(TraceEvent::Model(Event::Servo { cycles: n }));
+    }
+
+    /// Servo cycles without a background cycle until the card trips, at most `max`; returns
+    /// how many ran.
+    pub fn servo_until_trip(&mut self, max: u64) -> u64 {
+        let mut n = 0u64;
+        while n < max && !self.card.tripped() {
+            self.card.servo_cycle(self.cfg);
+            n += 1;
+        }
+        self.cycles += n;
+        let mut left = n;
+        while left > 0 {
+            let step = left.min(u64::from(pmacwd_trace::STEP_CYCLES_MAX)) as u32;
+            self.push(TraceEvent::Model(Event::Servo { cycles: step }));
+            left -= u64::from(step);
+        }
+        n
+    }
+
+    /// A background cycle completes; `false` (and nothing done) if the model says it cannot.
+    pub fn background(&mut self) -> bool {
+        if !self.card.background_possible() {
+            return false;
+        }
+        self.card.background_cycle(self.cfg);
+        self.push(TraceEvent::Model(Event::Background));
+        true
+    }
+
+    pub fn event(&mut self, e: Event) {
+        self.card.apply(self.cfg, &e);
+        self.push(TraceEvent::Model(e));
+    }
+
+    /// `n` servo cycles with a background cycle after each one the load allows: the trace
+    /// format's `run`. A deterministic run that comes back to a state it was in repeats
+    /// itself from there, so whole periods are skipped once one is seen (exact: the model is
+    /// deterministic here, and X:$0 is not kept in the search's states).
+    pub fn greedy(&mut self, n: u32) {
+        if n == 0 {
+            return;
+        }
+        self.push(TraceEvent::Run { cycles: n });
+        let period = 2 * (u32::from(self.card.i8) + 1);
+        let mut left = n;
+        let mut mark: Option<Controller> = None;
+        let mut since_mark = 0u32;
+        while left > 0 {
+            self.card.servo_cycle(self.cfg);
+            if self.card.background_possible() {
+                self.card.background_cycle(self.cfg);
+            }
+            left -= 1;
+            since_mark += 1;
+            if since_mark == period {
+                since_mark = 0;
+                if mark.as_ref() == Some(&self.card) {
+                    left %= period;
+                    mark = None;
+                } else {
+                    mark = Some(self.card.clone());
+                }
+            }
+        }
+        self.cycles += u64::from(n);
+    }
+}

@@ -1,0 +1,257 @@
+//! The explanation: one behaviour of the model that produces every observation of a capture,
+//! as a trace (the capture's own steps with every unseen gap replaced by the events chosen)
+//! and in words (what happened that the host could not see).
+
+use super::gap::{self, Lead, Plan};
+use super::normalize;
+use super::sim::Sim;
+use crate::replay::Source;
+use pmacwd_model::controller::{Controller, TripCause};
+use pmacwd_specs::check::{ChecksumTarget, ResetEvent};
+use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::vocab::event::Event;
+use pmacwd_specs::SpecError;
+use pmacwd_trace::{Expect, Step, TraceEvent};
+use std::path::Path;
+use std::rc::Rc;
+
+/// One choice the search made, linked to the choices before it.
+pub struct Node {
+    pub parent: Option<Rc<Node>>,
+    /// The 1-based capture event it was made at.
+    pub event: u64,
+    pub kind: NodeKind,
+}
+
+pub enum NodeKind {
+    Start { cpu: u8 },
+    Gap { plan_hi: Plan, plan_lo: Plan, lo: i32, end: Controller },
+    Restart(ResetEvent),
+    /// X:$25 read as this value, where the search had an interval.
+    Pin(i32),
+}
+
+impl std::fmt::Debug for Node {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Node(event {})", self.event)
+    }
+}
+
+impl Drop for Node {
+    /// A day-long capture links hundreds of thousands of nodes: drop them in a loop, not by
+    /// recursion.
+    fn drop(&mut self) {
+        let mut next = self.parent.take();
+        while let Some(rc) = next {
+            match Rc::try_unwrap(rc) {
+                Ok(mut node) => next = node.parent.take(),
+                Err(_) => break,
+            }
+        }
+    }
+}
+
+/// The nodes from the start to `last`, oldest first.
+pub fn chain(last: &Rc<Node>) -> Vec<Rc<Node>> {
+    let mut v = vec![last.clone()];
+    while let Some(p) = v.last().and_then(|n| n.parent.clone()) {
+        v.push(p);
+    }
+    v.reverse();
+    v
+}
+
+/// The explanation of a capture under one lane.
+pub struct Witness {
+    /// The capture with every gap replaced by concrete events (the trace format's steps).
+    pub steps: Vec<Step>,
+    /// What happened that the host could not see, in words, with the capture's lines.
+    pub story: Vec<String>,
+    pub cpu: u8,
+    /// Whether the capture shows the CPU type (no other type explains it).
+    pub cpu_decided: bool,
+    /// The lowest X:$25 the witness reaches.
+    pub lowest_min: i32,
+    /// How the card ended: tripped (and why), or running.
+    pub end: Option<TripCause>,
+}
+
+fn area(a: ChecksumTarget) -> &'static str {
+    match a {
+        ChecksumTarget::Firmware => "firmware",
+        ChecksumTarget::UserProgram => "user program",
+    }
+}
+
+/// The plan for a gap: the search's, aimed at the X:$25 value read next if that read comes
+/// before another gap.
+fn realize<'a>(
+    cfg: &'a ModelConfig,
+    card: &Controller,
+    node: (&Plan, &Plan, &Controller),
+    need: Option<i32>,
+) -> Option<Sim<'a>> {
+    let (plan_hi, plan_lo, end) = node;
+    let same_end = |c: &Controller| {
+        let mut a = c.clone();
+        normalize(&mut a);
+        let mut b = end.clone();
+        a.counter_min = 0;
+        b.counter_min = 0;
+        a == b
+    };
+    let Some(need) = need else {
+        return gap::run(cfg, card, *plan_hi, true);
+    };
+    let mut tries = vec![*plan_hi, *plan_lo];
+    if let Plan::Schedule { cycles, tail, .. } = *plan_hi {
+        let r = i64::from(cfg.reset_value(card.i40));
+        for lead in [
+            (i64::from(card.counter) - i64::from(need)).try_into().ok().map(Lead::FirstAfter),
+            (r - i64::from(need)).try_into().ok().map(Lead::Stretch),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            for skip in [false, true] {
+                tries.push(Plan::Schedule { cycles, lead, skip, tail });
+            }
+        }
+    }
+    let mut fallback = None;
+    for plan in tries {
+        if let Some(sim) = gap::run(cfg, card, plan, true) {
+            if same_end(&sim.card) {
+                if sim.card.counter_min == need {
+                    return Some(sim);
+                }
+                fallback.get_or_insert(sim);
+            }
+        }
+    }
+    fallback.or_else(|| gap::run(cfg, card, *plan_hi, true))
+}
+
+/// Replays the capture at `path` with the choices of `last`'s chain.
+pub fn build(cfg: &ModelConfig, path: &Path, last: &Rc<Node>) -> Result<Witness, SpecError> {
+    let nodes = chain(last);
+    let cpu = match nodes.first().map(|n| &n.kind) {
+        Some(NodeKind::Start { cpu }) => *cpu,
+        _ => 0,
+    };
+    let mut source = Source::open(path)?;
+    let mut card = Controller::power_on(cfg);
+    let mut steps = Vec::new();
+    let mut story = Vec::new();
+    let mut event = 0u64;
+    let mut at = 1usize;
+    let mut last_line = 0usize;
+    let mut lowest_min = card.counter_min;
+    let mut dip_line = 0usize;
+    let push_events = |steps: &mut Vec<Step>, events: Vec<TraceEvent>, note: Option<String>| {
+        let mut note = note;
+        for e in events {
+            steps.push(Step { event: e, expect: Expect::default(), note: note.take() });
+        }
+    };
+    while let Some((line, step)) = source.next_step()? {
+        event += 1;
+        while at < nodes.len() && nodes[at].event < event {
+            at += 1;
+        }
+        match &step.event {
+            TraceEvent::Elapsed { .. } => {
+                let Some(NodeKind::Gap { plan_hi, plan_lo, end, .. }) =
+                    nodes.get(at).filter(|n| n.event == event).map(|n| &n.kind)
+                else {
+                    story.push(format!("line {line}: (no choice recorded for this gap)"));
+                    continue;
+                };
+                // The X:$25 value read before the next gap, if any.
+                let need = nodes[at + 1..]
+                    .iter()
+                    .take_while(|n| !matches!(n.kind, NodeKind::Gap { .. }))
+                    .find_map(|n| if let NodeKind::Pin(v) = n.kind { Some(v) } else { None });
+                let Some(sim) = realize(cfg, &card, (plan_hi, plan_lo, end), need) else {
+                    story.push(format!("line {line}: (the recorded plan could not be replayed)"));
+                    continue;
+                };
+                let plan = if sim.card.counter_min == end.counter_min { *plan_hi } else { *plan_lo };
+                let between = format!("between lines {last_line} and {line}");
+                match plan {
+                    Plan::Undervoltage { .. } => story.push(format!(
+                        "{between}: the logic supply dipped below its minimum (about 4.75 V, UM p.215) and the \
+                         card tripped"
+                    )),
+                    Plan::Starved { cycles } if sim.card.tripped() && !card.tripped() => story.push(format!(
+                        "{between}: no background cycle completed, so nothing reloaded the counter (Y:$25 was {} \
+                         at the start of the gap); it ran down, the strobe stopped and the card tripped within \
+                         {cycles} servo cycles (UM p.215)",
+                        card.counter
+                    )),
+                    Plan::Schedule { lead: Lead::Overrun, .. } => story.push(format!(
+                        "{between}: an RTI task set (PLC 0, move planning) ran longer than an RTI period, so the \
+                         next RTI overran (bits 22 and 9, SRM p.289-290)"
+                    )),
+                    Plan::Schedule { lead: Lead::Fault(a), .. } => story.push(format!(
+                        "{between}: {} memory was corrupted and the background checksum found it (bit 13, UM p.217)",
+                        area(a)
+                    )),
+                    _ => {}
+                }
+                card = sim.card.clone();
+                if card.counter_min < lowest_min {
+                    lowest_min = card.counter_min;
+                    dip_line = line;
+                }
+                push_events(&mut steps, sim.events.unwrap_or_default(), step.note.clone());
+            }
+            TraceEvent::Restart => {
+                let Some(NodeKind::Restart(reset)) = nodes.get(at).filter(|n| n.event == event).map(|n| &n.kind)
+                else {
+                    story.push(format!("line {line}: (no choice recorded for this restart)"));
+                    continue;
+                };
+                let was = if card.tripped() { "the tripped card" } else { "the card" };
+                let mut findings = String::new();
+                if reset.dpram_fault {
+                    findings.push_str(", its DPRAM check failed");
+                }
+                if reset.flash_fault {
+                    findings.push_str(", its flash read failed");
+                }
+                if reset.bootstrap {
+                    findings.push_str(", in bootstrap mode");
+                }
+                story.push(format!(
+                    "between lines {last_line} and {line}: {was} was reset (INIT/, a power cycle or `$$$`: the \
+                     log cannot tell which){findings}"
+                ));
+                let e = Event::Reset(*reset);
+                card.apply(cfg, &e);
+                lowest_min = card.counter_min;
+                steps.push(Step { event: TraceEvent::Model(e), expect: step.expect.clone(), note: step.note.clone() });
+            }
+            TraceEvent::Run { cycles } => {
+                let mut s = Sim::new(cfg, card.clone(), false);
+                s.greedy(*cycles);
+                card = s.card;
+                steps.push(step.clone());
+            }
+            TraceEvent::Model(e) => {
+                card.apply(cfg, e);
+                if matches!(e, Event::Command(pmacwd_specs::vocab::command::HostCommand::Reset)) {
+                    lowest_min = card.counter_min;
+                }
+                steps.push(step.clone());
+            }
+        }
+        last_line = line;
+    }
+    if lowest_min < cfg.reset_value(card.i40) - 1 && dip_line > 0 {
+        story.push(format!(
+            "the longest run without a background cycle took X:$25 down to {lowest_min} (by line {dip_line})"
+        ));
+    }
+    Ok(Witness { steps, story, cpu, cpu_decided: false, lowest_min, end: card.trip })
+}
