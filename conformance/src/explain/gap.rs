@@ -38,8 +38,10 @@ pub struct Hints {
     pub counter: Option<i32>,
     /// X:$25 as read.
     pub counter_min: Option<i32>,
-    /// A status read shows bit 22 or bit 9 set.
-    pub overrun_seen: bool,
+    /// A status read shows bit 22 set.
+    pub rti_reentry_seen: bool,
+    /// A status read shows bit 9 set.
+    pub rti_warning_seen: bool,
     /// A status read shows bit 13 set.
     pub checksum_error_seen: bool,
 }
@@ -53,10 +55,6 @@ pub enum Lead {
     FirstAfter(u32),
     /// A background cycle after the first servo cycle, then none for `s` cycles, then one.
     Stretch(u32),
-    /// PLC 0 takes longer than an RTI period until an RTI overruns, then the light load again.
-    Overrun,
-    /// Memory corruption the checksum will find.
-    Fault(ChecksumTarget),
 }
 
 /// One family of schedules for a gap.
@@ -66,11 +64,24 @@ pub enum Plan {
     Idle { cycles: u32 },
     /// The supply dips below its minimum at the start of the gap and comes back (UM p.215).
     Undervoltage { cycles: u32 },
-    /// No background cycle completes in the whole gap (or until the card trips).
-    Starved { cycles: u32 },
+    /// No background cycle completes in the whole gap (or until the card trips); with
+    /// `overrun`, because PLC 0 takes longer than an RTI period throughout.
+    Starved { cycles: u32, overrun: bool },
     /// `lead`, then background cycles whenever the load allows (one fewer if `skip`), the last
-    /// one `tail` servo cycles before the end of the gap.
-    Schedule { cycles: u32, lead: Lead, skip: bool, tail: u32 },
+    /// one `tail` servo cycles before the end of the gap; with `overrun_tail`, PLC 0 takes
+    /// longer than an RTI period during the tail.
+    /// `heavy`: PLC 0 takes longer than an RTI period for the first `heavy` cycles, in which
+    /// no background cycle completes.
+    /// `fault`: memory is corrupted at the start of the gap, for the checksum to find.
+    Schedule {
+        cycles: u32,
+        fault: Option<ChecksumTarget>,
+        heavy: u32,
+        lead: Lead,
+        skip: bool,
+        tail: u32,
+        overrun_tail: bool,
+    },
 }
 
 impl Plan {
@@ -78,7 +89,7 @@ impl Plan {
         match *self {
             Plan::Idle { cycles }
             | Plan::Undervoltage { cycles }
-            | Plan::Starved { cycles }
+            | Plan::Starved { cycles, .. }
             | Plan::Schedule { cycles, .. } => cycles,
         }
     }
@@ -97,12 +108,22 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
             sim.event(Event::Supply { millivolts: cfg.supply_min_millivolts.max(5000) });
             sim.servo(cycles);
         }
-        Plan::Starved { cycles } => {
+        Plan::Starved { cycles, overrun } => {
+            if overrun {
+                sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
+            }
             let ran = sim.servo_until_trip(u64::from(cycles));
             // A tripped card's servo cycles change nothing; written for the witness's timing.
             sim.servo(cycles - ran as u32);
         }
-        Plan::Schedule { cycles, lead, skip, tail } => {
+        Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_tail } => {
+            if let Some(area) = fault {
+                sim.event(Event::ChecksumFault(area));
+            }
+            if heavy > 0 {
+                sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
+                sim.servo(heavy);
+            }
             if sim.card.load != sim::light_load() {
                 sim.event(Event::Load(sim::light_load()));
             }
@@ -110,7 +131,7 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
             let lead_ends_with_background = match lead {
                 Lead::Steady => false,
                 Lead::FirstAfter(j) => {
-                    if j == 0 || j > last {
+                    if j == 0 || u64::from(j) + sim.cycles > u64::from(last) {
                         return None;
                     }
                     sim.servo(j);
@@ -120,7 +141,7 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
                     true
                 }
                 Lead::Stretch(s) => {
-                    if s == 0 || 1 + s > last {
+                    if s == 0 || 1 + u64::from(s) + sim.cycles > u64::from(last) {
                         return None;
                     }
                     sim.servo(1);
@@ -132,30 +153,6 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
                         return None;
                     }
                     true
-                }
-                Lead::Overrun => {
-                    let load = sim::overrun_load(cfg, sim.card.i8);
-                    sim.event(Event::Load(load));
-                    let limit = 3 * (u32::from(sim.card.i8) + 1) + 2;
-                    let mut n = 0;
-                    let mut overran = false;
-                    while n < limit && !overran && !sim.card.tripped() {
-                        overran = sim.card.servo_cycle(cfg).rti_overrun;
-                        n += 1;
-                    }
-                    sim.cycles += u64::from(n);
-                    if let Some(events) = &mut sim.events {
-                        events.push(pmacwd_trace::TraceEvent::Model(Event::Servo { cycles: n }));
-                    }
-                    sim.event(Event::Load(sim::light_load()));
-                    if !overran || u64::from(last) < sim.cycles {
-                        return None;
-                    }
-                    false
-                }
-                Lead::Fault(area) => {
-                    sim.event(Event::ChecksumFault(area));
-                    false
                 }
             };
             let middle = u64::from(last).checked_sub(sim.cycles)? as u32;
@@ -176,6 +173,9 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
                 if !sim.card.tripped() && sim.card.ghost.cycles_since_background != 0 {
                     return None;
                 }
+            }
+            if overrun_tail && tail > 0 {
+                sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
             }
             sim.servo(tail);
         }
@@ -227,7 +227,7 @@ pub fn successors(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hin
             StrobeStop::BelowZero => i64::from(card.counter) - i64::from(cycles),
         };
         if may_be_silent || hints.counter.is_none_or(|c| i64::from(c) == starved_counter) {
-            plans.push(Plan::Starved { cycles });
+            plans.push(Plan::Starved { cycles, overrun: false });
         }
         // Cycles since the last background cycle, from Y:$25 when it is read.
         let tail_max = u64::from(cycles.saturating_sub(1)).min((i64::from(r) + delay + 2).max(0) as u64) as u32;
@@ -245,52 +245,77 @@ pub fn successors(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hin
             }
             _ => (0..=tail_max).collect(),
         };
-        let c0 = i64::from(card.counter);
-        let mut leads = vec![Lead::Steady];
-        match hints.counter_min {
-            Some(m) => {
-                let m = i64::from(m);
-                if c0 - m >= 1 {
-                    leads.push(Lead::FirstAfter((c0 - m) as u32));
+        let overrun_wanted = (hints.rti_reentry_seen && !card.status.rti_reentry) || hints.rti_warning_seen;
+        if overrun_wanted || may_be_silent {
+            plans.push(Plan::Starved { cycles, overrun: true });
+        }
+        // PLC 0 longer than an RTI period at the start of the gap, for as long as it takes
+        // the RTI to overrun and for up to a few periods more.
+        let heavies: Vec<u32> = if overrun_wanted {
+            (0..=3 * (u32::from(card.i8) + 1) + 2).filter(|h| *h < cycles).collect()
+        } else {
+            vec![0]
+        };
+        for heavy in heavies {
+            let c0 = match cfg.profile.choices.strobe_stop {
+                StrobeStop::AtZero => (i64::from(card.counter) - i64::from(heavy)).max(0),
+                StrobeStop::BelowZero => i64::from(card.counter) - i64::from(heavy),
+            };
+            let room = cycles - heavy;
+            let mut leads = vec![Lead::Steady];
+            match hints.counter_min {
+                Some(m) => {
+                    let m = i64::from(m);
+                    if c0 - m >= 1 {
+                        leads.push(Lead::FirstAfter((c0 - m) as u32));
+                    }
+                    if i64::from(r) - m >= 1 {
+                        leads.push(Lead::Stretch((i64::from(r) - m) as u32));
+                    }
                 }
-                if i64::from(r) - m >= 1 {
-                    leads.push(Lead::Stretch((i64::from(r) - m) as u32));
-                }
-            }
-            None => {
-                // The deepest run-downs that do not trip the card: the rest of the interval.
-                let bound = (i64::from(r) + delay + 4 * (i64::from(card.i8) + 2)).max(1) as u64;
-                let first = cycles_to_trip(cfg, card, bound).saturating_sub(1).min(u64::from(cycles));
-                if first >= 1 {
-                    leads.push(Lead::FirstAfter(first as u32));
-                }
-                let mut reloaded = Sim::new(cfg, card.clone(), false);
-                reloaded.servo(1);
-                if reloaded.background() {
-                    let stretch = cycles_to_trip(cfg, &reloaded.card, bound).saturating_sub(1).min(u64::from(cycles));
-                    if stretch >= 1 {
-                        leads.push(Lead::Stretch(stretch as u32));
+                None => {
+                    // The deepest run-downs that do not trip the card: the rest of the interval.
+                    let bound = (i64::from(r) + delay + 4 * (i64::from(card.i8) + 2)).max(1) as u64;
+                    let mut start = Sim::new(cfg, card.clone(), false);
+                    if heavy > 0 {
+                        start.event(Event::Load(sim::overrun_load(cfg, card.i8)));
+                        start.servo(heavy);
+                        start.event(Event::Load(sim::light_load()));
+                    }
+                    let first = cycles_to_trip(cfg, &start.card, bound).saturating_sub(1).min(u64::from(room));
+                    if first >= 1 {
+                        leads.push(Lead::FirstAfter(first as u32));
+                    }
+                    start.servo(1);
+                    if start.background() {
+                        let stretch =
+                            cycles_to_trip(cfg, &start.card, bound).saturating_sub(1).min(u64::from(room));
+                        if stretch >= 1 {
+                            leads.push(Lead::Stretch(stretch as u32));
+                        }
                     }
                 }
             }
-        }
-        if hints.overrun_seen {
-            leads.push(Lead::Overrun);
-        }
-        if hints.checksum_error_seen {
-            leads.push(Lead::Fault(ChecksumTarget::Firmware));
-            leads.push(Lead::Fault(ChecksumTarget::UserProgram));
-        }
-        for &tail in &tails {
-            for &lead in &leads {
-                for skip in [false, true] {
-                    let lead = match lead {
-                        // A lead deeper than the gap allows is the deepest the gap allows.
-                        Lead::FirstAfter(j) => Lead::FirstAfter(j.min(cycles - tail)),
-                        Lead::Stretch(s) => Lead::Stretch(s.min((cycles - tail).saturating_sub(1))),
-                        l => l,
-                    };
-                    plans.push(Plan::Schedule { cycles, lead, skip, tail });
+            let faults: &[Option<ChecksumTarget>] = if hints.checksum_error_seen && card.checksum.error.is_none() {
+                &[None, Some(ChecksumTarget::Firmware), Some(ChecksumTarget::UserProgram)]
+            } else {
+                &[None]
+            };
+            for (&tail, &fault) in tails.iter().flat_map(|t| faults.iter().map(move |f| (t, f))) {
+                for &lead in &leads {
+                    for (skip, overrun_tail) in [(false, false), (true, false), (false, true), (true, true)]
+                        .into_iter()
+                        .filter(|(_, o)| !o || overrun_wanted)
+                    {
+                        let Some(span) = cycles.checked_sub(tail + heavy) else { continue };
+                        let lead = match lead {
+                            // A lead deeper than the gap allows is the deepest the gap allows.
+                            Lead::FirstAfter(j) => Lead::FirstAfter(j.min(span)),
+                            Lead::Stretch(s) => Lead::Stretch(s.min(span.saturating_sub(1))),
+                            l => l,
+                        };
+                        plans.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_tail });
+                    }
                 }
             }
         }

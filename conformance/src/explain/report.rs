@@ -158,7 +158,8 @@ pub fn explain(spec: &Spec, path: &Path, configuration: Option<&str>) -> Result<
     })
 }
 
-fn witness_for(spec: &Spec, path: &Path, configuration: &str, def: LaneDef) -> Result<(String, Witness), SpecError> {
+/// Searches `path` again on one lane with its choices recorded, and builds the explanation.
+pub fn witness_for(spec: &Spec, path: &Path, configuration: &str, def: LaneDef) -> Result<(String, Witness), SpecError> {
     let label = lanes::label(&def.choices);
     let (lanes, _) = search::search(spec, path, configuration, vec![def], true)?;
     let lane: &Lane = &lanes[0];
@@ -171,6 +172,7 @@ fn witness_for(spec: &Spec, path: &Path, configuration: &str, def: LaneDef) -> R
         .ok_or_else(|| SpecError::whole_file(path, "the second search found no explanation the first one found"))?;
     let mut w = witness::build(&lane.cfg, path, &best)?;
     w.cpu_decided = lane.cands.iter().all(|c| c.cpu == w.cpu);
+    w.checked = Some(witness::reproduces(spec, &lane.cfg, &w));
     Ok((label, w))
 }
 
@@ -271,7 +273,20 @@ pub fn to_text(r: &Report) -> String {
         for line in &w.story {
             let _ = writeln!(s, "  {line}");
         }
-        let _ = writeln!(s, "  (the whole behaviour as a trace: --witness FILE, {} steps)", w.steps.len());
+        match &w.checked {
+            Some(Ok(n)) => {
+                let _ = writeln!(
+                    s,
+                    "  checked: this behaviour, run on the model, reproduces all {n} observations ({} steps; \
+                     --witness FILE writes it as a trace)",
+                    w.steps.len()
+                );
+            }
+            Some(Err(e)) => {
+                let _ = writeln!(s, "  WARNING: the explanation does not reproduce the capture on the model: {e}");
+            }
+            None => {}
+        }
     }
     if let Some(d) = &r.diagnosis {
         s.push_str("diagnosis: the card is silent at the end; why it tripped (UM p.215, \"Diagnosing Cause of Watchdog Timer Trip\"):\n");

@@ -23,6 +23,8 @@ use std::rc::Rc;
 
 /// How far the search looks past a gap for the observations that aim its plans.
 const LOOKAHEAD_STEPS: usize = 32;
+/// How far it looks for the next status read, whose sticky bits an earlier gap may have set.
+const LOOKAHEAD_STICKY_STEPS: usize = 512;
 
 /// A candidate: one model state the capture so far allows.
 #[derive(Clone, Debug)]
@@ -94,10 +96,14 @@ impl Reader {
     /// What the read-only steps after the current one observe.
     pub fn hints(&mut self, spec: &Spec) -> Result<Hints, SpecError> {
         let mut h = Hints::default();
+        // In the window (the read-only steps right after the gap) everything counts; past it,
+        // only the sticky bits 22 and 13 of the next status read, which an earlier gap may
+        // have to set (SRM p.289: they stay set until a reset).
+        let mut in_window = true;
         let mut i = 0;
         loop {
             if i == self.ahead.len() {
-                if i >= LOOKAHEAD_STEPS {
+                if i >= if in_window { LOOKAHEAD_STEPS } else { LOOKAHEAD_STICKY_STEPS } {
                     break;
                 }
                 match self.source.next_step()? {
@@ -106,27 +112,45 @@ impl Reader {
                 }
             }
             let step = &self.ahead[i].1;
+            i += 1;
             if !read_only(step) {
-                break;
+                let resets = matches!(
+                    step.event,
+                    TraceEvent::Restart
+                        | TraceEvent::Model(Event::Reset(_))
+                        | TraceEvent::Model(Event::Command(HostCommand::Reset))
+                        | TraceEvent::Model(Event::ClearRtiReentry)
+                );
+                if resets {
+                    break;
+                }
+                in_window = false;
+                continue;
             }
             let TraceEvent::Model(Event::Command(cmd)) = &step.event else { break };
             let reply = step.expect.reply.as_deref();
-            if h.silent.is_none() {
-                h.silent = reply.map(|r| r == "(silence)");
+            if in_window {
+                if h.silent.is_none() {
+                    h.silent = reply.map(|r| r == "(silence)");
+                }
+                if let Some(c) = step.expect.counter {
+                    h.counter = Some(c);
+                }
+                if let Some(m) = step.expect.counter_min {
+                    h.counter_min = Some(m);
+                }
             }
-            if let Some(c) = step.expect.counter {
-                h.counter = Some(c);
-            }
-            if let Some(m) = step.expect.counter_min {
-                h.counter_min = Some(m);
-            }
+            let mut status_read = false;
             match (cmd, reply) {
-                (HostCommand::ReadHex(Register::WatchdogCounter), Some(r)) => h.counter = signed_word(r).or(h.counter),
-                (HostCommand::ReadHex(Register::WatchdogMinimum), Some(r)) => {
+                (HostCommand::ReadHex(Register::WatchdogCounter), Some(r)) if in_window => {
+                    h.counter = signed_word(r).or(h.counter)
+                }
+                (HostCommand::ReadHex(Register::WatchdogMinimum), Some(r)) if in_window => {
                     h.counter_min = signed_word(r).or(h.counter_min)
                 }
                 (HostCommand::GlobalStatus, Some(r)) => {
                     if let Ok(StatusReply::Words { x, y }) = reply_text::decode(r) {
+                        status_read = true;
                         let on = |name: &str| {
                             spec.status.bit(name).is_some_and(|(w, b)| {
                                 (match w {
@@ -136,17 +160,22 @@ impl Reader {
                                     != 0
                             })
                         };
-                        h.overrun_seen |= on("rti_reentry") || on("rti_warning");
+                        h.rti_reentry_seen |= on("rti_reentry");
+                        h.rti_warning_seen |= in_window && on("rti_warning");
                         h.checksum_error_seen |= on("checksum_error");
                     }
                 }
                 _ => {}
             }
             for name in &step.expect.status_set {
-                h.overrun_seen |= name == "rti_reentry" || name == "rti_warning";
+                h.rti_reentry_seen |= name == "rti_reentry";
+                h.rti_warning_seen |= in_window && name == "rti_warning";
                 h.checksum_error_seen |= name == "checksum_error";
             }
-            i += 1;
+            status_read |= !step.expect.status_set.is_empty() || !step.expect.status_clear.is_empty();
+            if status_read && !in_window {
+                break;
+            }
         }
         Ok(h)
     }
@@ -177,7 +206,7 @@ fn cycle_set(min: u32, max: Option<u32>, card: &Controller, cfg: &ModelConfig) -
 }
 
 /// The status words with the CPU type bits of `cpu` (SRM p.289).
-fn with_cpu(spec: &Spec, cpu: u8, (x, y): (u32, u32)) -> (u32, u32) {
+pub fn with_cpu(spec: &Spec, cpu: u8, (x, y): (u32, u32)) -> (u32, u32) {
     let mut w = [x, y];
     for (name, on) in [("cpu_type_bit1", cpu & 2 != 0), ("cpu_type_bit0", cpu & 1 != 0)] {
         if let (true, Some((word, bit))) = (on, spec.status.bit(name)) {
@@ -191,7 +220,7 @@ fn with_cpu(spec: &Spec, cpu: u8, (x, y): (u32, u32)) -> (u32, u32) {
 }
 
 /// What a candidate shows after `reply`, CPU type included.
-fn observation(spec: &Spec, cfg: &ModelConfig, c: &Cand, reply: Reply) -> pmacwd_specs::vocab::Observation {
+pub fn observation(spec: &Spec, cfg: &ModelConfig, c: &Cand, reply: Reply) -> pmacwd_specs::vocab::Observation {
     let mut obs = pmacwd_model::observe::of(&c.card, cfg, reply);
     let (x, y) = with_cpu(spec, c.cpu, (obs.status_x, obs.status_y));
     obs.status_x = x;
@@ -270,21 +299,51 @@ impl Lane {
         }
         let record = self.cands.first().is_some_and(|c| c.node.is_some());
         let cfg = &self.cfg;
-        let mut next: HashMap<(Controller, i32, u8), Cand> = HashMap::new();
+        // Candidates that differ only in X:$25 are kept as one when their intervals meet: the
+        // union of two overlapping intervals is exactly the values either allows.
+        let mut next: HashMap<(Controller, u8), Vec<Cand>> = HashMap::new();
+        let mut count = 0usize;
         let mut first_failure: Option<(String, String, String)> = None;
         let before = self.cands.len();
-        let insert = |c: Cand, next: &mut HashMap<(Controller, i32, u8), Cand>| -> Result<(), SpecError> {
-            let key = (c.card.clone(), c.min_lo, c.cpu);
-            next.entry(key).or_insert(c);
-            if next.len() > CANDIDATES_MAX {
+        let label = super::lanes::label(&self.def.choices);
+        let mut insert = |c: Cand, next: &mut HashMap<(Controller, u8), Vec<Cand>>| -> Result<(), SpecError> {
+            let mut key = c.card.clone();
+            key.counter_min = i32::MIN;
+            let same = next.entry((key, c.cpu)).or_default();
+            let (lo, hi) = (c.min_lo, c.card.counter_min);
+            // With witnesses recorded, a merged candidate keeps one history, which must reach
+            // every value of its interval: merge only when one interval holds the other.
+            let meets = |o: &Cand| {
+                if record {
+                    (o.min_lo <= lo && hi <= o.card.counter_min) || (lo <= o.min_lo && o.card.counter_min <= hi)
+                } else {
+                    lo <= o.card.counter_min.saturating_add(1) && o.min_lo <= hi.saturating_add(1)
+                }
+            };
+            match same.iter_mut().find(|o| meets(o)) {
+                Some(o) => {
+                    if record && lo <= o.min_lo && o.card.counter_min <= hi {
+                        *o = c;
+                    } else {
+                        if hi > o.card.counter_min {
+                            o.card.counter_min = hi;
+                        }
+                        o.min_lo = o.min_lo.min(lo);
+                    }
+                }
+                None => {
+                    same.push(c);
+                    count += 1;
+                }
+            }
+            if count > CANDIDATES_MAX {
                 return Err(SpecError::at(
                     file,
                     Position { line, column: 1 },
                     format!(
                         "the capture leaves more than {CANDIDATES_MAX} states of the card possible here (under \
-                         the readings {}); read Y:$25 and X:$25 more often, or shorten the gaps without a \
-                         reply (docs/replay.md, bounds)",
-                        super::lanes::label(&self.def.choices)
+                         the readings {label}); read Y:$25 and X:$25 more often, or shorten the gaps without a \
+                         reply (docs/replay.md, bounds)"
                     ),
                 ));
             }
@@ -375,7 +434,7 @@ impl Lane {
                 }
             }
         }
-        self.cands = next.into_values().collect();
+        self.cands = next.into_values().flatten().collect();
         self.peak = self.peak.max(self.cands.len());
         if self.cands.is_empty() {
             let (what, expected, observed) =

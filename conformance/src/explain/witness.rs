@@ -74,6 +74,8 @@ pub struct Witness {
     pub lowest_min: i32,
     /// How the card ended: tripped (and why), or running.
     pub end: Option<TripCause>,
+    /// The witness run on the model: observations reproduced, or the first that is not.
+    pub checked: Option<Result<usize, String>>,
 }
 
 fn area(a: ChecksumTarget) -> &'static str {
@@ -104,17 +106,27 @@ fn realize<'a>(
         return gap::run(cfg, card, *plan_hi, true);
     };
     let mut tries = vec![*plan_hi, *plan_lo];
-    if let Plan::Schedule { cycles, tail, .. } = *plan_hi {
-        let r = i64::from(cfg.reset_value(card.i40));
-        for lead in [
-            (i64::from(card.counter) - i64::from(need)).try_into().ok().map(Lead::FirstAfter),
-            (r - i64::from(need)).try_into().ok().map(Lead::Stretch),
-        ]
-        .into_iter()
-        .flatten()
-        {
-            for skip in [false, true] {
-                tries.push(Plan::Schedule { cycles, lead, skip, tail });
+    let heavies = 0..=3 * (u32::from(card.i8) + 1) + 2;
+    for (base, heavy) in [*plan_hi, *plan_lo].into_iter().flat_map(|b| heavies.clone().map(move |h| (b, h))) {
+        if let Plan::Schedule { cycles, fault, tail, overrun_tail, .. } = base {
+            if heavy >= cycles {
+                continue;
+            }
+            let r = i64::from(cfg.reset_value(card.i40));
+            let c0 = match cfg.profile.choices.strobe_stop {
+                pmacwd_specs::profiles::StrobeStop::AtZero => (i64::from(card.counter) - i64::from(heavy)).max(0),
+                pmacwd_specs::profiles::StrobeStop::BelowZero => i64::from(card.counter) - i64::from(heavy),
+            };
+            for lead in [
+                (c0 - i64::from(need)).try_into().ok().filter(|j| *j > 0).map(Lead::FirstAfter),
+                (r - i64::from(need)).try_into().ok().filter(|s| *s > 0).map(Lead::Stretch),
+            ]
+            .into_iter()
+            .flatten()
+            {
+                for skip in [false, true] {
+                    tries.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_tail });
+                }
             }
         }
     }
@@ -154,6 +166,20 @@ pub fn build(cfg: &ModelConfig, path: &Path, last: &Rc<Node>) -> Result<Witness,
             steps.push(Step { event: e, expect: Expect::default(), note: note.take() });
         }
     };
+    // Each X:$25 read that narrowed an interval is met by the latest gap before it that can
+    // run down that far; the other gaps keep X:$25 as high as they can.
+    let mut targets: std::collections::HashMap<usize, i32> = std::collections::HashMap::new();
+    for (p, node) in nodes.iter().enumerate() {
+        if let NodeKind::Pin(v) = node.kind {
+            let gap = (0..p).rev().find(|&g| {
+                matches!(&nodes[g].kind, NodeKind::Restart(_))
+                    || matches!(&nodes[g].kind, NodeKind::Gap { lo, .. } if *lo <= v)
+            });
+            if let Some(g) = gap.filter(|&g| matches!(nodes[g].kind, NodeKind::Gap { .. })) {
+                targets.insert(g, v);
+            }
+        }
+    }
     while let Some((line, step)) = source.next_step()? {
         event += 1;
         while at < nodes.len() && nodes[at].event < event {
@@ -167,11 +193,7 @@ pub fn build(cfg: &ModelConfig, path: &Path, last: &Rc<Node>) -> Result<Witness,
                     story.push(format!("line {line}: (no choice recorded for this gap)"));
                     continue;
                 };
-                // The X:$25 value read before the next gap, if any.
-                let need = nodes[at + 1..]
-                    .iter()
-                    .take_while(|n| !matches!(n.kind, NodeKind::Gap { .. }))
-                    .find_map(|n| if let NodeKind::Pin(v) = n.kind { Some(v) } else { None });
+                let need = targets.get(&at).copied();
                 let Some(sim) = realize(cfg, &card, (plan_hi, plan_lo, end), need) else {
                     story.push(format!("line {line}: (the recorded plan could not be replayed)"));
                     continue;
@@ -183,17 +205,22 @@ pub fn build(cfg: &ModelConfig, path: &Path, last: &Rc<Node>) -> Result<Witness,
                         "{between}: the logic supply dipped below its minimum (about 4.75 V, UM p.215) and the \
                          card tripped"
                     )),
-                    Plan::Starved { cycles } if sim.card.tripped() && !card.tripped() => story.push(format!(
-                        "{between}: no background cycle completed, so nothing reloaded the counter (Y:$25 was {} \
-                         at the start of the gap); it ran down, the strobe stopped and the card tripped within \
+                    Plan::Starved { cycles, overrun } if sim.card.tripped() && !card.tripped() => story.push(format!(
+                        "{between}: no background cycle completed{}, so nothing reloaded the counter (Y:$25 was \
+                         {} at the start of the gap); it ran down, the strobe stopped and the card tripped within \
                          {cycles} servo cycles (UM p.215)",
+                        if overrun { " (PLC 0 overran every RTI period and took the CPU)" } else { "" },
                         card.counter
                     )),
-                    Plan::Schedule { lead: Lead::Overrun, .. } => story.push(format!(
+                    Plan::Starved { overrun: true, .. } | Plan::Schedule { overrun_tail: true, .. } => story.push(format!(
+                        "{between}: PLC 0 (or another RTI task) ran longer than an RTI period and the RTI \
+                         overran (bits 22 and 9, SRM p.289-290)"
+                    )),
+                    Plan::Schedule { heavy: 1.., .. } => story.push(format!(
                         "{between}: an RTI task set (PLC 0, move planning) ran longer than an RTI period, so the \
                          next RTI overran (bits 22 and 9, SRM p.289-290)"
                     )),
-                    Plan::Schedule { lead: Lead::Fault(a), .. } => story.push(format!(
+                    Plan::Schedule { fault: Some(a), .. } => story.push(format!(
                         "{between}: {} memory was corrupted and the background checksum found it (bit 13, UM p.217)",
                         area(a)
                     )),
@@ -253,5 +280,44 @@ pub fn build(cfg: &ModelConfig, path: &Path, last: &Rc<Node>) -> Result<Witness,
             "the longest run without a background cycle took X:$25 down to {lowest_min} (by line {dip_line})"
         ));
     }
-    Ok(Witness { steps, story, cpu, cpu_decided: false, lowest_min, end: card.trip })
+    Ok(Witness { steps, story, cpu, cpu_decided: false, lowest_min, end: card.trip, checked: None })
+}
+
+/// Runs a witness on the model (the search's configuration, the witness's CPU type) and
+/// checks every observation it carries: `Ok(n)` with the number checked, or the first step
+/// that does not hold. An explanation is only printed once this holds.
+pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> Result<usize, String> {
+    use super::search::{observation, Cand};
+    let mut cand = Cand { card: Controller::power_on(cfg), min_lo: 0, cpu: w.cpu, node: None };
+    let mut checked = 0;
+    for (i, step) in w.steps.iter().enumerate() {
+        let reply = match &step.event {
+            TraceEvent::Model(Event::Background) if !cand.card.background_possible() => {
+                return Err(format!("witness step {}: a background cycle the model cannot complete", i + 1))
+            }
+            TraceEvent::Model(e) => cand.card.apply(cfg, e),
+            TraceEvent::Run { cycles } => {
+                let mut s = Sim::new(cfg, cand.card.clone(), false);
+                s.greedy(*cycles);
+                cand.card = s.card;
+                pmacwd_specs::vocab::event::Reply::None
+            }
+            TraceEvent::Elapsed { .. } | TraceEvent::Restart => {
+                return Err(format!("witness step {}: `{}` left unresolved", i + 1, step.event))
+            }
+        };
+        let obs = observation(spec, cfg, &cand, reply);
+        match crate::runner::compare(spec, &step.expect, &obs) {
+            Ok(n) => checked += n,
+            Err(crate::runner::Mismatch::Field(what, expected, observed)) => {
+                return Err(format!(
+                    "witness step {} (`{}`): {what}: expected {expected}, observed {observed}",
+                    i + 1,
+                    step.event
+                ))
+            }
+            Err(crate::runner::Mismatch::UnknownBit(_, _, name)) => return Err(format!("unknown status bit `{name}`")),
+        }
+    }
+    Ok(checked)
 }
