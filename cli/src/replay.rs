@@ -10,12 +10,17 @@ pub enum Format {
     Json,
 }
 
-pub fn replay_file(file: &std::path::Path, format: Format, specs: Option<PathBuf>) -> ExitCode {
+pub fn replay_file(
+    file: &std::path::Path,
+    format: Format,
+    specs: Option<PathBuf>,
+    configuration: Option<String>,
+) -> ExitCode {
     let spec = match load_spec(&specs) {
         Ok(s) => s,
         Err(code) => return code,
     };
-    match pmacwd_conformance::replay::replay(&spec, file) {
+    match pmacwd_conformance::replay::replay_with(&spec, file, configuration.as_deref()) {
         Ok(report) => {
             match format {
                 Format::Text => {

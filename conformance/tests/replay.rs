@@ -174,3 +174,38 @@ fn a_capture_naming_an_unknown_profile_is_unusable_input_not_a_verdict() {
     let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(r.profiles.iter().map(|p| p.profile.name.as_str()).collect::<Vec<_>>(), ["um-215"]);
 }
+
+#[test]
+fn a_host_log_is_replayed_directly_imported_on_the_fly_with_the_log_s_own_line_numbers() {
+    use pmacwd_conformance::replay::replay_with;
+    let spec = Spec::embedded().unwrap();
+    let r = replay_with(&spec, &capture("host-session.log"), None).unwrap();
+    assert_eq!(r.events, 14, "the steps `pmacwd import` writes");
+    assert!(r.description.contains("imported from the host log"));
+    // Until the replay search judges `elapsed`, the deterministic replay stops at the first
+    // one; its line is the log's (`< 000010`'s command on line 6), not a trace's.
+    let first = r.profiles[0].first.as_ref().unwrap();
+    assert_eq!((first.event, first.line), (2, 6));
+    // A configuration that does not exist, or one given for a trace, is refused.
+    let e = replay_with(&spec, &capture("host-session.log"), Some("nope")).unwrap_err();
+    assert!(e.message.contains("no configuration named `nope`"), "{e}");
+    let e = replay_with(&spec, &capture("reload-to-4095.jsonl"), Some("i40-zero")).unwrap_err();
+    assert!(e.message.contains("is for host logs"), "{e}");
+}
+
+#[test]
+fn a_card_header_in_a_capture_overrides_its_configuration_when_replayed() {
+    // reload-to-4095 waits for a reload to 4095 with I40 = 0; a card saying I40 = 100 reloads
+    // to 100 instead, so no profile explains the capture any more.
+    let spec = Spec::embedded().unwrap();
+    let text = std::fs::read_to_string(capture("reload-to-4095.jsonl")).unwrap();
+    let (head, rest) = text.split_once('\n').unwrap();
+    let head = head.replacen("{", "{\"card\":{\"i40\":100},", 1);
+    let dir = std::env::temp_dir().join(format!("pmacwd-card-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("card.jsonl");
+    std::fs::write(&path, format!("{head}\n{rest}")).unwrap();
+    let r = replay(&spec, &path).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(!r.explained());
+}
