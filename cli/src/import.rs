@@ -23,7 +23,12 @@ enum Form {
 }
 
 impl Form {
-    fn header(self, out: &mut dyn Write, trace: &pmacwd_trace::Trace, card: Option<&CardConfig>) -> std::io::Result<()> {
+    fn header(
+        self,
+        out: &mut dyn Write,
+        trace: &pmacwd_trace::Trace,
+        card: Option<&CardConfig>,
+    ) -> std::io::Result<()> {
         match self {
             Form::Jsonl => writeln!(out, "{}", pmacwd_trace::jsonl::header_line_with_card(trace, card)),
             Form::Yaml => out.write_all(pmacwd_trace::yaml_header_with_card(trace, card).as_bytes()),
@@ -101,8 +106,12 @@ pub fn import_log(log: &Path, out: Option<PathBuf>, configuration: &str, yaml: b
 /// configuration, what was kept without being modelled, and a warning when the log gives no
 /// timing.
 fn summarize(stream: &ImportStream, configuration: &str) {
-    let from_log: Vec<String> =
-        stream.from_log.sources.iter().map(|(field, var, v, line)| format!("{field} ({var} = {v}, line {line})")).collect();
+    let from_log: Vec<String> = stream
+        .from_log
+        .sources
+        .iter()
+        .map(|(field, var, v, line)| format!("{field} ({var} = {v}, line {line})"))
+        .collect();
     let fields = ["servo_hz", "i8", "i40", "i41"];
     let from_config: Vec<&str> =
         fields.into_iter().filter(|f| !stream.from_log.sources.iter().any(|(g, ..)| g == f)).collect();

@@ -46,6 +46,9 @@ const SERVO_COUNTER_MODULUS: u64 = 1 << 24;
 pub const CLOCK_TOLERANCE_PERCENT: u64 = 1;
 
 const NS_PER_S: i128 = 1_000_000_000;
+
+/// A host time interval in ns on the log's timeline: (earliest, latest).
+type HostTime = (i128, i128);
 const DAY_NS: i128 = 86_400 * NS_PER_S;
 
 /// A host timestamp: nanoseconds since midnight (time only) or since 1970-01-01 (with a date),
@@ -234,7 +237,7 @@ pub struct LogParser {
     last_stamp: Option<(Stamp, i128, usize)>,
     days: i128,
     /// The command line waiting for its reply: (line, column of its text, text, host time).
-    pending: Option<(usize, usize, String, Option<(i128, i128)>)>,
+    pending: Option<(usize, usize, String, Option<HostTime>)>,
     commands: u64,
 }
 
@@ -334,7 +337,11 @@ impl LogParser {
             return Ok(None);
         }
         let Some(reply) = rest.strip_prefix("< ").or_else(|| (rest == "<").then_some("")) else {
-            return Err(self.err(line, off + 1, "expected `> command`, `< reply`, a `#` comment or a blank line".into()));
+            return Err(self.err(
+                line,
+                off + 1,
+                "expected `> command`, `< reply`, a `#` comment or a blank line".into(),
+            ));
         };
         let Some((cmd_line, column, text, mut at)) = self.pending.take() else {
             return Err(self.err(line, off + 1, "a reply line without a command before it".into()));
@@ -400,7 +407,11 @@ impl LogParser {
                     .filter(|c| answers(&c.command) == want)
                     .map(|c| format!("`{}`", c.text.to_ascii_uppercase()))
                     .collect();
-                if v.is_empty() { "none".to_string() } else { v.join(", ") }
+                if v.is_empty() {
+                    "none".to_string()
+                } else {
+                    v.join(", ")
+                }
             };
             let may = if unknown > 0 {
                 format!(" and {unknown} not modelled that may or may not answer ({})", names(None))
@@ -451,7 +462,9 @@ fn i_value(reply: &str) -> Option<i64> {
         Some(h) if !h.is_empty() && h.len() <= 12 && h.chars().all(|c| c.is_ascii_hexdigit()) => {
             i64::from_str_radix(h, 16).ok()?
         }
-        None if !body.is_empty() && body.len() <= 15 && body.chars().all(|c| c.is_ascii_digit()) => body.parse().ok()?,
+        None if !body.is_empty() && body.len() <= 15 && body.chars().all(|c| c.is_ascii_digit()) => {
+            body.parse().ok()?
+        }
         _ => return None,
     };
     Some(if neg { -v } else { v })
@@ -474,7 +487,8 @@ pub struct CardScan {
     written: [bool; 4],
 }
 
-const CARD_VARIABLES: [(u16, &str, &str); 4] = [(8, "I8", "i8"), (10, "I10", "servo_hz"), (40, "I40", "i40"), (41, "I41", "i41")];
+const CARD_VARIABLES: [(u16, &str, &str); 4] =
+    [(8, "I8", "i8"), (10, "I10", "servo_hz"), (40, "I40", "i40"), (41, "I41", "i41")];
 
 impl CardScan {
     pub fn new(file: &Path) -> CardScan {
@@ -534,7 +548,9 @@ impl CardScan {
                         SpecError::at(
                             &self.parser.file,
                             at,
-                            format!("I10 reads {v}: a servo period needs 1..=8388607 (units of 1/8388608 ms, SRM p.43)"),
+                            format!(
+                                "I10 reads {v}: a servo period needs 1..=8388607 (units of 1/8388608 ms, SRM p.43)"
+                            ),
                         )
                     })?;
                     out.card.servo_hz = Some(hz);
@@ -1009,4 +1025,3 @@ pub fn starts_as_host_log(line: &str) -> bool {
     }
     matches!(parse_stamp(line), Ok((_, off)) if line[off..].starts_with("> "))
 }
-

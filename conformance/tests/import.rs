@@ -46,7 +46,15 @@ fn the_time_between_two_counter_reads_is_an_exact_elapsed_step_and_commands_betw
     let t = ok("> $$$\n<\n> RHX:$0\n< 000010\n> ???\n< 001000000000\n> I40\n< 0\n> RHX:$0\n< 0008CA\n");
     assert_eq!(
         events(&t.trace.steps),
-        [command("$$$"), exact(0x10), command("RHX:$0"), command("???"), command("I40"), exact(0x8CA - 0x10), command("RHX:$0")]
+        [
+            command("$$$"),
+            exact(0x10),
+            command("RHX:$0"),
+            command("???"),
+            command("I40"),
+            exact(0x8CA - 0x10),
+            command("RHX:$0")
+        ]
     );
     // The counter's value is a note, not an expectation: the model's X:$0 is its own.
     assert!(t.trace.steps[2].expect.is_empty());
@@ -101,7 +109,9 @@ fn with_timestamps_a_counter_going_backwards_is_a_wrap_when_the_host_time_fits_i
 
 #[test]
 fn with_timestamps_a_counter_that_fits_no_wrap_of_the_host_time_is_a_restart() {
-    let t = ok(&format!("{KHZ}12:00:00 > RHX:$0\n< 00A000\n12:00:01 > RHX:$0\n< 000100\n").replace("> I10", "12:00:00 > I10"));
+    let t =
+        ok(&format!("{KHZ}12:00:00 > RHX:$0\n< 00A000\n12:00:01 > RHX:$0\n< 000100\n")
+            .replace("> I10", "12:00:00 > I10"));
     let e = events(&t.trace.steps);
     assert_eq!(e[2..], [TraceEvent::Restart, exact(0x100), command("RHX:$0")]);
     // And a counter that advanced less than the host time allows (it stopped: the card
@@ -220,7 +230,8 @@ fn a_silent_card_is_placed_in_time_by_the_host_clock_alone() {
 #[test]
 fn a_line_of_several_commands_is_split_as_the_card_splits_it_and_its_replies_paired_in_order() {
     // dls-pmaclib sends `i6=1 i3=2 ver` as one line; only `ver` answers.
-    let t = ok("> i6=1 i3=2 ver\n< 1.947\n> I40 ??? RHY:$25\n< 0\\r001000000000 000FFC\n> OPEN PLC 1 CLOSE I130 = 5\n<\n");
+    let t =
+        ok("> i6=1 i3=2 ver\n< 1.947\n> I40 ??? RHY:$25\n< 0\\r001000000000 000FFC\n> OPEN PLC 1 CLOSE I130 = 5\n<\n");
     let s = &t.trace.steps;
     assert_eq!(
         events(s),
@@ -254,7 +265,11 @@ fn a_command_the_model_does_not_know_is_kept_without_an_expectation_and_counted(
     assert!(s[0].expect.is_empty());
     assert_eq!(s[0].note.as_deref(), Some("not modelled: `VER` replied `1.947`"));
     assert_eq!(s[1].note.as_deref(), Some("not modelled: `ENABLE PLC 1` replied nothing"));
-    assert_eq!(s[2].note.as_deref(), Some("not modelled: `LIST GATHER` replied nothing"), "unknown words are one command");
+    assert_eq!(
+        s[2].note.as_deref(),
+        Some("not modelled: `LIST GATHER` replied nothing"),
+        "unknown words are one command"
+    );
     assert_eq!(t.summary.not_modelled, 3);
 }
 

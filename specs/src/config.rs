@@ -224,15 +224,10 @@ impl CardConfig {
 
     /// The fields that are set, as `name: value`, in header order.
     pub fn fields(&self) -> Vec<(&'static str, i64)> {
-        [
-            ("servo_hz", self.servo_hz.map(i64::from)),
-            ("i8", self.i8),
-            ("i40", self.i40),
-            ("i41", self.i41),
-        ]
-        .into_iter()
-        .filter_map(|(k, v)| v.map(|v| (k, v)))
-        .collect()
+        [("servo_hz", self.servo_hz.map(i64::from)), ("i8", self.i8), ("i40", self.i40), ("i41", self.i41)]
+            .into_iter()
+            .filter_map(|(k, v)| v.map(|v| (k, v)))
+            .collect()
     }
 }
 

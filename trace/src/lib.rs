@@ -57,11 +57,16 @@ pub struct Trace {
 #[derive(Clone, Debug, PartialEq)]
 pub enum TraceEvent {
     Model(Event),
-    Run { cycles: u32 },
+    Run {
+        cycles: u32,
+    },
     /// Between `cycles_min` and `cycles_max` servo cycles (unbounded if `None`) pass unseen:
     /// background cycles, load, supply dips, checksum progress and trips are for replay to
     /// choose.
-    Elapsed { cycles_min: u32, cycles_max: Option<u32> },
+    Elapsed {
+        cycles_min: u32,
+        cycles_max: Option<u32>,
+    },
     /// The card restarted unseen (INIT/, power cycle, or `$$$` from another host).
     Restart,
 }
@@ -182,7 +187,9 @@ fn elapsed_event<E: de::Error>(form: ElapsedForm) -> Result<TraceEvent, E> {
         }
     }
     if min > STEP_CYCLES_MAX {
-        return Err(E::custom(format!("`elapsed` of at least {min} servo cycles is more than {STEP_CYCLES_MAX}; split it")));
+        return Err(E::custom(format!(
+            "`elapsed` of at least {min} servo cycles is more than {STEP_CYCLES_MAX}; split it"
+        )));
     }
     Ok(TraceEvent::Elapsed { cycles_min: min, cycles_max: max })
 }
@@ -203,9 +210,7 @@ impl<'de> Deserialize<'de> for Step {
             }
             fn visit_str<E: de::Error>(self, v: &str) -> Result<Step, E> {
                 let event = match v {
-                    "restart" => {
-                        return Ok(Step { event: TraceEvent::Restart, expect: Expect::default(), note: None })
-                    }
+                    "restart" => return Ok(Step { event: TraceEvent::Restart, expect: Expect::default(), note: None }),
                     "background" => Event::Background,
                     "clear_rti_reentry" => Event::ClearRtiReentry,
                     other => {
