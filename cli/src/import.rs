@@ -1,5 +1,6 @@
-//! `pmacwd import`: a plain host log to a trace, streamed: the log is read one line at a time
-//! and each step written as it is complete, so memory does not grow with the log.
+//! `pmacwd import`: a plain host log to a trace, streamed: the log is read one line at a time,
+//! twice (first what it says about the card, for the header; then the steps, each written as
+//! it is complete), so memory does not grow with the log.
 //!
 //! With `--out FILE` the trace goes to a temporary file beside FILE, renamed to FILE only when
 //! the whole log imported, so a failed import never leaves a half trace under FILE. On standard
@@ -7,11 +8,10 @@
 //! the trace is incomplete.
 
 use crate::common::unusable;
-use pmacwd_conformance::import::{header, Importer};
-use pmacwd_specs::input::{open_regular, Lines};
+use pmacwd_conformance::import::{configuration_servo_hz, ImportStream};
 use pmacwd_specs::Spec;
-use pmacwd_trace::Step;
-use std::io::{BufReader, BufWriter, Write};
+use pmacwd_trace::{CardConfig, Step};
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -23,10 +23,15 @@ enum Form {
 }
 
 impl Form {
-    fn header(self, out: &mut dyn Write, trace: &pmacwd_trace::Trace) -> std::io::Result<()> {
+    fn header(
+        self,
+        out: &mut dyn Write,
+        trace: &pmacwd_trace::Trace,
+        card: Option<&CardConfig>,
+    ) -> std::io::Result<()> {
         match self {
-            Form::Jsonl => writeln!(out, "{}", pmacwd_trace::jsonl::header_line(trace)),
-            Form::Yaml => out.write_all(pmacwd_trace::yaml_header(trace).as_bytes()),
+            Form::Jsonl => writeln!(out, "{}", pmacwd_trace::jsonl::header_line_with_card(trace, card)),
+            Form::Yaml => out.write_all(pmacwd_trace::yaml_header_with_card(trace, card).as_bytes()),
         }
     }
     fn step(self, out: &mut dyn Write, step: &Step) -> std::io::Result<()> {
@@ -38,21 +43,19 @@ impl Form {
 }
 
 pub fn import_log(log: &Path, out: Option<PathBuf>, configuration: &str, yaml: bool) -> ExitCode {
+    let spec = match Spec::embedded() {
+        Ok(spec) => spec,
+        Err(e) => return unusable(e),
+    };
     // The configuration is checked now, not at replay: the trace would name one that does not
     // exist.
-    match Spec::embedded() {
-        Ok(spec) if !spec.check.configurations.contains_key(configuration) => {
-            let names: Vec<&str> = spec.check.configurations.keys().map(String::as_str).collect();
-            return unusable(format!(
-                "--configuration: no configuration named `{configuration}` (configurations: {})",
-                names.join(", ")
-            ));
-        }
-        Ok(_) => {}
-        Err(e) => return unusable(e),
+    if let Err(e) = configuration_servo_hz(&spec, configuration) {
+        return unusable(format!("--configuration: {e}"));
     }
-    let file = match open_regular(log) {
-        Ok(f) => f,
+    // The first pass (what the log says about the card) reads the whole log before anything
+    // is written: its errors leave no output at all.
+    let mut stream = match ImportStream::open(&spec, log, configuration) {
+        Ok(s) => s,
         Err(e) => return unusable(e),
     };
     let form = if yaml { Form::Yaml } else { Form::Jsonl };
@@ -63,7 +66,7 @@ pub fn import_log(log: &Path, out: Option<PathBuf>, configuration: &str, yaml: b
                 .map_err(|e| format!("{}: cannot write: {e}", partial.display()))
                 .and_then(|f| {
                     let mut w = BufWriter::new(f);
-                    let steps = write_trace(log, file, configuration, form, &mut w)?;
+                    let steps = write_trace(&mut stream, form, &mut w)?;
                     w.flush().map_err(|e| format!("{}: cannot write: {e}", partial.display()))?;
                     Ok(steps)
                 })
@@ -74,6 +77,7 @@ pub fn import_log(log: &Path, out: Option<PathBuf>, configuration: &str, yaml: b
             match result {
                 Ok(steps) => {
                     eprintln!("pmacwd: wrote {steps} steps to {}", path.display());
+                    summarize(&stream, configuration);
                     ExitCode::SUCCESS
                 }
                 Err(e) => {
@@ -85,13 +89,52 @@ pub fn import_log(log: &Path, out: Option<PathBuf>, configuration: &str, yaml: b
         None => {
             let stdout = std::io::stdout();
             let mut w = BufWriter::new(stdout.lock());
-            let result = write_trace(log, file, configuration, form, &mut w);
+            let result = write_trace(&mut stream, form, &mut w);
             let _ = w.flush();
             match result {
-                Ok(_) => ExitCode::SUCCESS,
+                Ok(_) => {
+                    summarize(&stream, configuration);
+                    ExitCode::SUCCESS
+                }
                 Err(e) => unusable(e),
             }
         }
+    }
+}
+
+/// The import summary on standard error: which values came from the log and which from the
+/// configuration, what was kept without being modelled, and a warning when the log gives no
+/// timing.
+fn summarize(stream: &ImportStream, configuration: &str) {
+    let from_log: Vec<String> = stream
+        .from_log
+        .sources
+        .iter()
+        .map(|(field, var, v, line)| format!("{field} ({var} = {v}, line {line})"))
+        .collect();
+    let fields = ["servo_hz", "i8", "i40", "i41"];
+    let from_config: Vec<&str> =
+        fields.into_iter().filter(|f| !stream.from_log.sources.iter().any(|(g, ..)| g == f)).collect();
+    if !from_log.is_empty() {
+        eprintln!("pmacwd: from the log: {}", from_log.join(", "));
+    }
+    if !from_config.is_empty() {
+        eprintln!("pmacwd: from configuration `{configuration}`: {}", from_config.join(", "));
+    }
+    let Some(s) = stream.summary() else { return };
+    eprintln!(
+        "pmacwd: {} commands on {} lines, {} X:$0 reads, {} restarts, {} silent gaps timed by the host clock, {} \
+         not modelled (kept without an expectation){}",
+        s.commands,
+        s.exchanges,
+        s.counter_reads,
+        s.restarts,
+        s.silent_gaps,
+        s.not_modelled,
+        if s.stamped { format!(", host time at {} Hz", stream.servo_hz) } else { String::new() }
+    );
+    if let Some(w) = s.timing_warning() {
+        eprintln!("pmacwd: {w}");
     }
 }
 
@@ -103,24 +146,13 @@ fn partial_path(path: &Path) -> PathBuf {
 }
 
 /// Imports the log into `out`; the number of steps written.
-fn write_trace(
-    log: &Path,
-    file: std::fs::File,
-    configuration: &str,
-    form: Form,
-    out: &mut dyn Write,
-) -> Result<u64, String> {
+fn write_trace(stream: &mut ImportStream, form: Form, out: &mut dyn Write) -> Result<u64, String> {
     let write_error = |e: std::io::Error| format!("cannot write the trace: {e}");
-    form.header(out, &header(log, configuration)).map_err(write_error)?;
-    let mut importer = Importer::new(log);
-    let mut lines = Lines::new(log, BufReader::new(file));
+    form.header(out, &stream.header, stream.card.as_ref()).map_err(write_error)?;
     let mut steps = 0u64;
-    while let Some((n, text)) = lines.next().map_err(|e| e.to_string())? {
-        for step in importer.line(n, &text).map_err(|e| e.to_string())? {
-            form.step(out, &step).map_err(write_error)?;
-            steps += 1;
-        }
+    while let Some((_, step)) = stream.next_step().map_err(|e| e.to_string())? {
+        form.step(out, &step).map_err(write_error)?;
+        steps += 1;
     }
-    importer.finish().map_err(|e| e.to_string())?;
     Ok(steps)
 }

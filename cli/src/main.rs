@@ -110,9 +110,14 @@ enum Command {
     /// 1 when none does, 2 for unusable input.
     #[command(after_help = "Exit codes: 0 some profile explains the capture, 1 none does, 2 unusable input.")]
     Replay {
-        /// The capture: a trace in YAML or JSON Lines (a host log goes through `pmacwd import` first).
+        /// The capture: a trace in YAML or JSON Lines, or a host log (imported on the fly, as
+        /// `pmacwd import` would).
         #[arg(value_name = "FILE")]
         file: PathBuf,
+        /// For a host log: the check.yaml configuration to import it under (default host-log);
+        /// what the log itself reads (I8, I40, I41, I10) overrides it.
+        #[arg(long, value_name = "NAME")]
+        configuration: Option<String>,
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
@@ -169,7 +174,7 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
         /// The check.yaml configuration the trace names (CPU costs, hardware delay, I-variables).
-        #[arg(long, value_name = "NAME", default_value = "i40-zero")]
+        #[arg(long, value_name = "NAME", default_value = pmacwd_conformance::import::DEFAULT_CONFIGURATION)]
         configuration: String,
         /// Write YAML instead of JSON Lines.
         #[arg(long)]
@@ -203,7 +208,9 @@ fn main() -> ExitCode {
         Command::Serve(args) => serve::serve(args),
         Command::Record(args) => record::record(args),
         Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
-        Command::Replay { file, format, specs } => replay::replay_file(&file, format, specs),
+        Command::Replay { file, format, specs, configuration } => {
+            replay::replay_file(&file, format, specs, configuration)
+        }
         Command::Import { log, out, configuration, yaml } => import::import_log(&log, out, &configuration, yaml),
         Command::Check { specs, profile, configuration, witnesses, threads, no_conformance } => {
             check::check(check::CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance })

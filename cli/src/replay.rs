@@ -10,13 +10,18 @@ pub enum Format {
     Json,
 }
 
-pub fn replay_file(file: &std::path::Path, format: Format, specs: Option<PathBuf>) -> ExitCode {
+pub fn replay_file(
+    file: &std::path::Path,
+    format: Format,
+    specs: Option<PathBuf>,
+    configuration: Option<String>,
+) -> ExitCode {
     let spec = match load_spec(&specs) {
         Ok(s) => s,
         Err(code) => return code,
     };
     use pmacwd_conformance::explain::report;
-    match report::explain(&spec, file, None) {
+    match report::explain(&spec, file, configuration.as_deref()) {
         Ok(report) => {
             match format {
                 Format::Text => print!("{}", report::to_text(&report)),

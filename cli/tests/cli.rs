@@ -441,3 +441,34 @@ fn checker_threads_outside_one_to_the_cores_are_refused_before_any_work() {
         }
     }
 }
+
+#[test]
+fn import_of_a_log_without_timing_succeeds_with_a_warning_and_counts_what_it_could_not_model() {
+    let dir = TempDir::new("import-warning");
+    let log = dir.join("s.log");
+    std::fs::write(&log, "> i6=1 i3=2 ver\n< 1.947\n> ???\n< 000000000000\n").unwrap();
+    let out = pmacwd().arg("import").arg(&log).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("warning: the log has no X:$0 reads: no timing can be derived"), "{stderr}");
+    assert!(stderr.contains("4 commands on 2 lines") && stderr.contains("1 not modelled"), "{stderr}");
+    assert!(stderr.contains("from configuration `i40-zero`: servo_hz, i8, i40, i41"), "{stderr}");
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(stdout.contains("not modelled: `VER` replied `1.947`"), "{stdout}");
+}
+
+#[test]
+fn import_takes_the_card_s_values_from_the_log_and_says_which_in_its_summary() {
+    let dir = TempDir::new("import-card");
+    let log = dir.join("s.log");
+    std::fs::write(&log, "> I10 I8\n< 3713707 3\n> RHX:$0\n< 000010\n> RHX:$0\n< 000020\n").unwrap();
+    let trace = dir.join("t.jsonl");
+    let out = pmacwd().arg("import").arg(&log).arg("--out").arg(&trace).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("from the log: i8 (I8 = 3, line 2), servo_hz (I10 = 3713707, line 2)"), "{stderr}");
+    assert!(stderr.contains("from configuration `i40-zero`: i40, i41"), "{stderr}");
+    assert!(!stderr.contains("warning"), "{stderr}");
+    let text = std::fs::read_to_string(&trace).unwrap();
+    assert!(text.lines().next().unwrap().contains(r#""card":{"i8":3,"servo_hz":2259}"#), "{text}");
+}

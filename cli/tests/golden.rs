@@ -218,9 +218,18 @@ const REPLAY: &[Case] = &[
         "replay_of_a_capture_no_profile_explains_as_json_exits_1",
         &["replay", "specs/captures/no-profile-explains.jsonl", "--format", "json"],
     ),
-    // A host log is not a trace (it must be imported first): exit 2.
-    case("replay_of_a_host_log_exits_2", &["replay", "specs/captures/host-session.log"]),
-    case("replay_of_a_host_log_as_json_exits_2", &["replay", "specs/captures/host-session.log", "--format", "json"]),
+    // A host log is imported on the fly and replayed with the log's own line numbers. Until
+    // the replay search judges `elapsed` steps, the deterministic replay stops at the first.
+    case("replay_of_a_host_log_imports_it_on_the_fly", &["replay", "specs/captures/host-session.log"]),
+    case(
+        "replay_of_a_host_log_as_json_imports_it_on_the_fly",
+        &["replay", "specs/captures/host-session.log", "--format", "json"],
+    ),
+    // A configuration for a trace, which names its own: exit 2.
+    case(
+        "replay_of_a_trace_with_a_configuration_is_refused_with_exit_2",
+        &["replay", "specs/captures/reload-to-4095.jsonl", "--configuration", "i40-zero"],
+    ),
     // A file that does not exist: exit 2.
     case("replay_of_a_missing_file_exits_2", &["replay", "no-such-capture.jsonl"]),
     // An unknown output format: a usage error.

@@ -1,117 +1,890 @@
 //! `pmacwd import`: a plain host log (commands and replies, the servo counter X:$0 read
-//! alongside) turned into a trace. The log format is documented in `docs/capturing.md`:
+//! alongside, host timestamps optional) turned into a trace. The log format and what each
+//! situation in a log becomes are documented in `docs/capturing.md`:
 //!
 //! ```text
 //! # comment
-//! > ???
-//! < 001000000000
-//! > RHX:$0
-//! < 01A2B3
+//! 12:00:00.125 > ???
+//! 12:00:00.127 < 001000000000
+//! 12:00:00.130 > RHX:$0
+//! 12:00:00.131 < 01A2B3
 //! ```
 //!
 //! Every command becomes a `command` step expecting its reply. A host cannot see background
-//! cycles, so the time between two X:$0 reads becomes a `run` step (servo cycles with the
-//! background completing whenever the load allows), placed before the command that read the
-//! counter; commands between two counter reads are placed at the earlier read. The counter's
-//! own value is kept as the step's note, not compared: the model's X:$0 starts at 0 at
-//! power-up, the card's somewhere else.
+//! cycles, so the time between two X:$0 reads becomes an `elapsed` step (servo cycles passed,
+//! nothing known of what happened meanwhile: `pmacwd replay` chooses), placed before the
+//! command that read the counter; commands between two counter reads are placed at the earlier
+//! read. The counter's own value is kept as the step's note, not compared.
+//!
+//! The log is read one line at a time, twice when the trace is written: a first pass
+//! ([`CardScan`]) collects what the log says about the card (I8, I40, I41, I10 read before any
+//! write), since the trace's header comes first; the second ([`Importer`]) writes the steps.
+//! Both hold a bounded state whatever the log's length.
 
 use pmacwd_specs::check::{AllKeyword, ProfileSelection};
+use pmacwd_specs::config::{servo_hz_of_i10, CardConfig};
+use pmacwd_specs::input::Lines;
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
-use pmacwd_specs::{Position, SpecError};
-use pmacwd_trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
+use pmacwd_specs::{Position, Spec, SpecError};
+use pmacwd_trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION, STEP_CYCLES_MAX};
+use std::collections::VecDeque;
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
-/// The servo cycle counter wraps at 2^24 (M100->X:$000000,0,24,U).
-const SERVO_COUNTER_MODULUS: u32 = 1 << 24;
+/// The configuration a log is imported under when none is named (`--configuration`).
+pub const DEFAULT_CONFIGURATION: &str = "host-log";
 
-/// A host log read one line at a time: memory stays bounded whatever the log's length.
-pub struct Importer {
+/// The servo cycle counter wraps at 2^24 (M100->X:$000000,0,24,U).
+const SERVO_COUNTER_MODULUS: u64 = 1 << 24;
+
+/// MODEL: how far the host's clock and the card's servo clock may disagree, in percent, when
+/// host time is turned into servo cycles. No manual gives the servo clock's accuracy; a
+/// crystal and a host clock are both far better than 1 % (tens of ppm), so ±1 % is a generous
+/// bound that also absorbs an I10 or `servo_hz` a little off the hardware (SRM p.43: I10 only
+/// tells the firmware the period the hardware sets).
+pub const CLOCK_TOLERANCE_PERCENT: u64 = 1;
+
+const NS_PER_S: i128 = 1_000_000_000;
+
+/// A host time interval in ns on the log's timeline: (earliest, latest).
+type HostTime = (i128, i128);
+const DAY_NS: i128 = 86_400 * NS_PER_S;
+
+/// A host timestamp: nanoseconds since midnight (time only) or since 1970-01-01 (with a date),
+/// and its resolution (a stamp with 3 fraction digits is true to 1 ms).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Stamp {
+    dated: bool,
+    ns: i128,
+    resolution_ns: i128,
+}
+
+/// Days since 1970-01-01 of a civil date (H. Hinnant's `days_from_civil`).
+fn days_from_civil(y: i64, m: i64, d: i64) -> i64 {
+    let y = if m <= 2 { y - 1 } else { y };
+    let era = if y >= 0 { y } else { y - 399 } / 400;
+    let yoe = y - era * 400;
+    let doy = (153 * (if m > 2 { m - 3 } else { m + 9 }) + 2) / 5 + d - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    era * 146_097 + doe - 719_468
+}
+
+/// `n` ASCII digits at `at` of `b`, as a number.
+fn digits(b: &[u8], at: usize, n: usize) -> Option<i64> {
+    let s = b.get(at..at + n)?;
+    s.iter().all(u8::is_ascii_digit).then(|| s.iter().fold(0i64, |v, c| v * 10 + i64::from(c - b'0')))
+}
+
+/// A timestamp at the start of `l` (`HH:MM:SS(.f+)`, `YYYY-MM-DD HH:MM:SS(.f+)` or with `T`,
+/// optionally in square brackets) and the byte offset just past it and its one space; `Err`
+/// with the column of what is wrong.
+fn parse_stamp(l: &str) -> Result<(Stamp, usize), (usize, String)> {
+    const FORMS: &str = "`HH:MM:SS`, `HH:MM:SS.fff`, `YYYY-MM-DD HH:MM:SS(.fff)` or \
+                         `YYYY-MM-DDTHH:MM:SS(.fff)`, optionally in [brackets], then a space";
+    let b = l.as_bytes();
+    let bad = |at: usize| Err((at + 1, format!("expected a timestamp ({FORMS}) before `>` or `<`")));
+    let mut i = usize::from(b.first() == Some(&b'['));
+    let mut day_ns = None;
+    if b.get(i + 4) == Some(&b'-') {
+        let (Some(y), Some(m), Some(d)) = (digits(b, i, 4), digits(b, i + 5, 2), digits(b, i + 8, 2)) else {
+            return bad(i);
+        };
+        if b.get(i + 7) != Some(&b'-') || !(1..=12).contains(&m) || !(1..=31).contains(&d) {
+            return bad(i);
+        }
+        if !matches!(b.get(i + 10), Some(b' ' | b'T')) {
+            return bad(i + 10);
+        }
+        day_ns = Some(i128::from(days_from_civil(y, m, d)) * DAY_NS);
+        i += 11;
+    }
+    let (Some(h), Some(mi), Some(s)) = (digits(b, i, 2), digits(b, i + 3, 2), digits(b, i + 6, 2)) else {
+        return bad(i);
+    };
+    if b.get(i + 2) != Some(&b':') || b.get(i + 5) != Some(&b':') || h > 23 || mi > 59 || s > 59 {
+        return bad(i);
+    }
+    i += 8;
+    let mut ns = i128::from((h * 60 + mi) * 60 + s) * NS_PER_S;
+    let mut resolution_ns = NS_PER_S;
+    if b.get(i) == Some(&b'.') {
+        i += 1;
+        let start = i;
+        while b.get(i).is_some_and(u8::is_ascii_digit) {
+            // Digits beyond nanoseconds say nothing more: read, not counted.
+            if i - start < 9 {
+                resolution_ns /= 10;
+                ns += i128::from(b[i] - b'0') * resolution_ns;
+            }
+            i += 1;
+        }
+        if i == start {
+            return bad(i);
+        }
+    }
+    if b.first() == Some(&b'[') {
+        if b.get(i) != Some(&b']') {
+            return bad(i);
+        }
+        i += 1;
+    }
+    if b.get(i) != Some(&b' ') {
+        return bad(i);
+    }
+    Ok((Stamp { dated: day_ns.is_some(), ns: ns + day_ns.unwrap_or(0), resolution_ns }, i + 1))
+}
+
+/// What the card answered one command of a line.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Answer {
+    /// `(timeout)`: nothing came (a tripped card is silent, UM p.215).
+    Timeout,
+    /// An empty reply: the command only acknowledged.
+    Ack,
+    /// A reply value as logged.
+    Value(String),
+}
+
+/// One command of a log line and what it got.
+#[derive(Clone, Debug)]
+pub struct Exchanged {
+    pub text: String,
+    pub command: HostCommand,
+    pub answer: Answer,
+    /// Where the command's text starts on its line.
+    pub column: usize,
+}
+
+/// A command line and its reply line, the commands split as the card splits them.
+#[derive(Clone, Debug)]
+pub struct Exchange {
+    pub line: usize,
+    pub reply_line: usize,
+    /// The host time of the exchange as an interval in ns, [command stamp, reply stamp (or the
+    /// command's) + the stamps' resolution], when the log is stamped.
+    pub at: Option<(i128, i128)>,
+    pub commands: Vec<Exchanged>,
+}
+
+/// Whether a command always answers one value (`???`, I-variable and memory reads), never
+/// (writes, `$$$`, `OPEN`, `CLOSE`), or is not known to the model (either).
+fn answers(c: &HostCommand) -> Option<bool> {
+    match c {
+        HostCommand::GlobalStatus | HostCommand::ReadI(_) | HostCommand::ReadHex(_) => Some(true),
+        HostCommand::WriteI(..) | HostCommand::Reset | HostCommand::Open(_) | HostCommand::Close => Some(false),
+        HostCommand::Unrecognized(_) => None,
+    }
+}
+
+/// Splits a command line as the card does, on whitespace, keeping together the forms
+/// [`HostCommand::parse`] reads with spaces inside: `OPEN PLC n`, `OPEN PROG n`, `RH X:$a`,
+/// and spaces around `=`. Consecutive words the model does not know are one command
+/// (`ENABLE PLC 1`, `LIST GATHER`): the model cannot tell where such a command ends. Each
+/// piece with its byte offset.
+fn split_commands(text: &str) -> Vec<(usize, String)> {
+    let mut tokens: Vec<(usize, &str)> = Vec::new();
+    let mut start = None;
+    for (i, c) in text.char_indices().chain(std::iter::once((text.len(), ' '))) {
+        match (c.is_whitespace(), start) {
+            (true, Some(s)) => {
+                tokens.push((s, &text[s..i]));
+                start = None;
+            }
+            (false, None) => start = Some(i),
+            _ => {}
+        }
+    }
+    let mut pieces: Vec<(usize, String)> = Vec::new();
+    let mut i = 0;
+    while i < tokens.len() {
+        let (at, t) = tokens[i];
+        let mut piece = t.to_string();
+        let mut j = i + 1;
+        let upper = t.to_ascii_uppercase();
+        let next_upper = tokens.get(j).map(|(_, n)| n.to_ascii_uppercase());
+        if upper == "OPEN" && j + 1 < tokens.len() && matches!(next_upper.as_deref(), Some("PLC" | "PROG")) {
+            piece = format!("{t} {} {}", tokens[j].1, tokens[j + 1].1);
+            j += 2;
+        } else if upper == "RH" && j < tokens.len() {
+            piece = format!("{t} {}", tokens[j].1);
+            j += 1;
+        }
+        while j < tokens.len() && (piece.ends_with('=') || tokens[j].1.starts_with('=')) {
+            piece.push_str(tokens[j].1);
+            j += 1;
+        }
+        pieces.push((at, piece));
+        i = j;
+    }
+    pieces
+}
+
+fn is_error_reply(r: &str) -> bool {
+    let r = r.as_bytes();
+    r.len() == 6 && r[..3].eq_ignore_ascii_case(b"ERR") && r[3..].iter().all(u8::is_ascii_digit)
+}
+
+/// A host log's lines paired into [`Exchange`]s: the syntax of `docs/capturing.md` (comments,
+/// timestamps and their order, a reply line after every command line, several commands on a
+/// line and their replies). Holds one pending command line: bounded.
+pub struct LogParser {
     file: PathBuf,
-    last_counter: Option<u32>,
-    /// The command waiting for its reply: (line, text, command).
-    pending: Option<(usize, String, HostCommand)>,
+    /// Whether the command lines are stamped (decided by the first one).
+    stamped: Option<bool>,
+    /// The last stamp on the log's timeline (time-only stamps with their midnight rollovers
+    /// added) and its line.
+    last_stamp: Option<(Stamp, i128, usize)>,
+    days: i128,
+    /// The command line waiting for its reply: (line, column of its text, text, host time).
+    pending: Option<(usize, usize, String, Option<HostTime>)>,
     commands: u64,
 }
 
-impl Importer {
-    pub fn new(file: &Path) -> Importer {
-        Importer { file: file.to_path_buf(), last_counter: None, pending: None, commands: 0 }
+impl LogParser {
+    pub fn new(file: &Path) -> LogParser {
+        LogParser { file: file.to_path_buf(), stamped: None, last_stamp: None, days: 0, pending: None, commands: 0 }
     }
 
     fn err(&self, line: usize, column: usize, msg: String) -> SpecError {
         SpecError::at(&self.file, Position { line, column }, msg)
     }
 
-    /// Reads line `line` of the log; returns the steps it completes (zero, one or two).
-    pub fn line(&mut self, line: usize, raw: &str) -> Result<Vec<Step>, SpecError> {
+    /// Whether the command lines carry host timestamps (known after the first command line).
+    pub fn stamped(&self) -> bool {
+        self.stamped == Some(true)
+    }
+
+    /// The stamp on the log's timeline, checked not to go backwards. MODEL: a time-only stamp
+    /// more than 12 hours before the previous one is the next day (midnight passed); a smaller
+    /// step back is an error, as is any step back of a dated stamp.
+    fn place(&mut self, line: usize, stamp: Stamp) -> Result<i128, SpecError> {
+        let Some((prev, prev_t, prev_line)) = self.last_stamp else {
+            self.last_stamp = Some((stamp, stamp.ns, line));
+            return Ok(stamp.ns);
+        };
+        if prev.dated != stamp.dated {
+            return Err(self.err(
+                line,
+                1,
+                format!(
+                    "this timestamp {} a date and the one on line {prev_line} {}: use one form throughout",
+                    if stamp.dated { "has" } else { "has no" },
+                    if prev.dated { "has" } else { "has not" }
+                ),
+            ));
+        }
+        let mut t = stamp.ns + self.days * DAY_NS;
+        if t < prev_t {
+            if !stamp.dated && prev_t - t > DAY_NS / 2 {
+                self.days += 1;
+                t += DAY_NS;
+            } else {
+                return Err(self.err(
+                    line,
+                    1,
+                    format!(
+                        "this timestamp is {:.3} s before the one on line {prev_line}: host time goes backwards",
+                        (prev_t - t) as f64 / NS_PER_S as f64
+                    ),
+                ));
+            }
+        }
+        self.last_stamp = Some((stamp, t, line));
+        Ok(t)
+    }
+
+    /// Reads line `line` of the log; an [`Exchange`] when it is the reply line completing one.
+    pub fn line(&mut self, line: usize, raw: &str) -> Result<Option<Exchange>, SpecError> {
         let l = raw.trim_end();
         if l.trim().is_empty() || l.trim_start().starts_with('#') {
-            return Ok(Vec::new());
+            return Ok(None);
         }
-        if let Some(cmd) = l.strip_prefix("> ") {
-            if let Some((at, text, _)) = &self.pending {
+        let (stamp, off) = if l.starts_with(|c: char| c.is_ascii_digit() || c == '[') {
+            let (s, off) = parse_stamp(l).map_err(|(col, m)| self.err(line, col, m))?;
+            (Some(s), off)
+        } else {
+            (None, 0)
+        };
+        let rest = &l[off..];
+        let time = match stamp {
+            Some(s) => Some((self.place(line, s)?, s.resolution_ns)),
+            None => None,
+        };
+        if let Some(cmd) = rest.strip_prefix("> ") {
+            if let Some((at, _, text, _)) = &self.pending {
                 return Err(self.err(*at, 1, format!("`{text}` has no reply line (`< ...`) before the next command")));
             }
-            let parsed = HostCommand::parse(cmd).map_err(|e| self.err(line, 3, e.0))?;
-            self.pending = Some((line, cmd.trim().to_string(), parsed));
-            return Ok(Vec::new());
-        }
-        let Some(reply) = l.strip_prefix("< ").or_else(|| (l == "<").then_some("")) else {
-            return Err(self.err(line, 1, "expected `> command`, `< reply`, a `#` comment or a blank line".into()));
-        };
-        let Some((_, _, cmd)) = self.pending.take() else {
-            return Err(self.err(line, 1, "a reply line without a command before it".into()));
-        };
-        self.commands += 1;
-        let mut steps = Vec::new();
-        let reply = reply.trim();
-        let expected = match reply {
-            "(timeout)" => "(silence)".to_string(),
-            "" => "(ack)".to_string(),
-            r => r.to_ascii_uppercase(),
-        };
-        let mut note = None;
-        let mut expect = Expect { reply: Some(expected), ..Expect::default() };
-        if cmd == HostCommand::ReadHex(Register::ServoCycles) && reply != "(timeout)" {
-            // Hex digits only: `from_str_radix` would also take a sign (`+10`).
-            let value = Some(reply)
-                .filter(|r| !r.is_empty() && r.chars().all(|c| c.is_ascii_hexdigit()))
-                .and_then(|r| u32::from_str_radix(r, 16).ok())
-                .filter(|v| *v < SERVO_COUNTER_MODULUS)
-                .ok_or_else(|| self.err(line, 3, format!("X:$0 reply `{reply}` is not a 24-bit hex word")))?;
-            if let Some(prev) = self.last_counter {
-                let cycles = (value + SERVO_COUNTER_MODULUS - prev) % SERVO_COUNTER_MODULUS;
-                if cycles > 0 {
-                    steps.push(Step { event: TraceEvent::Run { cycles }, expect: Expect::default(), note: None });
+            match self.stamped {
+                None => self.stamped = Some(time.is_some()),
+                Some(s) if s != time.is_some() => {
+                    return Err(self.err(
+                        line,
+                        1,
+                        if s {
+                            "this command line has no timestamp, the ones before it have: stamp every command line or none"
+                                .to_string()
+                        } else {
+                            "this command line has a timestamp, the ones before it have none: stamp every command line or none"
+                                .to_string()
+                        },
+                    ));
                 }
+                Some(_) => {}
             }
-            self.last_counter = Some(value);
-            note = Some(format!("the card's X:$0 read {reply} (used for timing, not compared)"));
-            expect = Expect::default();
+            let at = time.map(|(t, res)| (t, t + res));
+            self.pending = Some((line, off + 3, cmd.to_string(), at));
+            return Ok(None);
         }
-        if cmd == HostCommand::Reset {
-            // The card restarts its servo counter, and resets rather than answers: what the
-            // log shows after `$$$` is the link's, not the model's, so it is kept as a note.
-            self.last_counter = None;
-            note = Some(format!("reply `{reply}` not compared: the card resets"));
-            expect = Expect::default();
+        let Some(reply) = rest.strip_prefix("< ").or_else(|| (rest == "<").then_some("")) else {
+            return Err(self.err(
+                line,
+                off + 1,
+                "expected `> command`, `< reply`, a `#` comment or a blank line".into(),
+            ));
+        };
+        let Some((cmd_line, column, text, mut at)) = self.pending.take() else {
+            return Err(self.err(line, off + 1, "a reply line without a command before it".into()));
+        };
+        if let (Some((lo, hi)), Some((t, res))) = (at, time) {
+            at = Some((lo, hi.max(t + res)));
         }
-        steps.push(Step { event: TraceEvent::Model(Event::Command(cmd)), expect, note });
-        Ok(steps)
+        self.commands += 1;
+        let commands = self.split(cmd_line, column, &text, line, off + 3, reply)?;
+        Ok(Some(Exchange { line: cmd_line, reply_line: line, at, commands }))
+    }
+
+    /// The commands of line `line` with their answers from the reply `reply` (on
+    /// `reply_line`, starting at `reply_column`).
+    fn split(
+        &self,
+        line: usize,
+        column: usize,
+        text: &str,
+        reply_line: usize,
+        reply_column: usize,
+        reply: &str,
+    ) -> Result<Vec<Exchanged>, SpecError> {
+        let reply = reply.trim();
+        let mut parsed: Vec<Exchanged> = Vec::new();
+        for (at, piece) in split_commands(text) {
+            let command = HostCommand::parse(&piece).map_err(|e| self.err(line, column + at, e.0))?;
+            match (parsed.last_mut(), &command) {
+                (Some(prev), HostCommand::Unrecognized(_)) if matches!(prev.command, HostCommand::Unrecognized(_)) => {
+                    prev.text = format!("{} {piece}", prev.text);
+                    prev.command = HostCommand::Unrecognized(prev.text.clone());
+                }
+                _ => parsed.push(Exchanged { text: piece, command, answer: Answer::Ack, column: column + at }),
+            }
+        }
+        if parsed.is_empty() {
+            return Err(self.err(line, column, "an empty command: write the command text, e.g. `???`".into()));
+        }
+        if reply == "(timeout)" {
+            for c in &mut parsed {
+                c.answer = Answer::Timeout;
+            }
+            return Ok(parsed);
+        }
+        if parsed.len() == 1 {
+            parsed[0].answer = if reply.is_empty() { Answer::Ack } else { Answer::Value(reply.to_string()) };
+            return Ok(parsed);
+        }
+        // Several commands: the replies of those that answer, in order, separated by
+        // whitespace or a written `\r` (the card ends each reply with CR).
+        let spaced = reply.replace("\\r", " ");
+        let values: Vec<&str> = spaced.split_whitespace().collect();
+        let known = parsed.iter().filter(|c| answers(&c.command) == Some(true)).count();
+        let unknown = parsed.iter().filter(|c| answers(&c.command).is_none()).count();
+        let unknown_answer = if values.len() == known {
+            false
+        } else if unknown > 0 && values.len() == known + unknown {
+            true
+        } else {
+            let names = |want: Option<bool>| -> String {
+                let v: Vec<String> = parsed
+                    .iter()
+                    .filter(|c| answers(&c.command) == want)
+                    .map(|c| format!("`{}`", c.text.to_ascii_uppercase()))
+                    .collect();
+                if v.is_empty() {
+                    "none".to_string()
+                } else {
+                    v.join(", ")
+                }
+            };
+            let may = if unknown > 0 {
+                format!(" and {unknown} not modelled that may or may not answer ({})", names(None))
+            } else {
+                String::new()
+            };
+            return Err(self.err(
+                reply_line,
+                reply_column,
+                format!(
+                    "the command line {line} holds {known} commands that answer ({}){may}, but this reply line \
+                     holds {} values: write one reply value per answering command, in order, separated by \
+                     spaces or `\\r`",
+                    names(Some(true)),
+                    values.len()
+                ),
+            ));
+        };
+        let mut values = values.into_iter();
+        for c in &mut parsed {
+            if answers(&c.command).unwrap_or(unknown_answer) {
+                c.answer = Answer::Value(values.next().expect("one value per answering command").to_string());
+            }
+        }
+        Ok(parsed)
     }
 
     /// The end of the log: a command left without its reply, or a log without commands, is an
     /// error.
-    pub fn finish(self) -> Result<(), SpecError> {
-        if let Some((at, text, _)) = &self.pending {
+    pub fn finish(&self) -> Result<(), SpecError> {
+        if let Some((at, _, text, _)) = &self.pending {
             return Err(self.err(*at, 1, format!("`{text}` has no reply line at the end of the log")));
         }
         if self.commands == 0 {
             return Err(SpecError::whole_file(&self.file, "the log has no commands"));
         }
         Ok(())
+    }
+}
+
+/// An I-variable reply: decimal, or `$` hex (I9 bit 1, SRM p.42), optionally negative.
+fn i_value(reply: &str) -> Option<i64> {
+    let (neg, body) = match reply.strip_prefix('-') {
+        Some(b) => (true, b),
+        None => (false, reply),
+    };
+    let v = match body.strip_prefix('$') {
+        Some(h) if !h.is_empty() && h.len() <= 12 && h.chars().all(|c| c.is_ascii_hexdigit()) => {
+            i64::from_str_radix(h, 16).ok()?
+        }
+        None if !body.is_empty() && body.len() <= 15 && body.chars().all(|c| c.is_ascii_digit()) => {
+            body.parse().ok()?
+        }
+        _ => return None,
+    };
+    Some(if neg { -v } else { v })
+}
+
+/// What the log says about the card, with where it says it.
+#[derive(Clone, Debug, Default)]
+pub struct CardFromLog {
+    pub card: CardConfig,
+    /// Every value taken: (the header field, the I-variable read, its value, its line).
+    pub sources: Vec<(&'static str, &'static str, i64, usize)>,
+}
+
+/// The first pass: the replies to reads of I8, I40, I41 and I10 that come before any write of
+/// that variable (what the card was configured with when the log began). Bounded: four values.
+pub struct CardScan {
+    parser: LogParser,
+    /// Per variable (I8, I10, I40, I41): the value read and its line, and whether it was written.
+    read: [Option<(i64, usize)>; 4],
+    written: [bool; 4],
+}
+
+const CARD_VARIABLES: [(u16, &str, &str); 4] =
+    [(8, "I8", "i8"), (10, "I10", "servo_hz"), (40, "I40", "i40"), (41, "I41", "i41")];
+
+impl CardScan {
+    pub fn new(file: &Path) -> CardScan {
+        CardScan { parser: LogParser::new(file), read: [None; 4], written: [false; 4] }
+    }
+
+    pub fn line(&mut self, line: usize, raw: &str) -> Result<(), SpecError> {
+        let Some(ex) = self.parser.line(line, raw)? else { return Ok(()) };
+        for c in &ex.commands {
+            let (n, write) = match c.command {
+                HostCommand::ReadI(n) => (n, false),
+                HostCommand::WriteI(n, _) => (n, true),
+                _ => continue,
+            };
+            let Some(k) = CARD_VARIABLES.iter().position(|(v, ..)| *v == n) else { continue };
+            if write {
+                self.written[k] = true;
+            } else if let (false, None, Answer::Value(r)) = (self.written[k], self.read[k], &c.answer) {
+                if let Some(v) = i_value(r) {
+                    self.read[k] = Some((v, ex.reply_line));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// What was found, each value checked: I10 must give a servo period, I8, I40 and I41 must
+    /// be in their ranges of `variables.yaml` (the error names the reply's line).
+    pub fn finish(self, spec: &Spec) -> Result<CardFromLog, SpecError> {
+        self.parser.finish()?;
+        let iv = &spec.variables.i_variables;
+        let mut out = CardFromLog::default();
+        for ((_, var, field), read) in CARD_VARIABLES.iter().zip(self.read) {
+            let Some((v, line)) = read else { continue };
+            let at = Position { line, column: 1 };
+            let range = match *field {
+                "i8" => Some(&iv.i8.range),
+                "i40" => Some(&iv.i40.range),
+                "i41" => Some(&iv.i41.range),
+                _ => None,
+            };
+            if let Some(r) = range {
+                if v < r.min || v > r.max {
+                    return Err(SpecError::at(
+                        &self.parser.file,
+                        at,
+                        format!("{var} reads {v}, outside its range {}..={} (variables.yaml)", r.min, r.max),
+                    ));
+                }
+            }
+            match *field {
+                "i8" => out.card.i8 = Some(v),
+                "i40" => out.card.i40 = Some(v),
+                "i41" => out.card.i41 = Some(v),
+                _ => {
+                    let hz = servo_hz_of_i10(v).ok_or_else(|| {
+                        SpecError::at(
+                            &self.parser.file,
+                            at,
+                            format!(
+                                "I10 reads {v}: a servo period needs 1..=8388607 (units of 1/8388608 ms, SRM p.43)"
+                            ),
+                        )
+                    })?;
+                    out.card.servo_hz = Some(hz);
+                }
+            }
+            out.sources.push((field, var, v, line));
+        }
+        Ok(out)
+    }
+}
+
+/// What an import found, for its summary.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Summary {
+    /// Command lines (each with its reply line).
+    pub exchanges: u64,
+    /// Commands (a line may hold several).
+    pub commands: u64,
+    /// X:$0 reads that gave a value.
+    pub counter_reads: u64,
+    /// Restarts read from the counter going backwards (or not fitting the host clock).
+    pub restarts: u64,
+    /// Commands the model does not know, kept without an expectation.
+    pub not_modelled: u64,
+    /// `elapsed` steps bounded by host time alone, while the card was silent.
+    pub silent_gaps: u64,
+    /// Whether the log has host timestamps.
+    pub stamped: bool,
+}
+
+impl Summary {
+    /// A warning when the log gives no timing at all: without two X:$0 reads (or host time
+    /// over a silent card) every command happens at one instant.
+    pub fn timing_warning(&self) -> Option<String> {
+        (self.counter_reads < 2 && self.silent_gaps == 0).then(|| {
+            format!(
+                "warning: the log has {} X:$0 read{}: no timing can be derived, every command is placed at \
+                 one instant (read RHX:$0 alongside the other commands, docs/capturing.md)",
+                if self.counter_reads == 0 { "no".to_string() } else { "a single".to_string() },
+                if self.counter_reads == 0 { "s" } else { "" }
+            )
+        })
+    }
+}
+
+/// `elapsed` steps for between `min` and `max` (unbounded if `None`) servo cycles, split into
+/// steps of at most [`STEP_CYCLES_MAX`] cycles whose bounds add up to the given ones.
+fn elapsed_steps(min: u64, max: Option<u64>, note: Option<String>) -> Vec<Step> {
+    let step_max = u64::from(STEP_CYCLES_MAX);
+    let mut steps = Vec::new();
+    match max {
+        None => {
+            let mut left = min;
+            loop {
+                let this = left.min(step_max);
+                left -= this;
+                let event = if left == 0 {
+                    TraceEvent::Elapsed { cycles_min: this as u32, cycles_max: None }
+                } else {
+                    TraceEvent::Elapsed { cycles_min: this as u32, cycles_max: Some(this as u32) }
+                };
+                steps.push(Step { event, expect: Expect::default(), note: None });
+                if left == 0 {
+                    break;
+                }
+            }
+        }
+        Some(max) => {
+            let (mut min_left, mut max_left) = (min.min(max), max);
+            while max_left > 0 {
+                let hi = max_left.min(step_max);
+                let lo = min_left.min(hi);
+                max_left -= hi;
+                min_left -= lo;
+                steps.push(Step {
+                    event: TraceEvent::Elapsed { cycles_min: lo as u32, cycles_max: Some(hi as u32) },
+                    expect: Expect::default(),
+                    note: None,
+                });
+            }
+        }
+    }
+    if let Some(first) = steps.first_mut() {
+        first.note = note;
+    }
+    steps
+}
+
+/// Servo cycles in `ns` of host time at `hz`, widened by [`CLOCK_TOLERANCE_PERCENT`]: the
+/// fewest (rounded down) or the most (rounded up).
+fn cycles_in(ns: i128, hz: u32, most: bool) -> u64 {
+    let ns = ns.max(0) as u128;
+    let pct = if most { 100 + CLOCK_TOLERANCE_PERCENT } else { 100 - CLOCK_TOLERANCE_PERCENT } as u128;
+    let num = ns * u128::from(hz) * pct;
+    let den = 100 * NS_PER_S as u128;
+    let c = if most { num.div_ceil(den) } else { num / den };
+    c.min(u128::from(u64::MAX)) as u64
+}
+
+/// The host log turned into steps, one line at a time: memory stays bounded whatever the log's
+/// length.
+pub struct Importer {
+    parser: LogParser,
+    servo_hz: u32,
+    /// The last X:$0 value read and the host time of its exchange.
+    last_read: Option<(u32, Option<(i128, i128)>)>,
+    /// A `$$$` was sent since the last read: the next read counts from it exactly.
+    reset_pending: bool,
+    /// A reply timed out since the last read: the card fell silent, and host time alone places
+    /// the commands that follow.
+    silent: bool,
+    /// The host time the model's clock is at (the last read, `$$$` or silent-gap step).
+    anchor: Option<(i128, i128)>,
+    /// Cycles already given to silent-gap steps since the last read or `$$$`: (min, max).
+    gap: (u64, u64),
+    summary: Summary,
+}
+
+impl Importer {
+    /// An importer whose host time becomes servo cycles at `servo_hz`.
+    pub fn new(file: &Path, servo_hz: u32) -> Importer {
+        Importer {
+            parser: LogParser::new(file),
+            servo_hz: servo_hz.max(1),
+            last_read: None,
+            reset_pending: false,
+            silent: false,
+            anchor: None,
+            gap: (0, 0),
+            summary: Summary::default(),
+        }
+    }
+
+    fn err(&self, line: usize, column: usize, msg: String) -> SpecError {
+        self.parser.err(line, column, msg)
+    }
+
+    /// Reads line `line` of the log; returns the steps it completes.
+    pub fn line(&mut self, line: usize, raw: &str) -> Result<Vec<Step>, SpecError> {
+        match self.parser.line(line, raw)? {
+            Some(ex) => self.exchange(&ex),
+            None => Ok(Vec::new()),
+        }
+    }
+
+    fn is_counter_read(c: &Exchanged) -> bool {
+        c.command == HostCommand::ReadHex(Register::ServoCycles) && matches!(c.answer, Answer::Value(_))
+    }
+
+    fn exchange(&mut self, ex: &Exchange) -> Result<Vec<Step>, SpecError> {
+        self.summary.exchanges += 1;
+        self.summary.stamped = self.parser.stamped();
+        let mut steps = Vec::new();
+        if ex.commands.iter().any(|c| c.answer == Answer::Timeout) {
+            self.silent = true;
+        }
+        if self.silent && !ex.commands.iter().any(Self::is_counter_read) {
+            if let (Some(now), Some(anchor)) = (ex.at, self.anchor) {
+                // The card is silent: no counter places this command, the host's clock does.
+                let lo = cycles_in(now.0 - anchor.1, self.servo_hz, false);
+                let hi = cycles_in(now.1 - anchor.0, self.servo_hz, true);
+                self.gap = (self.gap.0.saturating_add(lo), self.gap.1.saturating_add(hi));
+                self.anchor = Some(now);
+                self.summary.silent_gaps += 1;
+                steps.extend(elapsed_steps(
+                    lo,
+                    Some(hi),
+                    Some(format!(
+                        "the card is silent: host time since the last placed command gives {lo} to {hi} servo \
+                         cycles at {} Hz ±{CLOCK_TOLERANCE_PERCENT}%",
+                        self.servo_hz
+                    )),
+                ));
+            }
+        }
+        for c in &ex.commands {
+            self.summary.commands += 1;
+            let expected = match &c.answer {
+                Answer::Timeout => "(silence)".to_string(),
+                Answer::Ack => "(ack)".to_string(),
+                Answer::Value(r) => r.to_ascii_uppercase(),
+            };
+            let mut note = None;
+            let mut expect = Expect { reply: Some(expected), ..Expect::default() };
+            if let (HostCommand::ReadHex(Register::ServoCycles), Answer::Value(reply)) = (&c.command, &c.answer) {
+                // Hex digits only: `from_str_radix` would also take a sign (`+10`).
+                let value = Some(reply)
+                    .filter(|r| !r.is_empty() && r.chars().all(|c| c.is_ascii_hexdigit()))
+                    .and_then(|r| u32::from_str_radix(r, 16).ok())
+                    .filter(|v| u64::from(*v) < SERVO_COUNTER_MODULUS)
+                    .ok_or_else(|| {
+                        self.err(ex.reply_line, 3, format!("X:$0 reply `{reply}` is not a 24-bit hex word"))
+                    })?;
+                steps.extend(self.counter_read(ex, value)?);
+                note = Some(format!("the card's X:$0 read {reply} (used for timing, not compared)"));
+                expect = Expect::default();
+            } else if c.command == HostCommand::ReadHex(Register::ServoCycles) && c.answer == Answer::Ack {
+                return Err(self.err(ex.reply_line, 1, "X:$0 reply `` is not a 24-bit hex word".into()));
+            }
+            if c.command == HostCommand::Reset {
+                // The card restarts its servo counter, and resets rather than answers: what the
+                // log shows after `$$$` is the link's, not the model's, so it is kept as a note.
+                self.last_read = None;
+                self.reset_pending = true;
+                self.silent = false;
+                self.anchor = ex.at;
+                self.gap = (0, 0);
+                let shown = match &c.answer {
+                    Answer::Value(r) => r.as_str(),
+                    Answer::Ack => "",
+                    Answer::Timeout => "(timeout)",
+                };
+                note = Some(format!("reply `{shown}` not compared: the card resets"));
+                expect = Expect::default();
+            }
+            if let HostCommand::Unrecognized(_) = c.command {
+                let replied = match &c.answer {
+                    Answer::Value(r) if !is_error_reply(r) => Some(format!("replied `{r}`")),
+                    Answer::Ack => Some("replied nothing".to_string()),
+                    _ => None,
+                };
+                if let Some(replied) = replied {
+                    // The model answers ERR003; the card knew the command. Kept, not compared.
+                    self.summary.not_modelled += 1;
+                    note = Some(format!("not modelled: `{}` {replied}", c.text.to_ascii_uppercase()));
+                    expect = Expect::default();
+                }
+            }
+            steps.push(Step { event: TraceEvent::Model(Event::Command(c.command.clone())), expect, note });
+        }
+        Ok(steps)
+    }
+
+    /// The steps before an X:$0 read of `value`: the servo cycles since the last read (or the
+    /// restart it shows), as `elapsed` (and `restart`) steps.
+    fn counter_read(&mut self, ex: &Exchange, value: u32) -> Result<Vec<Step>, SpecError> {
+        let v = u64::from(value);
+        let hz = self.servo_hz;
+        let mut restart = None;
+        let mut note = None;
+        // The cycles since the reference (the last read, or `$$$`): (min, max or unbounded).
+        let total: (u64, Option<u64>) = if self.reset_pending {
+            (v, Some(v))
+        } else {
+            match self.last_read {
+                None => {
+                    note = Some(format!(
+                        "the first X:$0 read: the card has run an unknown time since its last restart, at least \
+                         {v} servo cycles (the counter may have wrapped)"
+                    ));
+                    (v, None)
+                }
+                Some((prev, prev_at)) => {
+                    let p = u64::from(prev);
+                    let d = (v + SERVO_COUNTER_MODULUS - p) % SERVO_COUNTER_MODULUS;
+                    match (prev_at, ex.at) {
+                        (Some(a), Some(b)) => {
+                            let cmin = cycles_in(b.0 - a.1, hz, false);
+                            let cmax = cycles_in(b.1 - a.0, hz, true);
+                            let kmin = cmin.saturating_sub(d).div_ceil(SERVO_COUNTER_MODULUS);
+                            let kmax = cmax.checked_sub(d).map(|x| x / SERVO_COUNTER_MODULUS);
+                            match kmax.filter(|k| *k >= kmin) {
+                                Some(kmax) => {
+                                    if kmax > 0 {
+                                        note = Some(format!(
+                                            "X:$0 went from {prev:06X} to {value:06X}: with the host clock's {cmin} to \
+                                             {cmax} servo cycles at {hz} Hz ±{CLOCK_TOLERANCE_PERCENT}%, it wrapped \
+                                             {kmin} to {kmax} times"
+                                        ));
+                                    }
+                                    (d + kmin * SERVO_COUNTER_MODULUS, Some(d + kmax * SERVO_COUNTER_MODULUS))
+                                }
+                                None if v <= cmax => {
+                                    restart = Some(format!(
+                                        "X:$0 went from {prev:06X} to {value:06X}: the host clock's {cmin} to {cmax} \
+                                         servo cycles at {hz} Hz ±{CLOCK_TOLERANCE_PERCENT}% fit no count with wraps, \
+                                         so the card restarted (INIT/, power or `$$$`) {v} cycles before this read"
+                                    ));
+                                    (v, Some(v))
+                                }
+                                None => {
+                                    return Err(self.err(
+                                        ex.reply_line,
+                                        3,
+                                        format!(
+                                            "X:$0 went from {prev:06X} to {value:06X}, more servo cycles than the host \
+                                             clock allows ({cmin} to {cmax} at {hz} Hz ±{CLOCK_TOLERANCE_PERCENT}%): is \
+                                             the servo clock right? (the configuration's servo_hz, or read I10 in the log)"
+                                        ),
+                                    ));
+                                }
+                            }
+                        }
+                        _ if value >= prev => (d, Some(d)),
+                        _ => {
+                            restart = Some(format!(
+                                "X:$0 went backwards from {prev:06X} to {value:06X}: without host timestamps this is \
+                                 read as a restart (INIT/, power or `$$$` from elsewhere) {v} cycles before this read, \
+                                 not as a 24-bit wrap"
+                            ));
+                            (v, Some(v))
+                        }
+                    }
+                }
+            }
+        };
+        let mut steps = Vec::new();
+        let (lo, hi) = if restart.is_some() {
+            (total.0, total.1)
+        } else {
+            // What silent-gap steps already gave since the reference is not given twice.
+            (total.0.saturating_sub(self.gap.1), total.1.map(|h| h.saturating_sub(self.gap.0)))
+        };
+        if let Some(why) = restart {
+            self.summary.restarts += 1;
+            steps.push(Step { event: TraceEvent::Restart, expect: Expect::default(), note: Some(why) });
+        }
+        if (lo, hi) != (0, Some(0)) {
+            steps.extend(elapsed_steps(lo, hi, note));
+        }
+        self.summary.counter_reads += 1;
+        self.last_read = Some((value, ex.at));
+        self.reset_pending = false;
+        self.silent = false;
+        self.anchor = ex.at;
+        self.gap = (0, 0);
+        Ok(steps)
+    }
+
+    /// The end of the log: a command left without its reply, or a log without commands, is an
+    /// error. What the import found otherwise.
+    pub fn finish(self) -> Result<Summary, SpecError> {
+        self.parser.finish()?;
+        Ok(self.summary)
     }
 }
 
@@ -127,13 +900,128 @@ pub fn header(file: &Path, configuration: &str) -> Trace {
     }
 }
 
-/// A whole log held in memory, imported at once (for short logs and tests).
-pub fn import(file: &Path, text: &str, configuration: &str) -> Result<Trace, SpecError> {
-    let mut importer = Importer::new(file);
+/// The servo clock of configuration `name` of the spec's `check.yaml`.
+pub fn configuration_servo_hz(spec: &Spec, name: &str) -> Result<u32, String> {
+    spec.check.configurations.get(name).map(|c| c.servo_hz).ok_or_else(|| {
+        let names: Vec<&str> = spec.check.configurations.keys().map(String::as_str).collect();
+        format!("no configuration named `{name}` (configurations: {})", names.join(", "))
+    })
+}
+
+/// A whole log imported at once (for short logs and tests).
+#[derive(Debug)]
+pub struct Imported {
+    pub trace: Trace,
+    /// What the log says about the card (the trace's `card:` header), if anything.
+    pub card: Option<CardConfig>,
+    pub from_log: CardFromLog,
+    pub summary: Summary,
+}
+
+/// A whole log held in memory, imported at once under configuration `configuration`.
+pub fn import(file: &Path, text: &str, configuration: &str) -> Result<Imported, SpecError> {
+    let spec = Spec::embedded()?;
+    let mut scan = CardScan::new(file);
+    for (i, raw) in text.lines().enumerate() {
+        scan.line(i + 1, raw)?;
+    }
+    let from_log = scan.finish(&spec)?;
+    let hz = match from_log.card.servo_hz {
+        Some(hz) => hz,
+        None => configuration_servo_hz(&spec, configuration).map_err(|e| SpecError::whole_file(file, e))?,
+    };
+    let mut importer = Importer::new(file, hz);
     let mut trace = header(file, configuration);
     for (i, raw) in text.lines().enumerate() {
         trace.steps.extend(importer.line(i + 1, raw)?);
     }
-    importer.finish()?;
-    Ok(trace)
+    let summary = importer.finish()?;
+    let card = (!from_log.card.is_empty()).then_some(from_log.card);
+    Ok(Imported { trace, card, from_log, summary })
+}
+
+/// A host log on disk, imported one step at a time: the first pass ([`CardScan`]) is done when
+/// it opens, then [`ImportStream::next_step`] reads the log again line by line. For
+/// `pmacwd import` and for `pmacwd replay` of a host log.
+pub struct ImportStream {
+    pub header: Trace,
+    pub card: Option<CardConfig>,
+    pub from_log: CardFromLog,
+    /// The servo clock host time is converted with (the log's I10, else the configuration's).
+    pub servo_hz: u32,
+    lines: Lines<BufReader<std::fs::File>>,
+    importer: Option<Importer>,
+    summary: Option<Summary>,
+    queue: VecDeque<(usize, Step)>,
+}
+
+impl ImportStream {
+    /// Opens the host log `path` to be imported under configuration `configuration` of `spec`.
+    pub fn open(spec: &Spec, path: &Path, configuration: &str) -> Result<ImportStream, SpecError> {
+        let config_hz = configuration_servo_hz(spec, configuration).map_err(|e| SpecError::whole_file(path, e))?;
+        let file = pmacwd_specs::input::open_regular(path)?;
+        let mut scan = CardScan::new(path);
+        let mut lines = Lines::new(path, BufReader::new(file));
+        while let Some((n, text)) = lines.next()? {
+            scan.line(n, &text)?;
+        }
+        let from_log = scan.finish(spec)?;
+        let servo_hz = from_log.card.servo_hz.unwrap_or(config_hz);
+        let file = pmacwd_specs::input::open_regular(path)?;
+        Ok(ImportStream {
+            header: header(path, configuration),
+            card: (!from_log.card.is_empty()).then_some(from_log.card),
+            from_log,
+            servo_hz,
+            lines: Lines::new(path, BufReader::new(file)),
+            importer: Some(Importer::new(path, servo_hz)),
+            summary: None,
+            queue: VecDeque::new(),
+        })
+    }
+
+    /// The next step and the log line it comes from; `None` at the end of the log.
+    pub fn next_step(&mut self) -> Result<Option<(usize, Step)>, SpecError> {
+        loop {
+            if let Some(s) = self.queue.pop_front() {
+                return Ok(Some(s));
+            }
+            let Some(importer) = self.importer.as_mut() else { return Ok(None) };
+            match self.lines.next()? {
+                Some((n, text)) => self.queue.extend(importer.line(n, &text)?.into_iter().map(|s| (n, s))),
+                None => {
+                    let importer = self.importer.take().expect("checked above");
+                    self.summary = Some(importer.finish()?);
+                }
+            }
+        }
+    }
+
+    /// What the import found, once [`ImportStream::next_step`] has returned `None`.
+    pub fn summary(&self) -> Option<&Summary> {
+        self.summary.as_ref()
+    }
+}
+
+/// Whether the file at `path` is a host log: its first line that is not blank or a `#`
+/// comment is a `> command`, perhaps after a timestamp. Reads at most that line.
+pub fn is_host_log(path: &Path) -> Result<bool, SpecError> {
+    let file = pmacwd_specs::input::open_regular(path)?;
+    let mut lines = Lines::new(path, BufReader::new(file));
+    while let Some((_, text)) = lines.next()? {
+        let t = text.trim_start_matches('\u{feff}').trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        return Ok(starts_as_host_log(t));
+    }
+    Ok(false)
+}
+
+/// Whether a log line is a command line (`> ...`, perhaps after a timestamp).
+pub fn starts_as_host_log(line: &str) -> bool {
+    if line.starts_with("> ") {
+        return true;
+    }
+    matches!(parse_stamp(line), Ok((_, off)) if line[off..].starts_with("> "))
 }

@@ -18,13 +18,41 @@ use std::collections::VecDeque;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
-/// Where steps come from: a YAML trace (short, read whole) or a JSON Lines capture (streamed).
+/// Where steps come from: a YAML trace (short, read whole), a JSON Lines capture (streamed),
+/// or a host log imported on the fly (streamed through the importer, `docs/capturing.md`).
 pub enum Source {
     Yaml { trace: Trace, map: SourceMap, next: usize },
     Jsonl(StepReader<BufReader<std::fs::File>>),
+    HostLog(Box<crate::import::ImportStream>),
 }
 
 impl Source {
+    /// Opens `path` as [`Source::open`] does, and a host log as [`Source::HostLog`], imported
+    /// under `configuration` (default [`crate::import::DEFAULT_CONFIGURATION`]). A
+    /// configuration given for a trace is an error: a trace names its own.
+    pub fn open_with(spec: &Spec, path: &Path, configuration: Option<&str>) -> Result<Source, SpecError> {
+        if crate::import::is_host_log(path)? {
+            let name = configuration.unwrap_or(crate::import::DEFAULT_CONFIGURATION);
+            return Ok(Source::HostLog(Box::new(crate::import::ImportStream::open(spec, path, name)?)));
+        }
+        if let Some(name) = configuration {
+            return Err(SpecError::whole_file(
+                path,
+                format!("--configuration {name} is for host logs; this trace names its own configuration"),
+            ));
+        }
+        Source::open(path)
+    }
+
+    /// What the capture says about the card (its `card:` header), if anything.
+    pub fn card(&self) -> Option<pmacwd_specs::config::CardConfig> {
+        match self {
+            Source::Yaml { .. } => None,
+            Source::Jsonl(r) => r.header.card,
+            Source::HostLog(s) => s.card,
+        }
+    }
+
     /// Opens `path`, telling the forms apart by the first non-blank character (`{` is JSON Lines;
     /// a byte-order mark counts as blank). Only regular files are read; a YAML trace is read
     /// whole up to [`pmacwd_specs::input::YAML_TRACE_BYTES_MAX`], a JSON Lines one streamed.
@@ -61,6 +89,7 @@ impl Source {
         let (selection, at) = match self {
             Source::Yaml { trace, map, .. } => (&trace.profiles, map.position("profiles")),
             Source::Jsonl(r) => (&r.header.profiles, Position { line: 1, column: 1 }),
+            Source::HostLog(s) => (&s.header.profiles, Position { line: 1, column: 1 }),
         };
         spec.profiles.select(selection).map_err(|(_, n)| {
             SpecError::at(path, at, format!("no profile named `{n}` (profiles: {})", spec.profiles.names()))
@@ -71,6 +100,7 @@ impl Source {
         match self {
             Source::Yaml { trace, .. } => &trace.configuration,
             Source::Jsonl(r) => &r.header.configuration,
+            Source::HostLog(s) => &s.header.configuration,
         }
     }
 
@@ -78,6 +108,7 @@ impl Source {
         match self {
             Source::Yaml { trace, .. } => &trace.description,
             Source::Jsonl(r) => &r.header.description,
+            Source::HostLog(s) => &s.header.description,
         }
     }
 
@@ -91,6 +122,7 @@ impl Source {
                 Ok(Some((line, step.clone())))
             }
             Source::Jsonl(r) => r.next_step(),
+            Source::HostLog(s) => s.next_step(),
         }
     }
 }
@@ -210,7 +242,13 @@ struct Lane {
 
 /// Replays `path` under every profile of `spec`.
 pub fn replay(spec: &Spec, path: &Path) -> Result<ReplayReport, SpecError> {
-    let mut source = Source::open(path)?;
+    replay_with(spec, path, None)
+}
+
+/// [`replay`], a host log imported on the fly under `configuration` ([`Source::open_with`]).
+pub fn replay_with(spec: &Spec, path: &Path, configuration: Option<&str>) -> Result<ReplayReport, SpecError> {
+    let mut source = Source::open_with(spec, path, configuration)?;
+    let card = source.card();
     let configuration = source.configuration().to_string();
     let mut lanes = Vec::new();
     for profile in source.profiles(spec, path)? {
@@ -221,6 +259,9 @@ pub fn replay(spec: &Spec, path: &Path) -> Result<ReplayReport, SpecError> {
                 format!("no configuration named `{configuration}` in check.yaml"),
             )
         })?;
+        if let Some(card) = &card {
+            cfg = cfg.with_card(spec, card).map_err(|e| SpecError::at(path, Position { line: 1, column: 1 }, e))?;
+        }
         // A capture reads the card's real 24-bit servo counter.
         cfg.servo_counter_mask = 0xFF_FFFF;
         lanes.push(Lane {

@@ -186,6 +186,9 @@ fn trace_config(spec: &Spec, loaded: &LoadedTrace, profile: &Profile) -> Result<
                 .error("configuration", format!("no configuration named `{}` in check.yaml", trace.configuration)),
         )
     })?;
+    if let Some(card) = &loaded.card {
+        cfg = cfg.with_card(spec, card).map_err(|e| Failure::Unusable(loaded.map.error("card", e)))?;
+    }
     // The checker drops X:$000000 from its states (no rule reads it); a trace runs with the
     // card's real 24-bit servo cycle counter, since a host can read it.
     cfg.servo_counter_mask = 0xFF_FFFF;

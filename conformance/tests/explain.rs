@@ -84,7 +84,7 @@ fn lane_for(spec: &Spec, bits: usize) -> (LaneDef, ModelConfig) {
     let defs = lanes::lanes(spec, "host-log", None).unwrap();
     let o: [usize; 7] = std::array::from_fn(|r| (bits >> r) & 1);
     let def = defs.into_iter().find(|d| d.combinations.contains(&o)).unwrap();
-    let cfg = search::Lane::new(spec, "host-log", def.clone(), false).unwrap().cfg;
+    let cfg = search::Lane::new(spec, "host-log", None, def.clone(), false).unwrap().cfg;
     (def, cfg)
 }
 
@@ -167,9 +167,9 @@ proptest! {
         let (def, cfg) = lane_for(&spec, bits);
         let text = generate(&spec, &cfg, cpu, &gaps);
         let path = temp_file(&format!("complete-{bits}-{cpu}.jsonl"), &text);
-        let (lanes, _) = search::search(&spec, &path, "host-log", vec![def.clone()], false).unwrap();
+        let (lanes, _) = search::search(&spec, &path, None, vec![def.clone()], false).unwrap();
         prop_assert!(lanes[0].death.is_none(), "not explained: {:?}\n{text}", lanes[0].death);
-        let (label, w) = report::witness_for(&spec, &path, "host-log", def).unwrap();
+        let (label, w) = report::witness_for(&spec, &path, None, def).unwrap();
         let checked = witness::reproduces(&spec, &cfg, &w);
         prop_assert!(checked.is_ok(), "{label}: {:?}\n{text}", checked);
     }
@@ -293,7 +293,7 @@ fn one_capture_on_one_lane() {
     let path = PathBuf::from(std::env::var("PMACWD_CAPTURE").unwrap());
     let bits: usize = std::env::var("PMACWD_READINGS").unwrap().parse().unwrap();
     let (def, _) = lane_for(&spec, bits);
-    let (lanes, _) = search::search(&spec, &path, "host-log", vec![def], false).unwrap();
+    let (lanes, _) = search::search(&spec, &path, None, vec![def], false).unwrap();
     println!("{:?}", lanes[0].death);
     for c in lanes[0].cands.iter().take(5) {
         println!("{} {} {:?}", c.card.counter, c.card.counter_min, c.min_lo);

@@ -3,6 +3,7 @@
 
 use pmacwd_conformance::replay::{replay, OptionVerdict};
 use pmacwd_specs::Spec;
+use pmacwd_trace::TraceEvent;
 use std::path::{Path, PathBuf};
 
 fn capture(name: &str) -> PathBuf {
@@ -54,12 +55,30 @@ fn a_card_running_past_its_deadline_is_explained_by_no_profile_and_the_first_div
 }
 
 #[test]
-fn an_imported_host_log_replays_and_settles_two_readings() {
+fn an_imported_host_log_keeps_its_timing_as_elapsed_steps_that_read_as_runs_settle_two_readings() {
     // The synthetic host session reads Y:$25 minimum 4092 after 2234 cycles with a background
     // every 4 cycles (so the reload was 4096) and shows bit 12 set while no error is reported.
+    // The importer writes the counter's time as `elapsed` (the replay search chooses what
+    // happened); read as `run` steps (the background whenever the load allows, what the
+    // importer wrote before), the session still settles the two readings.
     let log = capture("host-session.log");
     let text = std::fs::read_to_string(&log).unwrap();
-    let trace = pmacwd_conformance::import::import(&log, &text, "i40-zero").unwrap();
+    let imported = pmacwd_conformance::import::import(&log, &text, "i40-zero").unwrap();
+    let mut trace = imported.trace;
+    assert_eq!(imported.card.and_then(|c| c.i40), Some(0), "the session reads I40 before writing it");
+    let elapsed: Vec<TraceEvent> =
+        trace.steps.iter().map(|s| s.event.clone()).filter(|e| matches!(e, TraceEvent::Elapsed { .. })).collect();
+    assert_eq!(
+        elapsed,
+        [0x10, 0x8CA - 0x10, 0x23290 - 0x8CA].map(|n| TraceEvent::Elapsed { cycles_min: n, cycles_max: Some(n) }),
+        "the log starts with `$$$`: the first read is exact"
+    );
+    for s in &mut trace.steps {
+        if let TraceEvent::Elapsed { cycles_min, cycles_max: Some(max) } = s.event {
+            assert_eq!(cycles_min, max);
+            s.event = TraceEvent::Run { cycles: max };
+        }
+    }
     let dir = std::env::temp_dir().join(format!("pmacwd-import-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join("session.jsonl");
@@ -94,19 +113,22 @@ fn a_host_log_whose_command_holds_control_characters_imports_to_a_trace_that_rea
                > RHX:$0\n< 01A2B3\n> I130=5\n<\n> ???\n< (timed\n> ???\n< 000000000000\n> OPEN 0\n\
                < 01Ats and blank lines are allowets and blank lines are allo2B3\n> I130\x01\0\0\0=5\n<\n\
                > ???\n< (timeout)\n";
-    let trace = pmacwd_conformance::import::import(Path::new("s.log"), log, "i40-zero").unwrap();
+    let trace = pmacwd_conformance::import::import(Path::new("s.log"), log, "i40-zero").unwrap().trace;
     let yaml = pmacwd_trace::to_yaml(&trace);
     let again = pmacwd_trace::parse_yaml(Path::new("s.yaml"), &yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}")).trace;
     assert_eq!(format!("{trace:?}"), format!("{again:?}"));
 }
 
 #[test]
-fn the_time_between_two_servo_counter_reads_becomes_a_run_step_even_across_the_wrap() {
+fn the_time_between_two_servo_counter_reads_is_elapsed_across_the_wrap_only_when_host_time_says_so() {
     use pmacwd_trace::TraceEvent;
-    let t =
-        pmacwd_conformance::import::import(Path::new("s.log"), "> RHX:$0\n< FFFFF0\n> RHX:$0\n< 000010\n", "i40-zero")
-            .unwrap();
-    assert_eq!(t.steps[1].event, TraceEvent::Run { cycles: 0x20 });
+    let import = |log: &str| pmacwd_conformance::import::import(Path::new("s.log"), log, "i40-zero").unwrap().trace;
+    // Stamped 14 ms apart at the configuration's 2250 Hz: about 32 cycles, the wrap.
+    let t = import("12:00:00.000 > RHX:$0\n< FFFFF0\n12:00:00.014 > RHX:$0\n< 000010\n");
+    assert_eq!(t.steps[2].event, TraceEvent::Elapsed { cycles_min: 0x20, cycles_max: Some(0x20) });
+    // Without timestamps, a counter going backwards is a restart.
+    let t = import("> RHX:$0\n< FFFFF0\n> RHX:$0\n< 000010\n");
+    assert_eq!(t.steps[2].event, TraceEvent::Restart);
 }
 
 #[test]
@@ -151,4 +173,39 @@ fn a_capture_naming_an_unknown_profile_is_unusable_input_not_a_verdict() {
     let r = replay(&spec, &one).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(r.profiles.iter().map(|p| p.profile.name.as_str()).collect::<Vec<_>>(), ["um-215"]);
+}
+
+#[test]
+fn a_host_log_is_replayed_directly_imported_on_the_fly_with_the_log_s_own_line_numbers() {
+    use pmacwd_conformance::replay::replay_with;
+    let spec = Spec::embedded().unwrap();
+    let r = replay_with(&spec, &capture("host-session.log"), None).unwrap();
+    assert_eq!(r.events, 14, "the steps `pmacwd import` writes");
+    assert!(r.description.contains("imported from the host log"));
+    // Until the replay search judges `elapsed`, the deterministic replay stops at the first
+    // one; its line is the log's (`< 000010`'s command on line 6), not a trace's.
+    let first = r.profiles[0].first.as_ref().unwrap();
+    assert_eq!((first.event, first.line), (2, 6));
+    // A configuration that does not exist, or one given for a trace, is refused.
+    let e = replay_with(&spec, &capture("host-session.log"), Some("nope")).unwrap_err();
+    assert!(e.message.contains("no configuration named `nope`"), "{e}");
+    let e = replay_with(&spec, &capture("reload-to-4095.jsonl"), Some("i40-zero")).unwrap_err();
+    assert!(e.message.contains("is for host logs"), "{e}");
+}
+
+#[test]
+fn a_card_header_in_a_capture_overrides_its_configuration_when_replayed() {
+    // reload-to-4095 waits for a reload to 4095 with I40 = 0; a card saying I40 = 100 reloads
+    // to 100 instead, so no profile explains the capture any more.
+    let spec = Spec::embedded().unwrap();
+    let text = std::fs::read_to_string(capture("reload-to-4095.jsonl")).unwrap();
+    let (head, rest) = text.split_once('\n').unwrap();
+    let head = head.replacen("{", "{\"card\":{\"i40\":100},", 1);
+    let dir = std::env::temp_dir().join(format!("pmacwd-card-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("card.jsonl");
+    std::fs::write(&path, format!("{head}\n{rest}")).unwrap();
+    let r = replay(&spec, &path).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(!r.explained());
 }

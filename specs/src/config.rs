@@ -198,9 +198,156 @@ impl ModelConfig {
     }
 }
 
+/// What a capture says about the card itself, overriding its configuration's saved values (the
+/// optional `card:` header key of a trace, `docs/trace-format.md`). Every field is optional:
+/// a host log says what it read and no more. The values are as read (wide types), so that a
+/// value outside its range is refused by [`ModelConfig::with_card`] with the range of
+/// `variables.yaml`, not by the parser with a type's bounds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CardConfig {
+    /// The servo clock, in Hz (from I10, SRM p.43: `8_388_608_000 / I10`).
+    #[serde(default)]
+    pub servo_hz: Option<u32>,
+    #[serde(default)]
+    pub i8: Option<i64>,
+    #[serde(default)]
+    pub i40: Option<i64>,
+    #[serde(default)]
+    pub i41: Option<i64>,
+}
+
+impl CardConfig {
+    pub fn is_empty(&self) -> bool {
+        *self == CardConfig::default()
+    }
+
+    /// The fields that are set, as `name: value`, in header order.
+    pub fn fields(&self) -> Vec<(&'static str, i64)> {
+        [("servo_hz", self.servo_hz.map(i64::from)), ("i8", self.i8), ("i40", self.i40), ("i41", self.i41)]
+            .into_iter()
+            .filter_map(|(k, v)| v.map(|v| (k, v)))
+            .collect()
+    }
+}
+
+/// I10, the servo interrupt time in units of 1/8,388,608 ms (SRM p.43: 2^23 means one
+/// millisecond; range 0..8,388,607), as a servo frequency in Hz, rounded. `None` for 0, which
+/// is no period.
+pub fn servo_hz_of_i10(i10: i64) -> Option<u32> {
+    if !(1..=8_388_607).contains(&i10) {
+        return None;
+    }
+    let i10 = i10 as u64;
+    Some(((8_388_608_000u64 + i10 / 2) / i10) as u32)
+}
+
+impl ModelConfig {
+    /// This configuration with what a capture says about the card (its `card:` header): the
+    /// saved I8, I40, I41 and the servo clock replaced by the values given, each checked
+    /// against its range in `variables.yaml` (the servo clock: at least 1 Hz), and a derived
+    /// hardware delay (`hardware_delay_cycles: derived` in `check.yaml`) derived again from
+    /// the new servo clock. The error names the field, its value and its range.
+    pub fn with_card(mut self, spec: &Spec, card: &CardConfig) -> Result<ModelConfig, String> {
+        let check = |field: &str, v: i64, r: (i64, i64)| {
+            if v < r.0 || v > r.1 {
+                Err(format!("card: {field} = {v} is outside its range {}..={} (variables.yaml)", r.0, r.1))
+            } else {
+                Ok(v)
+            }
+        };
+        if let Some(v) = card.i8 {
+            self.saved.i8 = check("i8", v, self.i8_range)? as u8;
+        }
+        if let Some(v) = card.i40 {
+            self.saved.i40 = check("i40", v, self.i40_range)? as u16;
+        }
+        if let Some(v) = card.i41 {
+            self.saved.i41 = check("i41", v, self.i41_range)? as u8;
+        }
+        if let Some(hz) = card.servo_hz {
+            if hz == 0 {
+                return Err("card: servo_hz = 0: a servo clock needs at least 1 Hz".into());
+            }
+            self.servo_hz = hz;
+            let derived = spec
+                .check
+                .configurations
+                .get(&self.configuration)
+                .is_some_and(|c| matches!(c.hardware_delay_cycles, Delay::Derived));
+            if derived {
+                self.hardware_delay_cycles = derived_delay_cycles(hz, self.profile.choices.strobe_hz_min.hz());
+            }
+        }
+        Ok(self)
+    }
+}
+
 /// The hardware delay of `watchdog.yaml`'s `hardware_delay_from_strobe_minimum` rule: a square
 /// wave at `strobe_hz_min` toggles every 1/(2 f) s, so more servo cycles than that without an
 /// edge is a strobe below the minimum frequency.
 pub fn derived_delay_cycles(servo_hz: u32, strobe_hz_min: u32) -> u32 {
     (servo_hz / (2 * strobe_hz_min)).max(1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(name: &str) -> (Spec, ModelConfig) {
+        let spec = Spec::embedded().unwrap();
+        let profile = spec.profiles.default_profile();
+        let cfg = ModelConfig::from_spec(&spec, name, &profile).unwrap();
+        (spec, cfg)
+    }
+
+    #[test]
+    fn the_default_i10_is_the_2_26_khz_servo_clock_of_the_manual() {
+        // SRM p.43: default I10 = 3,713,707, a servo cycle of 442.7 us.
+        assert_eq!(servo_hz_of_i10(3_713_707), Some(2259));
+        assert_eq!(servo_hz_of_i10(8_388_607), Some(1000));
+        assert_eq!(servo_hz_of_i10(0), None, "I10 = 0 is no period");
+        assert_eq!(servo_hz_of_i10(8_388_608), None, "beyond the range of I10");
+    }
+
+    #[test]
+    fn a_card_header_overrides_the_saved_i_variables_and_the_servo_clock() {
+        let (spec, cfg) = config("i40-zero");
+        let card = CardConfig { servo_hz: Some(4518), i8: Some(3), i40: Some(100), i41: Some(1) };
+        let c = cfg.clone().with_card(&spec, &card).unwrap();
+        assert_eq!(c.saved, SavedIVariables { i8: 3, i40: 100, i41: 1 });
+        assert_eq!(c.servo_hz, 4518);
+        let empty = cfg.clone().with_card(&spec, &CardConfig::default()).unwrap();
+        assert_eq!(empty, cfg, "an empty card changes nothing");
+    }
+
+    #[test]
+    fn a_derived_hardware_delay_follows_the_card_s_servo_clock_and_a_fixed_one_does_not() {
+        let spec = Spec::embedded().unwrap();
+        let profile = spec.profiles.default_profile();
+        let card = CardConfig { servo_hz: Some(9000), ..CardConfig::default() };
+        for (name, c) in &spec.check.configurations {
+            let cfg = ModelConfig::from_spec(&spec, name, &profile).unwrap();
+            let with = cfg.clone().with_card(&spec, &card).unwrap();
+            match c.hardware_delay_cycles {
+                Delay::Derived => assert_eq!(
+                    with.hardware_delay_cycles,
+                    derived_delay_cycles(9000, profile.choices.strobe_hz_min.hz()),
+                    "{name}"
+                ),
+                Delay::Cycles(n) => assert_eq!(with.hardware_delay_cycles, u32::from(n), "{name}"),
+            }
+        }
+    }
+
+    #[test]
+    fn a_card_value_outside_its_range_is_refused_naming_the_field_and_the_range() {
+        let (spec, cfg) = config("i40-zero");
+        let e = cfg.clone().with_card(&spec, &CardConfig { i40: Some(70000), ..CardConfig::default() }).unwrap_err();
+        assert!(e.contains("i40 = 70000") && e.contains("variables.yaml"), "{e}");
+        let e = cfg.clone().with_card(&spec, &CardConfig { i8: Some(-1), ..CardConfig::default() }).unwrap_err();
+        assert!(e.contains("i8 = -1"), "{e}");
+        let e = cfg.with_card(&spec, &CardConfig { servo_hz: Some(0), ..CardConfig::default() }).unwrap_err();
+        assert!(e.contains("servo_hz = 0"), "{e}");
+    }
 }

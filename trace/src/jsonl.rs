@@ -2,7 +2,7 @@
 //! one step per line, in the same vocabulary as the YAML form (`docs/trace-format.md`).
 //! [`StepReader`] reads it one line at a time, so memory does not grow with the trace.
 
-use crate::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
+use crate::{CardConfig, Expect, Step, Trace, TraceEvent, FORMAT_VERSION};
 use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetKind};
 use pmacwd_specs::cite::Cites;
 use pmacwd_specs::input::Lines;
@@ -23,6 +23,9 @@ pub struct Header {
     #[serde(default)]
     pub cite: Option<Cites>,
     pub configuration: String,
+    /// What the capture says about the card (`docs/trace-format.md`).
+    #[serde(default)]
+    pub card: Option<CardConfig>,
     pub profiles: ProfileSelection,
 }
 
@@ -113,6 +116,11 @@ pub fn read_all(file: &Path, input: impl BufRead) -> Result<Trace, SpecError> {
 
 /// The header line of `trace`.
 pub fn header_line(trace: &Trace) -> String {
+    header_line_with_card(trace, None)
+}
+
+/// [`header_line`] with the optional `card` key (written only when some field is set).
+pub fn header_line_with_card(trace: &Trace, card: Option<&CardConfig>) -> String {
     let profiles = match &trace.profiles {
         ProfileSelection::Keyword(_) => serde_json::json!("all"),
         ProfileSelection::Named(n) => serde_json::json!(n),
@@ -121,6 +129,11 @@ pub fn header_line(trace: &Trace) -> String {
         "format": "pmacwd-trace", "version": trace.version, "description": trace.description,
         "configuration": trace.configuration, "profiles": profiles,
     });
+    if let Some(card) = card.filter(|c| !c.is_empty()) {
+        let fields: serde_json::Map<String, serde_json::Value> =
+            card.fields().into_iter().map(|(k, v)| (k.to_string(), serde_json::json!(v))).collect();
+        v["card"] = serde_json::Value::Object(fields);
+    }
     if let Some(c) = &trace.cite {
         v["cite"] = serde_json::json!(c.0.iter().map(|c| c.to_string()).collect::<Vec<_>>());
     }

@@ -14,6 +14,7 @@ pub mod jsonl;
 
 use pmacwd_specs::check::{ChecksumTarget, Load, ProfileSelection, ResetEvent};
 use pmacwd_specs::cite::Cites;
+pub use pmacwd_specs::config::CardConfig;
 use pmacwd_specs::vocab::command::HostCommand;
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::yaml::SourceMap;
@@ -56,11 +57,16 @@ pub struct Trace {
 #[derive(Clone, Debug, PartialEq)]
 pub enum TraceEvent {
     Model(Event),
-    Run { cycles: u32 },
+    Run {
+        cycles: u32,
+    },
     /// Between `cycles_min` and `cycles_max` servo cycles (unbounded if `None`) pass unseen:
     /// background cycles, load, supply dips, checksum progress and trips are for replay to
     /// choose.
-    Elapsed { cycles_min: u32, cycles_max: Option<u32> },
+    Elapsed {
+        cycles_min: u32,
+        cycles_max: Option<u32>,
+    },
     /// The card restarted unseen (INIT/, power cycle, or `$$$` from another host).
     Restart,
 }
@@ -181,7 +187,9 @@ fn elapsed_event<E: de::Error>(form: ElapsedForm) -> Result<TraceEvent, E> {
         }
     }
     if min > STEP_CYCLES_MAX {
-        return Err(E::custom(format!("`elapsed` of at least {min} servo cycles is more than {STEP_CYCLES_MAX}; split it")));
+        return Err(E::custom(format!(
+            "`elapsed` of at least {min} servo cycles is more than {STEP_CYCLES_MAX}; split it"
+        )));
     }
     Ok(TraceEvent::Elapsed { cycles_min: min, cycles_max: max })
 }
@@ -202,9 +210,7 @@ impl<'de> Deserialize<'de> for Step {
             }
             fn visit_str<E: de::Error>(self, v: &str) -> Result<Step, E> {
                 let event = match v {
-                    "restart" => {
-                        return Ok(Step { event: TraceEvent::Restart, expect: Expect::default(), note: None })
-                    }
+                    "restart" => return Ok(Step { event: TraceEvent::Restart, expect: Expect::default(), note: None }),
                     "background" => Event::Background,
                     "clear_rti_reentry" => Event::ClearRtiReentry,
                     other => {
@@ -313,6 +319,27 @@ impl<'de> Deserialize<'de> for Step {
 pub struct LoadedTrace {
     pub trace: Trace,
     pub map: SourceMap,
+    /// The optional `card:` header: what the capture itself says about the card (I8, I40, I41,
+    /// servo clock), overriding the configuration's values ([`ModelConfig::with_card`]).
+    ///
+    /// [`ModelConfig::with_card`]: pmacwd_specs::config::ModelConfig::with_card
+    pub card: Option<CardConfig>,
+}
+
+/// The YAML top level: a [`Trace`] and the optional `card:` header key (kept beside the trace,
+/// not in it, so that every writer of a [`Trace`] stays as it is).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TraceFile {
+    version: u32,
+    description: String,
+    #[serde(default)]
+    cite: Option<Cites>,
+    configuration: String,
+    #[serde(default)]
+    card: Option<CardConfig>,
+    profiles: ProfileSelection,
+    steps: Vec<Step>,
 }
 
 impl LoadedTrace {
@@ -339,7 +366,16 @@ pub fn parse_yaml(file: &Path, text: &str) -> Result<LoadedTrace, SpecError> {
              `pmacwd import LOG --out trace.jsonl`, then use the trace (docs/capturing.md)",
         ));
     }
-    let (trace, map): (Trace, SourceMap) = pmacwd_specs::yaml::parse(file, text)?;
+    let (f, map): (TraceFile, SourceMap) = pmacwd_specs::yaml::parse(file, text)?;
+    let card = f.card;
+    let trace = Trace {
+        version: f.version,
+        description: f.description,
+        cite: f.cite,
+        configuration: f.configuration,
+        profiles: f.profiles,
+        steps: f.steps,
+    };
     if trace.version != FORMAT_VERSION {
         return Err(map.error(
             "version",
@@ -354,7 +390,7 @@ pub fn parse_yaml(file: &Path, text: &str) -> Result<LoadedTrace, SpecError> {
             return Err(map.error("profiles", "an empty profile list runs nothing: name profiles, or write `all`"));
         }
     }
-    Ok(LoadedTrace { trace, map })
+    Ok(LoadedTrace { trace, map, card })
 }
 
 pub fn load_yaml(file: &Path) -> Result<LoadedTrace, SpecError> {
@@ -375,6 +411,11 @@ pub fn to_yaml(trace: &Trace) -> String {
 /// The YAML form up to and including `steps:` (the trace's own steps are not written), so that
 /// a long trace can be written one [`yaml_step`] at a time.
 pub fn yaml_header(trace: &Trace) -> String {
+    yaml_header_with_card(trace, None)
+}
+
+/// [`yaml_header`] with the optional `card:` key (written only when some field is set).
+pub fn yaml_header_with_card(trace: &Trace, card: Option<&CardConfig>) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     let _ = writeln!(s, "version: {}", trace.version);
@@ -384,6 +425,10 @@ pub fn yaml_header(trace: &Trace) -> String {
         let _ = writeln!(s, "cite: [{}]", items.join(", "));
     }
     let _ = writeln!(s, "configuration: {}", quote(&trace.configuration));
+    if let Some(card) = card.filter(|c| !c.is_empty()) {
+        let fields: Vec<String> = card.fields().iter().map(|(k, v)| format!("{k}: {v}")).collect();
+        let _ = writeln!(s, "card: {{{}}}", fields.join(", "));
+    }
     match &trace.profiles {
         ProfileSelection::Keyword(_) => s.push_str("profiles: all\n"),
         ProfileSelection::Named(n) => {
@@ -537,6 +582,36 @@ mod tests {
         let yaml = to_yaml(trace);
         let again = parse_yaml(Path::new("t.yaml"), &yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}")).trace;
         assert_eq!(format!("{trace:?}"), format!("{again:?}"), "{yaml}");
+    }
+
+    #[test]
+    fn a_card_header_reads_and_writes_back_the_same_in_both_forms() {
+        let yaml = "version: 1\ndescription: t\nconfiguration: i40-zero\ncard: {servo_hz: 2259, i40: 0}\n\
+                    profiles: all\nsteps:\n  - servo: 1\n";
+        let loaded = parse_yaml(Path::new("t.yaml"), yaml).unwrap();
+        let card = CardConfig { servo_hz: Some(2259), i40: Some(0), ..CardConfig::default() };
+        assert_eq!(loaded.card, Some(card));
+        let again = yaml_header_with_card(&loaded.trace, Some(&card));
+        assert!(again.contains("card: {servo_hz: 2259, i40: 0}\n"), "{again}");
+        let line = jsonl::header_line_with_card(&loaded.trace, Some(&card));
+        assert!(line.contains(r#""card":{"i40":0,"servo_hz":2259}"#), "{line}");
+        let text = format!("{line}\n{{\"servo\":1}}\n");
+        let r = jsonl::StepReader::new(Path::new("t.jsonl"), text.as_bytes()).unwrap();
+        assert_eq!(r.header.card, Some(card));
+        // No card, or an empty one: no key at all, so traces without one read as before.
+        assert!(!yaml_header_with_card(&loaded.trace, Some(&CardConfig::default())).contains("card"));
+        assert!(!jsonl::header_line(&loaded.trace).contains("card"));
+    }
+
+    #[test]
+    fn an_unknown_or_mistyped_card_field_is_refused_with_its_line() {
+        let yaml = "version: 1\ndescription: t\nconfiguration: i40-zero\ncard: {i10: 5}\nprofiles: all\nsteps:\n  - servo: 1\n";
+        let e = parse_yaml(Path::new("t.yaml"), yaml).err().expect("refused");
+        assert_eq!(e.position.map(|p| p.line), Some(4), "{e}");
+        assert!(e.message.contains("i10"), "{e}");
+        let line = r#"{"format":"pmacwd-trace","version":1,"description":"t","configuration":"c","card":{"i40":"x"},"profiles":"all"}"#;
+        let e = jsonl::StepReader::new(Path::new("t.jsonl"), line.as_bytes()).err().expect("refused");
+        assert_eq!(e.position.map(|p| p.line), Some(1), "{e}");
     }
 
     #[test]

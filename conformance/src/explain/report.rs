@@ -68,10 +68,11 @@ const STARVED: &str = "the background stopped completing (PLC 0 or other RTI tas
                        strobe stopped (UM p.215)";
 const UNDERVOLTAGE: &str = "the logic supply dipped below its minimum, about 4.75 V (UM p.215)";
 
-/// Judges the capture at `path` (configuration `configuration`, or the capture's own).
-pub fn explain(spec: &Spec, path: &Path, configuration: Option<&str>) -> Result<Report, SpecError> {
-    let source = Source::open(path)?;
-    let configuration = configuration.unwrap_or(source.configuration()).to_string();
+/// Judges the capture at `path`; a host log is imported under `import_configuration` (a
+/// trace names its own configuration).
+pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> Result<Report, SpecError> {
+    let source = Source::open_with(spec, path, import_configuration)?;
+    let configuration = source.configuration().to_string();
     let description = source.description().to_string();
     let profiles = source.profiles(spec, path)?;
     drop(source);
@@ -87,7 +88,7 @@ pub fn explain(spec: &Spec, path: &Path, configuration: Option<&str>) -> Result<
     }
     let all = profiles.len() == spec.profiles.all().len();
     let defs = lanes::lanes(spec, &configuration, if all { None } else { Some(&profiles) })?;
-    let (done, events) = search::search(spec, path, &configuration, defs.clone(), false)?;
+    let (done, events) = search::search(spec, path, import_configuration, defs.clone(), false)?;
 
     let summaries: Vec<LaneSummary> = done
         .iter()
@@ -142,7 +143,7 @@ pub fn explain(spec: &Spec, path: &Path, configuration: Option<&str>) -> Result<
         .or_else(|| done.iter().find(|l| l.alive()))
         .map(|l| l.def.clone());
     let witness = match chosen {
-        Some(def) => Some(witness_for(spec, path, &configuration, def)?),
+        Some(def) => Some(witness_for(spec, path, import_configuration, def)?),
         None => None,
     };
     Ok(Report {
@@ -159,9 +160,14 @@ pub fn explain(spec: &Spec, path: &Path, configuration: Option<&str>) -> Result<
 }
 
 /// Searches `path` again on one lane with its choices recorded, and builds the explanation.
-pub fn witness_for(spec: &Spec, path: &Path, configuration: &str, def: LaneDef) -> Result<(String, Witness), SpecError> {
+pub fn witness_for(
+    spec: &Spec,
+    path: &Path,
+    import_configuration: Option<&str>,
+    def: LaneDef,
+) -> Result<(String, Witness), SpecError> {
     let label = lanes::label(&def.choices);
-    let (lanes, _) = search::search(spec, path, configuration, vec![def], true)?;
+    let (lanes, _) = search::search(spec, path, import_configuration, vec![def], true)?;
     let lane: &Lane = &lanes[0];
     // Prefer a running card at the end, then the shallowest X:$25.
     let best = lane
@@ -170,7 +176,7 @@ pub fn witness_for(spec: &Spec, path: &Path, configuration: &str, def: LaneDef) 
         .min_by_key(|c| (c.card.tripped(), -c.card.counter_min, c.cpu))
         .and_then(|c| c.node.clone())
         .ok_or_else(|| SpecError::whole_file(path, "the second search found no explanation the first one found"))?;
-    let mut w = witness::build(&lane.cfg, path, &best)?;
+    let mut w = witness::build(spec, &lane.cfg, path, import_configuration, &best)?;
     w.cpu_decided = lane.cands.iter().all(|c| c.cpu == w.cpu);
     w.checked = Some(witness::reproduces(spec, &lane.cfg, &w));
     Ok((label, w))

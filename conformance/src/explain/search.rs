@@ -258,9 +258,18 @@ fn restart_variants() -> Vec<ResetEvent> {
 }
 
 impl Lane {
-    pub fn new(spec: &Spec, configuration: &str, def: LaneDef, record: bool) -> Result<Lane, SpecError> {
+    pub fn new(
+        spec: &Spec,
+        configuration: &str,
+        card: Option<&pmacwd_specs::config::CardConfig>,
+        def: LaneDef,
+        record: bool,
+    ) -> Result<Lane, SpecError> {
         let profile = Profile { name: super::lanes::label(&def.choices), choices: def.choices };
         let mut cfg = ModelConfig::from_spec(spec, configuration, &profile)?;
+        if let Some(card) = card {
+            cfg = cfg.with_card(spec, card).map_err(|e| SpecError::whole_file(&spec.dir, e))?;
+        }
         // MODEL (replay): X:$0 is timing (the `elapsed` steps), not state; the load is the
         // search's choice, starting light; a checksum pass may end at any background cycle.
         cfg.servo_counter_mask = 0;
@@ -445,20 +454,24 @@ impl Lane {
     }
 }
 
-/// Searches `path` on `lanes`; `record` keeps witness chains (for one lane).
+/// Searches `path` on `lanes`; `record` keeps witness chains (for one lane). `configuration`
+/// is the one a host log is imported under (a trace names its own).
 pub fn search(
     spec: &Spec,
     path: &Path,
-    configuration: &str,
+    configuration: Option<&str>,
     defs: Vec<LaneDef>,
     record: bool,
 ) -> Result<(Vec<Lane>, u64), SpecError> {
+    let source = Source::open_with(spec, path, configuration)?;
+    let card = source.card();
+    let name = source.configuration().to_string();
     let mut lanes = defs
         .into_iter()
-        .map(|d| Lane::new(spec, configuration, d, record))
+        .map(|d| Lane::new(spec, &name, card.as_ref(), d, record))
         .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| SpecError::whole_file(path, format!("configuration `{configuration}`: {e}")))?;
-    let mut reader = Reader::new(Source::open(path)?);
+        .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
+    let mut reader = Reader::new(source);
     while let Some((line, step)) = reader.next()? {
         let event_no = reader.events;
         if lanes.iter().all(|l| !l.alive()) {

@@ -145,13 +145,19 @@ fn realize<'a>(
 }
 
 /// Replays the capture at `path` with the choices of `last`'s chain.
-pub fn build(cfg: &ModelConfig, path: &Path, last: &Rc<Node>) -> Result<Witness, SpecError> {
+pub fn build(
+    spec: &pmacwd_specs::Spec,
+    cfg: &ModelConfig,
+    path: &Path,
+    import_configuration: Option<&str>,
+    last: &Rc<Node>,
+) -> Result<Witness, SpecError> {
     let nodes = chain(last);
     let cpu = match nodes.first().map(|n| &n.kind) {
         Some(NodeKind::Start { cpu }) => *cpu,
         _ => 0,
     };
-    let mut source = Source::open(path)?;
+    let mut source = Source::open_with(spec, path, import_configuration)?;
     let mut card = Controller::power_on(cfg);
     let mut steps = Vec::new();
     let mut story = Vec::new();

@@ -1,0 +1,340 @@
+//! `pmacwd import`: what each situation in a host log becomes (docs/capturing.md), and that
+//! every malformed log is refused with its file, line and column rather than guessed at.
+
+use pmacwd_conformance::import::{import, Imported};
+use pmacwd_specs::vocab::command::HostCommand;
+use pmacwd_specs::vocab::event::Event;
+use pmacwd_specs::SpecError;
+use pmacwd_trace::{Step, TraceEvent};
+use std::path::Path;
+
+/// A log whose card reads I10 = 8388607: a 1000 Hz servo clock, one cycle per millisecond.
+const KHZ: &str = "> I10\n< 8388607\n";
+
+fn ok(log: &str) -> Imported {
+    import(Path::new("s.log"), log, "i40-zero").unwrap_or_else(|e| panic!("{e}\n{log}"))
+}
+
+fn err(log: &str) -> SpecError {
+    import(Path::new("s.log"), log, "i40-zero").err().unwrap_or_else(|| panic!("imported:\n{log}"))
+}
+
+fn at(e: &SpecError) -> (usize, usize) {
+    let p = e.position.unwrap_or_else(|| panic!("no position: {e}"));
+    (p.line, p.column)
+}
+
+fn exact(n: u32) -> TraceEvent {
+    TraceEvent::Elapsed { cycles_min: n, cycles_max: Some(n) }
+}
+
+fn range(min: u32, max: u32) -> TraceEvent {
+    TraceEvent::Elapsed { cycles_min: min, cycles_max: Some(max) }
+}
+
+fn command(text: &str) -> TraceEvent {
+    TraceEvent::Model(Event::Command(HostCommand::parse(text).unwrap()))
+}
+
+/// The events of the steps, without what the `I10` read of [`KHZ`] adds.
+fn events(steps: &[Step]) -> Vec<TraceEvent> {
+    steps.iter().map(|s| s.event.clone()).filter(|e| *e != command("I10")).collect()
+}
+
+#[test]
+fn the_time_between_two_counter_reads_is_an_exact_elapsed_step_and_commands_between_stay_at_the_earlier_read() {
+    let t = ok("> $$$\n<\n> RHX:$0\n< 000010\n> ???\n< 001000000000\n> I40\n< 0\n> RHX:$0\n< 0008CA\n");
+    assert_eq!(
+        events(&t.trace.steps),
+        [
+            command("$$$"),
+            exact(0x10),
+            command("RHX:$0"),
+            command("???"),
+            command("I40"),
+            exact(0x8CA - 0x10),
+            command("RHX:$0")
+        ]
+    );
+    // The counter's value is a note, not an expectation: the model's X:$0 is its own.
+    assert!(t.trace.steps[2].expect.is_empty());
+    assert!(t.trace.steps[2].note.as_deref().unwrap().contains("000010"));
+    assert_eq!(t.summary.counter_reads, 2);
+}
+
+#[test]
+fn the_first_counter_read_is_kept_after_an_unbounded_elapsed_of_at_least_its_value() {
+    // Before it the card ran for an unknown time since its last restart, and the counter may
+    // have wrapped meanwhile: at least its value, no upper bound.
+    let t = ok("> RHX:$0\n< 01A2B3\n> ???\n< 001000000000\n> RHX:$0\n< 01A2C3\n");
+    assert_eq!(
+        events(&t.trace.steps),
+        [
+            TraceEvent::Elapsed { cycles_min: 0x01A2B3, cycles_max: None },
+            command("RHX:$0"),
+            command("???"),
+            exact(0x10),
+            command("RHX:$0")
+        ]
+    );
+}
+
+#[test]
+fn after_a_reset_in_the_log_the_next_counter_read_is_exactly_the_cycles_since_it() {
+    let t = ok("> RHX:$0\n< 000100\n> $$$\n<\n> RHX:$0\n< 000020\n");
+    assert_eq!(t.trace.steps[2].event, command("$$$"));
+    assert_eq!(t.trace.steps[3].event, exact(0x20), "no restart: the log's own `$$$` is the reset");
+    assert_eq!(t.summary.restarts, 0);
+}
+
+#[test]
+fn a_counter_going_backwards_without_timestamps_is_a_restart_with_a_note_not_a_wrap() {
+    // The old importer inserted 2^24 - 0xFFFFF0 + 0x10 cycles here: a wrap it could not see.
+    let t = ok("> RHX:$0\n< FFFFF0\n> RHX:$0\n< 000010\n");
+    assert_eq!(t.trace.steps[2].event, TraceEvent::Restart);
+    assert!(t.trace.steps[2].note.as_deref().unwrap().contains("without host timestamps"), "{:?}", t.trace.steps[2]);
+    assert_eq!(t.trace.steps[3].event, exact(0x10), "the cycles since the restart");
+    assert_eq!(t.summary.restarts, 1);
+}
+
+#[test]
+fn with_timestamps_a_counter_going_backwards_is_a_wrap_when_the_host_time_fits_it() {
+    // 0xFFFFF0 to 0x10 is 32 cycles across the wrap: 32 ms at 1000 Hz.
+    let log = "11:59:59.000 > I10\n11:59:59.000 < 8388607\n12:00:00.000 > RHX:$0\n< FFFFF0\n\
+               12:00:00.032 > RHX:$0\n< 000010\n";
+    let t = ok(log);
+    assert_eq!(events(&t.trace.steps)[2..], [exact(0x20), command("RHX:$0")]);
+    assert_eq!(t.summary.restarts, 0);
+}
+
+#[test]
+fn with_timestamps_a_counter_that_fits_no_wrap_of_the_host_time_is_a_restart() {
+    let t =
+        ok(&format!("{KHZ}12:00:00 > RHX:$0\n< 00A000\n12:00:01 > RHX:$0\n< 000100\n")
+            .replace("> I10", "12:00:00 > I10"));
+    let e = events(&t.trace.steps);
+    assert_eq!(e[2..], [TraceEvent::Restart, exact(0x100), command("RHX:$0")]);
+    // And a counter that advanced less than the host time allows (it stopped: the card
+    // tripped, then restarted) is a restart as well.
+    let t = ok("12:00:00 > I10\n< 8388607\n12:00:00 > RHX:$0\n< 000000\n12:00:10 > RHX:$0\n< 000100\n");
+    assert_eq!(events(&t.trace.steps)[2], TraceEvent::Restart);
+}
+
+#[test]
+fn a_counter_advancing_faster_than_the_host_clock_allows_is_an_error_naming_the_reply_line() {
+    let e = err("12:00:00 > I10\n< 8388607\n12:00:00 > RHX:$0\n< 000000\n12:00:01 > RHX:$0\n< 100000\n");
+    assert_eq!(at(&e), (6, 3), "{e}");
+    assert!(e.message.contains("is the servo clock right?"), "{e}");
+}
+
+#[test]
+fn every_timestamp_form_is_read_and_its_resolution_widens_the_bounds() {
+    // Whole seconds, milliseconds, microseconds, a date with a space or a `T`, brackets: one
+    // second between the reads of a 1000 Hz card, widened by the stamps' resolution and ±1%.
+    for (a, b, lo, hi) in [
+        ("12:00:00", "12:00:01", 0, 2020),
+        ("12:00:00.000", "12:00:01.000", 989, 1012),
+        ("12:00:00.000000", "12:00:01.000000", 989, 1011),
+        ("2026-11-23 12:00:00.000", "2026-11-23 12:00:01.000", 989, 1012),
+        ("[2026-11-23T12:00:00.000]", "[2026-11-23T12:00:01.000]", 989, 1012),
+        ("23:59:59.500", "00:00:00.500", 989, 1012),
+    ] {
+        // Read as a restart, the second value being below every count the host time allows:
+        // the bounds show in the error of a counter too far ahead instead.
+        let log = format!("{a} > I10\n< 8388607\n{a} > RHX:$0\n< 000000\n{b} > RHX:$0\n< 100000\n");
+        let e = err(&log);
+        assert!(e.message.contains(&format!("({lo} to {hi} at 1000 Hz")), "{a}: {e}");
+    }
+    // A date changes the day: a day and a second apart is 86,401 s (86,400 to 86,402 at a
+    // resolution of 1 s), which no count of turns to 0xFFFFFF fits: a restart.
+    let log = "2026-11-23 12:00:00 > I10\n< 8388607\n2026-11-23 12:00:00 > RHX:$0\n< 000000\n\
+               2026-11-24 12:00:01 > RHX:$0\n< FFFFFF\n";
+    let t = ok(log);
+    let note = t.trace.steps.iter().find(|s| s.event == TraceEvent::Restart).and_then(|s| s.note.clone()).unwrap();
+    assert!(note.contains("85536000 to 87266020 servo cycles"), "{note}");
+}
+
+#[test]
+fn stamping_some_command_lines_and_not_others_is_an_error_at_the_line() {
+    let e = err("12:00:00 > ???\n< 000000000000\n> ???\n< 000000000000\n");
+    assert_eq!(at(&e), (3, 1), "{e}");
+    assert!(e.message.contains("stamp every command line or none"), "{e}");
+    let e = err("> ???\n< 000000000000\n12:00:00 > ???\n< 000000000000\n");
+    assert_eq!(at(&e), (3, 1), "{e}");
+    // A reply line may have a stamp or not.
+    ok("12:00:00 > ???\n12:00:00 < 000000000000\n12:00:01 > ???\n< 000000000000\n");
+    // Time-only and dated stamps do not mix either.
+    let e = err("12:00:00 > ???\n< 000000000000\n2026-01-01 12:00:01 > ???\n< 000000000000\n");
+    assert_eq!(at(&e), (3, 1), "{e}");
+}
+
+#[test]
+fn a_timestamp_going_backwards_is_an_error_with_its_line_but_midnight_is_a_rollover() {
+    let e = err("12:00:05 > ???\n< 000000000000\n12:00:03 > ???\n< 000000000000\n");
+    assert_eq!(at(&e), (3, 1), "{e}");
+    assert!(e.message.contains("goes backwards"), "{e}");
+    let e = err("2026-01-02 00:00:01 > ???\n< 000000000000\n2026-01-01 23:59:59 > ???\n< 000000000000\n");
+    assert_eq!(at(&e), (3, 1), "{e}");
+    ok("23:59:59 > ???\n< 000000000000\n00:00:01 > ???\n< 000000000000\n");
+}
+
+#[test]
+fn a_malformed_timestamp_is_an_error_at_its_column() {
+    for (line, column) in [
+        ("12:00 > ???", 1),
+        ("12:61:00 > ???", 1),
+        ("12:00:00.> ???", 10),
+        ("[12:00:00 > ???", 10),
+        ("12:00:00> ???", 9),
+        ("2026-13-01 12:00:00 > ???", 1),
+    ] {
+        let e = err(&format!("{line}\n< 000000000000\n"));
+        assert_eq!(at(&e), (1, column), "{line}: {e}");
+        assert!(e.message.contains("expected a timestamp"), "{line}: {e}");
+    }
+}
+
+#[test]
+fn a_silent_card_is_placed_in_time_by_the_host_clock_alone() {
+    // The card stops answering after the read at 12:00:00.000; the timed-out commands are
+    // placed by host time: 0.5 s then 1 s later, at 1000 Hz ±1% and 1 ms resolution.
+    let log = format!(
+        "12:00:00.000 {KHZ}12:00:00.000 > RHX:$0\n< 000010\n12:00:00.500 > ???\n< (timeout)\n\
+         12:00:01.500 > RHX:$0\n< (timeout)\n12:00:02.000 > ???\n< (timeout)\n"
+    );
+    let t = ok(&log);
+    let e = events(&t.trace.steps);
+    assert_eq!(
+        e,
+        [
+            TraceEvent::Elapsed { cycles_min: 0x10, cycles_max: None },
+            command("RHX:$0"),
+            range(494, 507),
+            command("???"),
+            range(989, 1012),
+            command("RHX:$0"),
+            range(494, 507),
+            command("???"),
+        ]
+    );
+    assert_eq!(t.summary.silent_gaps, 3);
+    assert!(t.summary.timing_warning().is_none(), "host time gave timing");
+    // The card answers again: the counter says how much of the time it ran; what the silent
+    // gaps already gave is not given twice. 2500 cycles on in 2.5 s: no restart; exactly
+    // 2500 in all, less the gaps' 1977 to 2026.
+    let back = format!("{log}12:00:02.500 > RHX:$0\n< {:06X}\n", 0x10 + 2500);
+    let e = events(&ok(&back).trace.steps);
+    assert_eq!(e[e.len() - 2..], [range(2500 - 2026, 2500 - 1977), command("RHX:$0")]);
+}
+
+#[test]
+fn a_line_of_several_commands_is_split_as_the_card_splits_it_and_its_replies_paired_in_order() {
+    // dls-pmaclib sends `i6=1 i3=2 ver` as one line; only `ver` answers.
+    let t =
+        ok("> i6=1 i3=2 ver\n< 1.947\n> I40 ??? RHY:$25\n< 0\\r001000000000 000FFC\n> OPEN PLC 1 CLOSE I130 = 5\n<\n");
+    let s = &t.trace.steps;
+    assert_eq!(
+        events(s),
+        [
+            command("I6=1"),
+            command("I3=2"),
+            command("ver"),
+            command("I40"),
+            command("???"),
+            command("RHY:$25"),
+            command("OPEN PLC 1"),
+            command("CLOSE"),
+            command("I130=5")
+        ]
+    );
+    assert_eq!(s[0].expect.reply.as_deref(), Some("(ack)"));
+    assert_eq!(s[3].expect.reply.as_deref(), Some("0"));
+    assert_eq!(s[4].expect.reply.as_deref(), Some("001000000000"));
+    assert_eq!(s[5].expect.reply.as_deref(), Some("000FFC"));
+    assert_eq!(s[8].expect.reply.as_deref(), Some("(ack)"));
+    // A timeout silences the whole line.
+    let t = ok("> I40 I41\n< (timeout)\n");
+    assert!(t.trace.steps.iter().all(|s| s.expect.reply.as_deref() == Some("(silence)")));
+}
+
+#[test]
+fn a_command_the_model_does_not_know_is_kept_without_an_expectation_and_counted() {
+    let t = ok("> ver\n< 1.947\n> enable plc 1\n<\n> LIST GATHER I40\n< 0\n");
+    let s = &t.trace.steps;
+    assert_eq!(s[0].event, command("ver"));
+    assert!(s[0].expect.is_empty());
+    assert_eq!(s[0].note.as_deref(), Some("not modelled: `VER` replied `1.947`"));
+    assert_eq!(s[1].note.as_deref(), Some("not modelled: `ENABLE PLC 1` replied nothing"));
+    assert_eq!(
+        s[2].note.as_deref(),
+        Some("not modelled: `LIST GATHER` replied nothing"),
+        "unknown words are one command"
+    );
+    assert_eq!(t.summary.not_modelled, 3);
+}
+
+#[test]
+fn an_error_reply_to_a_command_the_model_does_not_know_is_still_expected() {
+    // The model answers ERR003 to what it does not know: an error reply is comparable.
+    let t = ok("> FOO\n< ERR003\n");
+    assert_eq!(t.trace.steps[0].expect.reply.as_deref(), Some("ERR003"));
+    assert_eq!(t.summary.not_modelled, 0);
+}
+
+#[test]
+fn a_reply_count_that_fits_no_reading_of_the_line_is_an_error_naming_both_lines() {
+    let e = err("> ???\n< 000000000000\n> I40 ???\n< 0\n");
+    assert_eq!(at(&e), (4, 3), "{e}");
+    assert!(e.message.contains("command line 3 holds 2 commands that answer (`I40`, `???`)"), "{e}");
+    let e = err("> I40 ver\n< 0 1 2\n");
+    assert!(e.message.contains("1 not modelled that may or may not answer (`VER`)"), "{e}");
+    // And a command the model cannot represent, on a line of several, at its own column.
+    let e = err("> I40 RHX:$1234\n< 0 0\n");
+    assert_eq!(at(&e), (1, 7), "{e}");
+}
+
+#[test]
+fn the_card_s_i_variables_and_servo_clock_are_read_from_the_log_before_any_write() {
+    let t = ok("> I8 I41\n< 2 0\n> I40=100\n<\n> I40\n< 100\n> I10\n< 3713707\n> $$$\n<\n> I41\n< 1\n");
+    let card = t.card.unwrap();
+    assert_eq!((card.i8, card.i40, card.i41, card.servo_hz), (Some(2), None, Some(0), Some(2259)));
+    assert_eq!(t.from_log.sources.iter().map(|s| (s.1, s.3)).collect::<Vec<_>>(), [("I8", 2), ("I10", 8), ("I41", 2)]);
+    // Nothing read: no card header.
+    assert!(ok("> ???\n< 000000000000\n").card.is_none());
+}
+
+#[test]
+fn an_i10_of_zero_or_an_i40_out_of_range_in_the_log_is_an_error_at_its_reply_line() {
+    let e = err("> ???\n< 000000000000\n> I10\n< 0\n");
+    assert_eq!(at(&e).0, 4, "{e}");
+    assert!(e.message.contains("I10 reads 0"), "{e}");
+    let e = err("> I40\n< 70000\n");
+    assert_eq!(at(&e).0, 2, "{e}");
+    assert!(e.message.contains("variables.yaml"), "{e}");
+}
+
+#[test]
+fn a_log_without_two_counter_reads_imports_with_a_timing_warning() {
+    for log in ["> ???\n< 000000000000\n", "> RHX:$0\n< 000010\n"] {
+        let w = ok(log).summary.timing_warning().expect("a warning");
+        assert!(w.contains("no timing can be derived"), "{w}");
+    }
+    assert!(ok("> RHX:$0\n< 000010\n> RHX:$0\n< 000020\n").summary.timing_warning().is_none());
+}
+
+#[test]
+fn a_gap_longer_than_one_counter_turn_is_split_into_steps_whose_bounds_add_up() {
+    // 33,554 s at 1000 Hz with the counter 16 cycles on: two turns (2 x 2^24 cycles) and 16,
+    // the only count of turns the host time allows within ±1%; one step holds at most one turn.
+    let log = "2026-01-01 00:00:00 > I10\n< 8388607\n2026-01-01 00:00:00 > RHX:$0\n< 000000\n\
+               2026-01-01 09:19:14 > RHX:$0\n< 000010\n";
+    let e = events(&ok(log).trace.steps);
+    let gap: Vec<(u32, u32)> = e[2..e.len() - 1]
+        .iter()
+        .map(|e| match e {
+            TraceEvent::Elapsed { cycles_min, cycles_max: Some(max) } => (*cycles_min, *max),
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(gap, [(1 << 24, 1 << 24), (1 << 24, 1 << 24), (16, 16)]);
+}
