@@ -167,7 +167,11 @@ proptest! {
         let (def, cfg) = lane_for(&spec, bits);
         let text = generate(&spec, &cfg, cpu, &gaps);
         let path = temp_file(&format!("complete-{bits}-{cpu}.jsonl"), &text);
+        let started = std::time::Instant::now();
         let (lanes, _) = search::search(&spec, &path, None, vec![def.clone()], false).unwrap();
+        if started.elapsed().as_secs_f64() > 1.0 {
+            eprintln!("slow case ({:.1} s, peak {} candidates):\n{text}", started.elapsed().as_secs_f64(), lanes[0].peak);
+        }
         prop_assert!(lanes[0].death.is_none(), "not explained: {:?}\n{text}", lanes[0].death);
         let (label, w) = report::witness_for(&spec, &path, None, def).unwrap();
         let checked = witness::reproduces(&spec, &cfg, &w);

@@ -1,7 +1,7 @@
 //! `pmacwd replay` on the sample captures of `specs/captures/`: each gives the verdict its
 //! README documents, and a malformed capture is refused with its line.
 
-use pmacwd_conformance::replay::{replay, OptionVerdict};
+use pmacwd_conformance::explain::report::{explain, OptionVerdict, Report};
 use pmacwd_specs::Spec;
 use pmacwd_trace::TraceEvent;
 use std::path::{Path, PathBuf};
@@ -10,84 +10,75 @@ fn capture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../specs/captures").join(name)
 }
 
-fn option(report: &pmacwd_conformance::replay::ReplayReport, reading: &str, option: &str) -> OptionVerdict {
+fn option(report: &Report, reading: &str, option: &str) -> OptionVerdict {
     let r = report.readings.iter().find(|r| r.reading == reading).unwrap();
     r.options.iter().find(|(o, _)| *o == option).unwrap().1.clone()
 }
 
-fn consistent(report: &pmacwd_conformance::replay::ReplayReport) -> Vec<String> {
-    report.profiles.iter().filter(|p| p.consistent()).map(|p| p.profile.name.clone()).collect()
+fn supported(report: &Report, reading: &str, o: &str) -> bool {
+    matches!(option(report, reading, o), OptionVerdict::Supported(_))
+}
+
+/// The named profiles that explain the capture.
+fn explaining(report: &Report) -> Vec<String> {
+    report.profiles.iter().filter(|p| p.2).map(|p| p.0.clone()).collect()
 }
 
 #[test]
-fn a_reload_to_4095_is_explained_only_by_the_4095_profiles_and_rules_out_4096() {
+fn a_reload_to_4095_is_explained_only_with_4095_and_rules_out_4096_whatever_the_other_readings() {
     let spec = Spec::embedded().unwrap();
-    let r = replay(&spec, &capture("reload-to-4095.jsonl")).unwrap();
-    assert_eq!(consistent(&r), ["srm-57", "srm-57-sticky-bit9", "um-215-4095"]);
-    assert!(matches!(option(&r, "reset_value_when_i40_zero", "4095"), OptionVerdict::Supported(3, 3)));
-    assert_eq!(
-        option(&r, "reset_value_when_i40_zero", "4096"),
-        OptionVerdict::RuledOut("um-215".into(), "um-215-4095".into())
-    );
-    // The M83 reading only occurs with 4096 here: its divergence proves nothing about bit 12.
-    assert_eq!(option(&r, "bit12_meaning", "firmware_checksum_error"), OptionVerdict::Unexplained(1));
+    let r = explain(&spec, &capture("reload-to-4095.jsonl"), None).unwrap();
+    assert_eq!(explaining(&r), ["srm-57", "srm-57-sticky-bit9", "um-215-4095"]);
+    assert!(supported(&r, "reset_value_when_i40_zero", "4095"));
+    assert!(!supported(&r, "reset_value_when_i40_zero", "4096"));
+    // Readings are judged on their own: bit 12's M83 reading is not ruled out by a capture
+    // that never reads bit 12, although the one profile choosing it also chooses 4096.
+    assert!(supported(&r, "bit12_meaning", "firmware_checksum_error"));
 }
 
 #[test]
-fn a_reload_to_4096_is_explained_only_by_the_4096_profiles_and_rules_out_4095() {
+fn a_reload_to_4096_is_explained_only_with_4096_and_rules_out_4095() {
     let spec = Spec::embedded().unwrap();
-    let r = replay(&spec, &capture("reload-to-4096.yaml")).unwrap();
-    assert_eq!(consistent(&r), ["um-215", "um-215-50hz", "um-215-literal-plc", "um-215-m83"]);
-    assert_eq!(
-        option(&r, "reset_value_when_i40_zero", "4095"),
-        OptionVerdict::RuledOut("um-215-4095".into(), "um-215".into())
-    );
+    let r = explain(&spec, &capture("reload-to-4096.yaml"), None).unwrap();
+    assert_eq!(explaining(&r), ["um-215", "um-215-50hz", "um-215-literal-plc", "um-215-m83"]);
+    assert!(!supported(&r, "reset_value_when_i40_zero", "4095"));
 }
 
 #[test]
-fn a_card_running_past_its_deadline_is_explained_by_no_profile_and_the_first_divergence_is_named() {
+fn a_card_running_past_its_deadline_is_explained_under_no_reading_and_where_it_fails_is_named() {
     let spec = Spec::embedded().unwrap();
-    let r = replay(&spec, &capture("no-profile-explains.jsonl")).unwrap();
+    let r = explain(&spec, &capture("no-profile-explains.jsonl"), None).unwrap();
     assert!(!r.explained());
-    let first = r.profiles[0].first.as_ref().unwrap();
-    assert_eq!((first.event, first.line, first.what.as_str()), (2, 3, "tripped"));
-    assert_eq!(first.recent.last().unwrap(), "line 3: host sends `???`");
+    let d = r.lanes[0].death.as_ref().unwrap();
+    assert_eq!((d.event, d.line, d.what.as_str()), (2, 3, "tripped"));
 }
 
 #[test]
-fn an_imported_host_log_keeps_its_timing_as_elapsed_steps_that_read_as_runs_settle_two_readings() {
-    // The synthetic host session reads Y:$25 minimum 4092 after 2234 cycles with a background
-    // every 4 cycles (so the reload was 4096) and shows bit 12 set while no error is reported.
-    // The importer writes the counter's time as `elapsed` (the replay search chooses what
-    // happened); read as `run` steps (the background whenever the load allows, what the
-    // importer wrote before), the session still settles the two readings.
+fn an_imported_host_log_keeps_its_timing_as_elapsed_steps_and_the_search_settles_bit_12() {
+    // The synthetic host session: I40 = 0, X:$25 at 4092 after 2234 cycles, bit 12 set while
+    // no error is reported. The importer writes the counter's time as `elapsed`; the search
+    // chooses when background cycles completed, so 4092 no longer tells 4095 from 4096 (a
+    // run-down of 3 or 4 cycles both fit), but bit 12 without bit 13 rules out M83.
     let log = capture("host-session.log");
     let text = std::fs::read_to_string(&log).unwrap();
-    let imported = pmacwd_conformance::import::import(&log, &text, "i40-zero").unwrap();
-    let mut trace = imported.trace;
+    let imported = pmacwd_conformance::import::import(&log, &text, "host-log").unwrap();
     assert_eq!(imported.card.and_then(|c| c.i40), Some(0), "the session reads I40 before writing it");
-    let elapsed: Vec<TraceEvent> =
-        trace.steps.iter().map(|s| s.event.clone()).filter(|e| matches!(e, TraceEvent::Elapsed { .. })).collect();
+    let elapsed: Vec<TraceEvent> = imported
+        .trace
+        .steps
+        .iter()
+        .map(|s| s.event.clone())
+        .filter(|e| matches!(e, TraceEvent::Elapsed { .. }))
+        .collect();
     assert_eq!(
         elapsed,
         [0x10, 0x8CA - 0x10, 0x23290 - 0x8CA].map(|n| TraceEvent::Elapsed { cycles_min: n, cycles_max: Some(n) }),
         "the log starts with `$$$`: the first read is exact"
     );
-    for s in &mut trace.steps {
-        if let TraceEvent::Elapsed { cycles_min, cycles_max: Some(max) } = s.event {
-            assert_eq!(cycles_min, max);
-            s.event = TraceEvent::Run { cycles: max };
-        }
-    }
-    let dir = std::env::temp_dir().join(format!("pmacwd-import-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let out = dir.join("session.jsonl");
-    std::fs::write(&out, pmacwd_trace::jsonl::to_jsonl(&trace)).unwrap();
-    let r = replay(&Spec::embedded().unwrap(), &out).unwrap();
-    let _ = std::fs::remove_dir_all(&dir);
-    assert_eq!(consistent(&r), ["um-215", "um-215-50hz", "um-215-literal-plc"]);
-    assert!(matches!(option(&r, "reset_value_when_i40_zero", "4095"), OptionVerdict::RuledOut(..)));
-    assert!(matches!(option(&r, "bit12_meaning", "firmware_checksum_error"), OptionVerdict::RuledOut(..)));
+    let r = explain(&Spec::embedded().unwrap(), &log, None).unwrap();
+    assert!(r.explained());
+    assert!(supported(&r, "reset_value_when_i40_zero", "4095") && supported(&r, "reset_value_when_i40_zero", "4096"));
+    assert!(!supported(&r, "bit12_meaning", "firmware_checksum_error"));
 }
 
 #[test]
@@ -166,30 +157,26 @@ fn a_capture_naming_an_unknown_profile_is_unusable_input_not_a_verdict() {
     };
     let unknown = dir.join("unknown.jsonl");
     std::fs::write(&unknown, header(r#"["um-215", "um215"]"#)).unwrap();
-    let e = replay(&spec, &unknown).expect_err("refused");
+    let e = explain(&spec, &unknown, None).err().expect("refused");
     assert!(e.message.contains("no profile named `um215`"), "{e}");
     let one = dir.join("one.jsonl");
     std::fs::write(&one, header(r#"["um-215"]"#)).unwrap();
-    let r = replay(&spec, &one).unwrap();
+    let r = explain(&spec, &one, None).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
-    assert_eq!(r.profiles.iter().map(|p| p.profile.name.as_str()).collect::<Vec<_>>(), ["um-215"]);
+    assert_eq!(r.profiles.iter().map(|p| p.0.as_str()).collect::<Vec<_>>(), ["um-215"]);
+    assert_eq!(r.lanes.len(), 1, "only the combination of readings um-215 chooses is searched");
 }
 
 #[test]
 fn a_host_log_is_replayed_directly_imported_on_the_fly_with_the_log_s_own_line_numbers() {
-    use pmacwd_conformance::replay::replay_with;
     let spec = Spec::embedded().unwrap();
-    let r = replay_with(&spec, &capture("host-session.log"), None).unwrap();
+    let r = explain(&spec, &capture("host-session.log"), None).unwrap();
     assert_eq!(r.events, 14, "the steps `pmacwd import` writes");
     assert!(r.description.contains("imported from the host log"));
-    // Until the replay search judges `elapsed`, the deterministic replay stops at the first
-    // one; its line is the log's (`< 000010`'s command on line 6), not a trace's.
-    let first = r.profiles[0].first.as_ref().unwrap();
-    assert_eq!((first.event, first.line), (2, 6));
     // A configuration that does not exist, or one given for a trace, is refused.
-    let e = replay_with(&spec, &capture("host-session.log"), Some("nope")).unwrap_err();
+    let e = explain(&spec, &capture("host-session.log"), Some("nope")).err().unwrap();
     assert!(e.message.contains("no configuration named `nope`"), "{e}");
-    let e = replay_with(&spec, &capture("reload-to-4095.jsonl"), Some("i40-zero")).unwrap_err();
+    let e = explain(&spec, &capture("reload-to-4095.jsonl"), Some("i40-zero")).err().unwrap();
     assert!(e.message.contains("is for host logs"), "{e}");
 }
 
@@ -205,7 +192,7 @@ fn a_card_header_in_a_capture_overrides_its_configuration_when_replayed() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("card.jsonl");
     std::fs::write(&path, format!("{head}\n{rest}")).unwrap();
-    let r = replay(&spec, &path).unwrap();
+    let r = explain(&spec, &path, None).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
     assert!(!r.explained());
 }

@@ -139,8 +139,8 @@ impl<W: Write> CaptureWriter<W> {
         })
     }
 
-    /// `cycles` servo cycles passed (background whenever possible): written as `run` steps
-    /// before the next step.
+    /// `cycles` servo cycles passed: written before the next step as `run` steps (exact
+    /// timing: background whenever possible) or `elapsed` ranges (a host's clock).
     pub fn elapse(&mut self, cycles: u64) {
         self.pending_cycles = self.pending_cycles.saturating_add(cycles);
     }
@@ -152,7 +152,17 @@ impl<W: Write> CaptureWriter<W> {
             // Long gaps become several steps: a reader takes at most STEP_CYCLES_MAX per step.
             let cycles = u32::try_from(self.pending_cycles.min(u64::from(STEP_CYCLES_MAX))).unwrap_or(STEP_CYCLES_MAX);
             self.pending_cycles -= u64::from(cycles);
-            self.write_line(Step { event: TraceEvent::Run { cycles }, expect: Expect::default(), note: None })?;
+            // An emulator's own clock is exact: the background ran whenever it could (`run`).
+            // A host's clock is not: the time is a range, and what happened in it is for
+            // replay's search to find (`elapsed`).
+            let event = match self.timing {
+                Timing::Exact => TraceEvent::Run { cycles },
+                Timing::HostClock { window_cycles } => TraceEvent::Elapsed {
+                    cycles_min: cycles.saturating_sub(window_cycles),
+                    cycles_max: Some(cycles.saturating_add(window_cycles).min(STEP_CYCLES_MAX)),
+                },
+            };
+            self.write_line(Step { event, expect: Expect::default(), note: None })?;
         }
         let mut notes = std::mem::take(&mut self.pending_notes);
         if let Some(own) = step.note.take() {

@@ -64,9 +64,10 @@ pub enum Plan {
     Idle { cycles: u32 },
     /// The supply dips below its minimum at the start of the gap and comes back (UM p.215).
     Undervoltage { cycles: u32 },
-    /// No background cycle completes in the whole gap (or until the card trips); with
-    /// `overrun`, because PLC 0 takes longer than an RTI period throughout.
-    Starved { cycles: u32, overrun: bool },
+    /// No background cycle completes in the whole gap (or until the card trips); for the
+    /// first `heavy` cycles (all of them if `heavy >= cycles`) because PLC 0 takes longer
+    /// than an RTI period.
+    Starved { cycles: u32, heavy: u32 },
     /// `lead`, then background cycles whenever the load allows (one fewer if `skip`), the last
     /// one `tail` servo cycles before the end of the gap; with `overrun_tail`, PLC 0 takes
     /// longer than an RTI period during the tail.
@@ -108,11 +109,16 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
             sim.event(Event::Supply { millivolts: cfg.supply_min_millivolts.max(5000) });
             sim.servo(cycles);
         }
-        Plan::Starved { cycles, overrun } => {
-            if overrun {
+        Plan::Starved { cycles, heavy } => {
+            let mut ran = 0u64;
+            if heavy > 0 {
                 sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
+                ran = sim.servo_until_trip(u64::from(heavy.min(cycles)));
+                if heavy < cycles {
+                    sim.event(Event::Load(sim::light_load()));
+                }
             }
-            let ran = sim.servo_until_trip(u64::from(cycles));
+            ran += sim.servo_until_trip(u64::from(cycles) - ran);
             // A tripped card's servo cycles change nothing; written for the witness's timing.
             sim.servo(cycles - ran as u32);
         }
@@ -227,7 +233,7 @@ pub fn successors(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hin
             StrobeStop::BelowZero => i64::from(card.counter) - i64::from(cycles),
         };
         if may_be_silent || hints.counter.is_none_or(|c| i64::from(c) == starved_counter) {
-            plans.push(Plan::Starved { cycles, overrun: false });
+            plans.push(Plan::Starved { cycles, heavy: 0 });
         }
         // Cycles since the last background cycle, from Y:$25 when it is read.
         let tail_max = u64::from(cycles.saturating_sub(1)).min((i64::from(r) + delay + 2).max(0) as u64) as u32;
@@ -247,7 +253,12 @@ pub fn successors(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hin
         };
         let overrun_wanted = (hints.rti_reentry_seen && !card.status.rti_reentry) || hints.rti_warning_seen;
         if overrun_wanted || may_be_silent {
-            plans.push(Plan::Starved { cycles, overrun: true });
+            plans.push(Plan::Starved { cycles, heavy: cycles });
+        }
+        if overrun_wanted && hints.counter.is_none_or(|c| i64::from(c) == starved_counter) {
+            for heavy in 1..(3 * (u32::from(card.i8) + 1) + 3).min(cycles) {
+                plans.push(Plan::Starved { cycles, heavy });
+            }
         }
         // PLC 0 longer than an RTI period at the start of the gap, for as long as it takes
         // the RTI to overrun and for up to a few periods more.

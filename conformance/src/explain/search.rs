@@ -25,6 +25,9 @@ use std::rc::Rc;
 const LOOKAHEAD_STEPS: usize = 32;
 /// How far it looks for the next status read, whose sticky bits an earlier gap may have set.
 const LOOKAHEAD_STICKY_STEPS: usize = 512;
+/// Servo cycles of later gaps beyond which a sticky bit seen later is left to them: an RTI
+/// overrun or a checksum fault fits in far fewer (an overrun needs about 3(I8+1) cycles).
+const STICKY_ROOM_CYCLES: u32 = 1024;
 
 /// A candidate: one model state the capture so far allows.
 #[derive(Clone, Debug)]
@@ -100,6 +103,7 @@ impl Reader {
         // only the sticky bits 22 and 13 of the next status read, which an earlier gap may
         // have to set (SRM p.289: they stay set until a reset).
         let mut in_window = true;
+        let mut later_cycles = 0u32;
         let mut i = 0;
         loop {
             if i == self.ahead.len() {
@@ -123,6 +127,13 @@ impl Reader {
                 );
                 if resets {
                     break;
+                }
+                if let TraceEvent::Elapsed { cycles_min, .. } = step.event {
+                    later_cycles = later_cycles.saturating_add(cycles_min);
+                    if later_cycles >= STICKY_ROOM_CYCLES {
+                        // A later gap has room to set the bit: this one need not try.
+                        break;
+                    }
                 }
                 in_window = false;
                 continue;

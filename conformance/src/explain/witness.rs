@@ -211,14 +211,14 @@ pub fn build(
                         "{between}: the logic supply dipped below its minimum (about 4.75 V, UM p.215) and the \
                          card tripped"
                     )),
-                    Plan::Starved { cycles, overrun } if sim.card.tripped() && !card.tripped() => story.push(format!(
+                    Plan::Starved { cycles, heavy } if sim.card.tripped() && !card.tripped() => story.push(format!(
                         "{between}: no background cycle completed{}, so nothing reloaded the counter (Y:$25 was \
                          {} at the start of the gap); it ran down, the strobe stopped and the card tripped within \
                          {cycles} servo cycles (UM p.215)",
-                        if overrun { " (PLC 0 overran every RTI period and took the CPU)" } else { "" },
+                        if heavy >= cycles { " (PLC 0 overran every RTI period and took the CPU)" } else { "" },
                         card.counter
                     )),
-                    Plan::Starved { overrun: true, .. } | Plan::Schedule { overrun_tail: true, .. } => story.push(format!(
+                    Plan::Starved { heavy: 1.., .. } | Plan::Schedule { overrun_tail: true, .. } => story.push(format!(
                         "{between}: PLC 0 (or another RTI task) ran longer than an RTI period and the RTI \
                          overran (bits 22 and 9, SRM p.289-290)"
                     )),
