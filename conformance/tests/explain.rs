@@ -109,7 +109,15 @@ fn generate(spec: &Spec, cfg: &ModelConfig, cpu: u8, gaps: &[GapGen]) -> String 
     };
     for g in gaps {
         if g.restart {
-            card.apply(cfg, &Event::Reset(ResetEvent { kind: ResetKind::Init, dpram_fault: false, flash_fault: false, bootstrap: false }));
+            card.apply(
+                cfg,
+                &Event::Reset(ResetEvent {
+                    kind: ResetKind::Init,
+                    dpram_fault: false,
+                    flash_fault: false,
+                    bootstrap: false,
+                }),
+            );
             lines.push(r#"{"restart":1}"#.into());
         }
         let mut rng = Rng(g.seed);
@@ -173,11 +181,52 @@ proptest! {
             eprintln!("slow case ({:.1} s, peak {} candidates):\n{text}", started.elapsed().as_secs_f64(), lanes[0].peak);
         }
         prop_assert!(lanes[0].death.is_none(), "not explained: {:?}\n{text}", lanes[0].death);
-        let (label, w) = report::witness_for(&spec, &path, None, def).unwrap();
-        let checked = witness::reproduces(&spec, &cfg, &w);
-        prop_assert!(checked.is_ok(), "{label}: {:?}\n{text}", checked);
+        // The explanation printed is checked on the model before it is called one.
+        let (_, w) = report::witness_for(&spec, &path, None, def).unwrap();
+        prop_assert_eq!(w.checked.clone(), Some(witness::reproduces(&spec, &cfg, &w)));
     }
 }
+
+/// How often the search explains, and its witness reproduces, a generated capture, over 300
+/// seeded captures of 1 to 7 polls. The property test above needs every capture of its cases
+/// explained; over these 300 a few edge cases of the plan families (a run-down or a tail off
+/// by one cycle at a parity or RTI-phase boundary) are missed, and a witness is rebuilt from
+/// one history per merged candidate and can miss too (then `replay` says so instead of
+/// calling it an explanation). The floors below are the rates measured when this test was
+/// written, less a margin; docs/replay.md gives the figures and the known misses.
+#[test]
+fn nearly_every_generated_capture_is_explained_and_its_witness_reproduces_it() {
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+    let spec = spec();
+    let mut runner = TestRunner::new_with_rng(Config::default(), TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]));
+    let strategy = (0usize..128, 0u8..4, proptest::collection::vec(gap_gen(), 1..8));
+    let (mut explained, mut reproduced, total) = (0, 0, 300);
+    for i in 0..total {
+        let (bits, cpu, gaps) = strategy.new_tree(&mut runner).unwrap().current();
+        let (def, cfg) = lane_for(&spec, bits);
+        let text = generate(&spec, &cfg, cpu, &gaps);
+        let path = temp_file(&format!("rate-{i}.jsonl"), &text);
+        let (lanes, _) = search::search(&spec, &path, None, vec![def.clone()], false).unwrap();
+        if lanes[0].death.is_none() {
+            explained += 1;
+            let (_, w) = report::witness_for(&spec, &path, None, def).unwrap();
+            if matches!(w.checked, Some(Ok(_))) {
+                reproduced += 1;
+            }
+        } else if std::env::var_os("PMACWD_SHOW_MISSES").is_some() {
+            eprintln!("not explained under {bits}: {:?}\n{text}", lanes[0].death);
+        }
+        let _ = std::fs::remove_file(&path);
+    }
+    eprintln!("explained: {explained} of {total}; witnesses reproduced: {reproduced} of {explained}");
+    assert!(explained * 100 >= total * EXPLAINED_PERCENT_MIN, "explained: {explained} of {total}");
+    assert!(reproduced * 100 >= explained * REPRODUCED_PERCENT_MIN, "reproduced: {reproduced} of {explained}");
+}
+
+/// The floors of the test above (measured: see docs/replay.md).
+const EXPLAINED_PERCENT_MIN: usize = 99;
+const REPRODUCED_PERCENT_MIN: usize = 90;
 
 /// A healthy capture: background cycles often, every observation kept.
 fn healthy(spec: &Spec, polls: usize) -> String {
@@ -298,8 +347,8 @@ fn one_capture_on_one_lane() {
     let bits: usize = std::env::var("PMACWD_READINGS").unwrap().parse().unwrap();
     let (def, _) = lane_for(&spec, bits);
     let (lanes, _) = search::search(&spec, &path, None, vec![def], false).unwrap();
-    println!("{:?}", lanes[0].death);
+    println!("{:?} peak {}", lanes[0].death, lanes[0].peak);
     for c in lanes[0].cands.iter().take(5) {
-        println!("{} {} {:?}", c.card.counter, c.card.counter_min, c.min_lo);
+        println!("Y:$25 {}..={} X:$25 {}..={}", c.counter_lo, c.card.counter, c.min_lo, c.card.counter_min);
     }
 }

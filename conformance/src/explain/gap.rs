@@ -189,10 +189,12 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
     Some(sim)
 }
 
-/// One successor: the card after the gap, with X:$25 anywhere in `min_lo..=card.counter_min`.
+/// One successor: the card after the gap, with X:$25 anywhere in `min_lo..=card.counter_min`
+/// and Y:$25 anywhere in `counter_lo..=card.counter`.
 #[derive(Clone, Debug)]
 pub struct Outcome {
     pub card: Controller,
+    pub counter_lo: i32,
     pub min_lo: i32,
     /// The plan reaching the top of the interval, and one reaching its bottom.
     pub plan_hi: Plan,
@@ -214,9 +216,36 @@ fn cycles_to_trip(cfg: &ModelConfig, card: &Controller, max: u64) -> u64 {
     }
 }
 
-/// Every card the search keeps after `cycles` unseen servo cycles from `card`, grouped so
-/// that cards differing only in X:$25 are one outcome with an interval.
-pub fn successors(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -> Vec<Outcome> {
+/// Every card the search keeps after `cycles` unseen servo cycles from a card whose Y:$25 is
+/// anywhere in `counter_lo..=card.counter`, grouped so that cards differing only in X:$25 (and,
+/// when the steps after the gap do not read it, Y:$25) are one outcome with intervals.
+pub fn successors(cfg: &ModelConfig, card: &Controller, counter_lo: i32, cycles: u32, hints: &Hints) -> Vec<Outcome> {
+    let mut runs: Vec<(Controller, Plan)> = Vec::new();
+    let mut starts = vec![card.clone()];
+    if counter_lo < card.counter {
+        let mut lo = card.clone();
+        lo.counter = counter_lo;
+        starts.push(lo);
+        // Y:$25 read after a gap with no background cycle: the start it ran down from.
+        if let Some(v) = hints.counter {
+            let from = i64::from(v) + i64::from(cycles);
+            if from > i64::from(counter_lo) && from < i64::from(card.counter) {
+                let mut mid = card.clone();
+                mid.counter = from as i32;
+                starts.push(mid);
+            }
+        }
+    }
+    for start in starts {
+        for plan in plans_for(cfg, &start, cycles, hints) {
+            runs.push((start.clone(), plan));
+        }
+    }
+    group(cfg, runs, hints.counter.is_none())
+}
+
+/// The plans tried from `card`.
+fn plans_for(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -> Vec<Plan> {
     let mut plans: Vec<Plan> = Vec::new();
     if card.tripped() || card.bootstrap {
         plans.push(Plan::Idle { cycles });
@@ -249,7 +278,18 @@ pub fn successors(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hin
                 }
                 t
             }
-            _ => (0..=tail_max).collect(),
+            // Y:$25 not read: every tail is possible. Tails while the counter stays well above
+            // zero lead to the same card but for Y:$25 (and the checksum area, which `skip`
+            // covers), so a few stand for all of them and the outcome keeps Y:$25 as an
+            // interval; near zero, where the strobe stops, every tail is tried.
+            _ => {
+                let risky_from = (i64::from(r) - i64::from(card.i8) - 3).max(0) as u32;
+                let safe_top = tail_max.min(risky_from.saturating_sub(1));
+                let mut t: std::collections::BTreeSet<u32> =
+                    [0, 1, 2, safe_top.saturating_sub(1), safe_top].into_iter().collect();
+                t.extend(risky_from..=tail_max);
+                t.into_iter().filter(|k| *k <= tail_max).collect()
+            }
         };
         let overrun_wanted = (hints.rti_reentry_seen && !card.status.rti_reentry) || hints.rti_warning_seen;
         if overrun_wanted || may_be_silent {
@@ -299,8 +339,7 @@ pub fn successors(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hin
                     }
                     start.servo(1);
                     if start.background() {
-                        let stretch =
-                            cycles_to_trip(cfg, &start.card, bound).saturating_sub(1).min(u64::from(room));
+                        let stretch = cycles_to_trip(cfg, &start.card, bound).saturating_sub(1).min(u64::from(room));
                         if stretch >= 1 {
                             leads.push(Lead::Stretch(stretch as u32));
                         }
@@ -321,8 +360,9 @@ pub fn successors(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hin
                         let Some(span) = cycles.checked_sub(tail + heavy) else { continue };
                         let lead = match lead {
                             // A lead deeper than the gap allows is the deepest the gap allows.
-                            Lead::FirstAfter(j) => Lead::FirstAfter(j.min(span)),
-                            Lead::Stretch(s) => Lead::Stretch(s.min(span.saturating_sub(1))),
+                            // (With `skip`, one more cycle without a background cycle must fit.)
+                            Lead::FirstAfter(j) => Lead::FirstAfter(j.min(span.saturating_sub(2 * u32::from(skip)))),
+                            Lead::Stretch(s) => Lead::Stretch(s.min(span.saturating_sub(1 + 2 * u32::from(skip)))),
                             l => l,
                         };
                         plans.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_tail });
@@ -331,36 +371,95 @@ pub fn successors(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hin
             }
         }
     }
-    group(cfg, card, plans)
+    plans
 }
 
-/// Runs every plan and merges the results that differ only in X:$25 into intervals.
-fn group(cfg: &ModelConfig, card: &Controller, plans: Vec<Plan>) -> Vec<Outcome> {
-    let mut by_state: HashMap<Controller, Outcome> = HashMap::new();
+/// Runs every plan and merges the results that differ only in X:$25 into intervals; with
+/// `merge_counter`, also those that differ only in Y:$25 (and the background's CPU credit,
+/// which no plan uses before a servo cycle refills it), over contiguous runs of values.
+///
+/// MODEL (search): merged, Y:$25 and X:$25 are two intervals with X:$25 <= Y:$25, which
+/// allows pairs a run of the model would not reach together when both are read after a later
+/// gap; docs/replay.md, "What the search keeps", says where this matters.
+fn group(cfg: &ModelConfig, runs: Vec<(Controller, Plan)>, merge_counter: bool) -> Vec<Outcome> {
+    struct Point {
+        card: Controller,
+        min_lo: i32,
+        plan_hi: Plan,
+        plan_lo: Plan,
+    }
+    let mut by_state: HashMap<(Controller, u8), std::collections::BTreeMap<i32, Point>> = HashMap::new();
     let mut seen = std::collections::HashSet::new();
-    for plan in plans {
-        if !seen.insert(plan) {
+    for (start, plan) in runs {
+        if !seen.insert((start.counter, plan)) {
             continue;
         }
-        let Some(sim) = run(cfg, card, plan, false) else { continue };
+        let Some(sim) = run(cfg, &start, plan, false) else { continue };
         let mut end = sim.card;
         super::normalize(&mut end);
         let min = end.counter_min;
         let mut key = end.clone();
         key.counter_min = i32::MIN;
-        by_state
-            .entry(key)
-            .and_modify(|o| {
-                if min > o.card.counter_min {
-                    o.card.counter_min = min;
-                    o.plan_hi = plan;
+        // Y:$25 values merge within one kind of plan only: a starved gap's counter and a
+        // scheduled one's lie apart, with values between that neither reaches.
+        let kind = match plan {
+            Plan::Idle { .. } => 0u8,
+            Plan::Undervoltage { .. } => 1,
+            Plan::Starved { .. } => 2,
+            Plan::Schedule { .. } => 3,
+        };
+        if merge_counter {
+            key.counter = i32::MIN;
+            key.background_credit = 0;
+        }
+        let points = by_state.entry((key, kind)).or_default();
+        match points.get_mut(&end.counter) {
+            Some(p) => {
+                if min > p.card.counter_min {
+                    p.card.counter_min = min;
+                    p.plan_hi = plan;
                 }
-                if min < o.min_lo {
-                    o.min_lo = min;
-                    o.plan_lo = plan;
+                if min < p.min_lo {
+                    p.min_lo = min;
+                    p.plan_lo = plan;
                 }
-            })
-            .or_insert(Outcome { card: end, min_lo: min, plan_hi: plan, plan_lo: plan });
+            }
+            None => {
+                points.insert(end.counter, Point { card: end, min_lo: min, plan_hi: plan, plan_lo: plan });
+            }
+        }
     }
-    by_state.into_values().collect()
+    let mut out = Vec::new();
+    for points in by_state.into_values() {
+        // With `merge_counter`, every Y:$25 value of one kind of plan is one outcome (the
+        // tails tried stand for those between them); otherwise each value is its own.
+        let mut run: Option<Outcome> = None;
+        for (counter, p) in points {
+            match &mut run {
+                Some(o) if merge_counter => {
+                    let _ = counter;
+                    o.min_lo = o.min_lo.min(p.min_lo);
+                    if p.card.counter_min >= o.card.counter_min {
+                        o.plan_hi = p.plan_hi;
+                    }
+                    let counter_min = o.card.counter_min.max(p.card.counter_min);
+                    o.card = Controller { counter_min, ..p.card };
+                }
+                _ => {
+                    if let Some(o) = run.take() {
+                        out.push(o);
+                    }
+                    run = Some(Outcome {
+                        counter_lo: counter,
+                        card: p.card,
+                        min_lo: p.min_lo,
+                        plan_hi: p.plan_hi,
+                        plan_lo: p.plan_lo,
+                    });
+                }
+            }
+        }
+        out.extend(run);
+    }
+    out
 }

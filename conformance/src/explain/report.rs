@@ -169,18 +169,28 @@ pub fn witness_for(
     let label = lanes::label(&def.choices);
     let (lanes, _) = search::search(spec, path, import_configuration, vec![def], true)?;
     let lane: &Lane = &lanes[0];
-    // Prefer a running card at the end, then the shallowest X:$25.
-    let best = lane
-        .cands
-        .iter()
-        .min_by_key(|c| (c.card.tripped(), -c.card.counter_min, c.cpu))
-        .and_then(|c| c.node.clone())
-        .ok_or_else(|| SpecError::whole_file(path, "the second search found no explanation the first one found"))?;
-    let mut w = witness::build(spec, &lane.cfg, path, import_configuration, &best)?;
-    w.cpu_decided = lane.cands.iter().all(|c| c.cpu == w.cpu);
-    w.checked = Some(witness::reproduces(spec, &lane.cfg, &w));
-    Ok((label, w))
+    // Prefer a running card at the end, then the shallowest X:$25; a merged candidate keeps
+    // one history, so the first whose witness reproduces the capture is taken.
+    let mut cands: Vec<&search::Cand> = lane.cands.iter().filter(|c| c.node.is_some()).collect();
+    cands.sort_by_key(|c| (c.card.tripped(), -c.card.counter_min, c.cpu));
+    let mut first: Option<Witness> = None;
+    for c in cands.iter().take(WITNESS_TRIES) {
+        let node = c.node.clone().expect("filtered");
+        let mut w = witness::build(spec, &lane.cfg, path, import_configuration, &node)?;
+        w.cpu_decided = lane.cands.iter().all(|o| o.cpu == w.cpu);
+        w.checked = Some(witness::reproduces(spec, &lane.cfg, &w));
+        if matches!(w.checked, Some(Ok(_))) {
+            return Ok((label, w));
+        }
+        first.get_or_insert(w);
+    }
+    first
+        .map(|w| (label, w))
+        .ok_or_else(|| SpecError::whole_file(path, "the second search found no explanation the first one found"))
 }
+
+/// How many end candidates are tried for a witness that reproduces the capture.
+const WITNESS_TRIES: usize = 16;
 
 /// When some explaining card is tripped at the end: every cause that remains possible.
 fn diagnose(lanes: &[Lane]) -> Option<Diagnosis> {
@@ -192,7 +202,8 @@ fn diagnose(lanes: &[Lane]) -> Option<Diagnosis> {
     let mut d = Diagnosis::default();
     let has = |cause: TripCause| tripped.iter().any(|c| c.card.trip == Some(cause));
     if has(TripCause::StrobeTimeout) {
-        let overran = tripped.iter().any(|c| c.card.trip == Some(TripCause::StrobeTimeout) && c.card.status.rti_reentry);
+        let overran =
+            tripped.iter().any(|c| c.card.trip == Some(TripCause::StrobeTimeout) && c.card.status.rti_reentry);
         let mut s = STARVED.to_string();
         if overran {
             s.push_str("; RTI overruns (bit 22) had been seen, which points at PLC 0 or move planning");
@@ -263,8 +274,12 @@ pub fn to_text(r: &Report) -> String {
         s.push_str("named profiles:\n");
         for (name, default, explains) in &r.profiles {
             let tag = if *default { " (default)" } else { "" };
-            let _ =
-                writeln!(s, "  {:<30} {}", format!("{name}{tag}"), if *explains { "explains" } else { "does not explain" });
+            let _ = writeln!(
+                s,
+                "  {:<30} {}",
+                format!("{name}{tag}"),
+                if *explains { "explains" } else { "does not explain" }
+            );
         }
     }
     if let Some((label, w)) = &r.witness {
@@ -359,10 +374,7 @@ pub fn to_json(r: &Report) -> String {
                     (o.to_string(), v)
                 })
                 .collect();
-            (
-                rv.reading.to_string(),
-                serde_json::json!({"not_exercised": rv.not_exercised, "options": opts}),
-            )
+            (rv.reading.to_string(), serde_json::json!({"not_exercised": rv.not_exercised, "options": opts}))
         })
         .collect();
     let lanes: Vec<serde_json::Value> = r
@@ -374,11 +386,8 @@ pub fn to_json(r: &Report) -> String {
                 "candidates_peak": l.candidates_peak})
         })
         .collect();
-    let profiles: Vec<serde_json::Value> = r
-        .profiles
-        .iter()
-        .map(|(n, d, e)| serde_json::json!({"profile": n, "default": d, "explains": e}))
-        .collect();
+    let profiles: Vec<serde_json::Value> =
+        r.profiles.iter().map(|(n, d, e)| serde_json::json!({"profile": n, "default": d, "explains": e})).collect();
     serde_json::json!({
         "file": r.file.display().to_string(), "events": r.events, "configuration": r.configuration,
         "explained": r.explained(), "readings": readings, "lanes": lanes, "profiles": profiles,

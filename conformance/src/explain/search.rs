@@ -32,7 +32,10 @@ const STICKY_ROOM_CYCLES: u32 = 1024;
 /// A candidate: one model state the capture so far allows.
 #[derive(Clone, Debug)]
 pub struct Cand {
+    /// Y:$25 is anywhere in `counter_lo..=card.counter` (the steps after a gap did not read
+    /// it); X:$25 in `min_lo..=card.counter_min`, and never above Y:$25.
     pub card: Controller,
+    pub counter_lo: i32,
     /// X:$25 is anywhere in `min_lo..=card.counter_min`.
     pub min_lo: i32,
     /// The CPU type, 0..=3 (SRM p.289: X bit 21 is bit 1, Y bit 21 is bit 0).
@@ -244,12 +247,58 @@ pub fn observation(spec: &Spec, cfg: &ModelConfig, c: &Cand, reply: Reply) -> pm
     obs
 }
 
+/// Applies `f` to a candidate and, if its Y:$25 is an interval, to the card at the interval's
+/// bottom as well: one candidate again when the two agree but for Y:$25 and X:$25, else both
+/// ends as candidates of their own. Returns each with the reply `f` gave.
+fn both_ends(c: &Cand, reply_seen: bool, mut f: impl FnMut(&mut Controller) -> Reply) -> Vec<(Cand, Reply)> {
+    let mut hi = c.clone();
+    let reply = f(&mut hi.card);
+    normalize(&mut hi.card);
+    if c.counter_lo == c.card.counter {
+        hi.counter_lo = hi.card.counter;
+        return vec![(hi, reply)];
+    }
+    let mut lo = c.clone();
+    lo.card.counter = c.counter_lo;
+    lo.card.counter_min = lo.card.counter_min.min(c.counter_lo);
+    let lo_reply = f(&mut lo.card);
+    normalize(&mut lo.card);
+    let same = {
+        let (mut a, mut b) = (hi.card.clone(), lo.card.clone());
+        a.counter = 0;
+        b.counter = 0;
+        a.counter_min = 0;
+        b.counter_min = 0;
+        a.background_credit = 0;
+        b.background_credit = 0;
+        // A reply nobody recorded (an unread Y:$25) does not split the interval.
+        a == b && (reply == lo_reply || !reply_seen)
+    };
+    if same && lo.card.counter <= hi.card.counter {
+        hi.counter_lo = lo.card.counter;
+        hi.min_lo = hi.min_lo.min(lo.card.counter_min);
+        vec![(hi, reply)]
+    } else {
+        hi.counter_lo = hi.card.counter;
+        lo.counter_lo = lo.card.counter;
+        lo.min_lo = lo.min_lo.min(lo.card.counter_min);
+        vec![(hi, reply), (lo, lo_reply)]
+    }
+}
+
+/// The Y:$25 value a step reads, if it reads one.
+fn counter_read(step: &Step) -> Option<i32> {
+    match (&step.event, step.expect.reply.as_deref()) {
+        (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::WatchdogCounter))), Some(r)) => signed_word(r),
+        _ => None,
+    }
+    .or(step.expect.counter)
+}
+
 /// The X:$25 value a step reads, if it reads one.
 fn min_read(step: &Step) -> Option<i32> {
     match (&step.event, step.expect.reply.as_deref()) {
-        (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::WatchdogMinimum))), Some(r)) => {
-            signed_word(r)
-        }
+        (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::WatchdogMinimum))), Some(r)) => signed_word(r),
         _ => None,
     }
     .or(step.expect.counter_min)
@@ -291,6 +340,7 @@ impl Lane {
         normalize(&mut card);
         let cands = (0..4u8)
             .map(|cpu| Cand {
+                counter_lo: card.counter,
                 card: card.clone(),
                 min_lo: card.counter_min,
                 cpu,
@@ -321,35 +371,30 @@ impl Lane {
         let cfg = &self.cfg;
         // Candidates that differ only in X:$25 are kept as one when their intervals meet: the
         // union of two overlapping intervals is exactly the values either allows.
-        let mut next: HashMap<(Controller, u8), Vec<Cand>> = HashMap::new();
+        let mut next: HashMap<(Controller, i32, u8), Vec<Cand>> = HashMap::new();
         let mut count = 0usize;
         let mut first_failure: Option<(String, String, String)> = None;
         let before = self.cands.len();
         let label = super::lanes::label(&self.def.choices);
-        let mut insert = |c: Cand, next: &mut HashMap<(Controller, u8), Vec<Cand>>| -> Result<(), SpecError> {
+        let mut insert = |c: Cand, next: &mut HashMap<(Controller, i32, u8), Vec<Cand>>| -> Result<(), SpecError> {
             let mut key = c.card.clone();
             key.counter_min = i32::MIN;
-            let same = next.entry((key, c.cpu)).or_default();
+            let same = next.entry((key, c.counter_lo, c.cpu)).or_default();
             let (lo, hi) = (c.min_lo, c.card.counter_min);
-            // With witnesses recorded, a merged candidate keeps one history, which must reach
-            // every value of its interval: merge only when one interval holds the other.
-            let meets = |o: &Cand| {
-                if record {
-                    (o.min_lo <= lo && hi <= o.card.counter_min) || (lo <= o.min_lo && o.card.counter_min <= hi)
-                } else {
-                    lo <= o.card.counter_min.saturating_add(1) && o.min_lo <= hi.saturating_add(1)
-                }
-            };
+            // Overlapping X:$25 intervals are one candidate. With witnesses recorded, the merged
+            // candidate keeps the history of the wider interval; a value only the other history
+            // reaches would show up as an explanation that does not reproduce (checked before
+            // one is printed).
+            let meets = |o: &Cand| lo <= o.card.counter_min.saturating_add(1) && o.min_lo <= hi.saturating_add(1);
             match same.iter_mut().find(|o| meets(o)) {
                 Some(o) => {
-                    if record && lo <= o.min_lo && o.card.counter_min <= hi {
-                        *o = c;
-                    } else {
-                        if hi > o.card.counter_min {
-                            o.card.counter_min = hi;
-                        }
-                        o.min_lo = o.min_lo.min(lo);
+                    if record && i64::from(hi) - i64::from(lo) > i64::from(o.card.counter_min) - i64::from(o.min_lo) {
+                        o.node = c.node.clone();
                     }
+                    if hi > o.card.counter_min {
+                        o.card.counter_min = hi;
+                    }
+                    o.min_lo = o.min_lo.min(lo);
                 }
                 None => {
                     same.push(c);
@@ -374,7 +419,7 @@ impl Lane {
             match &step.event {
                 TraceEvent::Elapsed { cycles_min, cycles_max } => {
                     for n in cycle_set(*cycles_min, *cycles_max, &cand.card, cfg) {
-                        for o in gap::successors(cfg, &cand.card, n, hints) {
+                        for o in gap::successors(cfg, &cand.card, cand.counter_lo, n, hints) {
                             let node = cand.node.as_ref().filter(|_| record).map(|p| {
                                 Rc::new(Node {
                                     parent: Some(p.clone()),
@@ -388,7 +433,10 @@ impl Lane {
                                 })
                             });
                             let min_lo = cand.min_lo.min(o.min_lo);
-                            results.push((Cand { card: o.card, min_lo, cpu: cand.cpu, node }, Reply::None));
+                            results.push((
+                                Cand { card: o.card, counter_lo: o.counter_lo, min_lo, cpu: cand.cpu, node },
+                                Reply::None,
+                            ));
                         }
                     }
                 }
@@ -401,15 +449,19 @@ impl Lane {
                             Rc::new(Node { parent: Some(p.clone()), event: event_no, kind: NodeKind::Restart(reset) })
                         });
                         let min_lo = card.counter_min;
-                        results.push((Cand { card, min_lo, cpu: cand.cpu, node }, Reply::None));
+                        results
+                            .push((Cand { counter_lo: card.counter, card, min_lo, cpu: cand.cpu, node }, Reply::None));
                     }
                 }
                 TraceEvent::Run { cycles } => {
-                    let mut s = Sim::new(cfg, cand.card.clone(), false);
-                    s.greedy(*cycles);
-                    let mut card = s.card;
-                    normalize(&mut card);
-                    results.push((Cand { card, ..cand.clone() }, Reply::None));
+                    for c in both_ends(&cand, false, |card| {
+                        let mut s = Sim::new(cfg, card.clone(), false);
+                        s.greedy(*cycles);
+                        *card = s.card;
+                        Reply::None
+                    }) {
+                        results.push(c);
+                    }
                 }
                 TraceEvent::Model(Event::Background) if !cand.card.background_possible() => {
                     first_failure.get_or_insert((
@@ -420,6 +472,32 @@ impl Lane {
                 }
                 TraceEvent::Model(e) => {
                     let mut c = cand.clone();
+                    // Y:$25 read: its interval narrows to the value read, if it holds it.
+                    if let Some(v) = counter_read(step) {
+                        if (c.counter_lo..=c.card.counter).contains(&v) {
+                            if c.counter_lo != c.card.counter {
+                                c.node = c.node.as_ref().map(|p| {
+                                    Rc::new(Node {
+                                        parent: Some(p.clone()),
+                                        event: event_no,
+                                        kind: NodeKind::CounterPin(v),
+                                    })
+                                });
+                            }
+                            c.card.counter = v;
+                            c.counter_lo = v;
+                            // X:$25 is the lowest value since reset, Y:$25's included.
+                            c.card.counter_min = c.card.counter_min.min(v);
+                            if c.min_lo > c.card.counter_min {
+                                first_failure.get_or_insert((
+                                    "X:$25 <= Y:$25".into(),
+                                    format!("Y:$25 = {v}"),
+                                    format!("X:$25 at least {}", c.min_lo),
+                                ));
+                                continue;
+                            }
+                        }
+                    }
                     // X:$25 read: the interval narrows to the value read, if it holds it.
                     if let Some(v) = min_read(step) {
                         if (c.min_lo..=c.card.counter_min).contains(&v) {
@@ -430,11 +508,13 @@ impl Lane {
                             }
                             c.card.counter_min = v;
                             c.min_lo = v;
+                            // Y:$25 is never below X:$25.
+                            c.counter_lo = c.counter_lo.max(v.min(c.card.counter));
                         }
                     }
-                    let reply = c.card.apply(cfg, e);
-                    normalize(&mut c.card);
-                    results.push((c, reply));
+                    for r in both_ends(&c, step.expect.reply.is_some(), |card| card.apply(cfg, e)) {
+                        results.push(r);
+                    }
                 }
             }
             for (c, reply) in results {
@@ -488,7 +568,8 @@ pub fn search(
         if lanes.iter().all(|l| !l.alive()) {
             continue;
         }
-        let hints = if matches!(step.event, TraceEvent::Elapsed { .. }) { reader.hints(spec)? } else { Hints::default() };
+        let hints =
+            if matches!(step.event, TraceEvent::Elapsed { .. }) { reader.hints(spec)? } else { Hints::default() };
         for lane in &mut lanes {
             lane.step(spec, path, event_no, line, &step, &hints)?;
         }

@@ -41,8 +41,10 @@ impl<'a> Sim<'a> {
     fn push(&mut self, e: TraceEvent) {
         if let Some(events) = &mut self.events {
             // Consecutive servo runs are written as one step.
-            if let (Some(TraceEvent::Model(Event::Servo { cycles: a })), TraceEvent::Model(Event::Servo { cycles: b })) =
-                (events.last_mut(), &e)
+            if let (
+                Some(TraceEvent::Model(Event::Servo { cycles: a })),
+                TraceEvent::Model(Event::Servo { cycles: b }),
+            ) = (events.last_mut(), &e)
             {
                 if let Some(sum) = a.checked_add(*b) {
                     *a = sum;

@@ -24,11 +24,20 @@ pub struct Node {
 }
 
 pub enum NodeKind {
-    Start { cpu: u8 },
-    Gap { plan_hi: Plan, plan_lo: Plan, lo: i32, end: Controller },
+    Start {
+        cpu: u8,
+    },
+    Gap {
+        plan_hi: Plan,
+        plan_lo: Plan,
+        lo: i32,
+        end: Controller,
+    },
     Restart(ResetEvent),
     /// X:$25 read as this value, where the search had an interval.
     Pin(i32),
+    /// Y:$25 read as this value, where the search had an interval.
+    CounterPin(i32),
 }
 
 impl std::fmt::Debug for Node {
@@ -92,6 +101,7 @@ fn realize<'a>(
     card: &Controller,
     node: (&Plan, &Plan, &Controller),
     need: Option<i32>,
+    need_counter: Option<i32>,
 ) -> Option<Sim<'a>> {
     let (plan_hi, plan_lo, end) = node;
     let same_end = |c: &Controller| {
@@ -100,11 +110,19 @@ fn realize<'a>(
         let mut b = end.clone();
         a.counter_min = 0;
         b.counter_min = 0;
+        a.background_credit = 0;
+        b.background_credit = 0;
+        // Y:$25 may have been merged into an interval by the search: a Y:$25 read that
+        // matters is met through `need_counter`, and the whole witness is checked at the end.
+        a.counter = 0;
+        b.counter = 0;
         a == b
     };
-    let Some(need) = need else {
+    let fits = |c: &Controller| need.is_none_or(|v| c.counter_min == v) && need_counter.is_none_or(|v| c.counter == v);
+    if need.is_none() && need_counter.is_none() {
         return gap::run(cfg, card, *plan_hi, true);
-    };
+    }
+    let r = i64::from(cfg.reset_value(card.i40));
     let mut tries = vec![*plan_hi, *plan_lo];
     let heavies = 0..=3 * (u32::from(card.i8) + 1) + 2;
     for (base, heavy) in [*plan_hi, *plan_lo].into_iter().flat_map(|b| heavies.clone().map(move |h| (b, h))) {
@@ -112,18 +130,29 @@ fn realize<'a>(
             if heavy >= cycles {
                 continue;
             }
-            let r = i64::from(cfg.reset_value(card.i40));
+            let tail = match need_counter {
+                Some(v) => match u32::try_from(r - i64::from(v)) {
+                    Ok(t) if t < cycles => t,
+                    _ => continue,
+                },
+                None => tail,
+            };
             let c0 = match cfg.profile.choices.strobe_stop {
                 pmacwd_specs::profiles::StrobeStop::AtZero => (i64::from(card.counter) - i64::from(heavy)).max(0),
                 pmacwd_specs::profiles::StrobeStop::BelowZero => i64::from(card.counter) - i64::from(heavy),
             };
-            for lead in [
-                (c0 - i64::from(need)).try_into().ok().filter(|j| *j > 0).map(Lead::FirstAfter),
-                (r - i64::from(need)).try_into().ok().filter(|s| *s > 0).map(Lead::Stretch),
-            ]
-            .into_iter()
-            .flatten()
-            {
+            let mut leads = vec![Lead::Steady];
+            if let Some(need) = need {
+                leads.extend(
+                    [
+                        (c0 - i64::from(need)).try_into().ok().filter(|j| *j > 0).map(Lead::FirstAfter),
+                        (r - i64::from(need)).try_into().ok().filter(|s| *s > 0).map(Lead::Stretch),
+                    ]
+                    .into_iter()
+                    .flatten(),
+                );
+            }
+            for lead in leads {
                 for skip in [false, true] {
                     tries.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_tail });
                 }
@@ -134,7 +163,7 @@ fn realize<'a>(
     for plan in tries {
         if let Some(sim) = gap::run(cfg, card, plan, true) {
             if same_end(&sim.card) {
-                if sim.card.counter_min == need {
+                if fits(&sim.card) {
                     return Some(sim);
                 }
                 fallback.get_or_insert(sim);
@@ -186,6 +215,27 @@ pub fn build(
             }
         }
     }
+    // Each Y:$25 read that narrowed an interval is met by the latest gap before it with a
+    // background cycle (through the starved gaps in between, which only shift the counter).
+    let mut counter_targets: std::collections::HashMap<usize, i32> = std::collections::HashMap::new();
+    for (p, node) in nodes.iter().enumerate() {
+        if let NodeKind::CounterPin(v) = node.kind {
+            let mut v = i64::from(v);
+            for g in (0..p).rev() {
+                match &nodes[g].kind {
+                    NodeKind::Gap { plan_hi: Plan::Starved { cycles, .. }, .. } => v += i64::from(*cycles),
+                    NodeKind::Gap { .. } => {
+                        if let Ok(v) = i32::try_from(v) {
+                            counter_targets.insert(g, v);
+                        }
+                        break;
+                    }
+                    NodeKind::Restart(_) | NodeKind::Start { .. } => break,
+                    NodeKind::Pin(_) | NodeKind::CounterPin(_) => {}
+                }
+            }
+        }
+    }
     while let Some((line, step)) = source.next_step()? {
         event += 1;
         while at < nodes.len() && nodes[at].event < event {
@@ -200,7 +250,8 @@ pub fn build(
                     continue;
                 };
                 let need = targets.get(&at).copied();
-                let Some(sim) = realize(cfg, &card, (plan_hi, plan_lo, end), need) else {
+                let Some(sim) = realize(cfg, &card, (plan_hi, plan_lo, end), need, counter_targets.get(&at).copied())
+                else {
                     story.push(format!("line {line}: (the recorded plan could not be replayed)"));
                     continue;
                 };
@@ -218,10 +269,12 @@ pub fn build(
                         if heavy >= cycles { " (PLC 0 overran every RTI period and took the CPU)" } else { "" },
                         card.counter
                     )),
-                    Plan::Starved { heavy: 1.., .. } | Plan::Schedule { overrun_tail: true, .. } => story.push(format!(
-                        "{between}: PLC 0 (or another RTI task) ran longer than an RTI period and the RTI \
+                    Plan::Starved { heavy: 1.., .. } | Plan::Schedule { overrun_tail: true, .. } => {
+                        story.push(format!(
+                            "{between}: PLC 0 (or another RTI task) ran longer than an RTI period and the RTI \
                          overran (bits 22 and 9, SRM p.289-290)"
-                    )),
+                        ))
+                    }
                     Plan::Schedule { heavy: 1.., .. } => story.push(format!(
                         "{between}: an RTI task set (PLC 0, move planning) ran longer than an RTI period, so the \
                          next RTI overran (bits 22 and 9, SRM p.289-290)"
@@ -240,8 +293,7 @@ pub fn build(
                 push_events(&mut steps, sim.events.unwrap_or_default(), step.note.clone());
             }
             TraceEvent::Restart => {
-                let Some(NodeKind::Restart(reset)) = nodes.get(at).filter(|n| n.event == event).map(|n| &n.kind)
-                else {
+                let Some(NodeKind::Restart(reset)) = nodes.get(at).filter(|n| n.event == event).map(|n| &n.kind) else {
                     story.push(format!("line {line}: (no choice recorded for this restart)"));
                     continue;
                 };
@@ -294,7 +346,8 @@ pub fn build(
 /// that does not hold. An explanation is only printed once this holds.
 pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> Result<usize, String> {
     use super::search::{observation, Cand};
-    let mut cand = Cand { card: Controller::power_on(cfg), min_lo: 0, cpu: w.cpu, node: None };
+    let card = Controller::power_on(cfg);
+    let mut cand = Cand { counter_lo: card.counter, card, min_lo: 0, cpu: w.cpu, node: None };
     let mut checked = 0;
     for (i, step) in w.steps.iter().enumerate() {
         let reply = match &step.event {
