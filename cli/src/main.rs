@@ -118,6 +118,11 @@ enum Command {
         /// what the log itself reads (I8, I40, I41, I10) overrides it.
         #[arg(long, value_name = "NAME")]
         configuration: Option<String>,
+        /// Write the explanation as a trace: the capture with every unseen gap replaced by the
+        /// model events the search chose. JSON Lines, or YAML if FILE ends in .yaml (which
+        /// `pmacwd run FILE` replays on the model).
+        #[arg(long, value_name = "FILE")]
+        witness: Option<PathBuf>,
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
@@ -208,8 +213,8 @@ fn main() -> ExitCode {
         Command::Serve(args) => serve::serve(args),
         Command::Record(args) => record::record(args),
         Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
-        Command::Replay { file, format, specs, configuration } => {
-            replay::replay_file(&file, format, specs, configuration)
+        Command::Replay { file, format, specs, configuration, witness } => {
+            replay::replay_file(&file, format, specs, configuration, witness)
         }
         Command::Import { log, out, configuration, yaml } => import::import_log(&log, out, &configuration, yaml),
         Command::Check { specs, profile, configuration, witnesses, threads, no_conformance } => {

@@ -15,6 +15,7 @@ pub fn replay_file(
     format: Format,
     specs: Option<PathBuf>,
     configuration: Option<String>,
+    witness: Option<PathBuf>,
 ) -> ExitCode {
     let spec = match load_spec(&specs) {
         Ok(s) => s,
@@ -23,6 +24,29 @@ pub fn replay_file(
     use pmacwd_conformance::explain::report;
     match report::explain(&spec, file, configuration.as_deref()) {
         Ok(report) => {
+            if let (Some(out), Some((readings, w))) = (&witness, &report.witness) {
+                let written = std::fs::File::create(out).and_then(|f| {
+                    let mut f = std::io::BufWriter::new(f);
+                    pmacwd_conformance::explain::witness::write_trace(
+                        &spec,
+                        &mut f,
+                        out.extension().is_some_and(|e| e == "yaml" || e == "yml"),
+                        w,
+                        &report.configuration,
+                        report.card.as_ref(),
+                        readings,
+                        report.witness_profiles.clone(),
+                    )?;
+                    std::io::Write::flush(&mut f)
+                });
+                if let Err(e) = written {
+                    eprintln!("pmacwd: {}: cannot write the witness: {e}", out.display());
+                    return ExitCode::from(2);
+                }
+                eprintln!("pmacwd: the explanation written to {} ({} steps)", out.display(), w.steps.len());
+            } else if let Some(out) = &witness {
+                eprintln!("pmacwd: no explanation to write to {}: the capture is not explained", out.display());
+            }
             match format {
                 Format::Text => print!("{}", report::to_text(&report)),
                 Format::Json => println!("{}", report::to_json(&report)),

@@ -196,3 +196,57 @@ fn a_card_header_in_a_capture_overrides_its_configuration_when_replayed() {
     let _ = std::fs::remove_dir_all(&dir);
     assert!(!r.explained());
 }
+
+#[test]
+fn a_healthy_geo_brick_with_a_dsp56321_is_explained_and_its_cpu_type_is_read_from_the_status_word() {
+    // SRM p.289: bits 21 of the two ??? words give the CPU type; the search takes it as what
+    // the card is, not as a divergence.
+    let spec = Spec::embedded().unwrap();
+    let r = explain(&spec, &capture("healthy-dsp56321.log"), None).unwrap();
+    assert!(r.explained());
+    let (_, w) = r.witness.as_ref().unwrap();
+    assert_eq!((w.cpu, w.cpu_decided), (3, true));
+    assert!(matches!(w.checked, Some(Ok(n)) if n > 300), "{:?}", w.checked);
+    // Y:$25 read as 4096 right after a background cycle: 4095 is ruled out on its own.
+    assert!(!supported(&r, "reset_value_when_i40_zero", "4095"));
+}
+
+#[test]
+fn a_card_that_fell_silent_after_plc_0_was_enabled_is_diagnosed_with_every_cause_that_remains() {
+    // UM p.215 ("Diagnosing Cause of Watchdog Timer Trip"): a tripped card cannot be asked
+    // why. The log shows Y:$25 running down with bit 22 set, then silence: a starved
+    // background is possible, and so is a supply dip, which a host log cannot rule out.
+    let spec = Spec::embedded().unwrap();
+    let r = explain(&spec, &capture("starvation-trip.log"), None).unwrap();
+    assert!(r.explained());
+    let d = r.diagnosis.as_ref().expect("the card is silent at the end");
+    assert!(d.possible.iter().any(|p| p.contains("background stopped completing") && p.contains("bit 22")), "{d:?}");
+    assert!(d.possible.iter().any(|p| p.contains("4.75 V")), "{d:?}");
+    let (_, w) = r.witness.as_ref().unwrap();
+    assert!(w.story.iter().any(|s| s.contains("the card tripped")), "{:?}", w.story);
+}
+
+#[test]
+fn a_card_that_came_back_after_silence_is_explained_by_a_trip_and_a_reset_found_from_the_servo_counter() {
+    // The log has no INIT/ in it: X:$0 starting again from a small value is the reset. The
+    // silence came within half a second of a healthy poll, too soon for the counter to run
+    // out (4096 + 45 cycles): the trip can only have been a supply dip.
+    let spec = Spec::embedded().unwrap();
+    let r = explain(&spec, &capture("recovery-by-init.log"), None).unwrap();
+    assert!(r.explained());
+    let (_, w) = r.witness.as_ref().unwrap();
+    assert!(w.story.iter().any(|s| s.contains("supply dipped")), "{:?}", w.story);
+    assert!(w.story.iter().any(|s| s.contains("tripped card was reset")), "{:?}", w.story);
+    assert!(r.diagnosis.is_none(), "the card answers at the end");
+}
+
+#[test]
+fn x25_going_up_without_a_reset_is_explained_under_no_combination_of_readings() {
+    let spec = Spec::embedded().unwrap();
+    let r = explain(&spec, &capture("x25-rising.log"), None).unwrap();
+    assert!(!r.explained());
+    // Some combinations fail earlier (4095 at a Y:$25 of 4096, M83 at the first bit 12); the
+    // ones that last fail where X:$25 went up.
+    let last = r.lanes.iter().filter_map(|l| l.death.as_ref().map(|d| d.line)).max();
+    assert_eq!(last, Some(45));
+}

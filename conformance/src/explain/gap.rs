@@ -253,9 +253,6 @@ fn plans_for(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -
         let r = cfg.reset_value(card.i40);
         let delay = i64::from(cfg.hardware_delay_cycles);
         let may_be_silent = hints.silent != Some(false);
-        if may_be_silent {
-            plans.push(Plan::Undervoltage { cycles });
-        }
         // No background cycle at all: the counter runs down from where it is.
         let starved_counter = match cfg.profile.choices.strobe_stop {
             StrobeStop::AtZero => (i64::from(card.counter) - i64::from(cycles)).max(0),
@@ -263,6 +260,11 @@ fn plans_for(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -
         };
         if may_be_silent || hints.counter.is_none_or(|c| i64::from(c) == starved_counter) {
             plans.push(Plan::Starved { cycles, heavy: 0 });
+        }
+        // After the starved plans: where both end in the same tripped card, the explanation
+        // keeps the first (a trip the log's own readings point at).
+        if may_be_silent {
+            plans.push(Plan::Undervoltage { cycles });
         }
         // Cycles since the last background cycle, from Y:$25 when it is read.
         let tail_max = u64::from(cycles.saturating_sub(1)).min((i64::from(r) + delay + 2).max(0) as u64) as u32;

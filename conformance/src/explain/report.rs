@@ -54,6 +54,9 @@ pub struct Report {
     pub profiles: Vec<(String, bool, bool)>,
     /// The lane the explanation is for, and the explanation.
     pub witness: Option<(String, Witness)>,
+    /// The named profiles whose readings the explanation's lane stands for.
+    pub witness_profiles: Vec<String>,
+    pub card: Option<pmacwd_specs::config::CardConfig>,
     pub diagnosis: Option<Diagnosis>,
 }
 
@@ -75,6 +78,7 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
     let configuration = source.configuration().to_string();
     let description = source.description().to_string();
     let profiles = source.profiles(spec, path)?;
+    let card = source.card();
     drop(source);
     if !spec.check.configurations.contains_key(&configuration) {
         return Err(SpecError::at(
@@ -142,6 +146,16 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
         .find(|l| l.alive() && l.def.combinations.contains(&default))
         .or_else(|| done.iter().find(|l| l.alive()))
         .map(|l| l.def.clone());
+    let witness_profiles: Vec<String> = chosen
+        .as_ref()
+        .map(|def| {
+            profiles
+                .iter()
+                .filter(|p| def.combinations.contains(&lanes::options_of(&p.choices)))
+                .map(|p| p.name.clone())
+                .collect()
+        })
+        .unwrap_or_default();
     let witness = match chosen {
         Some(def) => Some(witness_for(spec, path, import_configuration, def)?),
         None => None,
@@ -155,6 +169,8 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
         readings,
         profiles: named,
         witness,
+        witness_profiles,
+        card,
         diagnosis,
     })
 }
@@ -172,7 +188,9 @@ pub fn witness_for(
     // Prefer a running card at the end, then the shallowest X:$25; a merged candidate keeps
     // one history, so the first whose witness reproduces the capture is taken.
     let mut cands: Vec<&search::Cand> = lane.cands.iter().filter(|c| c.node.is_some()).collect();
-    cands.sort_by_key(|c| (c.card.tripped(), -c.card.counter_min, c.cpu));
+    // A starved background before a supply dip: both are possible where the card fell silent,
+    // and the diagnosis lists both; the story tells the one the log's readings point at.
+    cands.sort_by_key(|c| (c.card.tripped(), c.card.trip == Some(TripCause::Undervoltage), -c.card.counter_min, c.cpu));
     let mut first: Option<Witness> = None;
     for c in cands.iter().take(WITNESS_TRIES) {
         let node = c.node.clone().expect("filtered");

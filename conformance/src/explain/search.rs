@@ -254,6 +254,8 @@ fn both_ends(c: &Cand, reply_seen: bool, mut f: impl FnMut(&mut Controller) -> R
     let mut hi = c.clone();
     let reply = f(&mut hi.card);
     normalize(&mut hi.card);
+    // Values the counter takes now lower every X:$25 of the interval alike.
+    hi.min_lo = hi.min_lo.min(hi.card.counter_min);
     if c.counter_lo == c.card.counter {
         hi.counter_lo = hi.card.counter;
         return vec![(hi, reply)];

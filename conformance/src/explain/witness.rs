@@ -380,3 +380,60 @@ pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> 
     }
     Ok(checked)
 }
+
+/// Writes a witness as a JSON Lines trace: the capture's configuration, the named profiles of
+/// its readings (or `all`, with the readings in the description), and every step. The CPU
+/// type bits are taken out of the `???` replies it expects, since the model does not hold the
+/// CPU type (SRM p.289; the description says which type the capture showed), so that
+/// `pmacwd run` reproduces it on the model as it stands.
+pub fn write_trace(
+    spec: &pmacwd_specs::Spec,
+    out: &mut dyn std::io::Write,
+    yaml: bool,
+    w: &Witness,
+    configuration: &str,
+    card: Option<&pmacwd_specs::config::CardConfig>,
+    readings: &str,
+    profiles: Vec<String>,
+) -> std::io::Result<()> {
+    use pmacwd_specs::vocab::reply_text::{self, StatusReply};
+    let mask = super::search::with_cpu(spec, 3, (0, 0));
+    let trace = pmacwd_trace::Trace {
+        version: pmacwd_trace::FORMAT_VERSION,
+        description: format!(
+            "Witness found by pmacwd replay under the readings {readings}: the capture's steps with every \
+             unseen gap replaced by events of the model. CPU type {} (bits 21 of ??? taken out of the \
+             expected replies).",
+            w.cpu
+        ),
+        cite: None,
+        configuration: configuration.to_string(),
+        profiles: if profiles.is_empty() {
+            pmacwd_specs::check::ProfileSelection::Keyword(pmacwd_specs::check::AllKeyword::All)
+        } else {
+            pmacwd_specs::check::ProfileSelection::Named(profiles)
+        },
+        steps: Vec::new(),
+    };
+    if yaml {
+        write!(out, "{}", pmacwd_trace::yaml_header_with_card(&trace, card))?;
+    } else {
+        writeln!(out, "{}", pmacwd_trace::jsonl::header_line_with_card(&trace, card))?;
+    }
+    for step in &w.steps {
+        let mut step = step.clone();
+        if let Some(r) = &step.expect.reply {
+            if let Ok(StatusReply::Words { x, y }) = reply_text::decode(r) {
+                if r.len() == 12 {
+                    step.expect.reply = Some(reply_text::encode(StatusReply::Words { x: x & !mask.0, y: y & !mask.1 }));
+                }
+            }
+        }
+        if yaml {
+            write!(out, "{}", pmacwd_trace::yaml_step(&step))?;
+        } else {
+            writeln!(out, "{}", pmacwd_trace::jsonl::step_line(&step))?;
+        }
+    }
+    Ok(())
+}
