@@ -102,13 +102,17 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         specs: Option<PathBuf>,
     },
-    /// Replay a captured trace (YAML or JSON Lines) against the model under every profile.
+    /// Could a correct card have produced this capture, under which readings, and why did it trip?
     ///
-    /// Streams the capture; reports per profile whether it is consistent, the first divergence
-    /// with the events before it and the number of diverging events, then which readings of the
-    /// manuals the capture supports or rules out. Exit 0 when some profile explains the capture,
-    /// 1 when none does, 2 for unusable input.
-    #[command(after_help = "Exit codes: 0 some profile explains the capture, 1 none does, 2 unusable input.")]
+    /// Searches, under every combination of the manuals' readings, for a behaviour of the model
+    /// that produces every observation of the capture, choosing what the host could not see:
+    /// when background cycles completed, the load (RTI overruns), supply dips, checksum faults,
+    /// resets, the CPU type (docs/replay.md). Reports each reading's options as supported or
+    /// ruled out, one explanation in words (checked on the model), and for a card that fell
+    /// silent every cause of the trip that remains possible.
+    #[command(
+        after_help = "Exit codes: 0 a correct card can produce the capture, 1 none can (under any reading), 2 unusable input or a capture beyond the search's bounds."
+    )]
     Replay {
         /// The capture: a trace in YAML or JSON Lines, or a host log (imported on the fly, as
         /// `pmacwd import` would).

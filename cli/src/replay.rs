@@ -32,10 +32,12 @@ pub fn replay_file(
                         &mut f,
                         out.extension().is_some_and(|e| e == "yaml" || e == "yml"),
                         w,
-                        &report.configuration,
-                        report.card.as_ref(),
-                        readings,
-                        report.witness_profiles.clone(),
+                        pmacwd_conformance::explain::witness::WitnessHeader {
+                            configuration: &report.configuration,
+                            card: report.card.as_ref(),
+                            readings,
+                            profiles: report.witness_profiles.clone(),
+                        },
                     )?;
                     std::io::Write::flush(&mut f)
                 });

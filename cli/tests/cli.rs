@@ -452,7 +452,7 @@ fn import_of_a_log_without_timing_succeeds_with_a_warning_and_counts_what_it_cou
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     assert!(stderr.contains("warning: the log has no X:$0 reads: no timing can be derived"), "{stderr}");
     assert!(stderr.contains("4 commands on 2 lines") && stderr.contains("1 not modelled"), "{stderr}");
-    assert!(stderr.contains("from configuration `i40-zero`: servo_hz, i8, i40, i41"), "{stderr}");
+    assert!(stderr.contains("from configuration `host-log`: servo_hz, i8, i40, i41"), "{stderr}");
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     assert!(stdout.contains("not modelled: `VER` replied `1.947`"), "{stdout}");
 }
@@ -467,7 +467,7 @@ fn import_takes_the_card_s_values_from_the_log_and_says_which_in_its_summary() {
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     assert!(stderr.contains("from the log: i8 (I8 = 3, line 2), servo_hz (I10 = 3713707, line 2)"), "{stderr}");
-    assert!(stderr.contains("from configuration `i40-zero`: i40, i41"), "{stderr}");
+    assert!(stderr.contains("from configuration `host-log`: i40, i41"), "{stderr}");
     assert!(!stderr.contains("warning"), "{stderr}");
     let text = std::fs::read_to_string(&trace).unwrap();
     assert!(text.lines().next().unwrap().contains(r#""card":{"i8":3,"servo_hz":2259}"#), "{text}");

@@ -88,7 +88,7 @@ impl Reader {
         Reader { source, ahead: VecDeque::new(), events: 0 }
     }
 
-    pub fn next(&mut self) -> Result<Option<(usize, Step)>, SpecError> {
+    pub fn next_step(&mut self) -> Result<Option<(usize, Step)>, SpecError> {
         let s = match self.ahead.pop_front() {
             Some(s) => Some(s),
             None => self.source.next_step()?,
@@ -565,7 +565,7 @@ pub fn search(
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
     let mut reader = Reader::new(source);
-    while let Some((line, step)) = reader.next()? {
+    while let Some((line, step)) = reader.next_step()? {
         let event_no = reader.events;
         if lanes.iter().all(|l| !l.alive()) {
             continue;

@@ -386,16 +386,23 @@ pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> 
 /// type bits are taken out of the `???` replies it expects, since the model does not hold the
 /// CPU type (SRM p.289; the description says which type the capture showed), so that
 /// `pmacwd run` reproduces it on the model as it stands.
+/// What a written witness says about itself: the capture's configuration and card, the
+/// readings it was found under and the named profiles choosing them.
+pub struct WitnessHeader<'a> {
+    pub configuration: &'a str,
+    pub card: Option<&'a pmacwd_specs::config::CardConfig>,
+    pub readings: &'a str,
+    pub profiles: Vec<String>,
+}
+
 pub fn write_trace(
     spec: &pmacwd_specs::Spec,
     out: &mut dyn std::io::Write,
     yaml: bool,
     w: &Witness,
-    configuration: &str,
-    card: Option<&pmacwd_specs::config::CardConfig>,
-    readings: &str,
-    profiles: Vec<String>,
+    header: WitnessHeader<'_>,
 ) -> std::io::Result<()> {
+    let WitnessHeader { configuration, card, readings, profiles } = header;
     use pmacwd_specs::vocab::reply_text::{self, StatusReply};
     let mask = super::search::with_cpu(spec, 3, (0, 0));
     let trace = pmacwd_trace::Trace {
