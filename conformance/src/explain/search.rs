@@ -537,6 +537,9 @@ impl Lane {
             }
         }
         self.cands = next.into_values().flatten().collect();
+        // In a fixed order, so that reports (which failure is named) are the same every run.
+        self.cands
+            .sort_by(|a, b| (&a.card, a.counter_lo, a.min_lo, a.cpu).cmp(&(&b.card, b.counter_lo, b.min_lo, b.cpu)));
         self.peak = self.peak.max(self.cands.len());
         if self.cands.is_empty() {
             let (what, expected, observed) =
