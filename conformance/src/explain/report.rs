@@ -92,7 +92,36 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
     }
     let all = profiles.len() == spec.profiles.all().len();
     let defs = lanes::lanes(spec, &configuration, if all { None } else { Some(&profiles) })?;
-    let (done, events) = search::search(spec, path, import_configuration, defs.clone(), false)?;
+    // The lanes are independent: two threads, one per core of the machines this runs on.
+    let half = defs.len().div_ceil(2);
+    let results: Vec<Result<(Vec<Lane>, u64), SpecError>> = std::thread::scope(|scope| {
+        let mut inline = Vec::new();
+        let handles: Vec<_> = defs
+            .chunks(half.max(1))
+            .filter_map(|chunk| {
+                let work = chunk.to_vec();
+                let spawned = std::thread::Builder::new()
+                    .spawn_scoped(scope, move || search::search(spec, path, import_configuration, work, false));
+                // A thread that cannot start leaves its lanes to this one.
+                spawned.map_err(|_| inline.push(chunk.to_vec())).ok()
+            })
+            .collect();
+        let mut out: Vec<Result<(Vec<Lane>, u64), SpecError>> = handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|_| Err(SpecError::whole_file(path, "a search thread panicked"))))
+            .collect();
+        for chunk in inline {
+            out.push(search::search(spec, path, import_configuration, chunk, false));
+        }
+        out
+    });
+    let mut done = Vec::new();
+    let mut events = 0;
+    for r in results {
+        let (lanes, n) = r?;
+        done.extend(lanes);
+        events = n;
+    }
 
     let summaries: Vec<LaneSummary> = done
         .iter()

@@ -19,7 +19,7 @@ use pmacwd_specs::{Position, Spec, SpecError};
 use pmacwd_trace::{Step, TraceEvent};
 use std::collections::{HashMap, VecDeque};
 use std::path::Path;
-use std::rc::Rc;
+use std::sync::Arc;
 
 /// How far the search looks past a gap for the observations that aim its plans.
 const LOOKAHEAD_STEPS: usize = 32;
@@ -40,7 +40,7 @@ pub struct Cand {
     pub min_lo: i32,
     /// The CPU type, 0..=3 (SRM p.289: X bit 21 is bit 1, Y bit 21 is bit 0).
     pub cpu: u8,
-    pub node: Option<Rc<Node>>,
+    pub node: Option<Arc<Node>>,
 }
 
 /// Where a lane died.
@@ -346,7 +346,7 @@ impl Lane {
                 card: card.clone(),
                 min_lo: card.counter_min,
                 cpu,
-                node: record.then(|| Rc::new(Node { parent: None, event: 0, kind: NodeKind::Start { cpu } })),
+                node: record.then(|| Arc::new(Node { parent: None, event: 0, kind: NodeKind::Start { cpu } })),
             })
             .collect();
         Ok(Lane { def, cfg, cands, death: None, peak: 4 })
@@ -423,7 +423,7 @@ impl Lane {
                     for n in cycle_set(*cycles_min, *cycles_max, &cand.card, cfg) {
                         for o in gap::successors(cfg, &cand.card, cand.counter_lo, n, hints) {
                             let node = cand.node.as_ref().filter(|_| record).map(|p| {
-                                Rc::new(Node {
+                                Arc::new(Node {
                                     parent: Some(p.clone()),
                                     event: event_no,
                                     kind: NodeKind::Gap {
@@ -448,7 +448,7 @@ impl Lane {
                         card.apply(cfg, &Event::Reset(reset));
                         normalize(&mut card);
                         let node = cand.node.as_ref().map(|p| {
-                            Rc::new(Node { parent: Some(p.clone()), event: event_no, kind: NodeKind::Restart(reset) })
+                            Arc::new(Node { parent: Some(p.clone()), event: event_no, kind: NodeKind::Restart(reset) })
                         });
                         let min_lo = card.counter_min;
                         results
@@ -479,7 +479,7 @@ impl Lane {
                         if (c.counter_lo..=c.card.counter).contains(&v) {
                             if c.counter_lo != c.card.counter {
                                 c.node = c.node.as_ref().map(|p| {
-                                    Rc::new(Node {
+                                    Arc::new(Node {
                                         parent: Some(p.clone()),
                                         event: event_no,
                                         kind: NodeKind::CounterPin(v),
@@ -505,7 +505,7 @@ impl Lane {
                         if (c.min_lo..=c.card.counter_min).contains(&v) {
                             if c.min_lo != c.card.counter_min {
                                 c.node = c.node.as_ref().map(|p| {
-                                    Rc::new(Node { parent: Some(p.clone()), event: event_no, kind: NodeKind::Pin(v) })
+                                    Arc::new(Node { parent: Some(p.clone()), event: event_no, kind: NodeKind::Pin(v) })
                                 });
                             }
                             c.card.counter_min = v;

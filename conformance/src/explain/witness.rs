@@ -13,11 +13,11 @@ use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::SpecError;
 use pmacwd_trace::{Expect, Step, TraceEvent};
 use std::path::Path;
-use std::rc::Rc;
+use std::sync::Arc;
 
 /// One choice the search made, linked to the choices before it.
 pub struct Node {
-    pub parent: Option<Rc<Node>>,
+    pub parent: Option<Arc<Node>>,
     /// The 1-based capture event it was made at.
     pub event: u64,
     pub kind: NodeKind,
@@ -52,7 +52,7 @@ impl Drop for Node {
     fn drop(&mut self) {
         let mut next = self.parent.take();
         while let Some(rc) = next {
-            match Rc::try_unwrap(rc) {
+            match Arc::try_unwrap(rc) {
                 Ok(mut node) => next = node.parent.take(),
                 Err(_) => break,
             }
@@ -61,7 +61,7 @@ impl Drop for Node {
 }
 
 /// The nodes from the start to `last`, oldest first.
-pub fn chain(last: &Rc<Node>) -> Vec<Rc<Node>> {
+pub fn chain(last: &Arc<Node>) -> Vec<Arc<Node>> {
     let mut v = vec![last.clone()];
     while let Some(p) = v.last().and_then(|n| n.parent.clone()) {
         v.push(p);
@@ -179,7 +179,7 @@ pub fn build(
     cfg: &ModelConfig,
     path: &Path,
     import_configuration: Option<&str>,
-    last: &Rc<Node>,
+    last: &Arc<Node>,
 ) -> Result<Witness, SpecError> {
     let nodes = chain(last);
     let cpu = match nodes.first().map(|n| &n.kind) {
