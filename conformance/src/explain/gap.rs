@@ -254,10 +254,7 @@ fn plans_for(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -
         let delay = i64::from(cfg.hardware_delay_cycles);
         let may_be_silent = hints.silent != Some(false);
         // No background cycle at all: the counter runs down from where it is.
-        let starved_counter = match cfg.profile.choices.strobe_stop {
-            StrobeStop::AtZero => (i64::from(card.counter) - i64::from(cycles)).max(0),
-            StrobeStop::BelowZero => i64::from(card.counter) - i64::from(cycles),
-        };
+        let starved_counter = super::run_down(cfg, card.counter, cycles);
         if may_be_silent || hints.counter.is_none_or(|c| i64::from(c) == starved_counter) {
             plans.push(Plan::Starved { cycles, heavy: 0 });
         }
@@ -310,10 +307,7 @@ fn plans_for(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -
             vec![0]
         };
         for heavy in heavies {
-            let c0 = match cfg.profile.choices.strobe_stop {
-                StrobeStop::AtZero => (i64::from(card.counter) - i64::from(heavy)).max(0),
-                StrobeStop::BelowZero => i64::from(card.counter) - i64::from(heavy),
-            };
+            let c0 = super::run_down(cfg, card.counter, heavy);
             let room = cycles - heavy;
             let mut leads = vec![Lead::Steady];
             match hints.counter_min {

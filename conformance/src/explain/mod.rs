@@ -30,3 +30,28 @@ pub const CANDIDATES_MAX: usize = 200_000;
 pub fn normalize(card: &mut Controller) {
     card.ghost = Ghost { cycles_since_background: 0, last_reload: 0, recovered_by: None };
 }
+
+/// Whether two cards are the same but for Y:$25, X:$25 and the background's CPU credit: what
+/// the search keeps as intervals (the credit refills in the next servo cycle, before any plan
+/// can use it).
+pub fn same_but_counters(a: &Controller, b: &Controller) -> bool {
+    let blank = |c: &Controller| {
+        let mut c = c.clone();
+        normalize(&mut c);
+        c.counter = 0;
+        c.counter_min = 0;
+        c.background_credit = 0;
+        c
+    };
+    blank(a) == blank(b)
+}
+
+/// Y:$25 after `cycles` servo cycles without a background cycle from `counter`, as the
+/// profile's strobe-stop reading decrements it (UM p.215: only while above zero; SRM p.57:
+/// every cycle).
+pub fn run_down(cfg: &pmacwd_specs::config::ModelConfig, counter: i32, cycles: u32) -> i64 {
+    match cfg.profile.choices.strobe_stop {
+        pmacwd_specs::profiles::StrobeStop::AtZero => (i64::from(counter) - i64::from(cycles)).max(0),
+        pmacwd_specs::profiles::StrobeStop::BelowZero => i64::from(counter) - i64::from(cycles),
+    }
+}

@@ -265,17 +265,8 @@ fn both_ends(c: &Cand, reply_seen: bool, mut f: impl FnMut(&mut Controller) -> R
     lo.card.counter_min = lo.card.counter_min.min(c.counter_lo);
     let lo_reply = f(&mut lo.card);
     normalize(&mut lo.card);
-    let same = {
-        let (mut a, mut b) = (hi.card.clone(), lo.card.clone());
-        a.counter = 0;
-        b.counter = 0;
-        a.counter_min = 0;
-        b.counter_min = 0;
-        a.background_credit = 0;
-        b.background_credit = 0;
-        // A reply nobody recorded (an unread Y:$25) does not split the interval.
-        a == b && (reply == lo_reply || !reply_seen)
-    };
+    // A reply nobody recorded (an unread Y:$25) does not split the interval.
+    let same = super::same_but_counters(&hi.card, &lo.card) && (reply == lo_reply || !reply_seen);
     if same && lo.card.counter <= hi.card.counter {
         hi.counter_lo = lo.card.counter;
         hi.min_lo = hi.min_lo.min(lo.card.counter_min);

@@ -3,7 +3,6 @@
 //! and in words (what happened that the host could not see).
 
 use super::gap::{self, Lead, Plan};
-use super::normalize;
 use super::sim::Sim;
 use crate::replay::Source;
 use pmacwd_model::controller::{Controller, TripCause};
@@ -104,20 +103,9 @@ fn realize<'a>(
     need_counter: Option<i32>,
 ) -> Option<Sim<'a>> {
     let (plan_hi, plan_lo, end) = node;
-    let same_end = |c: &Controller| {
-        let mut a = c.clone();
-        normalize(&mut a);
-        let mut b = end.clone();
-        a.counter_min = 0;
-        b.counter_min = 0;
-        a.background_credit = 0;
-        b.background_credit = 0;
-        // Y:$25 may have been merged into an interval by the search: a Y:$25 read that
-        // matters is met through `need_counter`, and the whole witness is checked at the end.
-        a.counter = 0;
-        b.counter = 0;
-        a == b
-    };
+    // Y:$25 may have been merged into an interval by the search: a Y:$25 read that matters is
+    // met through `need_counter`, and the whole witness is checked at the end.
+    let same_end = |c: &Controller| super::same_but_counters(c, end);
     let fits = |c: &Controller| need.is_none_or(|v| c.counter_min == v) && need_counter.is_none_or(|v| c.counter == v);
     if need.is_none() && need_counter.is_none() {
         return gap::run(cfg, card, *plan_hi, true);
@@ -137,10 +125,7 @@ fn realize<'a>(
                 },
                 None => tail,
             };
-            let c0 = match cfg.profile.choices.strobe_stop {
-                pmacwd_specs::profiles::StrobeStop::AtZero => (i64::from(card.counter) - i64::from(heavy)).max(0),
-                pmacwd_specs::profiles::StrobeStop::BelowZero => i64::from(card.counter) - i64::from(heavy),
-            };
+            let c0 = super::run_down(cfg, card.counter, heavy);
             let mut leads = vec![Lead::Steady];
             if let Some(need) = need {
                 leads.extend(
