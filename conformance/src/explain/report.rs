@@ -439,7 +439,10 @@ pub fn to_json(r: &Report) -> String {
         "file": r.file.display().to_string(), "events": r.events, "configuration": r.configuration,
         "explained": r.explained(), "readings": readings, "lanes": lanes, "profiles": profiles,
         "explanation": r.witness.as_ref().map(|(label, w)| serde_json::json!({
-            "readings": label, "cpu_type": w.cpu, "story": w.story, "trace_steps": w.steps.len(),
+            "readings": label, "cpu_type": w.cpu, "cpu_type_decided": w.cpu_decided, "story": w.story,
+            "trace_steps": w.steps.len(),
+            "observations_checked": match &w.checked { Some(Ok(n)) => serde_json::json!(n), _ => serde_json::Value::Null },
+            "reproduces": matches!(w.checked, Some(Ok(_))),
             "lowest_counter_min": w.lowest_min,
         })),
         "diagnosis": r.diagnosis.as_ref().map(|d| serde_json::json!({"possible": d.possible, "ruled_out": d.ruled_out})),

@@ -2,7 +2,7 @@
 
 use super::gap::{self, Hints};
 use super::lanes::LaneDef;
-use super::sim::{self, Sim};
+use super::sim::Sim;
 use super::witness::{Node, NodeKind};
 use super::{normalize, CANDIDATES_MAX};
 use crate::replay::Source;
@@ -323,12 +323,11 @@ impl Lane {
         if let Some(card) = card {
             cfg = cfg.with_card(spec, card).map_err(|e| SpecError::whole_file(&spec.dir, e))?;
         }
-        // MODEL (replay): X:$0 is timing (the `elapsed` steps), not state; the load is the
-        // search's choice, starting light; a checksum pass may end at any background cycle.
-        cfg.servo_counter_mask = 0;
-        cfg.loads = vec![sim::light_load()];
-        cfg.pass_cycles.firmware = 1;
-        cfg.pass_cycles.user_program = 1;
+        // A capture reads the card's real 24-bit servo counter (as `pmacwd run` does). The
+        // load starts as the configuration's first; in unseen gaps it is the search's choice.
+        // The checksum pass lengths are the configuration's (`host-log`: one background cycle
+        // each, so that any background cycle may end a pass).
+        cfg.servo_counter_mask = 0xFF_FFFF;
         let mut card = Controller::power_on(&cfg);
         normalize(&mut card);
         let cands = (0..4u8)

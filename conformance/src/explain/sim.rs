@@ -103,7 +103,7 @@ impl<'a> Sim<'a> {
     /// `n` servo cycles with a background cycle after each one the load allows: the trace
     /// format's `run`. A deterministic run that comes back to a state it was in repeats
     /// itself from there, so whole periods are skipped once one is seen (exact: the model is
-    /// deterministic here, and X:$0 is not kept in the search's states).
+    /// deterministic here, and X:$0, which no rule reads, is advanced by the cycles skipped).
     pub fn greedy(&mut self, n: u32) {
         if n == 0 {
             return;
@@ -122,11 +122,16 @@ impl<'a> Sim<'a> {
             since_mark += 1;
             if since_mark == period {
                 since_mark = 0;
-                if mark.as_ref() == Some(&self.card) {
+                // X:$0 counts on (no rule reads it): compared without it, advanced on a leap.
+                let mut now = self.card.clone();
+                now.servo_cycles = 0;
+                if mark.as_ref() == Some(&now) {
+                    let skipped = left - left % period;
+                    self.card.servo_cycles = self.card.servo_cycles.wrapping_add(skipped) & self.cfg.servo_counter_mask;
                     left %= period;
                     mark = None;
                 } else {
-                    mark = Some(self.card.clone());
+                    mark = Some(now);
                 }
             }
         }
