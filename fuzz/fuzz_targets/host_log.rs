@@ -22,8 +22,8 @@ fuzz_target!(|data: &[u8]| {
         Ok(t) => t,
         Err(e) => return check_error(&e, file, newline_lines(data)),
     };
-    let commands = trace.steps.iter().filter(|s| matches!(s.event, TraceEvent::Model(Event::Command(_)))).count();
     let trace = imported.trace;
+    let commands = trace.steps.iter().filter(|s| matches!(s.event, TraceEvent::Model(Event::Command(_)))).count();
     let sent = text.lines().filter(|l| l.trim_end().starts_with("> ")).count();
     assert_eq!(commands as u64, imported.summary.commands, "not one command step per command");
     assert!(commands >= sent, "a `> ` line without a command step");
