@@ -160,8 +160,21 @@ fn generate(spec: &Spec, cfg: &ModelConfig, cpu: u8, gaps: &[GapGen]) -> String 
     lines.join("\n") + "\n"
 }
 
+/// 64 cases from a fixed seed, so that CI judges the same captures every run; set
+/// `PMACWD_PROPERTY_SEED=<u64>` to explore others (a failure prints its capture).
+fn property_config() -> ProptestConfig {
+    let seed = std::env::var("PMACWD_PROPERTY_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(14);
+    ProptestConfig {
+        cases: 64,
+        max_shrink_iters: 200,
+        failure_persistence: None,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(seed),
+        ..ProptestConfig::default()
+    }
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 64, max_shrink_iters: 200, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(property_config())]
 
     /// Completeness and real explanations: whatever the model did unseen, the search finds a
     /// behaviour under the same readings, and that behaviour reproduces the capture.

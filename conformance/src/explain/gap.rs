@@ -168,11 +168,20 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
                 }
             } else {
                 if skip {
-                    if middle < 2 {
-                        return None;
+                    // The background cycle left out is the second one, so that the stretch it
+                    // makes (two cycles from a reload) runs down no deeper than it must.
+                    match middle {
+                        0 | 1 => return None,
+                        2 => {
+                            sim.servo(1);
+                            sim.greedy(1);
+                        }
+                        _ => {
+                            sim.greedy(1);
+                            sim.servo(1);
+                            sim.greedy(middle - 2);
+                        }
                     }
-                    sim.servo(1);
-                    sim.greedy(middle - 1);
                 } else {
                     sim.greedy(middle);
                 }
