@@ -8,7 +8,8 @@
 //!   combination of readings at all.
 
 use pmacwd_conformance::explain::lanes::{self, LaneDef};
-use pmacwd_conformance::explain::search::{self, with_cpu};
+use pmacwd_conformance::explain::observe::with_cpu;
+use pmacwd_conformance::explain::search;
 use pmacwd_conformance::explain::{report, witness};
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::{ChecksumTarget, Load, ResetEvent, ResetKind};

@@ -13,7 +13,9 @@
 //! lanes alone: supported if a surviving lane chooses it, ruled out if none does.
 
 pub mod gap;
+pub mod history;
 pub mod lanes;
+pub mod observe;
 pub mod report;
 pub mod search;
 pub mod sim;

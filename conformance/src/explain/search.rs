@@ -1,9 +1,10 @@
 //! The search itself: every lane's candidates, advanced one capture step at a time.
 
 use super::gap::{self, Hints};
+use super::history::{Node, NodeKind};
 use super::lanes::LaneDef;
+use super::observe::observation;
 use super::sim::Sim;
-use super::witness::{Node, NodeKind};
 use super::{normalize, CANDIDATES_MAX};
 use crate::replay::Source;
 use crate::runner::{compare, Mismatch};
@@ -217,34 +218,6 @@ fn cycle_set(min: u32, max: Option<u32>, card: &Controller, cfg: &ModelConfig) -
         out.push(max as u32);
     }
     out
-}
-
-/// The status words with the CPU type bits of `cpu` (SRM p.289).
-pub fn with_cpu(spec: &Spec, cpu: u8, (x, y): (u32, u32)) -> (u32, u32) {
-    let mut w = [x, y];
-    for (name, on) in [("cpu_type_bit1", cpu & 2 != 0), ("cpu_type_bit0", cpu & 1 != 0)] {
-        if let (true, Some((word, bit))) = (on, spec.status.bit(name)) {
-            w[match word {
-                WordId::X => 0,
-                WordId::Y => 1,
-            }] |= 1 << bit;
-        }
-    }
-    (w[0], w[1])
-}
-
-/// What a candidate shows after `reply`, CPU type included.
-pub fn observation(spec: &Spec, cfg: &ModelConfig, c: &Cand, reply: Reply) -> pmacwd_specs::vocab::Observation {
-    let mut obs = pmacwd_model::observe::of(&c.card, cfg, reply);
-    let (x, y) = with_cpu(spec, c.cpu, (obs.status_x, obs.status_y));
-    obs.status_x = x;
-    obs.status_y = y;
-    obs.reply = match reply {
-        Reply::Status { .. } => Reply::Status { x, y },
-        Reply::Hex(v) if matches!(reply, Reply::Hex(_)) => Reply::Hex(v),
-        r => r,
-    };
-    obs
 }
 
 /// Applies `f` to a candidate and, if its Y:$25 is an interval, to the card at the interval's
@@ -510,7 +483,7 @@ impl Lane {
                 }
             }
             for (c, reply) in results {
-                let obs = observation(spec, cfg, &c, reply);
+                let obs = observation(spec, cfg, &c.card, c.cpu, reply);
                 match compare(spec, &step.expect, &obs) {
                     Ok(_) => insert(c, &mut next)?,
                     Err(Mismatch::UnknownBit(_, _, name)) => {

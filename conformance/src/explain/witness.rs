@@ -3,71 +3,17 @@
 //! and in words (what happened that the host could not see).
 
 use super::gap::{self, Lead, Plan};
+use super::history::{chain, Node, NodeKind};
 use super::sim::Sim;
 use crate::replay::Source;
 use pmacwd_model::controller::{Controller, TripCause};
-use pmacwd_specs::check::{ChecksumTarget, ResetEvent};
+use pmacwd_specs::check::ChecksumTarget;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::SpecError;
 use pmacwd_trace::{Expect, Step, TraceEvent};
 use std::path::Path;
 use std::sync::Arc;
-
-/// One choice the search made, linked to the choices before it.
-pub struct Node {
-    pub parent: Option<Arc<Node>>,
-    /// The 1-based capture event it was made at.
-    pub event: u64,
-    pub kind: NodeKind,
-}
-
-pub enum NodeKind {
-    Start {
-        cpu: u8,
-    },
-    Gap {
-        plan_hi: Plan,
-        plan_lo: Plan,
-        lo: i32,
-        end: Controller,
-    },
-    Restart(ResetEvent),
-    /// X:$25 read as this value, where the search had an interval.
-    Pin(i32),
-    /// Y:$25 read as this value, where the search had an interval.
-    CounterPin(i32),
-}
-
-impl std::fmt::Debug for Node {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "Node(event {})", self.event)
-    }
-}
-
-impl Drop for Node {
-    /// A day-long capture links hundreds of thousands of nodes: drop them in a loop, not by
-    /// recursion.
-    fn drop(&mut self) {
-        let mut next = self.parent.take();
-        while let Some(rc) = next {
-            match Arc::try_unwrap(rc) {
-                Ok(mut node) => next = node.parent.take(),
-                Err(_) => break,
-            }
-        }
-    }
-}
-
-/// The nodes from the start to `last`, oldest first.
-pub fn chain(last: &Arc<Node>) -> Vec<Arc<Node>> {
-    let mut v = vec![last.clone()];
-    while let Some(p) = v.last().and_then(|n| n.parent.clone()) {
-        v.push(p);
-    }
-    v.reverse();
-    v
-}
 
 /// The explanation of a capture under one lane.
 pub struct Witness {
@@ -330,27 +276,26 @@ pub fn build(
 /// checks every observation it carries: `Ok(n)` with the number checked, or the first step
 /// that does not hold. An explanation is only printed once this holds.
 pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> Result<usize, String> {
-    use super::search::{observation, Cand};
-    let card = Controller::power_on(cfg);
-    let mut cand = Cand { counter_lo: card.counter, card, min_lo: 0, cpu: w.cpu, node: None };
+    use super::observe::observation;
+    let mut card = Controller::power_on(cfg);
     let mut checked = 0;
     for (i, step) in w.steps.iter().enumerate() {
         let reply = match &step.event {
-            TraceEvent::Model(Event::Background) if !cand.card.background_possible() => {
+            TraceEvent::Model(Event::Background) if !card.background_possible() => {
                 return Err(format!("witness step {}: a background cycle the model cannot complete", i + 1))
             }
-            TraceEvent::Model(e) => cand.card.apply(cfg, e),
+            TraceEvent::Model(e) => card.apply(cfg, e),
             TraceEvent::Run { cycles } => {
-                let mut s = Sim::new(cfg, cand.card.clone(), false);
+                let mut s = Sim::new(cfg, card.clone(), false);
                 s.greedy(*cycles);
-                cand.card = s.card;
+                card = s.card;
                 pmacwd_specs::vocab::event::Reply::None
             }
             TraceEvent::Elapsed { .. } | TraceEvent::Restart => {
                 return Err(format!("witness step {}: `{}` left unresolved", i + 1, step.event))
             }
         };
-        let obs = observation(spec, cfg, &cand, reply);
+        let obs = observation(spec, cfg, &card, w.cpu, reply);
         match crate::runner::compare(spec, &step.expect, &obs) {
             Ok(n) => checked += n,
             Err(crate::runner::Mismatch::Field(what, expected, observed)) => {
@@ -389,7 +334,7 @@ pub fn write_trace(
 ) -> std::io::Result<()> {
     let WitnessHeader { configuration, card, readings, profiles } = header;
     use pmacwd_specs::vocab::reply_text::{self, StatusReply};
-    let mask = super::search::with_cpu(spec, 3, (0, 0));
+    let mask = super::observe::with_cpu(spec, 3, (0, 0));
     let trace = pmacwd_trace::Trace {
         version: pmacwd_trace::FORMAT_VERSION,
         description: format!(
