@@ -351,11 +351,11 @@ fn a_reply_after_silence_without_a_restart_is_explained_under_no_reading() {
 }
 
 /// For a property failure: `PMACWD_CAPTURE=file PMACWD_READINGS=bits cargo test --release -p
-/// pmacwd-conformance --test explain -- --ignored one_capture` searches one capture on one lane
+/// pmacwd-conformance --test explain -- --ignored for_debugging` searches one capture on one lane
 /// and prints where it dies.
 #[test]
 #[ignore]
-fn one_capture_on_one_lane() {
+fn for_debugging_one_capture_is_searched_on_one_lane_and_where_it_dies_is_printed() {
     let spec = spec();
     let path = PathBuf::from(std::env::var("PMACWD_CAPTURE").unwrap());
     let bits: usize = std::env::var("PMACWD_READINGS").unwrap().parse().unwrap();

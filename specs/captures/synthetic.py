@@ -63,26 +63,24 @@ def poll(out, card, t):
         t += 0.001
 
 
-def healthy(path, polls=120):
-    random.seed(1)
-    card, t, out = Card(cpu=3), 36000.0, []
-    out += ["# SYNTHETIC host log (specs/captures/synthetic.py): a healthy Geo Brick with a DSP56321,",
-            "# polled every 0.5 s after `$$$`. replay: explained; CPU type read from bits 21 of ???."]
+def session(path, seed, cpu, comment, body):
+    """A log that starts with `$$$` at 10:00:00, then whatever `body(card, out, t)` adds."""
+    random.seed(seed)
+    card, t = Card(cpu=cpu), 36000.0
+    out = ["# SYNTHETIC host log (specs/captures/synthetic.py): " + comment[0]] + ["# " + c for c in comment[1:]]
     out += [f"{stamp(t)} > $$$", f"{stamp(t)} <"]
+    body(card, out, t)
+    open(path, "w").write("\n".join(out) + "\n")
+
+
+def healthy(card, out, t, polls=120):
     for _ in range(polls):
         t += 0.5
         card.run(POLL_CYCLES)
         poll(out, card, t)
-    open(path, "w").write("\n".join(out) + "\n")
 
 
-def starvation(path):
-    random.seed(2)
-    card, t, out = Card(cpu=0), 36000.0, []
-    out += ["# SYNTHETIC host log (specs/captures/synthetic.py): PLC 0 is enabled and takes more than",
-            "# an RTI period; the background stops, Y:$25 runs down, and the card falls silent.",
-            "# replay: explained, with the diagnosis."]
-    out += [f"{stamp(t)} > $$$", f"{stamp(t)} <"]
+def starvation(card, out, t):
     for _ in range(6):
         t += 0.5
         card.run(POLL_CYCLES)
@@ -92,16 +90,9 @@ def starvation(path):
         t += 0.5
         card.run(POLL_CYCLES, starved=True)
         poll(out, card, t)
-    open(path, "w").write("\n".join(out) + "\n")
 
 
-def recovery(path):
-    random.seed(3)
-    card, t, out = Card(cpu=0), 36000.0, []
-    out += ["# SYNTHETIC host log (specs/captures/synthetic.py): a card that fell silent and came back",
-            "# after INIT/ at the front panel; the host sees only X:$0 start again from a small value.",
-            "# replay: explained; the explanation names the trip and the reset between the polls."]
-    out += [f"{stamp(t)} > $$$", f"{stamp(t)} <"]
+def recovery(card, out, t):
     for _ in range(4):
         t += 0.5
         card.run(POLL_CYCLES)
@@ -118,27 +109,30 @@ def recovery(path):
         t += 0.5
         card.run(POLL_CYCLES)
         poll(out, card, t)
-    open(path, "w").write("\n".join(out) + "\n")
 
 
-def impossible(path):
-    random.seed(4)
-    card, t, out = Card(cpu=0), 36000.0, []
-    out += ["# SYNTHETIC host log (specs/captures/synthetic.py): X:$25, the lowest value of the",
-            "# watchdog counter since reset (SRM p.57), goes up from one poll to the next with no reset",
-            "# in between. replay: no correct card explains it, under any reading."]
-    out += [f"{stamp(t)} > $$$", f"{stamp(t)} <"]
+def impossible(card, out, t):
     for i in range(6):
         t += 0.5
         card.run(POLL_CYCLES)
         if i == 4:
             card.lowest += 5
         poll(out, card, t)
-    open(path, "w").write("\n".join(out) + "\n")
 
 
 if __name__ == "__main__":
-    healthy("healthy-dsp56321.log")
-    starvation("starvation-trip.log")
-    recovery("recovery-by-init.log")
-    impossible("x25-rising.log")
+    session("healthy-dsp56321.log", 1, 3, [
+        "a healthy Geo Brick with a DSP56321,",
+        "polled every 0.5 s after `$$$`. replay: explained; CPU type read from bits 21 of ???."], healthy)
+    session("starvation-trip.log", 2, 0, [
+        "PLC 0 is enabled and takes more than",
+        "an RTI period; the background stops, Y:$25 runs down, and the card falls silent.",
+        "replay: explained, with the diagnosis."], starvation)
+    session("recovery-by-init.log", 3, 0, [
+        "a card that fell silent and came back",
+        "after INIT/ at the front panel; the host sees only X:$0 start again from a small value.",
+        "replay: explained; the explanation names the trip and the reset between the polls."], recovery)
+    session("x25-rising.log", 4, 0, [
+        "X:$25, the lowest value of the",
+        "watchdog counter since reset (SRM p.57), goes up from one poll to the next with no reset",
+        "in between. replay: no correct card explains it, under any reading."], impossible)

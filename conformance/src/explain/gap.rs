@@ -85,17 +85,6 @@ pub enum Plan {
     },
 }
 
-impl Plan {
-    pub fn cycles(&self) -> u32 {
-        match *self {
-            Plan::Idle { cycles }
-            | Plan::Undervoltage { cycles }
-            | Plan::Starved { cycles, .. }
-            | Plan::Schedule { cycles, .. } => cycles,
-        }
-    }
-}
-
 /// Runs `plan` from `card`; `None` if the model cannot follow it (a background cycle the load
 /// does not allow, a lead longer than the gap).
 pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool) -> Option<Sim<'a>> {

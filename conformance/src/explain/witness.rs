@@ -6,7 +6,7 @@ use super::gap::{self, Lead, Plan};
 use super::history::{chain, Node, NodeKind};
 use super::sim::Sim;
 use crate::replay::Source;
-use pmacwd_model::controller::{Controller, TripCause};
+use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::ChecksumTarget;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::vocab::event::Event;
@@ -26,8 +26,6 @@ pub struct Witness {
     pub cpu_decided: bool,
     /// The lowest X:$25 the witness reaches.
     pub lowest_min: i32,
-    /// How the card ended: tripped (and why), or running.
-    pub end: Option<TripCause>,
     /// The witness run on the model: observations reproduced, or the first that is not.
     pub checked: Option<Result<usize, String>>,
 }
@@ -269,7 +267,7 @@ pub fn build(
             "the longest run without a background cycle took X:$25 down to {lowest_min} (by line {dip_line})"
         ));
     }
-    Ok(Witness { steps, story, cpu, cpu_decided: false, lowest_min, end: card.trip, checked: None })
+    Ok(Witness { steps, story, cpu, cpu_decided: false, lowest_min, checked: None })
 }
 
 /// Runs a witness on the model (the search's configuration, the witness's CPU type) and
