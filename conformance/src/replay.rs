@@ -12,7 +12,7 @@ use std::path::Path;
 /// Where steps come from: a YAML trace (short, read whole), a JSON Lines capture (streamed),
 /// or a host log imported on the fly (streamed through the importer, `docs/capturing.md`).
 pub enum Source {
-    Yaml { trace: Trace, map: SourceMap, next: usize },
+    Yaml { trace: Trace, map: SourceMap, next: usize, card: Option<pmacwd_specs::config::CardConfig> },
     Jsonl(StepReader<BufReader<std::fs::File>>),
     HostLog(Box<crate::import::ImportStream>),
 }
@@ -38,7 +38,7 @@ impl Source {
     /// What the capture says about the card (its `card:` header), if anything.
     pub fn card(&self) -> Option<pmacwd_specs::config::CardConfig> {
         match self {
-            Source::Yaml { .. } => None,
+            Source::Yaml { card, .. } => *card,
             Source::Jsonl(r) => r.header.card,
             Source::HostLog(s) => s.card,
         }
@@ -69,7 +69,7 @@ impl Source {
                 let text = pmacwd_specs::input::read_text(path, pmacwd_specs::input::YAML_TRACE_BYTES_MAX)?;
 
                 let loaded = parse_yaml(path, &text)?;
-                Ok(Source::Yaml { trace: loaded.trace, map: loaded.map, next: 0 })
+                Ok(Source::Yaml { trace: loaded.trace, map: loaded.map, next: 0, card: loaded.card })
             }
         }
     }
@@ -106,7 +106,7 @@ impl Source {
     /// The next step with the line it is written on.
     pub fn next_step(&mut self) -> Result<Option<(usize, Step)>, SpecError> {
         match self {
-            Source::Yaml { trace, map, next } => {
+            Source::Yaml { trace, map, next, .. } => {
                 let Some(step) = trace.steps.get(*next) else { return Ok(None) };
                 let line = map.position(&format!("steps.{next}")).line;
                 *next += 1;

@@ -85,7 +85,7 @@ fn lane_for(spec: &Spec, bits: usize) -> (LaneDef, ModelConfig) {
     let defs = lanes::lanes(spec, "host-log", None).unwrap();
     let o: [usize; 7] = std::array::from_fn(|r| (bits >> r) & 1);
     let def = defs.into_iter().find(|d| d.combinations.contains(&o)).unwrap();
-    let cfg = search::Lane::new(spec, "host-log", None, def.clone(), false).unwrap().cfg;
+    let cfg = search::Lane::new(spec, "host-log", None, def.clone(), false, None).unwrap().cfg;
     (def, cfg)
 }
 
@@ -196,7 +196,7 @@ proptest! {
         }
         prop_assert!(lanes[0].death.is_none(), "not explained: {:?}\n{text}", lanes[0].death);
         // The explanation printed is checked on the model before it is called one.
-        let (_, w) = report::witness_for(&spec, &path, None, def).unwrap();
+        let (_, w) = report::witness_for(&spec, &path, None, def, lanes[0].tolerances).unwrap();
         prop_assert_eq!(w.checked.clone(), Some(witness::reproduces(&spec, &cfg, &w)));
     }
 }
@@ -224,7 +224,7 @@ fn nearly_every_generated_capture_is_explained_and_its_witness_reproduces_it() {
         let (lanes, _) = search::search(&spec, &path, None, vec![def.clone()], false).unwrap();
         if lanes[0].death.is_none() {
             explained += 1;
-            let (_, w) = report::witness_for(&spec, &path, None, def).unwrap();
+            let (_, w) = report::witness_for(&spec, &path, None, def, lanes[0].tolerances).unwrap();
             if matches!(w.checked, Some(Ok(_))) {
                 reproduced += 1;
             }

@@ -250,3 +250,79 @@ fn x25_going_up_without_a_reset_is_explained_under_no_combination_of_readings() 
     let last = r.lanes.iter().filter_map(|l| l.death.as_ref().map(|d| d.line)).max();
     assert_eq!(last, Some(45));
 }
+
+/// A YAML capture in a temporary file.
+fn temp_capture(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("pmacwd-replay-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The strobe stops (I40 = 20 runs the counter to 0 in 20 cycles) and the card is read
+/// `after` servo cycles later, under the default profile only.
+fn strobe_stopped_for(after: u32) -> String {
+    format!(
+        "version: 1\ndescription: the card read {after} cycles after its strobe stopped\nconfiguration: host-log\n\
+         card: {{i40: 20}}\nprofiles: [um-215]\nsteps:\n  - servo: 4\n  - background: 1\n  - servo: 20\n\
+         \x20 - servo: {after}\n  - command: RHY:$25\n    expect: {{reply: \"000000\"}}\n"
+    )
+}
+
+#[test]
+fn a_card_answering_50_cycles_after_its_strobe_stopped_is_explained_by_a_slower_strobe_minimum_within_approximately_25_hz(
+) {
+    // UM p.215 asks for a strobe of "approximately 25 Hz": 45 cycles at 2.25 kHz as stated,
+    // but a card whose circuit trips at 22.5 Hz waits 50. The capture is not refused for
+    // the manual's approximation; the explanation names the card's own delay and writes it in
+    // the witness's `card:` header, so that `pmacwd run` reproduces it.
+    let spec = Spec::embedded().unwrap();
+    let r = explain(&spec, &temp_capture("strobe-50.yaml", &strobe_stopped_for(50)), None).unwrap();
+    assert!(r.explained());
+    let (_, w) = r.witness.as_ref().unwrap();
+    let t = w.tolerances.expect("not the stated delay");
+    assert!((50..=56).contains(&t.hardware_delay_cycles), "{t:?}");
+    assert!(matches!(w.checked, Some(Ok(_))), "{:?}", w.checked);
+    // The stated delay explains a card read 45 cycles after the strobe stopped, and then the
+    // explanation says nothing of tolerances.
+    let r = explain(&spec, &temp_capture("strobe-45.yaml", &strobe_stopped_for(45)), None).unwrap();
+    assert!(r.explained() && r.witness.as_ref().unwrap().1.tolerances.is_none());
+}
+
+#[test]
+fn a_card_answering_57_cycles_after_its_strobe_stopped_is_beyond_every_delay_the_band_admits() {
+    // 20 Hz, the bottom of the band, is 56 cycles at 2.25 kHz: no card within
+    // "approximately 25 Hz" answers later, and all 20 delays were searched before saying so.
+    let spec = Spec::embedded().unwrap();
+    let r = explain(&spec, &temp_capture("strobe-57.yaml", &strobe_stopped_for(57)), None).unwrap();
+    assert!(!r.explained());
+    assert_eq!((r.lanes[0].tolerances_tried, r.lanes[0].tolerances_admitted), (20, 20));
+    assert!(report_text(&r).contains("20 cards"), "{}", report_text(&r));
+}
+
+fn report_text(r: &Report) -> String {
+    pmacwd_conformance::explain::report::to_text(r)
+}
+
+/// The card is read after its supply was set to `millivolts`.
+fn supply_at(millivolts: u32) -> String {
+    format!(
+        "version: 1\ndescription: the card read with its supply at {millivolts} mV\nconfiguration: host-log\n\
+         profiles: [um-215]\nsteps:\n  - servo: 4\n  - background: 1\n  - supply_mv: {millivolts}\n\
+         \x20 - command: RHY:$25\n    expect: {{reply: \"001000\"}}\n"
+    )
+}
+
+#[test]
+fn a_card_running_at_4_7_volts_is_explained_by_a_threshold_within_about_4_75_volts_and_at_4_6_volts_by_none() {
+    // UM p.215: "about 4.75 V". At 4.70 V a card with a 4.65 V threshold still runs; at
+    // 4.60 V none within the band (4.65 to 4.85 V, watchdog.yaml) does.
+    let spec = Spec::embedded().unwrap();
+    let r = explain(&spec, &temp_capture("supply-4700.yaml", &supply_at(4700)), None).unwrap();
+    assert!(r.explained());
+    let t = r.witness.as_ref().unwrap().1.tolerances.expect("not the stated threshold");
+    assert!(t.supply_min_millivolts <= 4700, "{t:?}");
+    let r = explain(&spec, &temp_capture("supply-4600.yaml", &supply_at(4600)), None).unwrap();
+    assert!(!r.explained());
+}

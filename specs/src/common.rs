@@ -25,6 +25,20 @@ pub struct Quantity {
     /// How exact the manual is: `exact`, `approximately`, `default`.
     pub qualifier: Qualifier,
     pub cite: Cites,
+    /// For a quantity the manual gives only approximately: the values the model admits, with
+    /// the reason for the band (the manuals give no tolerance, so the band is a `MODEL` reading).
+    #[serde(default)]
+    pub interval: Option<Interval>,
+}
+
+/// The values an approximate quantity may take, `[min, max]`, with why.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Interval {
+    pub min: f64,
+    pub max: f64,
+    pub reason: String,
+    pub cite: Cites,
 }
 
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]

@@ -92,6 +92,11 @@ pub struct ModelConfig {
     pub servo_hz: u32,
     pub saved: SavedIVariables,
     pub hardware_delay_cycles: u32,
+    /// The hardware delays a card may have, `(min, max)` cycles: the strobe minimum is only
+    /// "approximately" known (UM p.215; `watchdog.yaml`, `strobe_hz_min.interval`). Replay
+    /// admits any of them; the checker uses `hardware_delay_cycles`. A configuration that
+    /// fixes the delay in cycles fixes the band too.
+    pub hardware_delay_band: (u32, u32),
     pub single_servo_cycles: bool,
     /// Mask of the X:$000000 counter kept in the state (0: not kept).
     pub servo_counter_mask: u32,
@@ -100,6 +105,9 @@ pub struct ModelConfig {
     pub supply_millivolts: Vec<u32>,
     /// Below this the hardware timer trips (UM p.215: about 4.75 V).
     pub supply_min_millivolts: u32,
+    /// The thresholds a card may have, `(min, max)` millivolts (UM p.215 "about 4.75 V";
+    /// `watchdog.yaml`, `supply_volts_min.interval`). Replay admits any of them.
+    pub supply_min_millivolts_band: (u32, u32),
     pub commands: Vec<HostCommand>,
     pub resets: Vec<ResetEvent>,
     pub checksum_faults: Vec<ChecksumTarget>,
@@ -145,27 +153,38 @@ impl ModelConfig {
         for r in &vars.lockout {
             lockout[usize::from(r.bit)] = (r.first, r.last);
         }
-        let hardware_delay_cycles = match c.hardware_delay_cycles {
-            Delay::Cycles(n) => u32::from(n),
-            Delay::Derived => derived_delay_cycles(c.servo_hz, profile.choices.strobe_hz_min.hz()),
+        let (hardware_delay_cycles, hardware_delay_band) = match c.hardware_delay_cycles {
+            Delay::Cycles(n) => (u32::from(n), (u32::from(n), u32::from(n))),
+            Delay::Derived => (
+                derived_delay_cycles(c.servo_hz, profile.choices.strobe_hz_min.hz()),
+                derived_delay_band(spec, c.servo_hz, profile.choices.strobe_hz_min.hz()),
+            ),
         };
         let mut commands = Vec::new();
         for (i, text) in c.commands.iter().enumerate() {
             commands.push(HostCommand::parse(text).map_err(|e| map.error(&format!("{path}.commands.{i}"), e.0))?);
         }
-        let supply_min_millivolts = (spec.watchdog.hardware.supply_volts_min.value * 1000.0).round() as u32;
+        let supply = &spec.watchdog.hardware.supply_volts_min;
+        let millivolts = |v: f64| (v * 1000.0).round() as u32;
+        let supply_min_millivolts = millivolts(supply.value);
+        let supply_min_millivolts_band = supply
+            .interval
+            .as_ref()
+            .map_or((supply_min_millivolts, supply_min_millivolts), |b| (millivolts(b.min), millivolts(b.max)));
         Ok(ModelConfig {
             configuration: name.to_string(),
             profile: profile.clone(),
             servo_hz: c.servo_hz,
             saved: SavedIVariables { i8: c.i8, i40: c.i40, i41: c.i41 },
             hardware_delay_cycles,
+            hardware_delay_band,
             single_servo_cycles: c.single_servo_cycles,
             servo_counter_mask: if c.servo_counter_bits == 0 { 0 } else { (1u32 << c.servo_counter_bits) - 1 },
             cpu: c.cpu,
             loads: c.loads.clone(),
             supply_millivolts: c.supply_millivolts.clone(),
             supply_min_millivolts,
+            supply_min_millivolts_band,
             commands,
             resets: c.resets.clone(),
             checksum_faults: c.checksum_faults.clone(),
@@ -215,6 +234,14 @@ pub struct CardConfig {
     pub i40: Option<i64>,
     #[serde(default)]
     pub i41: Option<i64>,
+    /// The card's own hardware delay, in servo cycles, within the band its strobe minimum
+    /// admits (UM p.215 "approximately 25 Hz"). Written by replay into an explanation.
+    #[serde(default)]
+    pub hardware_delay_cycles: Option<u32>,
+    /// The card's own supply threshold, in millivolts, within the band of UM p.215's "about
+    /// 4.75 V". Written by replay into an explanation.
+    #[serde(default)]
+    pub supply_min_millivolts: Option<u32>,
 }
 
 impl CardConfig {
@@ -224,10 +251,17 @@ impl CardConfig {
 
     /// The fields that are set, as `name: value`, in header order.
     pub fn fields(&self) -> Vec<(&'static str, i64)> {
-        [("servo_hz", self.servo_hz.map(i64::from)), ("i8", self.i8), ("i40", self.i40), ("i41", self.i41)]
-            .into_iter()
-            .filter_map(|(k, v)| v.map(|v| (k, v)))
-            .collect()
+        [
+            ("servo_hz", self.servo_hz.map(i64::from)),
+            ("i8", self.i8),
+            ("i40", self.i40),
+            ("i41", self.i41),
+            ("hardware_delay_cycles", self.hardware_delay_cycles.map(i64::from)),
+            ("supply_min_millivolts", self.supply_min_millivolts.map(i64::from)),
+        ]
+        .into_iter()
+        .filter_map(|(k, v)| v.map(|v| (k, v)))
+        .collect()
     }
 }
 
@@ -277,7 +311,29 @@ impl ModelConfig {
                 .is_some_and(|c| matches!(c.hardware_delay_cycles, Delay::Derived));
             if derived {
                 self.hardware_delay_cycles = derived_delay_cycles(hz, self.profile.choices.strobe_hz_min.hz());
+                self.hardware_delay_band = derived_delay_band(spec, hz, self.profile.choices.strobe_hz_min.hz());
             }
+        }
+        if let Some(n) = card.hardware_delay_cycles {
+            let (lo, hi) = self.hardware_delay_band;
+            if !(lo..=hi).contains(&n) {
+                return Err(format!(
+                    "card: hardware_delay_cycles = {n} is outside the delays this configuration admits, {lo}..={hi} \
+                     (watchdog.yaml, strobe_hz_min.interval, at {} Hz)",
+                    self.servo_hz
+                ));
+            }
+            self.hardware_delay_cycles = n;
+        }
+        if let Some(mv) = card.supply_min_millivolts {
+            let (lo, hi) = self.supply_min_millivolts_band;
+            if !(lo..=hi).contains(&mv) {
+                return Err(format!(
+                    "card: supply_min_millivolts = {mv} is outside the thresholds admitted, {lo}..={hi} \
+                     (watchdog.yaml, supply_volts_min.interval)"
+                ));
+            }
+            self.supply_min_millivolts = mv;
         }
         Ok(self)
     }
@@ -288,6 +344,21 @@ impl ModelConfig {
 /// edge is a strobe below the minimum frequency.
 pub fn derived_delay_cycles(servo_hz: u32, strobe_hz_min: u32) -> u32 {
     (servo_hz / (2 * strobe_hz_min)).max(1)
+}
+
+/// The delays of [`derived_delay_cycles`] over the strobe minimum's band: `watchdog.yaml`'s
+/// `strobe_hz_min.interval` around its stated value, scaled to the profile's reading
+/// (`strobe_hz_min`: 25 or 50 Hz), so 20 to 30 Hz, or 40 to 60 Hz. The highest frequency gives
+/// the shortest delay.
+pub fn derived_delay_band(spec: &Spec, servo_hz: u32, strobe_hz_min: u32) -> (u32, u32) {
+    let stated = &spec.watchdog.hardware.strobe_hz_min;
+    let (lo_ratio, hi_ratio) =
+        stated.interval.as_ref().map_or((1.0, 1.0), |b| (b.min / stated.value, b.max / stated.value));
+    let delay = |f: f64| ((f64::from(servo_hz) / (2.0 * f)).floor() as u32).max(1);
+    let f = f64::from(strobe_hz_min);
+    let (lo, hi) = (delay(f * hi_ratio), delay(f * lo_ratio));
+    let nominal = derived_delay_cycles(servo_hz, strobe_hz_min);
+    (lo.min(nominal), hi.max(nominal))
 }
 
 #[cfg(test)]
@@ -313,7 +384,8 @@ mod tests {
     #[test]
     fn a_card_header_overrides_the_saved_i_variables_and_the_servo_clock() {
         let (spec, cfg) = config("i40-zero");
-        let card = CardConfig { servo_hz: Some(4518), i8: Some(3), i40: Some(100), i41: Some(1) };
+        let card =
+            CardConfig { servo_hz: Some(4518), i8: Some(3), i40: Some(100), i41: Some(1), ..CardConfig::default() };
         let c = cfg.clone().with_card(&spec, &card).unwrap();
         assert_eq!(c.saved, SavedIVariables { i8: 3, i40: 100, i41: 1 });
         assert_eq!(c.servo_hz, 4518);
@@ -338,6 +410,34 @@ mod tests {
                 Delay::Cycles(n) => assert_eq!(with.hardware_delay_cycles, u32::from(n), "{name}"),
             }
         }
+    }
+
+    #[test]
+    fn approximately_25_hz_admits_delays_of_37_to_56_cycles_at_2250_hz_and_50_hz_18_to_28() {
+        // UM p.215 "approximately 25 Hz", read as 20 to 30 Hz (watchdog.yaml's interval): a
+        // square wave at 30 Hz toggles every 37.5 cycles of 2,250 Hz, at 20 Hz every 56.25.
+        let spec = Spec::embedded().unwrap();
+        assert_eq!(derived_delay_band(&spec, 2250, 25), (37, 56));
+        assert_eq!(derived_delay_band(&spec, 2250, 50), (18, 28));
+        // The stated figure lies inside its band.
+        let (lo, hi) = derived_delay_band(&spec, 2250, 25);
+        assert!((lo..=hi).contains(&derived_delay_cycles(2250, 25)));
+    }
+
+    #[test]
+    fn a_card_may_say_its_own_delay_and_supply_threshold_but_only_within_their_bands() {
+        let (spec, cfg) = config("host-log");
+        assert_eq!(cfg.supply_min_millivolts_band, (4650, 4850), "UM p.215 about 4.75 V, read as 4.65 to 4.85 V");
+        let card =
+            CardConfig { hardware_delay_cycles: Some(50), supply_min_millivolts: Some(4700), ..CardConfig::default() };
+        let c = cfg.clone().with_card(&spec, &card).unwrap();
+        assert_eq!((c.hardware_delay_cycles, c.supply_min_millivolts), (50, 4700));
+        let far = CardConfig { hardware_delay_cycles: Some(57), ..CardConfig::default() };
+        let e = cfg.clone().with_card(&spec, &far).unwrap_err();
+        assert!(e.contains("hardware_delay_cycles = 57") && e.contains("37..=56"), "{e}");
+        let low = CardConfig { supply_min_millivolts: Some(4500), ..CardConfig::default() };
+        let e = cfg.with_card(&spec, &low).unwrap_err();
+        assert!(e.contains("supply_min_millivolts = 4500") && e.contains("4650..=4850"), "{e}");
     }
 
     #[test]

@@ -123,6 +123,26 @@ impl Watchdog {
         if !(1.0..=1000.0).contains(&f) {
             return Err(map.error("hardware.strobe_hz_min.value", format!("{f} Hz is not a plausible strobe minimum")));
         }
+        for (key, q) in
+            [("supply_volts_min", &self.hardware.supply_volts_min), ("strobe_hz_min", &self.hardware.strobe_hz_min)]
+        {
+            let Some(band) = &q.interval else {
+                return Err(map.error(
+                    &format!("hardware.{key}"),
+                    "the manual gives this only approximately: an `interval` (min, max, reason, cite) is needed, \
+                     the values replay admits",
+                ));
+            };
+            if !(band.min > 0.0 && band.min <= q.value && q.value <= band.max) {
+                return Err(map.error(
+                    &format!("hardware.{key}.interval"),
+                    format!(
+                        "the interval {} to {} must be positive and hold the stated value {}",
+                        band.min, band.max, q.value
+                    ),
+                ));
+            }
+        }
         Ok(())
     }
 }

@@ -227,3 +227,18 @@ fn a_spec_file_cut_off_mid_line_is_refused_at_its_last_line_not_past_it() {
     let e = expect_error(result, last, "YAML syntax");
     assert_eq!(e.position.map(|p| p.column), Some(edited.lines().last().unwrap().chars().count() + 1), "{e}");
 }
+
+#[test]
+fn an_approximate_hardware_figure_needs_a_band_that_holds_its_stated_value() {
+    // UM p.215 gives the supply and strobe minimums only "about"/"approximately": replay
+    // searches a band around each, so a band that is missing, or that leaves out the manual's
+    // own figure, is refused where it is written.
+    let (r, text) = load_edited("noband", "watchdog.yaml", |t| {
+        let start = t.find("    interval:\n      min: 4.65").unwrap();
+        let end = start + t[start..].find("  strobe_hz_min:").unwrap();
+        format!("{}{}", &t[..start], &t[end..])
+    });
+    expect_error(r, line_of(&text, "supply_volts_min:"), "an `interval`");
+    let (r, text) = load_edited("badband", "watchdog.yaml", |t| t.replacen("min: 20\n", "min: 26\n", 1));
+    expect_error(r, line_of(&text, "min: 26") - 1, "must be positive and hold the stated value 25");
+}

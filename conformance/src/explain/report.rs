@@ -2,7 +2,7 @@
 //! options come to, one explanation, and, when the card fell silent, the diagnosis.
 
 use super::lanes::{self, LaneDef, READINGS};
-use super::search::{self, Death, Lane};
+use super::search::{self, Death, Lane, Tolerances};
 use super::witness::{self, Witness};
 use crate::replay::Source;
 use pmacwd_model::controller::TripCause;
@@ -33,6 +33,13 @@ pub struct LaneSummary {
     pub death: Option<Death>,
     pub candidates_end: usize,
     pub candidates_peak: usize,
+    /// The card's values of what UM p.215 states approximately: those that explain the
+    /// capture, or, for a lane that fails, those it lasted longest under.
+    pub tolerances: Tolerances,
+    /// How many cards within the bands were searched (1: the stated values explained it).
+    pub tolerances_tried: usize,
+    /// How many cards the bands admit in all.
+    pub tolerances_admitted: usize,
 }
 
 /// Why a card that fell silent may have tripped.
@@ -131,6 +138,9 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
             death: l.death.clone(),
             candidates_end: l.cands.len(),
             candidates_peak: l.peak,
+            tolerances: l.tolerances,
+            tolerances_tried: l.tolerances_tried,
+            tolerances_admitted: l.tolerances_admitted,
         })
         .collect();
     let readings = READINGS
@@ -174,10 +184,10 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
         .iter()
         .find(|l| l.alive() && l.def.combinations.contains(&default))
         .or_else(|| done.iter().find(|l| l.alive()))
-        .map(|l| l.def.clone());
+        .map(|l| (l.def.clone(), l.tolerances));
     let witness_profiles: Vec<String> = chosen
         .as_ref()
-        .map(|def| {
+        .map(|(def, _)| {
             profiles
                 .iter()
                 .filter(|p| def.combinations.contains(&lanes::options_of(&p.choices)))
@@ -186,7 +196,7 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
         })
         .unwrap_or_default();
     let witness = match chosen {
-        Some(def) => Some(witness_for(spec, path, import_configuration, def)?),
+        Some((def, tolerances)) => Some(witness_for(spec, path, import_configuration, def, tolerances)?),
         None => None,
     };
     Ok(Report {
@@ -210,9 +220,11 @@ pub fn witness_for(
     path: &Path,
     import_configuration: Option<&str>,
     def: LaneDef,
+    tolerances: Tolerances,
 ) -> Result<(String, Witness), SpecError> {
     let label = lanes::label(&def.choices);
-    let (lanes, _) = search::search(spec, path, import_configuration, vec![def], true)?;
+    let (lanes, _, _) =
+        search::search_once(spec, path, import_configuration, std::iter::once((def, Some(tolerances))), true, true)?;
     let lane: &Lane = &lanes[0];
     // Prefer a running card at the end, then the shallowest X:$25; a merged candidate keeps
     // one history, so the first whose witness reproduces the capture is taken.
@@ -224,6 +236,7 @@ pub fn witness_for(
     for c in cands.iter().take(WITNESS_TRIES) {
         let node = c.node.clone().expect("filtered");
         let mut w = witness::build(spec, &lane.cfg, path, import_configuration, &node)?;
+        w.tolerances = (tolerances != lane.stated).then_some(tolerances);
         w.cpu_decided = lane.cands.iter().all(|o| o.cpu == w.cpu);
         w.checked = Some(witness::reproduces(spec, &lane.cfg, &w));
         if matches!(w.checked, Some(Ok(_))) {
@@ -269,6 +282,20 @@ fn diagnose(lanes: &[Lane]) -> Option<Diagnosis> {
         d.possible.push("no trip at all: nothing after this point shows the card silent".into());
     }
     Some(d)
+}
+
+/// The card's own values of what UM p.215 states approximately, when the stated ones do not
+/// explain the capture.
+fn tolerances_text(t: &Tolerances, lane: Option<&LaneSummary>) -> String {
+    let tried = lane.map_or(String::new(), |l| {
+        format!(" ({} of the {} cards the bands admit searched)", l.tolerances_tried, l.tolerances_admitted)
+    });
+    format!(
+        "the card's own tolerances: a hardware delay of {} servo cycles and a supply threshold of {} mV; UM \
+         p.215 gives the strobe minimum and the supply minimum only approximately, and the stated figures do \
+         not explain the capture, these do (within the bands of watchdog.yaml){tried}",
+        t.hardware_delay_cycles, t.supply_min_millivolts
+    )
 }
 
 fn option_text(o: &str, v: &OptionVerdict) -> String {
@@ -335,6 +362,9 @@ pub fn to_text(r: &Report) -> String {
         if w.cpu_decided {
             let _ = writeln!(s, "  the card's CPU is a {cpu} (bits 21 of ???, SRM p.289)");
         }
+        if let Some(t) = &w.tolerances {
+            let _ = writeln!(s, "  {}", tolerances_text(t, r.lanes.iter().find(|l| &l.label == label)));
+        }
         if w.story.is_empty() {
             s.push_str("  a background cycle completed in every gap soon enough: nothing unusual happened unseen\n");
         }
@@ -371,9 +401,13 @@ pub fn to_text(r: &Report) -> String {
         deaths.sort_by_key(|l| std::cmp::Reverse(l.death.as_ref().map(|d| d.event)));
         for l in deaths.iter().take(3) {
             if let Some(d) = &l.death {
+                let cards = match l.tolerances_admitted {
+                    0 | 1 => String::new(),
+                    n => format!("; all {n} cards the bands of hardware delay and supply threshold admit were searched, none lasted longer"),
+                };
                 let _ = writeln!(
                     s,
-                    "  {}: event {} (line {}): {}: expected {}, observed {} ({} candidate state{} before it)",
+                    "  {}: event {} (line {}): {}: expected {}, observed {} ({} candidate state{} before it{cards})",
                     l.label,
                     d.event,
                     d.line,
@@ -430,7 +464,10 @@ pub fn to_json(r: &Report) -> String {
         .map(|l| {
             serde_json::json!({"readings": l.label, "combinations": l.combinations, "explains": l.death.is_none(),
                 "failure": l.death.as_ref().map(death_json), "candidates_end": l.candidates_end,
-                "candidates_peak": l.candidates_peak})
+                "candidates_peak": l.candidates_peak,
+                "tolerances": {"hardware_delay_cycles": l.tolerances.hardware_delay_cycles,
+                    "supply_min_millivolts": l.tolerances.supply_min_millivolts,
+                    "searched": l.tolerances_tried, "admitted": l.tolerances_admitted}})
         })
         .collect();
     let profiles: Vec<serde_json::Value> =
@@ -444,6 +481,8 @@ pub fn to_json(r: &Report) -> String {
             "observations_checked": match &w.checked { Some(Ok(n)) => serde_json::json!(n), _ => serde_json::Value::Null },
             "reproduces": matches!(w.checked, Some(Ok(_))),
             "lowest_counter_min": w.lowest_min,
+            "card_tolerances": w.tolerances.map(|t| serde_json::json!({
+                "hardware_delay_cycles": t.hardware_delay_cycles, "supply_min_millivolts": t.supply_min_millivolts})),
         })),
         "diagnosis": r.diagnosis.as_ref().map(|d| serde_json::json!({"possible": d.possible, "ruled_out": d.ruled_out})),
     })

@@ -56,9 +56,67 @@ pub struct Death {
     pub candidates: usize,
 }
 
+/// A card's own values of what the manual gives only approximately (UM p.215: a strobe of
+/// "approximately 25 Hz", a supply of "about 4.75 V"): its hardware delay and its supply
+/// threshold, each within the band of `watchdog.yaml`. Constant for a card, so initial
+/// nondeterminism: a lane is searched under the stated values first and under the others only
+/// if those do not explain the capture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tolerances {
+    pub hardware_delay_cycles: u32,
+    pub supply_min_millivolts: u32,
+}
+
+impl Tolerances {
+    pub fn of(cfg: &ModelConfig) -> Tolerances {
+        Tolerances {
+            hardware_delay_cycles: cfg.hardware_delay_cycles,
+            supply_min_millivolts: cfg.supply_min_millivolts,
+        }
+    }
+
+    /// Every distinct card the bands of `cfg` admit, the stated values first, then the others
+    /// by their distance from them. Supply thresholds differ only by which of the capture's
+    /// supply levels (`levels`, in millivolts) they call low, so one threshold stands for each
+    /// such class.
+    pub fn variants(cfg: &ModelConfig, levels: &[u32]) -> Vec<Tolerances> {
+        let stated = Tolerances::of(cfg);
+        let (dlo, dhi) = cfg.hardware_delay_band;
+        let mut delays: Vec<u32> = (dlo..=dhi).chain([stated.hardware_delay_cycles]).collect();
+        delays.sort_by_key(|d| (d.abs_diff(stated.hardware_delay_cycles), *d));
+        delays.dedup();
+        let (slo, shi) = cfg.supply_min_millivolts_band;
+        // Threshold t calls level v low when v < t: the classes change at t = v + 1.
+        let mut thresholds: Vec<u32> =
+            std::iter::once(slo).chain(levels.iter().filter(|v| (slo..shi).contains(*v)).map(|v| v + 1)).collect();
+        let class = |t: u32| levels.iter().filter(|v| **v < t).count();
+        thresholds.retain(|t| class(*t) != class(stated.supply_min_millivolts));
+        thresholds.sort_unstable();
+        thresholds.dedup_by_key(|t| class(*t));
+        let supplies = std::iter::once(stated.supply_min_millivolts).chain(thresholds);
+        let supplies: Vec<u32> = supplies.collect();
+        let mut out = Vec::with_capacity(delays.len() * supplies.len());
+        for s in &supplies {
+            for d in &delays {
+                out.push(Tolerances { hardware_delay_cycles: *d, supply_min_millivolts: *s });
+            }
+        }
+        out.sort_by_key(|t| t.supply_min_millivolts != stated.supply_min_millivolts);
+        out
+    }
+}
+
 pub struct Lane {
     pub def: LaneDef,
     pub cfg: ModelConfig,
+    /// The card's values of what the manual states approximately, this search's.
+    pub tolerances: Tolerances,
+    /// How many cards of [`Tolerances::variants`] were searched (1: only the stated values).
+    pub tolerances_tried: usize,
+    /// How many cards the bands admit (0: not counted, the stated values explained it).
+    pub tolerances_admitted: usize,
+    /// The configuration's stated values (UM p.215's 25 Hz and 4.75 V).
+    pub stated: Tolerances,
     pub cands: Vec<Cand>,
     pub death: Option<Death>,
     pub peak: usize,
@@ -290,11 +348,17 @@ impl Lane {
         card: Option<&pmacwd_specs::config::CardConfig>,
         def: LaneDef,
         record: bool,
+        tolerances: Option<Tolerances>,
     ) -> Result<Lane, SpecError> {
         let profile = Profile { name: super::lanes::label(&def.choices), choices: def.choices };
         let mut cfg = ModelConfig::from_spec(spec, configuration, &profile)?;
         if let Some(card) = card {
             cfg = cfg.with_card(spec, card).map_err(|e| SpecError::whole_file(&spec.dir, e))?;
+        }
+        let stated = Tolerances::of(&cfg);
+        if let Some(t) = tolerances {
+            cfg.hardware_delay_cycles = t.hardware_delay_cycles;
+            cfg.supply_min_millivolts = t.supply_min_millivolts;
         }
         // A capture reads the card's real 24-bit servo counter (as `pmacwd run` does). The
         // load starts as the configuration's first; in unseen gaps it is the search's choice.
@@ -312,7 +376,17 @@ impl Lane {
                 node: record.then(|| Arc::new(Node { parent: None, event: 0, kind: NodeKind::Start { cpu } })),
             })
             .collect();
-        Ok(Lane { def, cfg, cands, death: None, peak: 4 })
+        Ok(Lane {
+            def,
+            tolerances: Tolerances::of(&cfg),
+            tolerances_tried: 1,
+            tolerances_admitted: 0,
+            stated,
+            cfg,
+            cands,
+            death: None,
+            peak: 4,
+        })
     }
 
     pub fn alive(&self) -> bool {
@@ -513,8 +587,11 @@ impl Lane {
     }
 }
 
-/// Searches `path` on `lanes`; `record` keeps witness chains (for one lane). `configuration`
-/// is the one a host log is imported under (a trace names its own).
+/// Searches `path` on `lanes`, each under the card's stated tolerances first and, if those do
+/// not explain the capture, under every other card the bands admit (in passes over the
+/// capture, one per variant, with the lanes still unexplained). A lane no card explains keeps
+/// the death that came latest. `record` keeps witness chains (for one lane). `configuration` is
+/// the one a host log is imported under (a trace names its own).
 pub fn search(
     spec: &Spec,
     path: &Path,
@@ -522,18 +599,67 @@ pub fn search(
     defs: Vec<LaneDef>,
     record: bool,
 ) -> Result<(Vec<Lane>, u64), SpecError> {
+    let (mut lanes, events, levels) =
+        search_once(spec, path, configuration, defs.into_iter().map(|d| (d, None)), record, true)?;
+    if lanes.iter().all(Lane::alive) {
+        return Ok((lanes, events));
+    }
+    let variants: Vec<Vec<Tolerances>> = lanes.iter().map(|l| Tolerances::variants(&l.cfg, &levels)).collect();
+    for (l, v) in lanes.iter_mut().zip(&variants) {
+        l.tolerances_admitted = v.len();
+    }
+    for k in 1.. {
+        let retry: Vec<usize> = (0..lanes.len()).filter(|i| !lanes[*i].alive() && variants[*i].len() > k).collect();
+        if retry.is_empty() {
+            break;
+        }
+        let again = retry.iter().map(|i| (lanes[*i].def.clone(), Some(variants[*i][k])));
+        // The first pass read the whole capture (and refused it if any of it was unusable).
+        let (found, _, _) = search_once(spec, path, configuration, again, record, false)?;
+        for (i, mut l) in retry.into_iter().zip(found) {
+            l.tolerances_tried = k + 1;
+            l.tolerances_admitted = variants[i].len();
+            let latest = |l: &Lane| l.death.as_ref().map(|d| d.event);
+            if l.alive() || latest(&l) > latest(&lanes[i]) {
+                lanes[i] = l;
+            } else {
+                lanes[i].tolerances_tried = k + 1;
+            }
+        }
+    }
+    Ok((lanes, events))
+}
+
+/// One pass over the capture with each lane under its tolerances (`None`: the stated ones).
+/// With `to_end` the whole capture is read even after every lane died, to count its events and
+/// find any unusable line; without, the pass stops there. Also returns the supply levels, in
+/// millivolts, of the capture's own `supply` events (those read).
+pub fn search_once(
+    spec: &Spec,
+    path: &Path,
+    configuration: Option<&str>,
+    defs: impl Iterator<Item = (LaneDef, Option<Tolerances>)>,
+    record: bool,
+    to_end: bool,
+) -> Result<(Vec<Lane>, u64, Vec<u32>), SpecError> {
     let source = Source::open_with(spec, path, configuration)?;
     let card = source.card();
     let name = source.configuration().to_string();
     let mut lanes = defs
-        .into_iter()
-        .map(|d| Lane::new(spec, &name, card.as_ref(), d, record))
+        .map(|(d, t)| Lane::new(spec, &name, card.as_ref(), d, record, t))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
     let mut reader = Reader::new(source);
+    let mut levels = std::collections::BTreeSet::new();
     while let Some((line, step)) = reader.next_step()? {
         let event_no = reader.events;
+        if let TraceEvent::Model(Event::Supply { millivolts }) = step.event {
+            levels.insert(millivolts);
+        }
         if lanes.iter().all(|l| !l.alive()) {
+            if !to_end {
+                break;
+            }
             continue;
         }
         let hints =
@@ -542,8 +668,8 @@ pub fn search(
             lane.step(spec, path, event_no, line, &step, &hints)?;
         }
     }
-    if reader.events == 0 {
+    if reader.events == 0 && to_end {
         return Err(SpecError::whole_file(path, "the capture has no events"));
     }
-    Ok((lanes, reader.events))
+    Ok((lanes, reader.events, levels.into_iter().collect()))
 }

@@ -28,6 +28,9 @@ pub struct Witness {
     pub lowest_min: i32,
     /// The witness run on the model: observations reproduced, or the first that is not.
     pub checked: Option<Result<usize, String>>,
+    /// The card's own hardware delay and supply threshold, when they are not the stated ones
+    /// (UM p.215 gives both only approximately); the written trace carries them in `card:`.
+    pub tolerances: Option<super::search::Tolerances>,
 }
 
 fn area(a: ChecksumTarget) -> &'static str {
@@ -267,7 +270,7 @@ pub fn build(
             "the longest run without a background cycle took X:$25 down to {lowest_min} (by line {dip_line})"
         ));
     }
-    Ok(Witness { steps, story, cpu, cpu_decided: false, lowest_min, checked: None })
+    Ok(Witness { steps, story, cpu, cpu_decided: false, lowest_min, checked: None, tolerances: None })
 }
 
 /// Runs a witness on the model (the search's configuration, the witness's CPU type) and
@@ -331,6 +334,14 @@ pub fn write_trace(
     header: WitnessHeader<'_>,
 ) -> std::io::Result<()> {
     let WitnessHeader { configuration, card, readings, profiles } = header;
+    // A card whose delay or supply threshold is not the stated one says so in its header, so
+    // that `pmacwd run` runs the witness on the same card.
+    let mut own = card.copied().unwrap_or_default();
+    if let Some(t) = w.tolerances {
+        own.hardware_delay_cycles = Some(t.hardware_delay_cycles);
+        own.supply_min_millivolts = Some(t.supply_min_millivolts);
+    }
+    let card = (!own.is_empty()).then_some(&own);
     use pmacwd_specs::vocab::reply_text::{self, StatusReply};
     let mask = super::observe::with_cpu(spec, 3, (0, 0));
     let trace = pmacwd_trace::Trace {
