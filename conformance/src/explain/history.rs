@@ -14,6 +14,7 @@ pub struct Node {
     pub kind: NodeKind,
 }
 
+#[derive(Debug)]
 pub enum NodeKind {
     Start {
         cpu: u8,

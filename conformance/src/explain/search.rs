@@ -424,7 +424,15 @@ impl Lane {
             // candidate keeps the history of the wider interval; a value only the other history
             // reaches would show up as an explanation that does not reproduce (checked before
             // one is printed).
-            let meets = |o: &Cand| lo <= o.card.counter_min.saturating_add(1) && o.min_lo <= hi.saturating_add(1);
+            // With witnesses recorded, only equal intervals merge, so that every history keeps
+            // the values it reaches.
+            let meets = |o: &Cand| {
+                if record {
+                    lo == o.min_lo && hi == o.card.counter_min
+                } else {
+                    lo <= o.card.counter_min.saturating_add(1) && o.min_lo <= hi.saturating_add(1)
+                }
+            };
             match same.iter_mut().find(|o| meets(o)) {
                 Some(o) => {
                     if record && i64::from(hi) - i64::from(lo) > i64::from(o.card.counter_min) - i64::from(o.min_lo) {

@@ -91,18 +91,24 @@ fn realize<'a>(
             }
         }
     }
-    let mut fallback = None;
+    // Best: the target met and Y:$25 left where the search continued from (the next gap's
+    // plans start there); then the target met; then the search's own end.
+    let (mut fitting, mut fallback) = (None, None);
     for plan in tries {
         if let Some(sim) = gap::run(cfg, card, plan, true) {
             if same_end(&sim.card) {
                 if fits(&sim.card) {
-                    return Some(sim);
+                    if sim.card.counter == end.counter {
+                        return Some(sim);
+                    }
+                    fitting.get_or_insert(sim);
+                } else {
+                    fallback.get_or_insert(sim);
                 }
-                fallback.get_or_insert(sim);
             }
         }
     }
-    fallback.or_else(|| gap::run(cfg, card, *plan_hi, true))
+    fitting.or(fallback).or_else(|| gap::run(cfg, card, *plan_hi, true))
 }
 
 /// Replays the capture at `path` with the choices of `last`'s chain.
@@ -149,13 +155,23 @@ pub fn build(
     }
     // Each Y:$25 read that narrowed an interval is met by the latest gap before it with a
     // background cycle (through the starved gaps in between, which only shift the counter).
+    // A gap shorter than the run-down such a read needs had no background cycle at all: it is
+    // starved, and the read is met by the gap before it.
     let mut counter_targets: std::collections::HashMap<usize, i32> = std::collections::HashMap::new();
+    let mut starve: std::collections::HashSet<usize> = std::collections::HashSet::new();
+    let reload = i64::from(cfg.reset_value(cfg.saved.i40));
     for (p, node) in nodes.iter().enumerate() {
         if let NodeKind::CounterPin(v) = node.kind {
             let mut v = i64::from(v);
             for g in (0..p).rev() {
                 match &nodes[g].kind {
                     NodeKind::Gap { plan_hi: Plan::Starved { cycles, .. }, .. } => v += i64::from(*cycles),
+                    NodeKind::Gap { plan_hi: Plan::Schedule { cycles, .. }, .. }
+                        if reload - v >= i64::from(*cycles) =>
+                    {
+                        starve.insert(g);
+                        v += i64::from(*cycles);
+                    }
                     NodeKind::Gap { .. } => {
                         if let Ok(v) = i32::try_from(v) {
                             counter_targets.insert(g, v);
@@ -182,7 +198,15 @@ pub fn build(
                     continue;
                 };
                 let need = targets.get(&at).copied();
-                let Some(sim) = realize(cfg, &card, (plan_hi, plan_lo, end), need, counter_targets.get(&at).copied())
+                let starved = match plan_hi {
+                    Plan::Schedule { cycles, .. } if starve.contains(&at) => {
+                        gap::run(cfg, &card, Plan::Starved { cycles: *cycles, heavy: 0 }, true)
+                            .filter(|sim| super::same_but_counters(&sim.card, end))
+                    }
+                    _ => None,
+                };
+                let Some(sim) = starved
+                    .or_else(|| realize(cfg, &card, (plan_hi, plan_lo, end), need, counter_targets.get(&at).copied()))
                 else {
                     story.push(format!("line {line}: (the recorded plan could not be replayed)"));
                     continue;
