@@ -224,6 +224,16 @@ fn a_card_that_fell_silent_after_plc_0_was_enabled_is_diagnosed_with_every_cause
     assert!(d.possible.iter().any(|p| p.contains("4.75 V")), "{d:?}");
     let (_, w) = r.witness.as_ref().unwrap();
     assert!(w.story.iter().any(|s| s.contains("the card tripped")), "{:?}", w.story);
+    // The story says when: the last strobe edge and the trip, the hardware delay apart (45
+    // cycles at 2.25 kHz and 25 Hz), in cycles of the capture and of the gap.
+    let starved = w.story.iter().find(|s| s.contains("the strobe stopped")).expect("a starvation story");
+    let cycle_after = |what: &str| -> u64 {
+        let rest = &starved[starved.find(what).unwrap() + what.len()..];
+        rest.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    let (edge, trip) =
+        (cycle_after("the last strobe edge came at servo cycle "), cycle_after("the card tripped at servo cycle "));
+    assert_eq!(trip - edge, 46, "{starved}");
 }
 
 #[test]

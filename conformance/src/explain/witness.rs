@@ -130,6 +130,8 @@ pub fn build(
     let mut story = Vec::new();
     let mut event = 0u64;
     let mut at = 1usize;
+    // Servo cycles since the start of the capture, for the story's times.
+    let mut now = 0u64;
     let mut last_line = 0usize;
     let mut lowest_min = card.counter_min;
     let mut dip_line = 0usize;
@@ -218,13 +220,34 @@ pub fn build(
                         "{between}: the logic supply dipped below its minimum (about 4.75 V, UM p.215) and the \
                          card tripped"
                     )),
-                    Plan::Starved { cycles, heavy } if sim.card.tripped() && !card.tripped() => story.push(format!(
-                        "{between}: no background cycle completed{}, so nothing reloaded the counter (Y:$25 was \
-                         {} at the start of the gap); it ran down, the strobe stopped and the card tripped within \
-                         {cycles} servo cycles (UM p.215)",
-                        if heavy >= cycles { " (PLC 0 overran every RTI period and took the CPU)" } else { "" },
-                        card.counter
-                    )),
+                    Plan::Starved { cycles, heavy } if sim.card.tripped() && !card.tripped() => {
+                        let (edge, trip) = strobe_and_trip(cfg, &card, sim.events.as_deref().unwrap_or_default());
+                        let at = |t: u64| {
+                            format!(
+                                "servo cycle {} of the capture ({} into the gap, {:.1} ms)",
+                                now + t,
+                                t,
+                                t as f64 * 1000.0 / f64::from(cfg.servo_hz)
+                            )
+                        };
+                        let when = match (edge, trip) {
+                            (Some(e), Some(t)) => format!(
+                                "the last strobe edge came at {}; with no edge for more than {} cycles (the hardware \
+                                 delay) the card tripped at {}",
+                                at(e),
+                                cfg.hardware_delay_cycles,
+                                at(t)
+                            ),
+                            (None, Some(t)) => format!("the card tripped at {}", at(t)),
+                            _ => format!("the card tripped within the gap's {cycles} servo cycles"),
+                        };
+                        story.push(format!(
+                            "{between}: no background cycle completed{}, so nothing reloaded the counter (Y:$25 was \
+                             {} at the start of the gap); it ran down and the strobe stopped: {when} (UM p.215)",
+                            if heavy >= cycles { " (PLC 0 overran every RTI period and took the CPU)" } else { "" },
+                            card.counter
+                        ))
+                    }
                     Plan::Starved { heavy: 1.., .. } | Plan::Schedule { overrun_tail: true, .. } => {
                         story.push(format!(
                             "{between}: PLC 0 (or another RTI task) ran longer than an RTI period and the RTI \
@@ -241,6 +264,7 @@ pub fn build(
                     )),
                     _ => {}
                 }
+                now += sim.cycles;
                 card = sim.card.clone();
                 if card.counter_min < lowest_min {
                     lowest_min = card.counter_min;
@@ -277,9 +301,13 @@ pub fn build(
                 let mut s = Sim::new(cfg, card.clone(), false);
                 s.greedy(*cycles);
                 card = s.card;
+                now += u64::from(*cycles);
                 steps.push(step.clone());
             }
             TraceEvent::Model(e) => {
+                if let Event::Servo { cycles } = e {
+                    now += u64::from(*cycles);
+                }
                 card.apply(cfg, e);
                 if matches!(e, Event::Command(pmacwd_specs::vocab::command::HostCommand::Reset)) {
                     lowest_min = card.counter_min;
@@ -295,6 +323,44 @@ pub fn build(
         ));
     }
     Ok(Witness { steps, story, cpu, cpu_decided: false, lowest_min, checked: None, tolerances: None })
+}
+
+/// When, in servo cycles from the start of `events` run on `card`, the last strobe edge came
+/// and the card tripped (UM p.215: a strobe slower than the minimum trips the timer).
+fn strobe_and_trip(cfg: &ModelConfig, card: &Controller, events: &[TraceEvent]) -> (Option<u64>, Option<u64>) {
+    let mut c = card.clone();
+    let (mut t, mut edge, mut trip) = (0u64, None, None);
+    for e in events {
+        match e {
+            TraceEvent::Model(Event::Servo { cycles }) => {
+                for _ in 0..*cycles {
+                    if c.tripped() {
+                        break;
+                    }
+                    c.servo_cycle(cfg);
+                    t += 1;
+                    if c.cycles_since_strobe == 0 {
+                        edge = Some(t);
+                    }
+                    if c.tripped() {
+                        trip = Some(t);
+                    }
+                }
+            }
+            TraceEvent::Model(e) => {
+                c.apply(cfg, e);
+                if c.tripped() && trip.is_none() {
+                    trip = Some(t);
+                }
+            }
+            // Gap plans write only model events.
+            TraceEvent::Run { .. } | TraceEvent::Elapsed { .. } | TraceEvent::Restart => {}
+        }
+        if trip.is_some() {
+            break;
+        }
+    }
+    (edge, trip)
 }
 
 /// Runs a witness on the model (the search's configuration, the witness's CPU type) and
