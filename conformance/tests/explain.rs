@@ -195,7 +195,8 @@ proptest! {
             eprintln!("slow case ({:.1} s, peak {} candidates):\n{text}", started.elapsed().as_secs_f64(), lanes[0].peak);
         }
         prop_assert!(lanes[0].death.is_none(), "not explained: {:?}\n{text}", lanes[0].death);
-        // The explanation printed is checked on the model before it is called one.
+        // The explanation printed is checked on the model before it is called one (how often
+        // it reproduces every observation is measured by the rate test below: docs/replay.md).
         let (_, w) = report::witness_for(&spec, &path, None, def, lanes[0].tolerances).unwrap();
         prop_assert_eq!(w.checked.clone(), Some(witness::reproduces(&spec, &cfg, &w)));
     }
@@ -383,6 +384,9 @@ fn for_debugging_one_capture_is_searched_on_one_lane_and_where_it_dies_is_printe
             }
             let (_, w) = report::witness_for(&spec, &path, None, lanes[0].def.clone(), lanes[0].tolerances).unwrap();
             println!("witness: {:?}\n{}", w.checked, w.story.join("\n"));
+            for (i, st) in w.steps.iter().enumerate() {
+                println!("    step {}: {} {:?}", i + 1, st.event, st.expect.reply);
+            }
             println!("---");
         }
     }

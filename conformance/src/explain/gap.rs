@@ -197,6 +197,8 @@ pub struct Outcome {
     /// The plan reaching the top of the interval, and one reaching its bottom.
     pub plan_hi: Plan,
     pub plan_lo: Plan,
+    /// The Y:$25 `plan_hi` starts from: the card's, or a lower one its interval allowed.
+    pub start_hi: i32,
 }
 
 /// Servo cycles from `card` without a background cycle until it trips (at most `max`).
@@ -381,6 +383,7 @@ fn group(cfg: &ModelConfig, runs: Vec<(Controller, Plan)>, merge_counter: bool) 
         min_lo: i32,
         plan_hi: Plan,
         plan_lo: Plan,
+        start_hi: i32,
     }
     let mut by_state: HashMap<(Controller, u8), std::collections::BTreeMap<i32, Point>> = HashMap::new();
     let mut seen = std::collections::HashSet::new();
@@ -412,6 +415,7 @@ fn group(cfg: &ModelConfig, runs: Vec<(Controller, Plan)>, merge_counter: bool) 
                 if min > p.card.counter_min {
                     p.card.counter_min = min;
                     p.plan_hi = plan;
+                    p.start_hi = start.counter;
                 }
                 if min < p.min_lo {
                     p.min_lo = min;
@@ -419,7 +423,10 @@ fn group(cfg: &ModelConfig, runs: Vec<(Controller, Plan)>, merge_counter: bool) 
                 }
             }
             None => {
-                points.insert(end.counter, Point { card: end, min_lo: min, plan_hi: plan, plan_lo: plan });
+                points.insert(
+                    end.counter,
+                    Point { card: end, min_lo: min, plan_hi: plan, plan_lo: plan, start_hi: start.counter },
+                );
             }
         }
     }
@@ -435,6 +442,7 @@ fn group(cfg: &ModelConfig, runs: Vec<(Controller, Plan)>, merge_counter: bool) 
                     o.min_lo = o.min_lo.min(p.min_lo);
                     if p.card.counter_min >= o.card.counter_min {
                         o.plan_hi = p.plan_hi;
+                        o.start_hi = p.start_hi;
                     }
                     let counter_min = o.card.counter_min.max(p.card.counter_min);
                     o.card = Controller { counter_min, ..p.card };
@@ -449,6 +457,7 @@ fn group(cfg: &ModelConfig, runs: Vec<(Controller, Plan)>, merge_counter: bool) 
                         min_lo: p.min_lo,
                         plan_hi: p.plan_hi,
                         plan_lo: p.plan_lo,
+                        start_hi: p.start_hi,
                     });
                 }
             }

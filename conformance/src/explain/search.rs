@@ -281,7 +281,15 @@ fn cycle_set(min: u32, max: Option<u32>, card: &Controller, cfg: &ModelConfig) -
 /// Applies `f` to a candidate and, if its Y:$25 is an interval, to the card at the interval's
 /// bottom as well: one candidate again when the two agree but for Y:$25 and X:$25, else both
 /// ends as candidates of their own. Returns each with the reply `f` gave.
-fn both_ends(c: &Cand, reply_seen: bool, mut f: impl FnMut(&mut Controller) -> Reply) -> Vec<(Cand, Reply)> {
+///
+/// When the ends part, each keeps the history so far plus a pin of the Y:$25 it stands for
+/// (the value before the step), so that its explanation meets that value.
+fn both_ends(
+    c: &Cand,
+    event_no: u64,
+    reply_seen: bool,
+    mut f: impl FnMut(&mut Controller) -> Reply,
+) -> Vec<(Cand, Reply)> {
     let mut hi = c.clone();
     let reply = f(&mut hi.card);
     normalize(&mut hi.card);
@@ -306,6 +314,12 @@ fn both_ends(c: &Cand, reply_seen: bool, mut f: impl FnMut(&mut Controller) -> R
         hi.counter_lo = hi.card.counter;
         lo.counter_lo = lo.card.counter;
         lo.min_lo = lo.min_lo.min(lo.card.counter_min);
+        let pin = |n: &Option<Arc<Node>>, v: i32| {
+            n.as_ref()
+                .map(|p| Arc::new(Node { parent: Some(p.clone()), event: event_no, kind: NodeKind::CounterPin(v) }))
+        };
+        hi.node = pin(&c.node, c.card.counter);
+        lo.node = pin(&c.node, c.counter_lo);
         vec![(hi, reply), (lo, lo_reply)]
     }
 }
@@ -468,8 +482,19 @@ impl Lane {
                     for n in cycle_set(*cycles_min, *cycles_max, &cand.card, cfg) {
                         for o in gap::successors(cfg, &cand.card, cand.counter_lo, n, hints) {
                             let node = cand.node.as_ref().filter(|_| record).map(|p| {
+                                // A plan run from lower in the Y:$25 interval: the gap before
+                                // must end there, a pin for the explanation to meet.
+                                let p = if o.start_hi != cand.card.counter {
+                                    Arc::new(Node {
+                                        parent: Some(p.clone()),
+                                        event: event_no,
+                                        kind: NodeKind::CounterPin(o.start_hi),
+                                    })
+                                } else {
+                                    p.clone()
+                                };
                                 Arc::new(Node {
-                                    parent: Some(p.clone()),
+                                    parent: Some(p),
                                     event: event_no,
                                     kind: NodeKind::Gap {
                                         plan_hi: o.plan_hi,
@@ -501,7 +526,7 @@ impl Lane {
                     }
                 }
                 TraceEvent::Run { cycles } => {
-                    for c in both_ends(&cand, false, |card| {
+                    for c in both_ends(&cand, event_no, false, |card| {
                         let mut s = Sim::new(cfg, card.clone(), false);
                         s.greedy(*cycles);
                         *card = s.card;
@@ -559,7 +584,7 @@ impl Lane {
                             c.counter_lo = c.counter_lo.max(v.min(c.card.counter));
                         }
                     }
-                    for r in both_ends(&c, step.expect.reply.is_some(), |card| card.apply(cfg, e)) {
+                    for r in both_ends(&c, event_no, step.expect.reply.is_some(), |card| card.apply(cfg, e)) {
                         results.push(r);
                     }
                 }

@@ -191,6 +191,14 @@ pub fn build(
         while at < nodes.len() && nodes[at].event < event {
             at += 1;
         }
+        // A pin recorded at a gap (the Y:$25 its plan started from) comes before the gap's node.
+        while at < nodes.len()
+            && nodes[at].event == event
+            && matches!(nodes[at].kind, NodeKind::Pin(_) | NodeKind::CounterPin(_))
+            && matches!(step.event, TraceEvent::Elapsed { .. })
+        {
+            at += 1;
+        }
         match &step.event {
             TraceEvent::Elapsed { .. } => {
                 let Some(NodeKind::Gap { plan_hi, plan_lo, end, .. }) =
