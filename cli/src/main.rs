@@ -10,6 +10,7 @@ mod record;
 mod replay;
 mod run;
 mod serve;
+mod timeline;
 
 use clap::{Parser, Subcommand};
 use replay::Format;
@@ -134,6 +135,34 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         specs: Option<PathBuf>,
     },
+    /// Draw a trace run on the model: Y:$25, X:$25, the strobe, the trip, the background cycles
+    /// and every status bit over absolute servo cycles and milliseconds.
+    ///
+    /// Runs TRACE (YAML or JSON Lines) as `pmacwd run` does, under one profile, servo cycle by
+    /// servo cycle, and writes every change: as CSV (host commands as comment lines), as VCD for
+    /// GTKWave (time in ns at the configuration's servo clock), or as an SVG plot of Y:$25 and
+    /// X:$25 with the trip and the trace's reads marked. A capture with `elapsed` or `restart`
+    /// steps leaves open what happened: `pmacwd replay CAPTURE --witness W.jsonl` first, then
+    /// `pmacwd timeline W.jsonl`. Expectations are not checked (that is `pmacwd run`).
+    #[command(after_help = "Exit codes: 0 written, 2 unusable input (or a trace with elapsed/restart steps).")]
+    Timeline {
+        /// The trace: YAML or JSON Lines.
+        #[arg(value_name = "TRACE")]
+        trace: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = timeline::TimelineFormat::Csv)]
+        format: timeline::TimelineFormat,
+        /// Write to FILE instead of standard output.
+        #[arg(long, short, value_name = "FILE")]
+        output: Option<PathBuf>,
+        /// The profile to run under (default: the trace's first, or the default profile when
+        /// it lists `all`).
+        #[arg(long, value_name = "NAME")]
+        profile: Option<String>,
+        /// Spec directory to use instead of the embedded one.
+        #[arg(long, value_name = "DIR")]
+        specs: Option<PathBuf>,
+    },
     /// Run the conformance suite against the compact core (impl/) and print what it covered.
     ///
     /// Three parts, each in lockstep with the reference model (observations compared after
@@ -219,6 +248,9 @@ fn main() -> ExitCode {
         Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
         Command::Replay { file, format, specs, configuration, witness } => {
             replay::replay_file(&file, format, specs, configuration, witness)
+        }
+        Command::Timeline { trace, format, output, profile, specs } => {
+            timeline::timeline(timeline::TimelineArgs { trace, format, output, profile, specs })
         }
         Command::Import { log, out, configuration, yaml } => import::import_log(&log, out, &configuration, yaml),
         Command::Check { specs, profile, configuration, witnesses, threads, no_conformance } => {

@@ -19,3 +19,4 @@ pub mod product;
 pub mod replay;
 pub mod runner;
 pub mod subject;
+pub mod timeline;
