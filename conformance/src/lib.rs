@@ -15,6 +15,7 @@ pub mod explain;
 pub mod generate;
 pub mod import;
 pub mod lockstep;
+pub mod margin;
 pub mod product;
 pub mod replay;
 pub mod runner;

@@ -1,0 +1,302 @@
+//! `pmacwd margin`: how close a configuration runs to a watchdog trip, under each profile,
+//! measured on the model (`pmacwd_conformance::margin`), as text, JSON, or a plot of the margin
+//! against PLC 0 load.
+
+use crate::common::load_spec;
+use pmacwd_conformance::margin::{self, Margin};
+use pmacwd_specs::check::Load;
+use pmacwd_specs::config::{servo_hz_of_i10, CardConfig, ModelConfig};
+use pmacwd_specs::profiles::Profile;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+pub struct MarginArgs {
+    pub configuration: String,
+    pub profile: Option<String>,
+    pub servo_hz: Option<u32>,
+    pub i10: Option<i64>,
+    pub i8: Option<i64>,
+    pub i40: Option<i64>,
+    pub motors: Option<u8>,
+    pub plc0_units: Option<u16>,
+    pub background_units: Option<u16>,
+    pub json: bool,
+    pub plot: Option<PathBuf>,
+    pub specs: Option<PathBuf>,
+}
+
+/// One profile's figures, with the worst case over the strobe minimum's band.
+struct Row {
+    profile: Profile,
+    default: bool,
+    cfg: ModelConfig,
+    stated: Margin,
+    /// The same load with the shortest hardware delay the band admits (UM p.215 gives the
+    /// strobe minimum only approximately; watchdog.yaml).
+    shortest_delay: Margin,
+}
+
+fn ms(cfg: &ModelConfig, cycles: f64) -> f64 {
+    cycles * 1000.0 / f64::from(cfg.servo_hz)
+}
+
+pub fn margin(a: MarginArgs) -> ExitCode {
+    let spec = match load_spec(&a.specs) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let servo_hz = match (a.servo_hz, a.i10) {
+        (Some(_), Some(_)) => {
+            eprintln!("pmacwd: give the servo clock as --servo-hz or as --i10, not both");
+            return ExitCode::from(2);
+        }
+        (_, Some(i10)) => match servo_hz_of_i10(i10) {
+            Some(hz) => Some(hz),
+            None => {
+                eprintln!("pmacwd: --i10 {i10}: I10 is 1 to 8,388,607 (SRM p.43)");
+                return ExitCode::from(2);
+            }
+        },
+        (hz, None) => hz,
+    };
+    let card = CardConfig { servo_hz, i8: a.i8, i40: a.i40, ..CardConfig::default() };
+    let profiles: Vec<Profile> = match &a.profile {
+        Some(name) => match spec.profiles.all().into_iter().find(|p| &p.name == name) {
+            Some(p) => vec![p],
+            None => {
+                eprintln!("pmacwd: --profile {name}: no such profile (profiles: {})", spec.profiles.names());
+                return ExitCode::from(2);
+            }
+        },
+        None => spec.profiles.all(),
+    };
+    let default = spec.profiles.default_profile().name;
+    let mut rows = Vec::new();
+    for p in profiles {
+        let cfg = match ModelConfig::from_spec(&spec, &a.configuration, &p) {
+            Ok(c) => c,
+            Err(e) => {
+                eprintln!("pmacwd: --configuration {}: {}", a.configuration, e.message);
+                return ExitCode::from(2);
+            }
+        };
+        let cfg = match cfg.with_card(&spec, &card) {
+            Ok(c) => c,
+            Err(e) => {
+                eprintln!("pmacwd: {}", e.replace("card: ", "--"));
+                return ExitCode::from(2);
+            }
+        };
+        let first = cfg.loads.first().copied().unwrap_or(Load { motors: 1, plc0_units: 0, background_units: 3 });
+        let load = Load {
+            motors: a.motors.unwrap_or(first.motors),
+            plc0_units: a.plc0_units.unwrap_or(first.plc0_units),
+            background_units: a.background_units.unwrap_or(first.background_units),
+        };
+        let stated = margin::measure(&cfg, load);
+        let mut short = cfg.clone();
+        short.hardware_delay_cycles = cfg.hardware_delay_band.0;
+        let shortest_delay = margin::measure(&short, load);
+        rows.push((load, Row { default: p.name == default, profile: p, cfg, stated, shortest_delay }));
+    }
+    let Some((load, _)) = rows.first().map(|(l, r)| (*l, r)) else {
+        eprintln!("pmacwd: no profile to measure");
+        return ExitCode::from(2);
+    };
+    if let Some(path) = &a.plot {
+        if let Err(e) = plot(path, &rows.iter().map(|(_, r)| r).collect::<Vec<_>>(), load) {
+            eprintln!("pmacwd: {}: cannot write the plot: {e}", path.display());
+            return ExitCode::from(2);
+        }
+    }
+    let rows: Vec<Row> = rows.into_iter().map(|(_, r)| r).collect();
+    if a.json {
+        println!("{}", to_json(&a.configuration, load, &rows));
+    } else {
+        print!("{}", to_text(&a.configuration, load, &rows));
+    }
+    // A load that trips the card under the default profile is a finding, not an error.
+    if rows.iter().any(|r| r.default && r.stated.tripped) {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+fn reload_cite(cfg: &ModelConfig) -> &'static str {
+    if cfg.saved.i40 != 0 {
+        "I40, UM p.215"
+    } else if cfg.reset_value(0) == 4096 {
+        "I40 = 0: 4096, UM p.215, UM p.237"
+    } else {
+        "I40 = 0: 4095, SRM p.57, UM p.240"
+    }
+}
+
+fn to_text(configuration: &str, load: Load, rows: &[Row]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let c = &rows[0].cfg;
+    let _ = writeln!(
+        s,
+        "margin: configuration {configuration} (servo clock {} Hz, I8 = {}, I40 = {}); load: {} motor{}, PLC 0 {} units per \
+         RTI, background {} units, of {} units per servo cycle ({} per motor)",
+        c.servo_hz,
+        c.saved.i8,
+        c.saved.i40,
+        load.motors,
+        if load.motors == 1 { "" } else { "s" },
+        load.plc0_units,
+        load.background_units,
+        c.cpu.cycle_units,
+        c.cpu.servo_units_per_motor
+    );
+    for r in rows {
+        let (m, cfg) = (&r.stated, &r.cfg);
+        let tag = if r.default { " (default)" } else { "" };
+        let _ = writeln!(
+            s,
+            "{}{tag}: reload {} ({}), hardware delay {} servo cycles (strobe minimum {} Hz, UM p.215; {} to {} within \
+             the band of watchdog.yaml)",
+            r.profile.name,
+            m.reload,
+            reload_cite(cfg),
+            m.hardware_delay_cycles,
+            cfg.profile.choices.strobe_hz_min.hz(),
+            cfg.hardware_delay_band.0,
+            cfg.hardware_delay_band.1
+        );
+        let _ = writeln!(
+            s,
+            "  tolerated: a background cycle within {} servo cycles of the last ({:.1} ms); with none the card trips \
+             at cycle {} (UM p.215)",
+            m.trip_after_cycles - 1,
+            ms(cfg, (m.trip_after_cycles - 1) as f64),
+            m.trip_after_cycles
+        );
+        match m.longest_interval_cycles {
+            Some(g) => {
+                let _ = writeln!(
+                    s,
+                    "  needed: the load completes a background cycle at least every {g} servo cycle{} ({:.2} ms); X:$25 \
+                     settles at {}",
+                    if g == 1 { "" } else { "s" },
+                    ms(cfg, g as f64),
+                    m.counter_min
+                );
+            }
+            None => {
+                let _ =
+                    writeln!(s, "  needed: no background cycle completes under this load: the background is starved");
+            }
+        }
+        match (m.margin_cycles(), r.shortest_delay.margin_cycles()) {
+            (Some(c), Some(w)) => {
+                let _ = writeln!(
+                    s,
+                    "  margin: {c} servo cycles ({:.1} ms); {w} ({:.1} ms) if the card's strobe minimum is at the top of \
+                     its band (delay {})",
+                    ms(cfg, c as f64),
+                    ms(cfg, w as f64),
+                    r.shortest_delay.hardware_delay_cycles
+                );
+            }
+            _ => {
+                let _ = writeln!(s, "  margin: NONE: the card trips under this load");
+            }
+        }
+        let _ = writeln!(
+            s,
+            "  RTI: {}; servo routines: {}",
+            if m.rti_overran {
+                "PLC 0 and the RTI tasks overran the RTI period (bit 22, SRM p.289)"
+            } else {
+                "no overrun"
+            },
+            if m.servo_overloaded { "MORE than a servo cycle (bit 20, SRM p.289)" } else { "fit the servo cycle" }
+        );
+    }
+    s
+}
+
+fn to_json(configuration: &str, load: Load, rows: &[Row]) -> String {
+    let profiles: Vec<serde_json::Value> = rows
+        .iter()
+        .map(|r| {
+            let m = &r.stated;
+            serde_json::json!({
+                "profile": r.profile.name, "default": r.default, "reload": m.reload,
+                "hardware_delay_cycles": m.hardware_delay_cycles,
+                "hardware_delay_band": [r.cfg.hardware_delay_band.0, r.cfg.hardware_delay_band.1],
+                "trip_after_cycles": m.trip_after_cycles,
+                "tolerated_interval_cycles": m.trip_after_cycles - 1,
+                "longest_interval_cycles": m.longest_interval_cycles,
+                "counter_min": m.counter_min, "rti_overran": m.rti_overran,
+                "servo_overloaded": m.servo_overloaded, "tripped": m.tripped,
+                "margin_cycles": m.margin_cycles(),
+                "margin_ms": m.margin_cycles().map(|c| ms(&r.cfg, c as f64)),
+                "margin_cycles_shortest_delay": r.shortest_delay.margin_cycles(),
+            })
+        })
+        .collect();
+    let c = &rows[0].cfg;
+    serde_json::json!({
+        "configuration": configuration, "servo_hz": c.servo_hz, "i8": c.saved.i8, "i40": c.saved.i40,
+        "load": {"motors": load.motors, "plc0_units": load.plc0_units, "background_units": load.background_units},
+        "cycle_units": c.cpu.cycle_units, "profiles": profiles,
+    })
+    .to_string()
+}
+
+/// Margin in ms against PLC 0 units per RTI, one line per profile, from no PLC 0 to twice
+/// the units that starve the background under the default profile (or the cycle's units).
+fn plot(path: &std::path::Path, rows: &[&Row], load: Load) -> Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    let cfg = &rows[0].cfg;
+    let period = u32::from(cfg.saved.i8) + 1;
+    let plc0_max = (u32::from(cfg.cpu.cycle_units) * period * 2).min(u32::from(u16::MAX)) as u16;
+    let curves: Vec<(String, Vec<(f64, f64)>)> = rows
+        .iter()
+        .map(|r| {
+            // Every unit: the band where PLC 0 takes exactly the spare time and starves the
+            // background can be a few units wide.
+            let pts = margin::sweep_plc0(&r.cfg, load, plc0_max, plc0_max)
+                .into_iter()
+                .map(|(u, m)| (f64::from(u), m.margin_cycles().map_or(0.0, |c| ms(&r.cfg, c as f64))))
+                .collect();
+            (r.profile.name.clone(), pts)
+        })
+        .collect();
+    let top = curves.iter().flat_map(|(_, p)| p.iter().map(|(_, y)| *y)).fold(1.0f64, f64::max);
+    let root = SVGBackend::new(path, (1000, 520)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!(
+                "margin to a watchdog trip against PLC 0 load: {} Hz, I8 = {}, I40 = {}, {} motors",
+                cfg.servo_hz, cfg.saved.i8, cfg.saved.i40, load.motors
+            ),
+            ("sans-serif", 18),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0f64..f64::from(plc0_max), 0f64..top * 1.1)?;
+    chart
+        .configure_mesh()
+        .x_desc(format!("PLC 0 CPU units per RTI (an RTI period is {} units)", u32::from(cfg.cpu.cycle_units) * period))
+        .y_desc("margin, ms (0: the card trips)")
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .draw()?;
+    for (i, (name, pts)) in curves.into_iter().enumerate() {
+        let color = Palette99::pick(i).to_rgba();
+        chart
+            .draw_series(LineSeries::new(pts, color.stroke_width(2)))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+    }
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE.mix(0.9)).draw()?;
+    root.present()?;
+    Ok(())
+}
