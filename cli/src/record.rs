@@ -26,8 +26,8 @@ pub struct RecordArgs {
     /// Spec directory to use instead of the embedded one.
     #[arg(long, value_name = "DIR")]
     pub specs: Option<PathBuf>,
-    /// The card's servo rate, 1..100000 (default: the configuration's; docs/emulator.md
-    /// "Limits").
+    /// The card's servo rate, 1..100000 Hz (the servo clock range of specs/scheduling.yaml;
+    /// default: the configuration's; docs/emulator.md "Limits").
     #[arg(long, value_name = "HZ")]
     pub servo_hz: Option<u32>,
     /// Also proxy an emulator's control interface: listen here ...
@@ -59,7 +59,7 @@ pub fn record(a: RecordArgs) -> ExitCode {
         Ok(c) => c,
         Err(e) => return unusable(e),
     };
-    let servo_hz = match pmacwd_emulator::card::servo_rate(a.servo_hz, model.servo_hz, &a.configuration) {
+    let servo_hz = match pmacwd_emulator::card::servo_rate(a.servo_hz, &model) {
         Ok(hz) => hz,
         Err(e) => return unusable(e),
     };

@@ -31,8 +31,9 @@ pub struct ServeArgs {
     /// Spec directory to use instead of the embedded one.
     #[arg(long, value_name = "DIR")]
     pub specs: Option<PathBuf>,
-    /// Servo interrupt rate, 1..100000 (default: the configuration's; 100 kHz is above any
-    /// servo clock a real card sustains, docs/emulator.md "Limits").
+    /// Servo interrupt rate, 1..100000 Hz (the servo clock range of specs/scheduling.yaml;
+    /// default: the configuration's; 100 kHz is above any servo clock a real card sustains,
+    /// docs/emulator.md "Limits").
     #[arg(long, value_name = "HZ")]
     pub servo_hz: Option<u32>,
     /// Time moves only by `step` and `servo` on the control interface (for tests).
@@ -126,7 +127,7 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         Ok(s) => s,
         Err(e) => return unusable(e),
     };
-    let servo_hz = match servo_rate(a.servo_hz, model.servo_hz, &a.configuration) {
+    let servo_hz = match servo_rate(a.servo_hz, &model) {
         Ok(hz) => hz,
         Err(e) => return unusable(e),
     };
