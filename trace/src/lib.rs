@@ -675,6 +675,25 @@ mod tests {
     }
 
     #[test]
+    fn a_trace_without_steps_is_refused_in_both_forms_at_a_line() {
+        // The JSON Lines reader used to accept a header alone, which the YAML reader refuses
+        // (`steps: []`); run on it, such a trace checks nothing and passes. Both refuse it now,
+        // the JSON Lines form at the header's line (blank lines after it change nothing).
+        for text in [format!("{HEADER}\n"), format!("\n{HEADER}\n\n\n")] {
+            let e = jsonl::read_all(Path::new("t.jsonl"), text.as_bytes()).unwrap_err();
+            let header_line = text.lines().position(|l| l == HEADER).unwrap() + 1;
+            assert_eq!(e.position.map(|p| p.line), Some(header_line), "{e}");
+            assert!(e.message.contains("a trace needs at least one step"), "{e}");
+        }
+        let yaml = "version: 1\ndescription: t\nconfiguration: i40-zero\nprofiles: all\nsteps: []\n";
+        let e = parse_yaml(Path::new("t.yaml"), yaml).err().expect("refused");
+        assert_eq!(e.position.map(|p| p.line), Some(5), "{e}");
+        assert!(e.message.contains("a trace needs at least one step"), "{e}");
+        // One step is enough.
+        assert_eq!(jsonl(&[r#"{"servo":1}"#]).unwrap().steps.len(), 1);
+    }
+
+    #[test]
     fn an_empty_profile_list_is_refused_in_both_forms() {
         // `profiles: []` used to run nothing and report "0 passed, 0 failed" with exit 0.
         let text = HEADER.replace(r#""all""#, "[]") + "\n{\"servo\":1}\n";
