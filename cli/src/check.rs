@@ -3,9 +3,10 @@
 
 use crate::common::{load_spec, scenario_library};
 use crate::conform::scenarios_on_core;
-use pmacwd_conformance::check::{format_report, planned_runs, run, Selection};
+use crate::progress::{thousands, Progress};
+use pmacwd_conformance::check::{format_report, planned_runs, run_observed, Selection};
 use pmacwd_specs::Spec;
-use std::io::Write as _;
+use std::cell::RefCell;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -44,10 +45,14 @@ pub fn check(a: CheckArgs) -> ExitCode {
     println!("pmacwd check: {} runs from {}, {} threads", runs.len(), spec.dir.display(), threads);
     let (mut failures, mut incomplete) = (0usize, 0usize);
     let (mut states, mut seconds) = (0usize, 0f64);
+    let mut progress = Progress::start("model check", runs.len() as u64, "runs");
     for (i, cfg) in runs.iter().cloned().enumerate() {
-        eprint!("[{}] checking {} / {} ...\r", i + 1, cfg.configuration, cfg.profile.name);
-        let _ = std::io::stderr().flush();
-        let report = run(cfg, threads);
+        let name = format!("{} / {}", cfg.configuration, cfg.profile.name);
+        let done = i as u64;
+        let report = run_observed(cfg, threads, &mut |e| {
+            progress.update(done, || format!("{name}: {} states, depth {}", thousands(e.states as u64), e.depth))
+        });
+        progress.update(done + 1, String::new);
         states += report.states;
         seconds += report.duration.as_secs_f64();
         if !report.complete {
@@ -55,8 +60,9 @@ pub fn check(a: CheckArgs) -> ExitCode {
         } else if !report.all_hold() {
             failures += 1;
         }
-        print!("{}", format_report(&report, &default_profile, witnesses));
+        progress.print(&format_report(&report, &default_profile, witnesses));
     }
+    progress.finish();
     println!(
         "total: {states} states in {seconds:.2} s ({:.0} states/s); {}",
         states as f64 / seconds.max(1e-9),
@@ -100,21 +106,30 @@ fn conformance_summary(
     let mut diverged = false;
     let start = std::time::Instant::now();
     let mut pairs = 0;
-    for cfg in runs {
-        let r = pmacwd_conformance::product::check(cfg.clone(), threads);
+    let mut progress = Progress::start("exhaustive lockstep", runs.len() as u64, "runs");
+    for (i, cfg) in runs.iter().enumerate() {
+        let name = format!("{} / {}", cfg.configuration, cfg.profile.name);
+        let done = i as u64;
+        let r = pmacwd_conformance::product::check_observed(cfg.clone(), threads, &mut |e| {
+            progress.update(done, || format!("{name}: {} pair states", thousands(e.states as u64)))
+        });
+        progress.update(done + 1, String::new);
         pairs += r.states;
         if !r.complete {
-            println!("  INCOMPLETE {} / {}: stopped at the state bound", r.configuration, r.profile);
+            progress.println(&format!("  INCOMPLETE {} / {}: stopped at the state bound", r.configuration, r.profile));
+            progress.finish();
             return Err(ExitCode::from(2));
         }
         if let Some((events, d)) = &r.divergence {
             diverged = true;
-            println!("  DIVERGED  {} / {}: {d}\n  shortest path:", r.configuration, r.profile);
+            let mut text = format!("  DIVERGED  {} / {}: {d}\n  shortest path:\n", r.configuration, r.profile);
             for e in events {
-                println!("      {e}");
+                text.push_str(&format!("      {e}\n"));
             }
+            progress.print(&text);
         }
     }
+    progress.finish();
     println!(
         "  exhaustive lockstep: {pairs} pair states over {} runs, {} ({:.1} s)",
         runs.len(),
@@ -146,12 +161,16 @@ fn conformance_summary(
     })?;
     let seed = generate::fresh_seed();
     let start = std::time::Instant::now();
-    match generate::run::<CoreSubject>(
+    let cases = 1_000;
+    let progress = RefCell::new(Progress::start("generated traces", u64::from(cases), "traces"));
+    let outcome = generate::run::<CoreSubject>(
         &configs,
-        Settings { cases: 1_000, max_len: 1_000, seed },
-        &|_| {},
+        Settings { cases, max_len: 1_000, seed },
+        &|done| progress.borrow_mut().update(u64::from(done), String::new),
         &mut |_, _, _| {},
-    ) {
+    );
+    progress.into_inner().finish();
+    match outcome {
         Ok(stats) => println!(
             "  generated: {} traces, {} events, seed {seed}, no divergence ({:.1} s)",
             stats.traces,

@@ -1,8 +1,10 @@
 //! `pmacwd conform`: the conformance suite against the compact core, with its coverage.
 
 use crate::common::{load_spec, scenario_library, trace_files, TraceFile};
+use crate::progress::{thousands, Progress};
 use pmacwd_conformance::check::{planned_runs, Selection};
 use pmacwd_specs::Spec;
+use std::cell::RefCell;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -78,15 +80,17 @@ pub fn conform(a: ConformArgs) -> ExitCode {
         configs.len()
     );
     let settings = Settings { cases: a.cases, max_len: a.max_len, seed };
-    let step = (a.cases / 10).max(1);
-    let progress = |done: u32| {
-        if done % step == 0 {
-            eprintln!("  {done} of {} traces", a.cases);
-        }
-    };
+    let progress = RefCell::new(Progress::start("generated traces", u64::from(a.cases), "traces"));
     let generated_start = std::time::Instant::now();
     let mut observe = |c: &_, e: &_, m: &_| coverage.record(c, e, m);
-    match generate::run::<CoreSubject>(&configs, settings, &progress, &mut observe) {
+    let outcome = generate::run::<CoreSubject>(
+        &configs,
+        settings,
+        &|done| progress.borrow_mut().update(u64::from(done), String::new),
+        &mut observe,
+    );
+    progress.into_inner().finish();
+    match outcome {
         Ok(stats) => {
             let secs = generated_start.elapsed().as_secs_f64();
             println!(
@@ -120,32 +124,42 @@ pub fn conform(a: ConformArgs) -> ExitCode {
             }
         };
         let mut total = 0;
-        for cfg in runs {
-            let r = pmacwd_conformance::product::check(cfg, threads);
+        let mut progress = Progress::start("exhaustive lockstep", runs.len() as u64, "runs");
+        for (i, cfg) in runs.into_iter().enumerate() {
+            let name = format!("{} / {}", cfg.configuration, cfg.profile.name);
+            let done = i as u64;
+            let r = pmacwd_conformance::product::check_observed(cfg, threads, &mut |e| {
+                progress.update(done, || format!("{name}: {} pair states", thousands(e.states as u64)))
+            });
+            progress.update(done + 1, String::new);
             total += r.states;
             if !r.complete {
                 // Cut short at the state bound: no verdict, so unusable input, not a pass.
-                println!("INCOMPLETE {} / {}: stopped at the state bound", r.configuration, r.profile);
+                progress
+                    .println(&format!("INCOMPLETE {} / {}: stopped at the state bound", r.configuration, r.profile));
+                progress.finish();
                 return ExitCode::from(2);
             }
             match &r.divergence {
-                None => println!(
+                None => progress.println(&format!(
                     "ok        {:<10} {:<20} {:>8} pair states, depth {:>3}, {:.2} s",
                     r.configuration,
                     r.profile,
                     r.states,
                     r.depth,
                     r.duration.as_secs_f64()
-                ),
+                )),
                 Some((events, d)) => {
                     diverged = true;
-                    println!("DIVERGED  {} / {}: {d}\n  shortest path:", r.configuration, r.profile);
+                    let mut text = format!("DIVERGED  {} / {}: {d}\n  shortest path:\n", r.configuration, r.profile);
                     for e in events {
-                        println!("    {e}");
+                        text.push_str(&format!("    {e}\n"));
                     }
+                    progress.print(&text);
                 }
             }
         }
+        progress.finish();
         println!("{total} pair states explored");
     }
 

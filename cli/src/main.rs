@@ -6,6 +6,7 @@ mod common;
 mod conform;
 mod decode;
 mod import;
+mod progress;
 mod record;
 mod replay;
 mod run;
@@ -200,6 +201,9 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = Cli::parse();
+    if let Err(e) = progress::configure() {
+        return common::unusable(e);
+    }
     match cli.command {
         Command::Conform { cases, max_len, seed, scenarios, specs, no_exhaustive, save_regressions, threads } => {
             conform::conform(conform::ConformArgs {

@@ -428,6 +428,44 @@ fn output_into_a_closed_pipe_ends_quietly_without_a_panic() {
 }
 
 #[test]
+fn progress_into_a_log_is_whole_periodic_lines_without_carriage_returns() {
+    // Issue 19: `check` wrote its progress with carriage returns, one 2,000-character line in a
+    // CI log, and the exhaustive lockstep showed nothing for seconds. Into a pipe, progress is
+    // now a plain line per interval (here 0.1 s instead of 5, through the environment variable)
+    // naming the phase and what is under way, for the model check and the lockstep alike.
+    let out = pmacwd()
+        .args(["check", "--configuration", "i40-zero", "--threads", "1"])
+        .env("PMACWD_PROGRESS_SECONDS", "0.1")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(!stderr.contains('\r'), "{stderr:?}");
+    assert!(stderr.ends_with('\n'), "{stderr:?}");
+    for line in stderr.lines() {
+        assert!(line.starts_with("progress: "), "only progress lines: {line}");
+    }
+    assert!(stderr.contains("progress: model check: "), "{stderr}");
+    assert!(stderr.contains(" of 4 runs done ("), "{stderr}");
+    assert!(stderr.contains("progress: exhaustive lockstep: "), "{stderr}");
+    // Without the variable, a phase shorter than 5 s prints no progress at all.
+    let out = pmacwd().args(["check", "--configuration", "lockout", "--profile", "um-215"]).output().unwrap();
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "");
+    // A value that is not seconds is refused before any work, not taken as the default.
+    for bad in ["0", "abc", "-1"] {
+        let out = pmacwd()
+            .args(["check", "--configuration", "lockout"])
+            .env("PMACWD_PROGRESS_SECONDS", bad)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {stderr}");
+        assert!(stderr.contains(&format!("PMACWD_PROGRESS_SECONDS={bad}: give seconds")), "{stderr}");
+        assert!(out.stdout.is_empty(), "{bad}: no work before the refusal");
+    }
+}
+
+#[test]
 fn checker_threads_outside_one_to_the_cores_are_refused_before_any_work() {
     // `--threads 0` used to check 1 state and report every `sometimes` property as never
     // reached (a false verdict); `--threads 100000` panicked spawning threads.

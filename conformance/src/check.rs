@@ -59,6 +59,15 @@ pub fn run(cfg: ModelConfig, threads: usize) -> RunReport {
     WatchdogModel::new(cfg).check(threads)
 }
 
+/// As [`run`], telling `progress` how far the checker has come while it runs.
+pub fn run_observed(
+    cfg: ModelConfig,
+    threads: usize,
+    progress: &mut dyn FnMut(pmacwd_model::checker::Explored),
+) -> RunReport {
+    WatchdogModel::new(cfg).check_observed(threads, progress)
+}
+
 fn thousands(n: usize) -> String {
     let s = n.to_string();
     let mut out = String::new();
