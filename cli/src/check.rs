@@ -1,7 +1,7 @@
 //! `pmacwd check`: the model check of every profile at the bounded configurations, then a
 //! conformance summary of the core against the model.
 
-use crate::common::{load_spec, scenario_library};
+use crate::common::{load_spec, plural, scenario_library};
 use crate::conform::scenarios_on_core;
 use crate::progress::{thousands, Progress};
 use pmacwd_conformance::check::{format_report, planned_runs, run_observed, Selection};
@@ -42,7 +42,12 @@ pub fn check(a: CheckArgs) -> ExitCode {
         Err(code) => return code,
     };
     let default_profile = spec.profiles.default_profile().name;
-    println!("pmacwd check: {} runs from {}, {} threads", runs.len(), spec.dir.display(), threads);
+    println!(
+        "pmacwd check: {} from {}, {}",
+        plural(runs.len() as u64, "run", "runs"),
+        spec.dir.display(),
+        plural(threads as u64, "thread", "threads")
+    );
     let (mut failures, mut incomplete) = (0usize, 0usize);
     let (mut states, mut seconds) = (0usize, 0f64);
     let mut progress = Progress::start("model check", runs.len() as u64, "runs");
@@ -69,12 +74,16 @@ pub fn check(a: CheckArgs) -> ExitCode {
         if failures == 0 {
             "every property holds".to_string()
         } else {
-            format!("{failures} runs with failing properties")
+            format!("{} with failing properties", plural(failures as u64, "run", "runs"))
         }
     );
     if incomplete > 0 {
         // A run cut short at the state bound proves nothing either way: unusable input.
-        eprintln!("pmacwd: {incomplete} runs stopped at the checker's state bound: no verdict for them");
+        eprintln!(
+            "pmacwd: {} stopped at the checker's state bound: no verdict for {}",
+            plural(incomplete as u64, "run", "runs"),
+            if incomplete == 1 { "it" } else { "them" }
+        );
         return ExitCode::from(2);
     }
     let mut diverged = false;
@@ -148,10 +157,10 @@ fn conformance_summary(
         let tally = scenarios_on_core(spec, &files, &mut Default::default())?;
         diverged |= tally.diverged;
         println!(
-            "  scenarios: {} files, {} scenario-profile runs, {} expectations met by the core{}",
-            files.len(),
-            tally.runs,
-            tally.expectations,
+            "  scenarios: {}, {}, {} met by the core{}",
+            plural(files.len() as u64, "file", "files"),
+            plural(tally.runs as u64, "scenario-profile run", "scenario-profile runs"),
+            plural(tally.expectations as u64, "expectation", "expectations"),
             if tally.diverged { ", DIVERGED" } else { "" }
         );
     }

@@ -1,6 +1,6 @@
 //! `pmacwd conform`: the conformance suite against the compact core, with its coverage.
 
-use crate::common::{load_spec, scenario_library, trace_files, TraceFile};
+use crate::common::{load_spec, plural, scenario_library, trace_files, TraceFile};
 use crate::progress::{thousands, Progress};
 use pmacwd_conformance::check::{planned_runs, Selection};
 use pmacwd_specs::Spec;
@@ -55,10 +55,10 @@ pub fn conform(a: ConformArgs) -> ExitCode {
         Ok(tally) => {
             diverged |= tally.diverged;
             println!(
-                "{} scenarios, {} scenario-profile runs, {} expectations met by the core",
-                files.len(),
-                tally.runs,
-                tally.expectations
+                "{}, {}, {} met by the core",
+                plural(files.len() as u64, "scenario", "scenarios"),
+                plural(tally.runs as u64, "scenario-profile run", "scenario-profile runs"),
+                plural(tally.expectations as u64, "expectation", "expectations")
             );
         }
         Err(code) => return code,
@@ -104,11 +104,10 @@ pub fn conform(a: ConformArgs) -> ExitCode {
             let path = a.save_regressions.join(found.file_name());
             let saved = std::fs::create_dir_all(&a.save_regressions).and_then(|_| std::fs::write(&path, &yaml));
             println!("DIVERGED under {} / {}: {}", found.configuration, found.profile, found.disagreement);
+            let events = plural(found.events.len() as u64, "event", "events");
             match saved {
-                Ok(()) => println!("shrunk to {} events, saved as {}:", found.events.len(), path.display()),
-                Err(e) => {
-                    println!("shrunk to {} events (could not save to {}: {e}):", found.events.len(), path.display())
-                }
+                Ok(()) => println!("shrunk to {}, saved as {}:", events, path.display()),
+                Err(e) => println!("shrunk to {} (could not save to {}: {e}):", events, path.display()),
             }
             print!("{yaml}");
         }

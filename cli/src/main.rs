@@ -68,15 +68,16 @@ enum Command {
         #[arg(long)]
         no_conformance: bool,
     },
-    /// Run traces (YAML, docs/trace-format.md) on the reference model and compare every
-    /// expected observation, under each profile a trace names.
+    /// Run traces (YAML or JSON Lines, docs/trace-format.md) on the reference model and compare
+    /// every expected observation, under each profile a trace names.
     ///
-    /// PATH is a trace file or a directory of them (default: specs/scenarios). Prints one line
-    /// per trace and profile, and for a divergence the step, line, expected and observed values
-    /// and the events before it.
+    /// PATH is a trace file or a directory of them (.yaml, .yml, .jsonl; default: the scenario
+    /// library, compiled in). Prints one line per trace and profile, and for a divergence the
+    /// step, line, expected and observed values and the events before it. A trace with
+    /// `elapsed` or `restart` steps (an imported host log) is for `pmacwd replay`.
     #[command(after_help = "Exit codes: 0 every expectation met, 1 a trace diverged, 2 unusable input.")]
     Run {
-        /// Trace files or directories.
+        /// Trace files (YAML or JSON Lines) or directories of them.
         #[arg(value_name = "PATH")]
         paths: Vec<PathBuf>,
         /// Spec directory to use instead of the embedded one.

@@ -104,7 +104,12 @@ pub fn record(a: RecordArgs) -> ExitCode {
             for n in notes {
                 eprintln!("pmacwd record: left over at the end: {n}");
             }
-            println!("recorded {exchanges} exchanges as {steps} steps in {}", a.out.display());
+            println!(
+                "recorded {} as {} in {}",
+                crate::common::plural(exchanges, "exchange", "exchanges"),
+                crate::common::plural(steps, "step", "steps"),
+                a.out.display()
+            );
             ExitCode::SUCCESS
         }
         Err(e) => unusable(format!("{}: {e}", a.out.display())),

@@ -1,6 +1,6 @@
 //! `pmacwd run`: traces on the reference model.
 
-use crate::common::{load_spec, scenario_library, trace_files};
+use crate::common::{load_spec, plural, scenario_library, trace_files};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -49,7 +49,12 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
             match run_on_model(&spec, &loaded, &p) {
                 Ok(n) => {
                     passed += 1;
-                    println!("ok        {} [{}] ({n} expectations)", file.display(), p.name);
+                    println!(
+                        "ok        {} [{}] ({})",
+                        file.display(),
+                        p.name,
+                        plural(n as u64, "expectation", "expectations")
+                    );
                 }
                 Err(Failure::Unusable(e)) => {
                     eprintln!("pmacwd: {e}");

@@ -510,3 +510,43 @@ fn import_takes_the_card_s_values_from_the_log_and_says_which_in_its_summary() {
     let text = std::fs::read_to_string(&trace).unwrap();
     assert!(text.lines().next().unwrap().contains(r#""card":{"i8":3,"servo_hz":2259}"#), "{text}");
 }
+
+#[test]
+fn run_takes_json_lines_traces_and_directories_of_both_forms_and_names_the_host_logs_it_leaves() {
+    // Issue 19: `run x.jsonl` failed with "unknown field `format`", and `run specs/captures/`
+    // skipped the .jsonl captures silently. Both forms now run (told apart as `replay` does),
+    // a divergence in a JSON Lines trace names its line, and host logs in a directory are
+    // named on standard error with what to do with them.
+    let tmp = TempDir::new("run-jsonl");
+    let header =
+        r#"{"format":"pmacwd-trace","version":1,"description":"d","configuration":"i40-zero","profiles":["um-215"]}"#;
+    std::fs::write(tmp.join("a.jsonl"), format!("{header}\n{{\"command\":\"I40\",\"expect\":{{\"reply\":\"0\"}}}}\n"))
+        .unwrap();
+    let out = pmacwd().arg("run").arg(tmp.join("a.jsonl")).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("a.jsonl [um-215] (1 expectation)"), "{stdout}");
+    // A wrong expectation on line 3 of a JSON Lines trace: a divergence at that line.
+    std::fs::write(
+        tmp.join("b.jsonl"),
+        format!("{header}\n\n{{\"command\":\"I40\",\"expect\":{{\"reply\":\"7\"}}}}\n"),
+    )
+    .unwrap();
+    std::fs::write(tmp.join("c.log"), "> ???\n< 000000000000\n").unwrap();
+    let out = pmacwd().arg("run").arg(&tmp).output().unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(1), "{stdout}{stderr}");
+    assert!(stdout.contains("DIVERGED  ") && stdout.contains("b.jsonl [um-215]"), "{stdout}");
+    assert!(stdout.contains("step 1 (line 3): reply: expected 7, observed 0"), "{stdout}");
+    assert!(stdout.contains("1 passed, 1 failed"), "{stdout}");
+    assert!(stderr.contains("not run: 1 host log, not a trace:") && stderr.contains("c.log"), "{stderr}");
+    assert!(stderr.contains("pmacwd replay LOG"), "{stderr}");
+    // A trace with an `elapsed` step (an imported host log) is for replay: exit 2 at its line,
+    // not a divergence under every profile.
+    std::fs::write(tmp.join("d.jsonl"), format!("{header}\n{{\"command\":\"I40\"}}\n{{\"elapsed\":16}}\n")).unwrap();
+    let out = pmacwd().arg("run").arg(tmp.join("d.jsonl")).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("d.jsonl:3:1: step 2: `16 servo cycles pass unseen`"), "{stderr}");
+    assert!(stderr.contains("judge this trace with `pmacwd replay`"), "{stderr}");
+}

@@ -110,6 +110,36 @@ impl<R: BufRead> StepReader<R> {
     }
 }
 
+/// Reads a whole JSON Lines trace into memory with the line of every step, as a
+/// [`crate::LoadedTrace`] like a YAML one: its header keys at the header's line, `steps.N` at
+/// step N's line, so that what reports positions (a divergence's step and line) works for both
+/// forms. For traces short enough to hold (`pmacwd run`); `replay` streams with [`StepReader`].
+pub fn load_text(file: &Path, text: &str) -> Result<crate::LoadedTrace, SpecError> {
+    let mut reader = StepReader::new(file, text.as_bytes())?;
+    let header_at = Position { line: reader.header_line, column: 1 };
+    let mut positions: Vec<(String, Position)> =
+        ["version", "description", "cite", "configuration", "card", "profiles", "steps"]
+            .iter()
+            .map(|k| (k.to_string(), header_at))
+            .collect();
+    let mut steps = Vec::new();
+    while let Some((line, step)) = reader.next_step()? {
+        positions.push((format!("steps.{}", steps.len()), Position { line, column: 1 }));
+        steps.push(step);
+    }
+    let h = reader.header;
+    let trace = Trace {
+        version: h.version,
+        description: h.description,
+        cite: h.cite,
+        configuration: h.configuration,
+        profiles: h.profiles,
+        steps,
+    };
+    let map = pmacwd_specs::yaml::SourceMap::from_positions(file, positions);
+    Ok(crate::LoadedTrace { trace, map, card: h.card })
+}
+
 /// Reads a whole JSON Lines trace into memory (for short traces and tests).
 pub fn read_all(file: &Path, input: impl BufRead) -> Result<Trace, SpecError> {
     let mut reader = StepReader::new(file, input)?;
