@@ -158,3 +158,21 @@ pub fn plural(n: impl Into<u128> + Copy, one: &str, many: &str) -> String {
     let n: u128 = n.into();
     format!("{n} {}", if n == 1 { one } else { many })
 }
+
+/// A listen address as `--listen` and `--control` take it: `HOST:PORT`, where HOST is an
+/// address or a name (`localhost:1025`), resolved now; of several addresses the first IPv4 one,
+/// as the default `127.0.0.1` is. For clap's `value_parser`.
+pub fn listen_address(text: &str) -> Result<std::net::SocketAddr, String> {
+    use std::net::ToSocketAddrs;
+    let usage = "give HOST:PORT, HOST an address or a name: 127.0.0.1:1025, localhost:1025, [::1]:1025";
+    let found: Vec<std::net::SocketAddr> = match text.to_socket_addrs() {
+        Ok(addrs) => addrs.collect(),
+        Err(e) => return Err(format!("{e}; {usage}")),
+    };
+    found
+        .iter()
+        .find(|a| a.is_ipv4())
+        .or(found.first())
+        .copied()
+        .ok_or_else(|| format!("`{text}` names no address; {usage}"))
+}

@@ -11,8 +11,9 @@ use std::time::Duration;
 /// Transparent proxy that writes host sessions with a card as a capture.
 #[derive(clap::Args, Debug)]
 pub struct RecordArgs {
-    /// Address the host program connects to instead of the card.
-    #[arg(long, value_name = "ADDR")]
+    /// Address the host program connects to instead of the card, HOST:PORT (HOST an address
+    /// or a name).
+    #[arg(long, value_name = "ADDR", value_parser = crate::common::listen_address)]
     pub listen: SocketAddr,
     /// The card (or emulator): HOST:PORT.
     #[arg(long, value_name = "ADDR")]
@@ -31,7 +32,7 @@ pub struct RecordArgs {
     #[arg(long, value_name = "HZ")]
     pub servo_hz: Option<u32>,
     /// Also proxy an emulator's control interface: listen here ...
-    #[arg(long, value_name = "ADDR", requires = "control_target")]
+    #[arg(long, value_name = "ADDR", requires = "control_target", value_parser = crate::common::listen_address)]
     pub control_listen: Option<SocketAddr>,
     /// ... and forward to this one; its events go into the capture.
     #[arg(long, value_name = "ADDR", requires = "control_listen")]

@@ -550,3 +550,37 @@ fn run_takes_json_lines_traces_and_directories_of_both_forms_and_names_the_host_
     assert!(stderr.contains("d.jsonl:3:1: step 2: `16 servo cycles pass unseen`"), "{stderr}");
     assert!(stderr.contains("judge this trace with `pmacwd replay`"), "{stderr}");
 }
+
+#[test]
+fn serve_listens_on_a_host_name_and_a_taken_port_is_named_with_its_role() {
+    // Issue 19: `serve --listen localhost:1025` was refused ("invalid socket address syntax"),
+    // and "Address already in use" did not say which port was taken. A name is resolved now
+    // (the first IPv4 address, as the default 127.0.0.1), and a port in use is named with its
+    // address and whether it was the host or the control port; exit 2 either way.
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = taken.local_addr().unwrap().port();
+    let out = pmacwd().args(["serve", "--listen", &format!("localhost:{port}"), "--no-control"]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&format!("cannot listen: host port 127.0.0.1:{port}: ")), "{stderr}");
+    let out = pmacwd()
+        .args(["serve", "--listen", "127.0.0.1:0", "--control", &format!("127.0.0.1:{port}")])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&format!("cannot listen: control port 127.0.0.1:{port}: ")), "{stderr}");
+    drop(taken);
+    // A free port by name: the emulator listens and says where.
+    let mut child = pmacwd()
+        .args(["serve", "--listen", "localhost:0", "--no-control"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufRead::read_line(&mut std::io::BufReader::new(child.stdout.as_mut().unwrap()), &mut first).unwrap();
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(first.starts_with("pmacwd serve: Turbo PMAC emulator on 127.0.0.1:"), "{first}");
+}
