@@ -67,6 +67,10 @@ enum Command {
         /// Skip the conformance summary (the core against the model) after the model check.
         #[arg(long)]
         no_conformance: bool,
+        /// Output format: text (with a summary table at the end), or one JSON document
+        /// (docs/commands.md gives its schema).
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
     },
     /// Run traces (YAML or JSON Lines, docs/trace-format.md) on the reference model and compare
     /// every expected observation, under each profile a trace names.
@@ -86,6 +90,9 @@ enum Command {
         /// Run only under this profile (default: the profiles each trace names).
         #[arg(long, value_name = "NAME")]
         profile: Option<String>,
+        /// Output format: text, or one JSON document (docs/commands.md gives its schema).
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
     },
     /// Explain a ??? reply: every set bit of both words with its name and meaning, and whether
     /// the EPICS pmac driver's hardware-problem mask flags it.
@@ -171,6 +178,9 @@ enum Command {
         /// Checker threads for the exhaustive part (default: the machine's cores).
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
+        /// Output format: text, or one JSON document (docs/commands.md gives its schema).
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
     },
     /// Turn a plain host log (commands, replies, X:$0 read alongside) into a trace.
     ///
@@ -206,19 +216,28 @@ fn main() -> ExitCode {
         return common::unusable(e);
     }
     match cli.command {
-        Command::Conform { cases, max_len, seed, scenarios, specs, no_exhaustive, save_regressions, threads } => {
-            conform::conform(conform::ConformArgs {
-                cases,
-                max_len,
-                seed,
-                scenarios,
-                specs,
-                no_exhaustive,
-                save_regressions,
-                threads,
-            })
-        }
-        Command::Run { paths, specs, profile } => run::run_traces(paths, specs, profile),
+        Command::Conform {
+            cases,
+            max_len,
+            seed,
+            scenarios,
+            specs,
+            no_exhaustive,
+            save_regressions,
+            threads,
+            format,
+        } => conform::conform(conform::ConformArgs {
+            cases,
+            max_len,
+            seed,
+            scenarios,
+            specs,
+            no_exhaustive,
+            save_regressions,
+            threads,
+            format,
+        }),
+        Command::Run { paths, specs, profile, format } => run::run_traces(paths, specs, profile, format),
         Command::Serve(args) => serve::serve(args),
         Command::Record(args) => record::record(args),
         Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
@@ -226,8 +245,8 @@ fn main() -> ExitCode {
             replay::replay_file(&file, format, specs, configuration, witness)
         }
         Command::Import { log, out, configuration, yaml } => import::import_log(&log, out, &configuration, yaml),
-        Command::Check { specs, profile, configuration, witnesses, threads, no_conformance } => {
-            check::check(check::CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance })
+        Command::Check { specs, profile, configuration, witnesses, threads, no_conformance, format } => {
+            check::check(check::CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance, format })
         }
     }
 }

@@ -584,3 +584,71 @@ fn serve_listens_on_a_host_name_and_a_taken_port_is_named_with_its_role() {
     child.wait().unwrap();
     assert!(first.starts_with("pmacwd serve: Turbo PMAC emulator on 127.0.0.1:"), "{first}");
 }
+
+/// Runs `pmacwd ARGS` and parses its standard output as one JSON document.
+fn json_of(args: &[&str]) -> (Option<i32>, serde_json::Value) {
+    let out = pmacwd().args(args).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let doc =
+        serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{args:?}: not one JSON document: {e}\n{stdout}"));
+    (out.status.code(), doc)
+}
+
+#[test]
+fn check_run_and_conform_print_one_json_document_that_agrees_with_their_text_and_exit_code() {
+    // Issue 19: only decode and replay had JSON, so CI jobs scraped text. Each document's
+    // `exit` is the process's exit code, and its figures are the ones the text prints.
+    let (code, doc) = json_of(&[
+        "check",
+        "--configuration",
+        "lockout",
+        "--profile",
+        "um-215",
+        "--threads",
+        "1",
+        "--no-conformance",
+        "--format",
+        "json",
+    ]);
+    assert_eq!(code, Some(0));
+    assert_eq!((doc["command"].as_str(), doc["exit"].as_i64()), (Some("check"), Some(0)));
+    let run = &doc["runs"][0];
+    assert_eq!((run["configuration"].as_str(), run["profile"].as_str()), (Some("lockout"), Some("um-215")));
+    let text = pmacwd()
+        .args(["check", "--configuration", "lockout", "--profile", "um-215", "--threads", "1", "--no-conformance"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&text.stdout);
+    let states = run["states"].as_u64().unwrap();
+    assert!(text.contains(&format!("total: {states} states")), "{text}");
+    let held = run["properties"].as_array().unwrap().iter().filter(|p| p["verdict"] == "holds").count();
+    let table = text.lines().find(|l| l.trim_start().starts_with("lockout ")).expect("the summary table's row");
+    assert_eq!(table.split_whitespace().nth(3), Some(held.to_string().as_str()), "{table}");
+    assert!(text.contains("exit 0: every property holds and nothing diverged"), "{text}");
+
+    let tmp = TempDir::new("json-run");
+    let header =
+        r#"{"format":"pmacwd-trace","version":1,"description":"d","configuration":"i40-zero","profiles":["um-215"]}"#;
+    std::fs::write(tmp.join("b.jsonl"), format!("{header}\n{{\"command\":\"I40\",\"expect\":{{\"reply\":\"7\"}}}}\n"))
+        .unwrap();
+    let path = tmp.join("b.jsonl");
+    let (code, doc) = json_of(&["run", "--format", "json", path.to_str().unwrap()]);
+    assert_eq!((code, doc["exit"].as_i64()), (Some(1), Some(1)));
+    assert_eq!((doc["passed"].as_u64(), doc["failed"].as_u64()), (Some(0), Some(1)));
+    let d = &doc["runs"][0]["divergence"];
+    assert_eq!((d["step"].as_u64(), d["line"].as_u64(), d["expected"].as_str()), (Some(1), Some(2), Some("7")));
+
+    let (code, doc) = json_of(&["conform", "--cases", "10", "--seed", "1", "--no-exhaustive", "--format", "json"]);
+    assert_eq!((code, doc["exit"].as_i64()), (Some(0), Some(0)));
+    let text = pmacwd().args(["conform", "--cases", "10", "--seed", "1", "--no-exhaustive"]).output().unwrap();
+    let text = String::from_utf8_lossy(&text.stdout);
+    let g = &doc["generated"];
+    assert!(text.contains(&format!("{} traces, {} events, no divergence", g["traces"], g["events"])), "{text}");
+    let s = &doc["scenarios"];
+    assert!(
+        text.contains(&format!("{} scenario-profile runs, {} expectations", s["runs"], s["expectations"])),
+        "{text}"
+    );
+    assert!(doc["exhaustive"].is_null());
+    assert!(doc["coverage"]["events"].as_object().unwrap().values().any(|n| n.as_u64() > Some(0)));
+}

@@ -42,6 +42,17 @@ impl fmt::Display for Divergence {
     }
 }
 
+impl Divergence {
+    /// As JSON (`run --format json`, `docs/commands.md`): the step (1-based) and its line,
+    /// what differed, and the events before it.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "step": self.step + 1, "line": self.position.line, "what": self.what,
+            "expected": self.expected, "observed": self.observed, "recent": self.recent,
+        })
+    }
+}
+
 /// Why a trace run did not pass.
 #[derive(Debug)]
 pub enum Failure {
