@@ -1,6 +1,6 @@
 //! `pmacwd record`: a transparent proxy that writes host sessions as a capture.
 
-use crate::common::{create_capture, model_config, unusable};
+use crate::common::{create_capture, listen_address, model_config, unusable};
 use pmacwd_emulator::proxy::{Proxy, RecordOptions, Recorder};
 use std::io::Write;
 use std::net::SocketAddr;
@@ -13,7 +13,7 @@ use std::time::Duration;
 pub struct RecordArgs {
     /// Address the host program connects to instead of the card, HOST:PORT (HOST an address
     /// or a name).
-    #[arg(long, value_name = "ADDR", value_parser = crate::common::listen_address)]
+    #[arg(long, value_name = "ADDR", value_parser = listen_address)]
     pub listen: SocketAddr,
     /// The card (or emulator): HOST:PORT.
     #[arg(long, value_name = "ADDR")]
@@ -32,7 +32,7 @@ pub struct RecordArgs {
     #[arg(long, value_name = "HZ")]
     pub servo_hz: Option<u32>,
     /// Also proxy an emulator's control interface: listen here ...
-    #[arg(long, value_name = "ADDR", requires = "control_target", value_parser = crate::common::listen_address)]
+    #[arg(long, value_name = "ADDR", requires = "control_target", value_parser = listen_address)]
     pub control_listen: Option<SocketAddr>,
     /// ... and forward to this one; its events go into the capture.
     #[arg(long, value_name = "ADDR", requires = "control_listen")]
