@@ -281,7 +281,12 @@ fn conformance_summary(
     let outcome = generate::run::<CoreSubject>(
         &configs,
         Settings { cases, max_len: 1_000, seed },
-        &|done| progress.borrow_mut().update(u64::from(done), String::new),
+        &|g| {
+            progress.borrow_mut().update(u64::from(g.traces), || match g.shrink_cases {
+                0 => String::new(),
+                n => format!("a trace diverged; shrinking it: {n} smaller cases tried"),
+            })
+        },
         &mut |_, _, _| {},
     );
     progress.into_inner().finish();

@@ -100,7 +100,12 @@ pub fn conform(a: ConformArgs) -> ExitCode {
     let outcome = generate::run::<CoreSubject>(
         &configs,
         settings,
-        &|done| progress.borrow_mut().update(u64::from(done), String::new),
+        &|g| {
+            progress.borrow_mut().update(u64::from(g.traces), || match g.shrink_cases {
+                0 => String::new(),
+                n => format!("a trace diverged; shrinking it: {n} smaller cases tried"),
+            })
+        },
         &mut observe,
     );
     progress.into_inner().finish();
