@@ -3,8 +3,8 @@
 //! Invariants:
 //! - `decode` never panics, and refuses with a reason;
 //! - a decoded reply re-encodes to the same text, normalized: without the surrounding
-//!   CR/LF/space and trailing ACK `decode` ignores, hex in upper case; and decodes again to
-//!   the same reply;
+//!   CR/LF/space and trailing ACK `decode` ignores, without the BEL before ERRnnn it takes or
+//!   leaves, hex in upper case; and decodes again to the same reply;
 //! - `encode` then `decode` round-trips for every reply built from the input's bytes: any two
 //!   24-bit words, `BOOTSTRAP PROM`, and every error number the type can hold (ERR000 to
 //!   ERR999; any other `u16` cannot be made).
@@ -13,9 +13,12 @@
 use libfuzzer_sys::fuzz_target;
 use pmacwd_specs::vocab::reply_text::{decode, encode, ErrorNumber, StatusReply};
 
-/// What `decode` looks at: the text without what it ignores, hex digits upper-cased.
+/// What `decode` looks at: the text without what it ignores, hex digits upper-cased, and
+/// without the BEL before an error number, which `decode` takes either way (`ERR003` as a log
+/// writes it, `BEL ERR003 CR` as the card sends it; `encode` writes the card's form).
 fn normalized(text: &str) -> String {
-    text.trim_end_matches('\u{6}').trim_matches(|c: char| c == '\r' || c == '\n' || c == ' ').to_ascii_uppercase()
+    let t = text.trim_end_matches('\u{6}').trim_matches(|c: char| c == '\r' || c == '\n' || c == ' ');
+    t.strip_prefix('\u{7}').filter(|rest| rest.starts_with("ERR")).unwrap_or(t).to_ascii_uppercase()
 }
 
 fuzz_target!(|data: &[u8]| {

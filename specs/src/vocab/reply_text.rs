@@ -134,6 +134,16 @@ mod tests {
     }
 
     #[test]
+    fn an_error_number_as_a_log_writes_it_encodes_back_in_the_card_s_form() {
+        // Found by the status_reply fuzz target (its seed `ERR003`): `decode` takes the number
+        // without BEL and CR, as logs write it; `encode` writes what the card sends, which
+        // decodes to the same reply.
+        let reply = decode("ERR003").unwrap();
+        assert_eq!(encode(reply), "\u{7}ERR003\r");
+        assert_eq!(decode(&encode(reply)), Ok(reply));
+    }
+
+    #[test]
     fn every_error_number_the_type_holds_round_trips_and_no_other_can_be_made() {
         // Error(u16) used to hold 1000, which encoded to ERR1000 and did not decode (found by
         // writing the status_reply fuzz target, docs/fuzzing.md). The whole domain of u16:
