@@ -1,11 +1,15 @@
 //! `pmacwd check`: the model check of every profile at the bounded configurations, then a
-//! conformance summary of the core against the model.
+//! conformance summary of the core against the model; as text (with a summary table at the
+//! end) or as one JSON document (`--format json`, schema in `docs/commands.md`).
 
-use crate::common::{load_spec, scenario_library};
+use crate::common::{load_spec, plural, scenario_library};
 use crate::conform::scenarios_on_core;
-use pmacwd_conformance::check::{format_report, planned_runs, run, Selection};
+use crate::progress::{thousands, Progress};
+use crate::replay::Format;
+use pmacwd_conformance::check::{format_report, planned_runs, report_json, run_observed, verdict, Selection};
+use pmacwd_model::checker::RunReport;
 use pmacwd_specs::Spec;
-use std::io::Write as _;
+use std::cell::RefCell;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -17,10 +21,12 @@ pub struct CheckArgs {
     pub witnesses: bool,
     pub threads: Option<usize>,
     pub no_conformance: bool,
+    pub format: Format,
 }
 
 pub fn check(a: CheckArgs) -> ExitCode {
-    let CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance } = a;
+    let CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance, format } = a;
+    let text = matches!(format, Format::Text);
     let spec = match load_spec(&specs) {
         Ok(s) => s,
         Err(code) => return code,
@@ -41,131 +47,284 @@ pub fn check(a: CheckArgs) -> ExitCode {
         Err(code) => return code,
     };
     let default_profile = spec.profiles.default_profile().name;
-    println!("pmacwd check: {} runs from {}, {} threads", runs.len(), spec.dir.display(), threads);
-    let (mut failures, mut incomplete) = (0usize, 0usize);
-    let (mut states, mut seconds) = (0usize, 0f64);
+    if text {
+        println!(
+            "pmacwd check: {} from {}, {}",
+            plural(runs.len() as u64, "run", "runs"),
+            spec.dir.display(),
+            plural(threads as u64, "thread", "threads")
+        );
+    }
+    let mut reports: Vec<RunReport> = Vec::new();
+    let mut progress = Progress::start("model check", runs.len() as u64, "runs");
     for (i, cfg) in runs.iter().cloned().enumerate() {
-        eprint!("[{}] checking {} / {} ...\r", i + 1, cfg.configuration, cfg.profile.name);
-        let _ = std::io::stderr().flush();
-        let report = run(cfg, threads);
-        states += report.states;
-        seconds += report.duration.as_secs_f64();
-        if !report.complete {
-            incomplete += 1;
-        } else if !report.all_hold() {
-            failures += 1;
+        let name = format!("{} / {}", cfg.configuration, cfg.profile.name);
+        let done = i as u64;
+        let report = run_observed(cfg, threads, &mut |e| {
+            progress.update(done, || format!("{name}: {} states, depth {}", thousands(e.states as u64), e.depth))
+        });
+        progress.update(done + 1, String::new);
+        if text {
+            progress.print(&format_report(&report, &default_profile, witnesses));
         }
-        print!("{}", format_report(&report, &default_profile, witnesses));
+        reports.push(report);
     }
-    println!(
-        "total: {states} states in {seconds:.2} s ({:.0} states/s); {}",
-        states as f64 / seconds.max(1e-9),
-        if failures == 0 {
-            "every property holds".to_string()
-        } else {
-            format!("{failures} runs with failing properties")
-        }
-    );
-    if incomplete > 0 {
-        // A run cut short at the state bound proves nothing either way: unusable input.
-        eprintln!("pmacwd: {incomplete} runs stopped at the checker's state bound: no verdict for them");
-        return ExitCode::from(2);
+    progress.finish();
+    let states: usize = reports.iter().map(|r| r.states).sum();
+    let seconds: f64 = reports.iter().map(|r| r.duration.as_secs_f64()).sum();
+    let incomplete = reports.iter().filter(|r| !r.complete).count();
+    let failures = reports.iter().filter(|r| r.complete && !r.all_hold()).count();
+    if text {
+        println!(
+            "total: {states} states in {seconds:.2} s ({:.0} states/s); {}",
+            states as f64 / seconds.max(1e-9),
+            if failures == 0 {
+                "every property holds".to_string()
+            } else {
+                format!("{} with failing properties", plural(failures as u64, "run", "runs"))
+            }
+        );
     }
-    let mut diverged = false;
-    if !no_conformance {
-        match conformance_summary(&spec, &runs, &specs, threads) {
-            Ok(d) => diverged = d,
+    let mut conformance = None;
+    if incomplete == 0 && !no_conformance {
+        match conformance_summary(&spec, &runs, &specs, threads, text) {
+            Ok(c) => conformance = Some(c),
             Err(code) => return code,
         }
     }
-    if failures == 0 && !diverged {
-        ExitCode::SUCCESS
+    let diverged = conformance.as_ref().is_some_and(|c| c.diverged);
+    // A run cut short at the state bound proves nothing either way: unusable input.
+    let code: u8 = if incomplete > 0 {
+        2
+    } else if failures == 0 && !diverged {
+        0
     } else {
-        ExitCode::from(1)
+        1
+    };
+    match format {
+        Format::Text => {
+            if incomplete == 0 {
+                print!("{}", summary_table(&reports, conformance.as_ref(), code));
+            }
+        }
+        Format::Json => {
+            let runs: Vec<serde_json::Value> = reports.iter().map(|r| report_json(r, &default_profile)).collect();
+            let doc = serde_json::json!({
+                "command": "check",
+                "spec_dir": spec.dir.display().to_string(),
+                "threads": threads,
+                "runs": runs,
+                "total": {
+                    "states": states, "seconds": seconds, "runs": reports.len(),
+                    "failing_runs": failures, "incomplete_runs": incomplete,
+                },
+                "conformance": conformance.as_ref().map(|c| &c.json),
+                "exit": code,
+            });
+            println!("{doc}");
+        }
     }
+    if incomplete > 0 {
+        eprintln!(
+            "pmacwd: {} stopped at the checker's state bound: no verdict for {}",
+            plural(incomplete as u64, "run", "runs"),
+            if incomplete == 1 { "it" } else { "them" }
+        );
+    }
+    ExitCode::from(code)
+}
+
+/// The table at the end of the text report: per configuration, its runs, states and how many
+/// property verdicts of each kind; then the conformance summary's verdicts and the exit code.
+fn summary_table(reports: &[RunReport], conformance: Option<&Conformance>, code: u8) -> String {
+    let mut configurations: Vec<&str> = Vec::new();
+    for r in reports {
+        if !configurations.contains(&r.configuration.as_str()) {
+            configurations.push(&r.configuration);
+        }
+    }
+    let verdicts = ["holds", "reached", "n/a", "VIOLATED", "NEVER"];
+    let mut s = String::from("summary:\n");
+    s.push_str(&format!("  {:<14} {:>5} {:>11}", "configuration", "runs", "states"));
+    for v in verdicts {
+        s.push_str(&format!(" {v:>8}"));
+    }
+    s.push('\n');
+    for c in configurations {
+        let of: Vec<&RunReport> = reports.iter().filter(|r| r.configuration == c).collect();
+        let states: usize = of.iter().map(|r| r.states).sum();
+        s.push_str(&format!("  {:<14} {:>5} {:>11}", c, of.len(), thousands(states as u64)));
+        for v in verdicts {
+            let n = of.iter().flat_map(|r| &r.properties).filter(|p| verdict(p) == v).count();
+            s.push_str(&format!(" {n:>8}"));
+        }
+        s.push('\n');
+    }
+    if let Some(c) = conformance {
+        s.push_str(&format!("  conformance: {}\n", c.verdicts.join("; ")));
+    }
+    let meaning = match code {
+        0 => "every property holds and nothing diverged",
+        1 => "a property failed or the core diverged",
+        _ => "no verdict",
+    };
+    s.push_str(&format!("  exit {code}: {meaning}\n"));
+    s
+}
+
+/// What the conformance summary found: whether anything diverged, one verdict per part for the
+/// summary table, and the JSON of every part.
+struct Conformance {
+    diverged: bool,
+    verdicts: Vec<String>,
+    json: serde_json::Value,
 }
 
 /// The conformance summary `pmacwd check` prints after the model check: the exhaustive product
 /// of model and core at the checked runs, the scenario library on the core, and 1,000
-/// generated traces. Returns whether anything diverged.
+/// generated traces. Printed as it goes when `text`.
 fn conformance_summary(
     spec: &Spec,
     runs: &[pmacwd_specs::config::ModelConfig],
     specs: &Option<PathBuf>,
     threads: usize,
-) -> Result<bool, ExitCode> {
+    text: bool,
+) -> Result<Conformance, ExitCode> {
     use pmacwd_conformance::generate::{self, Settings};
     use pmacwd_conformance::subject::CoreSubject;
-    println!("conformance summary: the compact core (impl/) against the model (`pmacwd conform` for the full suite and its coverage)");
-    let mut diverged = false;
+    let say = |line: String| {
+        if text {
+            println!("{line}");
+        }
+    };
+    say("conformance summary: the compact core (impl/) against the model (`pmacwd conform` for the full suite and its coverage)".into());
+    let mut verdicts = Vec::new();
     let start = std::time::Instant::now();
     let mut pairs = 0;
-    for cfg in runs {
-        let r = pmacwd_conformance::product::check(cfg.clone(), threads);
+    let mut lockstep_divergences = Vec::new();
+    let mut progress = Progress::start("exhaustive lockstep", runs.len() as u64, "runs");
+    for (i, cfg) in runs.iter().enumerate() {
+        let name = format!("{} / {}", cfg.configuration, cfg.profile.name);
+        let done = i as u64;
+        let r = pmacwd_conformance::product::check_observed(cfg.clone(), threads, &mut |e| {
+            progress.update(done, || format!("{name}: {} pair states", thousands(e.states as u64)))
+        });
+        progress.update(done + 1, String::new);
         pairs += r.states;
         if !r.complete {
-            println!("  INCOMPLETE {} / {}: stopped at the state bound", r.configuration, r.profile);
+            progress.finish();
+            eprintln!(
+                "pmacwd: exhaustive lockstep {} / {} stopped at the state bound: no verdict",
+                r.configuration, r.profile
+            );
             return Err(ExitCode::from(2));
         }
         if let Some((events, d)) = &r.divergence {
-            diverged = true;
-            println!("  DIVERGED  {} / {}: {d}\n  shortest path:", r.configuration, r.profile);
-            for e in events {
-                println!("      {e}");
+            if text {
+                let mut t = format!("  DIVERGED  {} / {}: {d}\n  shortest path:\n", r.configuration, r.profile);
+                for e in events {
+                    t.push_str(&format!("      {e}\n"));
+                }
+                progress.print(&t);
             }
+            lockstep_divergences.push(serde_json::json!({
+                "configuration": r.configuration, "profile": r.profile, "disagreement": d.to_string(),
+                "path": events.iter().map(ToString::to_string).collect::<Vec<_>>(),
+            }));
         }
     }
-    println!(
-        "  exhaustive lockstep: {pairs} pair states over {} runs, {} ({:.1} s)",
-        runs.len(),
-        if diverged { "DIVERGED" } else { "no divergence" },
-        start.elapsed().as_secs_f64()
-    );
+    progress.finish();
+    let lockstep_seconds = start.elapsed().as_secs_f64();
+    let lockstep_diverged = !lockstep_divergences.is_empty();
+    say(format!(
+        "  exhaustive lockstep: {pairs} pair states over {}, {} ({lockstep_seconds:.1} s)",
+        plural(runs.len() as u64, "run", "runs"),
+        if lockstep_diverged { "DIVERGED" } else { "no divergence" },
+    ));
+    verdicts.push(format!("exhaustive lockstep {}", if lockstep_diverged { "DIVERGED" } else { "agrees" }));
+    let exhaustive = serde_json::json!({
+        "pair_states": pairs, "runs": runs.len(), "seconds": lockstep_seconds, "divergences": lockstep_divergences,
+    });
     // A copy of the spec directory without its scenarios is checked without them.
     let missing = specs.as_ref().map(|d| d.join("scenarios")).filter(|d| !d.is_dir());
-    if let Some(dir) = missing {
-        println!("  scenarios: {} not found, skipped", dir.display());
+    let (scenarios, scenarios_diverged) = if let Some(dir) = missing {
+        say(format!("  scenarios: {} not found, skipped", dir.display()));
+        verdicts.push("scenarios skipped".into());
+        (serde_json::Value::Null, false)
     } else {
         let files = scenario_library(specs).map_err(|e| {
             eprintln!("pmacwd: {e}");
             ExitCode::from(2)
         })?;
         let tally = scenarios_on_core(spec, &files, &mut Default::default())?;
-        diverged |= tally.diverged;
-        println!(
-            "  scenarios: {} files, {} scenario-profile runs, {} expectations met by the core{}",
-            files.len(),
-            tally.runs,
-            tally.expectations,
-            if tally.diverged { ", DIVERGED" } else { "" }
-        );
-    }
+        if text {
+            print!("{}", tally.divergences_text("  "));
+        }
+        say(format!(
+            "  scenarios: {}, {}, {} met by the core{}",
+            plural(files.len() as u64, "file", "files"),
+            plural(tally.runs as u64, "scenario-profile run", "scenario-profile runs"),
+            plural(tally.expectations as u64, "expectation", "expectations"),
+            if tally.diverged() { ", DIVERGED" } else { "" }
+        ));
+        verdicts.push(format!("scenarios {}", if tally.diverged() { "DIVERGED" } else { "agree" }));
+        (tally.to_json(files.len()), tally.diverged())
+    };
     let configs = generate::all_configs(spec).map_err(|e| {
         eprintln!("pmacwd: {e}");
         ExitCode::from(2)
     })?;
     let seed = generate::fresh_seed();
     let start = std::time::Instant::now();
-    match generate::run::<CoreSubject>(
+    let cases = 1_000;
+    let progress = RefCell::new(Progress::start("generated traces", u64::from(cases), "traces"));
+    let outcome = generate::run::<CoreSubject>(
         &configs,
-        Settings { cases: 1_000, max_len: 1_000, seed },
-        &|_| {},
+        Settings { cases, max_len: 1_000, seed },
+        &|g| {
+            progress.borrow_mut().update(u64::from(g.traces), || match g.shrink_cases {
+                0 => String::new(),
+                n => format!("a trace diverged; shrinking it: {n} smaller cases tried"),
+            })
+        },
         &mut |_, _, _| {},
-    ) {
-        Ok(stats) => println!(
-            "  generated: {} traces, {} events, seed {seed}, no divergence ({:.1} s)",
-            stats.traces,
-            stats.events,
-            start.elapsed().as_secs_f64()
-        ),
+    );
+    progress.into_inner().finish();
+    let seconds = start.elapsed().as_secs_f64();
+    let (generated, generated_diverged) = match outcome {
+        Ok(stats) => {
+            say(format!(
+                "  generated: {} traces, {} events, seed {seed}, no divergence ({seconds:.1} s)",
+                stats.traces, stats.events,
+            ));
+            let json = serde_json::json!({
+                "seed": seed, "traces": stats.traces, "events": stats.events, "seconds": seconds, "divergence": null,
+            });
+            (json, false)
+        }
         Err(found) => {
-            diverged = true;
-            println!(
+            let trace = pmacwd_trace::to_yaml(&found.to_trace());
+            say(format!(
                 "  generated: seed {seed}, DIVERGED under {} / {}: {}",
                 found.configuration, found.profile, found.disagreement
-            );
-            print!("{}", pmacwd_trace::to_yaml(&found.to_trace()));
+            ));
+            if text {
+                print!("{trace}");
+            }
+            let json = serde_json::json!({
+                "seed": seed, "traces": null, "events": null, "seconds": seconds,
+                "divergence": {
+                    "configuration": found.configuration, "profile": found.profile,
+                    "disagreement": found.disagreement.to_string(), "trace_yaml": trace,
+                },
+            });
+            (json, true)
         }
-    }
-    Ok(diverged)
+    };
+    verdicts.push(format!("generated traces {}", if generated_diverged { "DIVERGED" } else { "agree" }));
+    Ok(Conformance {
+        diverged: lockstep_diverged || scenarios_diverged || generated_diverged,
+        verdicts,
+        json: serde_json::json!({"exhaustive": exhaustive, "scenarios": scenarios, "generated": generated}),
+    })
 }

@@ -45,10 +45,11 @@ pub struct TraceFile {
 }
 
 impl TraceFile {
+    /// The trace, in either form (YAML or JSON Lines, told apart as `replay` does).
     pub fn load(&self) -> Result<LoadedTrace, SpecError> {
         match self.embedded {
-            Some(text) => pmacwd_trace::parse_yaml(&self.path, text),
-            None => pmacwd_trace::load_yaml(&self.path),
+            Some(text) => pmacwd_trace::parse(&self.path, text),
+            None => pmacwd_trace::load(&self.path),
         }
     }
 
@@ -69,20 +70,39 @@ pub fn scenario_library(specs: &Option<PathBuf>) -> Result<Vec<TraceFile>, Strin
     }
 }
 
-/// Trace files: each path a file, or a directory whose `.yaml` files are taken in name order.
+/// The extensions of trace files a directory is searched for: both forms.
+const TRACE_EXTENSIONS: [&str; 3] = ["yaml", "yml", "jsonl"];
+
+/// Trace files: each path a file, or a directory whose traces (`.yaml`, `.yml`, `.jsonl`) are
+/// taken in name order. Host logs in a directory (`.log`) are not traces: they are named on
+/// standard error with what to do with them, not run and not skipped silently.
 pub fn trace_files(paths: &[PathBuf]) -> Result<Vec<TraceFile>, String> {
     let mut files = Vec::new();
     for p in paths {
         if p.is_dir() {
             let entries = std::fs::read_dir(p).map_err(|e| format!("{}: {e}", p.display()))?;
-            let mut found: Vec<PathBuf> = entries
-                .flatten()
-                .map(|e| e.path())
-                .filter(|f| f.extension().is_some_and(|x| x == "yaml" || x == "yml"))
-                .collect();
+            let mut found: Vec<PathBuf> = Vec::new();
+            let mut logs: Vec<PathBuf> = Vec::new();
+            for path in entries.flatten().map(|e| e.path()) {
+                let ext = path.extension().and_then(|x| x.to_str()).unwrap_or("");
+                if TRACE_EXTENSIONS.contains(&ext) {
+                    found.push(path);
+                } else if ext == "log" {
+                    logs.push(path);
+                }
+            }
             found.sort();
+            logs.sort();
+            if !logs.is_empty() {
+                let names: Vec<String> = logs.iter().map(|l| l.display().to_string()).collect();
+                eprintln!(
+                    "pmacwd: not run: {}: {} (judge a host log with `pmacwd replay LOG`, or turn it into a trace with `pmacwd import`)",
+                    plural(logs.len() as u64, "host log, not a trace", "host logs, not traces"),
+                    names.join(", ")
+                );
+            }
             if found.is_empty() {
-                return Err(format!("{}: no .yaml traces in this directory", p.display()));
+                return Err(format!("{}: no traces (.yaml, .yml, .jsonl) in this directory", p.display()));
             }
             files.extend(found.into_iter().map(|path| TraceFile { path, embedded: None }));
         } else if p.is_file() {
@@ -130,4 +150,29 @@ pub fn create_capture(
     let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let out: Box<dyn Write + Send> = Box::new(std::io::BufWriter::new(file));
     CaptureWriter::new(out, description, configuration, timing).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// `1 run`, `2 runs`: `n` and the singular or plural words (given whole, for irregular ones:
+/// `plural(n, "host log, not a trace", "host logs, not traces")`).
+pub fn plural(n: impl Into<u128> + Copy, one: &str, many: &str) -> String {
+    let n: u128 = n.into();
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+/// A listen address as `--listen` and `--control` take it: `HOST:PORT`, where HOST is an
+/// address or a name (`localhost:1025`), resolved now; of several addresses the first IPv4 one,
+/// as the default `127.0.0.1` is. For clap's `value_parser`.
+pub fn listen_address(text: &str) -> Result<std::net::SocketAddr, String> {
+    use std::net::ToSocketAddrs;
+    let usage = "give HOST:PORT, HOST an address or a name: 127.0.0.1:1025, localhost:1025, [::1]:1025";
+    let found: Vec<std::net::SocketAddr> = match text.to_socket_addrs() {
+        Ok(addrs) => addrs.collect(),
+        Err(e) => return Err(format!("{e}; {usage}")),
+    };
+    found
+        .iter()
+        .find(|a| a.is_ipv4())
+        .or(found.first())
+        .copied()
+        .ok_or_else(|| format!("`{text}` names no address; {usage}"))
 }

@@ -1,8 +1,12 @@
 //! `pmacwd conform`: the conformance suite against the compact core, with its coverage.
 
-use crate::common::{load_spec, scenario_library, trace_files, TraceFile};
+use crate::common::{load_spec, plural, scenario_library, trace_files, TraceFile};
+use crate::progress::{thousands, Progress};
+use crate::replay::Format;
 use pmacwd_conformance::check::{planned_runs, Selection};
+use pmacwd_conformance::runner::Divergence;
 use pmacwd_specs::Spec;
+use std::cell::RefCell;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -15,12 +19,19 @@ pub struct ConformArgs {
     pub no_exhaustive: bool,
     pub save_regressions: PathBuf,
     pub threads: Option<usize>,
+    pub format: Format,
 }
 
 pub fn conform(a: ConformArgs) -> ExitCode {
     use pmacwd_conformance::coverage::Coverage;
     use pmacwd_conformance::generate::{self, Settings};
     use pmacwd_conformance::subject::CoreSubject;
+    let text = matches!(a.format, Format::Text);
+    let say = |line: String| {
+        if text {
+            println!("{line}");
+        }
+    };
     // Options are checked before any work starts.
     let threads = match crate::common::threads(a.threads) {
         Ok(t) => t,
@@ -48,21 +59,25 @@ pub fn conform(a: ConformArgs) -> ExitCode {
     let mut diverged = false;
     let start = std::time::Instant::now();
 
-    println!("== scenarios on the core, in lockstep with the model");
-    match scenarios_on_core(&spec, &files, &mut coverage) {
+    say("== scenarios on the core, in lockstep with the model".into());
+    let scenarios_json = match scenarios_on_core(&spec, &files, &mut coverage) {
         Ok(tally) => {
-            diverged |= tally.diverged;
-            println!(
-                "{} scenarios, {} scenario-profile runs, {} expectations met by the core",
-                files.len(),
-                tally.runs,
-                tally.expectations
-            );
+            diverged |= tally.diverged();
+            if text {
+                print!("{}", tally.divergences_text(""));
+            }
+            say(format!(
+                "{}, {}, {} met by the core",
+                plural(files.len() as u64, "scenario", "scenarios"),
+                plural(tally.runs as u64, "scenario-profile run", "scenario-profile runs"),
+                plural(tally.expectations as u64, "expectation", "expectations")
+            ));
+            tally.to_json(files.len())
         }
         Err(code) => return code,
-    }
+    };
 
-    println!("== generated traces");
+    say("== generated traces".into());
     let configs = match generate::all_configs(&spec) {
         Ok(c) => c,
         Err(e) => {
@@ -71,47 +86,71 @@ pub fn conform(a: ConformArgs) -> ExitCode {
         }
     };
     let seed = a.seed.unwrap_or_else(generate::fresh_seed);
-    println!(
-        "seed {seed} (repeat with --seed {seed}); {} traces of up to {} steps over {} (configuration, profile) pairs",
-        a.cases,
-        a.max_len,
-        configs.len()
-    );
+    say(format!(
+        "seed {seed} (repeat with --seed {seed}); {} of up to {} over {} (configuration, profile) {}",
+        plural(u64::from(a.cases), "trace", "traces"),
+        plural(a.max_len as u64, "step", "steps"),
+        configs.len(),
+        if configs.len() == 1 { "pair" } else { "pairs" }
+    ));
     let settings = Settings { cases: a.cases, max_len: a.max_len, seed };
-    let step = (a.cases / 10).max(1);
-    let progress = |done: u32| {
-        if done % step == 0 {
-            eprintln!("  {done} of {} traces", a.cases);
-        }
-    };
+    let progress = RefCell::new(Progress::start("generated traces", u64::from(a.cases), "traces"));
     let generated_start = std::time::Instant::now();
     let mut observe = |c: &_, e: &_, m: &_| coverage.record(c, e, m);
-    match generate::run::<CoreSubject>(&configs, settings, &progress, &mut observe) {
+    let outcome = generate::run::<CoreSubject>(
+        &configs,
+        settings,
+        &|g| {
+            progress.borrow_mut().update(u64::from(g.traces), || match g.shrink_cases {
+                0 => String::new(),
+                n => format!("a trace diverged; shrinking it: {n} smaller cases tried"),
+            })
+        },
+        &mut observe,
+    );
+    progress.into_inner().finish();
+    let secs = generated_start.elapsed().as_secs_f64();
+    let generated_json = match outcome {
         Ok(stats) => {
-            let secs = generated_start.elapsed().as_secs_f64();
-            println!(
-                "{} traces, {} events, no divergence ({secs:.1} s with coverage bookkeeping)",
-                stats.traces, stats.events
-            );
+            say(format!(
+                "{}, {}, no divergence ({secs:.1} s with coverage bookkeeping)",
+                plural(u64::from(stats.traces), "trace", "traces"),
+                plural(stats.events, "event", "events")
+            ));
+            serde_json::json!({
+                "seed": seed, "cases": a.cases, "max_len": a.max_len, "traces": stats.traces,
+                "events": stats.events, "seconds": secs, "divergence": null,
+            })
         }
         Err(found) => {
             diverged = true;
             let yaml = pmacwd_trace::to_yaml(&found.to_trace());
             let path = a.save_regressions.join(found.file_name());
             let saved = std::fs::create_dir_all(&a.save_regressions).and_then(|_| std::fs::write(&path, &yaml));
-            println!("DIVERGED under {} / {}: {}", found.configuration, found.profile, found.disagreement);
-            match saved {
-                Ok(()) => println!("shrunk to {} events, saved as {}:", found.events.len(), path.display()),
-                Err(e) => {
-                    println!("shrunk to {} events (could not save to {}: {e}):", found.events.len(), path.display())
-                }
+            say(format!("DIVERGED under {} / {}: {}", found.configuration, found.profile, found.disagreement));
+            let events = plural(found.events.len() as u64, "event", "events");
+            match &saved {
+                Ok(()) => say(format!("shrunk to {}, saved as {}:", events, path.display())),
+                Err(e) => say(format!("shrunk to {} (could not save to {}: {e}):", events, path.display())),
             }
-            print!("{yaml}");
+            if text {
+                print!("{yaml}");
+            }
+            serde_json::json!({
+                "seed": seed, "cases": a.cases, "max_len": a.max_len, "traces": null, "events": null,
+                "seconds": secs,
+                "divergence": {
+                    "configuration": found.configuration, "profile": found.profile,
+                    "disagreement": found.disagreement.to_string(), "events": found.events.len(),
+                    "saved": saved.is_ok().then(|| path.display().to_string()), "trace_yaml": yaml,
+                },
+            })
         }
-    }
+    };
 
+    let mut exhaustive_json = serde_json::Value::Null;
     if !a.no_exhaustive {
-        println!("== exhaustive lockstep: the product of model and core at every bounded run");
+        say("== exhaustive lockstep: the product of model and core at every bounded run".into());
         let runs = match planned_runs(&spec, &Selection::default()) {
             Ok(r) => r,
             Err(e) => {
@@ -120,54 +159,120 @@ pub fn conform(a: ConformArgs) -> ExitCode {
             }
         };
         let mut total = 0;
-        for cfg in runs {
-            let r = pmacwd_conformance::product::check(cfg, threads);
+        let mut results = Vec::new();
+        let mut progress = Progress::start("exhaustive lockstep", runs.len() as u64, "runs");
+        for (i, cfg) in runs.into_iter().enumerate() {
+            let name = format!("{} / {}", cfg.configuration, cfg.profile.name);
+            let done = i as u64;
+            let r = pmacwd_conformance::product::check_observed(cfg, threads, &mut |e| {
+                progress.update(done, || format!("{name}: {} pair states", thousands(e.states as u64)))
+            });
+            progress.update(done + 1, String::new);
             total += r.states;
             if !r.complete {
                 // Cut short at the state bound: no verdict, so unusable input, not a pass.
-                println!("INCOMPLETE {} / {}: stopped at the state bound", r.configuration, r.profile);
+                progress.finish();
+                eprintln!("pmacwd: INCOMPLETE {} / {}: stopped at the state bound", r.configuration, r.profile);
                 return ExitCode::from(2);
             }
-            match &r.divergence {
-                None => println!(
-                    "ok        {:<10} {:<20} {:>8} pair states, depth {:>3}, {:.2} s",
-                    r.configuration,
-                    r.profile,
-                    r.states,
-                    r.depth,
-                    r.duration.as_secs_f64()
-                ),
+            let divergence = match &r.divergence {
+                None => {
+                    if text {
+                        progress.println(&format!(
+                            "ok        {:<10} {:<20} {:>8} pair states, depth {:>3}, {:.2} s",
+                            r.configuration,
+                            r.profile,
+                            r.states,
+                            r.depth,
+                            r.duration.as_secs_f64()
+                        ));
+                    }
+                    serde_json::Value::Null
+                }
                 Some((events, d)) => {
                     diverged = true;
-                    println!("DIVERGED  {} / {}: {d}\n  shortest path:", r.configuration, r.profile);
-                    for e in events {
-                        println!("    {e}");
+                    if text {
+                        let mut t = format!("DIVERGED  {} / {}: {d}\n  shortest path:\n", r.configuration, r.profile);
+                        for e in events {
+                            t.push_str(&format!("    {e}\n"));
+                        }
+                        progress.print(&t);
                     }
+                    serde_json::json!({
+                        "disagreement": d.to_string(),
+                        "path": events.iter().map(ToString::to_string).collect::<Vec<_>>(),
+                    })
                 }
-            }
+            };
+            results.push(serde_json::json!({
+                "configuration": r.configuration, "profile": r.profile, "pair_states": r.states,
+                "depth": r.depth, "seconds": r.duration.as_secs_f64(), "divergence": divergence,
+            }));
         }
-        println!("{total} pair states explored");
+        progress.finish();
+        say(format!("{total} pair states explored"));
+        exhaustive_json = serde_json::json!({"pair_states": total, "runs": results});
     }
 
-    println!("== coverage");
-    print!("{}", coverage.report(&spec));
-    println!("total {:.1} s", start.elapsed().as_secs_f64());
-    if diverged {
-        ExitCode::from(1)
-    } else {
-        ExitCode::SUCCESS
+    let code: u8 = if diverged { 1 } else { 0 };
+    match a.format {
+        Format::Text => {
+            println!("== coverage");
+            print!("{}", coverage.report(&spec));
+            println!("total {:.1} s", start.elapsed().as_secs_f64());
+        }
+        Format::Json => println!(
+            "{}",
+            serde_json::json!({
+                "command": "conform",
+                "scenarios": scenarios_json,
+                "generated": generated_json,
+                "exhaustive": exhaustive_json,
+                "coverage": coverage.report_json(&spec),
+                "seconds": start.elapsed().as_secs_f64(),
+                "exit": code,
+            })
+        ),
     }
+    ExitCode::from(code)
 }
 
 /// What running the scenario library on the core found.
 pub struct ScenarioTally {
     pub runs: usize,
     pub expectations: usize,
-    pub diverged: bool,
+    /// (trace, profile, where and how it diverged), in the order found.
+    pub divergences: Vec<(String, String, Divergence)>,
+}
+
+impl ScenarioTally {
+    pub fn diverged(&self) -> bool {
+        !self.divergences.is_empty()
+    }
+
+    /// The divergences as the text report prints them, each indented by `indent`.
+    pub fn divergences_text(&self, indent: &str) -> String {
+        let mut s = String::new();
+        for (trace, profile, d) in &self.divergences {
+            s.push_str(&format!("{indent}DIVERGED  {trace} [{profile}]\n{indent}  {d}\n"));
+        }
+        s
+    }
+
+    pub fn to_json(&self, files: usize) -> serde_json::Value {
+        let divergences: Vec<serde_json::Value> = self
+            .divergences
+            .iter()
+            .map(|(trace, profile, d)| serde_json::json!({"trace": trace, "profile": profile, "divergence": d.to_json()}))
+            .collect();
+        serde_json::json!({
+            "files": files, "runs": self.runs, "expectations": self.expectations, "divergences": divergences,
+        })
+    }
 }
 
 /// Every scenario under every profile it names, on the core in lockstep with the model, with
-/// its expectations checked on the core; divergences are printed as they are found.
+/// its expectations checked on the core; divergences are collected for the caller to print.
 pub fn scenarios_on_core(
     spec: &Spec,
     files: &[TraceFile],
@@ -175,7 +280,7 @@ pub fn scenarios_on_core(
 ) -> Result<ScenarioTally, ExitCode> {
     use pmacwd_conformance::runner::{profiles_of, run_on_subject_observed, Failure};
     use pmacwd_conformance::subject::CoreSubject;
-    let mut tally = ScenarioTally { runs: 0, expectations: 0, diverged: false };
+    let mut tally = ScenarioTally { runs: 0, expectations: 0, divergences: Vec::new() };
     for file in files {
         let loaded = file.load().map_err(|e| {
             eprintln!("pmacwd: {e}");
@@ -197,8 +302,7 @@ pub fn scenarios_on_core(
                     return Err(ExitCode::from(2));
                 }
                 Err(Failure::Diverged(d)) => {
-                    tally.diverged = true;
-                    println!("DIVERGED  {} [{}]\n  {d}", file.display(), p.name);
+                    tally.divergences.push((file.display().to_string(), p.name.clone(), d));
                 }
             }
         }

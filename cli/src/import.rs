@@ -7,7 +7,7 @@
 //! output the steps before an error have already been written; the error and exit code 2 say
 //! the trace is incomplete.
 
-use crate::common::unusable;
+use crate::common::{plural, unusable};
 use pmacwd_conformance::import::{configuration_servo_hz, ImportStream};
 use pmacwd_specs::Spec;
 use pmacwd_trace::{CardConfig, Step};
@@ -76,7 +76,7 @@ pub fn import_log(log: &Path, out: Option<PathBuf>, configuration: &str, yaml: b
                 });
             match result {
                 Ok(steps) => {
-                    eprintln!("pmacwd: wrote {steps} steps to {}", path.display());
+                    eprintln!("pmacwd: wrote {} to {}", plural(steps, "step", "steps"), path.display());
                     summarize(&stream, configuration);
                     ExitCode::SUCCESS
                 }
@@ -123,13 +123,13 @@ fn summarize(stream: &ImportStream, configuration: &str) {
     }
     let Some(s) = stream.summary() else { return };
     eprintln!(
-        "pmacwd: {} commands on {} lines, {} X:$0 reads, {} restarts, {} silent gaps timed by the host clock, {} \
-         not modelled (kept without an expectation){}",
-        s.commands,
-        s.exchanges,
-        s.counter_reads,
-        s.restarts,
-        s.silent_gaps,
+        "pmacwd: {} on {}, {}, {}, {} timed by the host clock, {} not modelled (kept without an \
+         expectation){}",
+        plural(s.commands, "command", "commands"),
+        plural(s.exchanges, "line", "lines"),
+        plural(s.counter_reads, "X:$0 read", "X:$0 reads"),
+        plural(s.restarts, "restart", "restarts"),
+        plural(s.silent_gaps, "silent gap", "silent gaps"),
         s.not_modelled,
         if s.stamped { format!(", host time at {} Hz", stream.servo_hz) } else { String::new() }
     );

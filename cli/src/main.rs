@@ -7,6 +7,7 @@ mod conform;
 mod decode;
 mod import;
 mod margin;
+mod progress;
 mod record;
 mod replay;
 mod run;
@@ -68,16 +69,21 @@ enum Command {
         /// Skip the conformance summary (the core against the model) after the model check.
         #[arg(long)]
         no_conformance: bool,
+        /// Output format: text (with a summary table at the end), or one JSON document
+        /// (docs/commands.md gives its schema).
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
     },
-    /// Run traces (YAML, docs/trace-format.md) on the reference model and compare every
-    /// expected observation, under each profile a trace names.
+    /// Run traces (YAML or JSON Lines, docs/trace-format.md) on the reference model and compare
+    /// every expected observation, under each profile a trace names.
     ///
-    /// PATH is a trace file or a directory of them (default: specs/scenarios). Prints one line
-    /// per trace and profile, and for a divergence the step, line, expected and observed values
-    /// and the events before it.
+    /// PATH is a trace file or a directory of them (.yaml, .yml, .jsonl; default: the scenario
+    /// library, compiled in). Prints one line per trace and profile, and for a divergence the
+    /// step, line, expected and observed values and the events before it. A trace with
+    /// `elapsed` or `restart` steps (an imported host log) is for `pmacwd replay`.
     #[command(after_help = "Exit codes: 0 every expectation met, 1 a trace diverged, 2 unusable input.")]
     Run {
-        /// Trace files or directories.
+        /// Trace files (YAML or JSON Lines) or directories of them.
         #[arg(value_name = "PATH")]
         paths: Vec<PathBuf>,
         /// Spec directory to use instead of the embedded one.
@@ -86,6 +92,9 @@ enum Command {
         /// Run only under this profile (default: the profiles each trace names).
         #[arg(long, value_name = "NAME")]
         profile: Option<String>,
+        /// Output format: text, or one JSON document (docs/commands.md gives its schema).
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
     },
     /// Explain a ??? reply: every set bit of both words with its name and meaning, and whether
     /// the EPICS pmac driver's hardware-problem mask flags it.
@@ -249,6 +258,9 @@ enum Command {
         /// Checker threads for the exhaustive part (default: the machine's cores).
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
+        /// Output format: text, or one JSON document (docs/commands.md gives its schema).
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
     },
     /// Turn a plain host log (commands, replies, X:$0 read alongside) into a trace.
     ///
@@ -280,20 +292,32 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = Cli::parse();
+    if let Err(e) = progress::configure() {
+        return common::unusable(e);
+    }
     match cli.command {
-        Command::Conform { cases, max_len, seed, scenarios, specs, no_exhaustive, save_regressions, threads } => {
-            conform::conform(conform::ConformArgs {
-                cases,
-                max_len,
-                seed,
-                scenarios,
-                specs,
-                no_exhaustive,
-                save_regressions,
-                threads,
-            })
-        }
-        Command::Run { paths, specs, profile } => run::run_traces(paths, specs, profile),
+        Command::Conform {
+            cases,
+            max_len,
+            seed,
+            scenarios,
+            specs,
+            no_exhaustive,
+            save_regressions,
+            threads,
+            format,
+        } => conform::conform(conform::ConformArgs {
+            cases,
+            max_len,
+            seed,
+            scenarios,
+            specs,
+            no_exhaustive,
+            save_regressions,
+            threads,
+            format,
+        }),
+        Command::Run { paths, specs, profile, format } => run::run_traces(paths, specs, profile, format),
         Command::Serve(args) => serve::serve(args),
         Command::Record(args) => record::record(args),
         Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
@@ -331,8 +355,8 @@ fn main() -> ExitCode {
             timeline::timeline(timeline::TimelineArgs { trace, format, output, profile, specs })
         }
         Command::Import { log, out, configuration, yaml } => import::import_log(&log, out, &configuration, yaml),
-        Command::Check { specs, profile, configuration, witnesses, threads, no_conformance } => {
-            check::check(check::CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance })
+        Command::Check { specs, profile, configuration, witnesses, threads, no_conformance, format } => {
+            check::check(check::CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance, format })
         }
     }
 }

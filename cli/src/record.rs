@@ -1,6 +1,6 @@
 //! `pmacwd record`: a transparent proxy that writes host sessions as a capture.
 
-use crate::common::{create_capture, model_config, unusable};
+use crate::common::{create_capture, listen_address, model_config, unusable};
 use pmacwd_emulator::proxy::{Proxy, RecordOptions, Recorder};
 use std::io::Write;
 use std::net::SocketAddr;
@@ -11,8 +11,9 @@ use std::time::Duration;
 /// Transparent proxy that writes host sessions with a card as a capture.
 #[derive(clap::Args, Debug)]
 pub struct RecordArgs {
-    /// Address the host program connects to instead of the card.
-    #[arg(long, value_name = "ADDR")]
+    /// Address the host program connects to instead of the card, HOST:PORT (HOST an address
+    /// or a name).
+    #[arg(long, value_name = "ADDR", value_parser = listen_address)]
     pub listen: SocketAddr,
     /// The card (or emulator): HOST:PORT.
     #[arg(long, value_name = "ADDR")]
@@ -26,12 +27,12 @@ pub struct RecordArgs {
     /// Spec directory to use instead of the embedded one.
     #[arg(long, value_name = "DIR")]
     pub specs: Option<PathBuf>,
-    /// The card's servo rate, 1..100000 (default: the configuration's; docs/emulator.md
-    /// "Limits").
+    /// The card's servo rate, 1..100000 Hz (the servo clock range of specs/scheduling.yaml;
+    /// default: the configuration's; docs/emulator.md "Limits").
     #[arg(long, value_name = "HZ")]
     pub servo_hz: Option<u32>,
     /// Also proxy an emulator's control interface: listen here ...
-    #[arg(long, value_name = "ADDR", requires = "control_target")]
+    #[arg(long, value_name = "ADDR", requires = "control_target", value_parser = listen_address)]
     pub control_listen: Option<SocketAddr>,
     /// ... and forward to this one; its events go into the capture.
     #[arg(long, value_name = "ADDR", requires = "control_listen")]
@@ -59,7 +60,7 @@ pub fn record(a: RecordArgs) -> ExitCode {
         Ok(c) => c,
         Err(e) => return unusable(e),
     };
-    let servo_hz = match pmacwd_emulator::card::servo_rate(a.servo_hz, model.servo_hz, &a.configuration) {
+    let servo_hz = match pmacwd_emulator::card::servo_rate(a.servo_hz, &model) {
         Ok(hz) => hz,
         Err(e) => return unusable(e),
     };
@@ -104,7 +105,12 @@ pub fn record(a: RecordArgs) -> ExitCode {
             for n in notes {
                 eprintln!("pmacwd record: left over at the end: {n}");
             }
-            println!("recorded {exchanges} exchanges as {steps} steps in {}", a.out.display());
+            println!(
+                "recorded {} as {} in {}",
+                crate::common::plural(exchanges, "exchange", "exchanges"),
+                crate::common::plural(steps, "step", "steps"),
+                a.out.display()
+            );
             ExitCode::SUCCESS
         }
         Err(e) => unusable(format!("{}: {e}", a.out.display())),

@@ -1,10 +1,11 @@
 //! `pmacwd run`: traces on the reference model.
 
-use crate::common::{load_spec, scenario_library, trace_files};
+use crate::common::{load_spec, plural, scenario_library, trace_files};
+use crate::replay::Format;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<String>) -> ExitCode {
+pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<String>, format: Format) -> ExitCode {
     use pmacwd_conformance::runner::{profiles_of, run_on_model, Failure};
     let spec = match load_spec(&specs) {
         Ok(s) => s,
@@ -19,7 +20,9 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
             return ExitCode::from(2);
         }
     };
+    let text = matches!(format, Format::Text);
     let (mut passed, mut diverged) = (0usize, 0usize);
+    let mut results: Vec<serde_json::Value> = Vec::new();
     for file in &files {
         let loaded = match file.load() {
             Ok(l) => l,
@@ -46,10 +49,20 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
             None => profiles,
         };
         for p in profiles {
+            let trace = file.display().to_string();
             match run_on_model(&spec, &loaded, &p) {
                 Ok(n) => {
                     passed += 1;
-                    println!("ok        {} [{}] ({n} expectations)", file.display(), p.name);
+                    if text {
+                        println!(
+                            "ok        {trace} [{}] ({})",
+                            p.name,
+                            plural(n as u64, "expectation", "expectations")
+                        );
+                    }
+                    results.push(serde_json::json!({
+                        "trace": trace, "profile": p.name, "verdict": "ok", "expectations": n, "divergence": null,
+                    }));
                 }
                 Err(Failure::Unusable(e)) => {
                     eprintln!("pmacwd: {e}");
@@ -57,15 +70,26 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
                 }
                 Err(Failure::Diverged(d)) => {
                     diverged += 1;
-                    println!("DIVERGED  {} [{}]\n  {d}", file.display(), p.name);
+                    if text {
+                        println!("DIVERGED  {trace} [{}]\n  {d}", p.name);
+                    }
+                    results.push(serde_json::json!({
+                        "trace": trace, "profile": p.name, "verdict": "diverged", "expectations": null,
+                        "divergence": d.to_json(),
+                    }));
                 }
             }
         }
     }
-    println!("{passed} passed, {diverged} failed");
-    if diverged == 0 {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
+    let code = if diverged == 0 { 0 } else { 1 };
+    match format {
+        Format::Text => println!("{passed} passed, {diverged} failed"),
+        Format::Json => println!(
+            "{}",
+            serde_json::json!({
+                "command": "run", "runs": results, "passed": passed, "failed": diverged, "exit": code,
+            })
+        ),
     }
+    ExitCode::from(code)
 }

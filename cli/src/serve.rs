@@ -1,6 +1,6 @@
 //! `pmacwd serve`: the emulator on the card's Ethernet protocol.
 
-use crate::common::{create_capture, model_config, unusable};
+use crate::common::{create_capture, listen_address, model_config, unusable};
 use pmacwd_bridge::core_config;
 use pmacwd_emulator::card::{servo_rate, Card, Clock, Identity, SAVED_DEFAULT};
 use pmacwd_emulator::server::{ServeOptions, Server, CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS};
@@ -13,11 +13,11 @@ use std::time::{Duration, Instant};
 /// Turbo PMAC emulator on the Ethernet protocol, backed by the compact core.
 #[derive(clap::Args, Debug)]
 pub struct ServeArgs {
-    /// Address for host programs (the card's port is 1025).
-    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:1025")]
+    /// Address for host programs, HOST:PORT, HOST an address or a name (the card's port is 1025).
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:1025", value_parser = listen_address)]
     pub listen: SocketAddr,
-    /// Address of the control interface (load, faults, INIT/, power; docs/emulator.md).
-    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:1026")]
+    /// Address of the control interface (load, faults, INIT/, power; docs/emulator.md), HOST:PORT.
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:1026", value_parser = listen_address)]
     pub control: SocketAddr,
     /// Run without a control interface.
     #[arg(long)]
@@ -31,8 +31,9 @@ pub struct ServeArgs {
     /// Spec directory to use instead of the embedded one.
     #[arg(long, value_name = "DIR")]
     pub specs: Option<PathBuf>,
-    /// Servo interrupt rate, 1..100000 (default: the configuration's; 100 kHz is above any
-    /// servo clock a real card sustains, docs/emulator.md "Limits").
+    /// Servo interrupt rate, 1..100000 Hz (the servo clock range of specs/scheduling.yaml;
+    /// default: the configuration's; 100 kHz is above any servo clock a real card sustains,
+    /// docs/emulator.md "Limits").
     #[arg(long, value_name = "HZ")]
     pub servo_hz: Option<u32>,
     /// Time moves only by `step` and `servo` on the control interface (for tests).
@@ -126,7 +127,7 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         Ok(s) => s,
         Err(e) => return unusable(e),
     };
-    let servo_hz = match servo_rate(a.servo_hz, model.servo_hz, &a.configuration) {
+    let servo_hz = match servo_rate(a.servo_hz, &model) {
         Ok(hz) => hz,
         Err(e) => return unusable(e),
     };

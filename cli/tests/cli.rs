@@ -428,6 +428,44 @@ fn output_into_a_closed_pipe_ends_quietly_without_a_panic() {
 }
 
 #[test]
+fn progress_into_a_log_is_whole_periodic_lines_without_carriage_returns() {
+    // Issue 19: `check` wrote its progress with carriage returns, one 2,000-character line in a
+    // CI log, and the exhaustive lockstep showed nothing for seconds. Into a pipe, progress is
+    // now a plain line per interval (here 0.1 s instead of 5, through the environment variable)
+    // naming the phase and what is under way, for the model check and the lockstep alike.
+    let out = pmacwd()
+        .args(["check", "--configuration", "i40-zero", "--threads", "1"])
+        .env("PMACWD_PROGRESS_SECONDS", "0.1")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(!stderr.contains('\r'), "{stderr:?}");
+    assert!(stderr.ends_with('\n'), "{stderr:?}");
+    for line in stderr.lines() {
+        assert!(line.starts_with("progress: "), "only progress lines: {line}");
+    }
+    assert!(stderr.contains("progress: model check: "), "{stderr}");
+    assert!(stderr.contains(" of 4 runs done ("), "{stderr}");
+    assert!(stderr.contains("progress: exhaustive lockstep: "), "{stderr}");
+    // Without the variable, a phase shorter than 5 s prints no progress at all.
+    let out = pmacwd().args(["check", "--configuration", "lockout", "--profile", "um-215"]).output().unwrap();
+    assert_eq!(String::from_utf8_lossy(&out.stderr), "");
+    // A value that is not seconds is refused before any work, not taken as the default.
+    for bad in ["0", "abc", "-1"] {
+        let out = pmacwd()
+            .args(["check", "--configuration", "lockout"])
+            .env("PMACWD_PROGRESS_SECONDS", bad)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {stderr}");
+        assert!(stderr.contains(&format!("PMACWD_PROGRESS_SECONDS={bad}: give seconds")), "{stderr}");
+        assert!(out.stdout.is_empty(), "{bad}: no work before the refusal");
+    }
+}
+
+#[test]
 fn checker_threads_outside_one_to_the_cores_are_refused_before_any_work() {
     // `--threads 0` used to check 1 state and report every `sometimes` property as never
     // reached (a false verdict); `--threads 100000` panicked spawning threads.
@@ -471,4 +509,146 @@ fn import_takes_the_card_s_values_from_the_log_and_says_which_in_its_summary() {
     assert!(!stderr.contains("warning"), "{stderr}");
     let text = std::fs::read_to_string(&trace).unwrap();
     assert!(text.lines().next().unwrap().contains(r#""card":{"i8":3,"servo_hz":2259}"#), "{text}");
+}
+
+#[test]
+fn run_takes_json_lines_traces_and_directories_of_both_forms_and_names_the_host_logs_it_leaves() {
+    // Issue 19: `run x.jsonl` failed with "unknown field `format`", and `run specs/captures/`
+    // skipped the .jsonl captures silently. Both forms now run (told apart as `replay` does),
+    // a divergence in a JSON Lines trace names its line, and host logs in a directory are
+    // named on standard error with what to do with them.
+    let tmp = TempDir::new("run-jsonl");
+    let header =
+        r#"{"format":"pmacwd-trace","version":1,"description":"d","configuration":"i40-zero","profiles":["um-215"]}"#;
+    std::fs::write(tmp.join("a.jsonl"), format!("{header}\n{{\"command\":\"I40\",\"expect\":{{\"reply\":\"0\"}}}}\n"))
+        .unwrap();
+    let out = pmacwd().arg("run").arg(tmp.join("a.jsonl")).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("a.jsonl [um-215] (1 expectation)"), "{stdout}");
+    // A wrong expectation on line 3 of a JSON Lines trace: a divergence at that line.
+    std::fs::write(
+        tmp.join("b.jsonl"),
+        format!("{header}\n\n{{\"command\":\"I40\",\"expect\":{{\"reply\":\"7\"}}}}\n"),
+    )
+    .unwrap();
+    std::fs::write(tmp.join("c.log"), "> ???\n< 000000000000\n").unwrap();
+    let out = pmacwd().arg("run").arg(&tmp).output().unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(1), "{stdout}{stderr}");
+    assert!(stdout.contains("DIVERGED  ") && stdout.contains("b.jsonl [um-215]"), "{stdout}");
+    assert!(stdout.contains("step 1 (line 3): reply: expected 7, observed 0"), "{stdout}");
+    assert!(stdout.contains("1 passed, 1 failed"), "{stdout}");
+    assert!(stderr.contains("not run: 1 host log, not a trace:") && stderr.contains("c.log"), "{stderr}");
+    assert!(stderr.contains("pmacwd replay LOG"), "{stderr}");
+    // A trace with an `elapsed` step (an imported host log) is for replay: exit 2 at its line,
+    // not a divergence under every profile.
+    std::fs::write(tmp.join("d.jsonl"), format!("{header}\n{{\"command\":\"I40\"}}\n{{\"elapsed\":16}}\n")).unwrap();
+    let out = pmacwd().arg("run").arg(tmp.join("d.jsonl")).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("d.jsonl:3:1: step 2: `16 servo cycles pass unseen`"), "{stderr}");
+    assert!(stderr.contains("judge this trace with `pmacwd replay`"), "{stderr}");
+}
+
+#[test]
+fn serve_listens_on_a_host_name_and_a_taken_port_is_named_with_its_role() {
+    // Issue 19: `serve --listen localhost:1025` was refused ("invalid socket address syntax"),
+    // and "Address already in use" did not say which port was taken. A name is resolved now
+    // (the first IPv4 address, as the default 127.0.0.1), and a port in use is named with its
+    // address and whether it was the host or the control port; exit 2 either way.
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = taken.local_addr().unwrap().port();
+    let out = pmacwd().args(["serve", "--listen", &format!("localhost:{port}"), "--no-control"]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&format!("cannot listen: host port 127.0.0.1:{port}: ")), "{stderr}");
+    let out = pmacwd()
+        .args(["serve", "--listen", "127.0.0.1:0", "--control", &format!("127.0.0.1:{port}")])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains(&format!("cannot listen: control port 127.0.0.1:{port}: ")), "{stderr}");
+    drop(taken);
+    // A free port by name: the emulator listens and says where.
+    let mut child = pmacwd()
+        .args(["serve", "--listen", "localhost:0", "--no-control"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufRead::read_line(&mut std::io::BufReader::new(child.stdout.as_mut().unwrap()), &mut first).unwrap();
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(first.starts_with("pmacwd serve: Turbo PMAC emulator on 127.0.0.1:"), "{first}");
+}
+
+/// Runs `pmacwd ARGS` and parses its standard output as one JSON document.
+fn json_of(args: &[&str]) -> (Option<i32>, serde_json::Value) {
+    let out = pmacwd().args(args).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let doc =
+        serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{args:?}: not one JSON document: {e}\n{stdout}"));
+    (out.status.code(), doc)
+}
+
+#[test]
+fn check_run_and_conform_print_one_json_document_that_agrees_with_their_text_and_exit_code() {
+    // Issue 19: only decode and replay had JSON, so CI jobs scraped text. Each document's
+    // `exit` is the process's exit code, and its figures are the ones the text prints.
+    let (code, doc) = json_of(&[
+        "check",
+        "--configuration",
+        "lockout",
+        "--profile",
+        "um-215",
+        "--threads",
+        "1",
+        "--no-conformance",
+        "--format",
+        "json",
+    ]);
+    assert_eq!(code, Some(0));
+    assert_eq!((doc["command"].as_str(), doc["exit"].as_i64()), (Some("check"), Some(0)));
+    let run = &doc["runs"][0];
+    assert_eq!((run["configuration"].as_str(), run["profile"].as_str()), (Some("lockout"), Some("um-215")));
+    let text = pmacwd()
+        .args(["check", "--configuration", "lockout", "--profile", "um-215", "--threads", "1", "--no-conformance"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&text.stdout);
+    let states = run["states"].as_u64().unwrap();
+    assert!(text.contains(&format!("total: {states} states")), "{text}");
+    let held = run["properties"].as_array().unwrap().iter().filter(|p| p["verdict"] == "holds").count();
+    let table = text.lines().find(|l| l.trim_start().starts_with("lockout ")).expect("the summary table's row");
+    assert_eq!(table.split_whitespace().nth(3), Some(held.to_string().as_str()), "{table}");
+    assert!(text.contains("exit 0: every property holds and nothing diverged"), "{text}");
+
+    let tmp = TempDir::new("json-run");
+    let header =
+        r#"{"format":"pmacwd-trace","version":1,"description":"d","configuration":"i40-zero","profiles":["um-215"]}"#;
+    std::fs::write(tmp.join("b.jsonl"), format!("{header}\n{{\"command\":\"I40\",\"expect\":{{\"reply\":\"7\"}}}}\n"))
+        .unwrap();
+    let path = tmp.join("b.jsonl");
+    let (code, doc) = json_of(&["run", "--format", "json", path.to_str().unwrap()]);
+    assert_eq!((code, doc["exit"].as_i64()), (Some(1), Some(1)));
+    assert_eq!((doc["passed"].as_u64(), doc["failed"].as_u64()), (Some(0), Some(1)));
+    let d = &doc["runs"][0]["divergence"];
+    assert_eq!((d["step"].as_u64(), d["line"].as_u64(), d["expected"].as_str()), (Some(1), Some(2), Some("7")));
+
+    let (code, doc) = json_of(&["conform", "--cases", "10", "--seed", "1", "--no-exhaustive", "--format", "json"]);
+    assert_eq!((code, doc["exit"].as_i64()), (Some(0), Some(0)));
+    let text = pmacwd().args(["conform", "--cases", "10", "--seed", "1", "--no-exhaustive"]).output().unwrap();
+    let text = String::from_utf8_lossy(&text.stdout);
+    let g = &doc["generated"];
+    assert!(text.contains(&format!("{} traces, {} events, no divergence", g["traces"], g["events"])), "{text}");
+    let s = &doc["scenarios"];
+    assert!(
+        text.contains(&format!("{} scenario-profile runs, {} expectations", s["runs"], s["expectations"])),
+        "{text}"
+    );
+    assert!(doc["exhaustive"].is_null());
+    assert!(doc["coverage"]["events"].as_object().unwrap().values().any(|n| n.as_u64() > Some(0)));
 }

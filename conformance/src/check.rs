@@ -59,6 +59,15 @@ pub fn run(cfg: ModelConfig, threads: usize) -> RunReport {
     WatchdogModel::new(cfg).check(threads)
 }
 
+/// As [`run`], telling `progress` how far the checker has come while it runs.
+pub fn run_observed(
+    cfg: ModelConfig,
+    threads: usize,
+    progress: &mut dyn FnMut(pmacwd_model::checker::Explored),
+) -> RunReport {
+    WatchdogModel::new(cfg).check_observed(threads, progress)
+}
+
 fn thousands(n: usize) -> String {
     let s = n.to_string();
     let mut out = String::new();
@@ -130,6 +139,61 @@ fn write_path(s: &mut String, p: &PropertyResult) {
     for (i, step) in path.iter().enumerate() {
         let _ = writeln!(s, "            {:>3}. {}", i + 1, describe(step));
     }
+}
+
+/// The verdict word of a property, as the text report prints it and the JSON report names it:
+/// `holds`, `reached`, `n/a`, `VIOLATED`, `NEVER`.
+pub fn verdict(p: &PropertyResult) -> &'static str {
+    match (p.applicable, p.holds, p.expectation) {
+        (false, ..) => "n/a",
+        (true, true, Expectation::Always) => "holds",
+        (true, true, Expectation::Sometimes) => "reached",
+        (true, false, Expectation::Always) => "VIOLATED",
+        (true, false, Expectation::Sometimes) => "NEVER",
+    }
+}
+
+/// One run as JSON (the schema is in `docs/commands.md`, `check --format json`): every
+/// property with its verdict, and its shortest counterexample or witness as steps.
+pub fn report_json(r: &RunReport, default_profile: &str) -> serde_json::Value {
+    let properties: Vec<serde_json::Value> = r
+        .properties
+        .iter()
+        .map(|p| {
+            let path = p.path.as_ref().map(|path| {
+                path.iter()
+                    .map(|step| {
+                        let o = &step.observation;
+                        serde_json::json!({
+                            "event": step.event.to_string(),
+                            "reply": (o.reply != pmacwd_specs::vocab::event::Reply::None).then(|| o.reply.to_string()),
+                            "counter": o.counter, "counter_min": o.counter_min,
+                            "status": format!("{:06X}{:06X}", o.status_x, o.status_y),
+                            "tripped": o.led_red,
+                        })
+                    })
+                    .collect::<Vec<_>>()
+            });
+            serde_json::json!({
+                "name": p.name,
+                "kind": match p.expectation { Expectation::Always => "always", Expectation::Sometimes => "sometimes" },
+                "verdict": verdict(p),
+                "cite": p.cite,
+                "needs": (!p.applicable).then_some(p.needs),
+                "path": path,
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "configuration": r.configuration,
+        "profile": r.profile,
+        "default_profile": r.profile == default_profile,
+        "complete": r.complete,
+        "states": r.states,
+        "depth": r.depth,
+        "seconds": r.duration.as_secs_f64(),
+        "properties": properties,
+    })
 }
 
 /// One trace step as a line: the event, then what could be observed after it.

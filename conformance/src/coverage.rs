@@ -136,6 +136,38 @@ impl Coverage {
         }
     }
 
+    /// [`Coverage::report`] as JSON (`conform --format json`, `docs/commands.md`): the same
+    /// counts, keyed by event kind, status bit and property name.
+    pub fn report_json(&self, spec: &Spec) -> serde_json::Value {
+        let events: serde_json::Map<String, serde_json::Value> =
+            EVENT_KINDS.iter().map(|k| (k.to_string(), self.events.get(k).copied().unwrap_or(0).into())).collect();
+        let mut bits = Vec::new();
+        for (word, w) in [('X', &spec.status.words.x), ('Y', &spec.status.words.y)] {
+            for (bit, b) in &w.bits {
+                bits.push(serde_json::json!({
+                    "word": word.to_string(), "bit": bit, "name": b.name,
+                    "states_set": self.bits_set.get(&(word, *bit)).copied().unwrap_or(0),
+                }));
+            }
+        }
+        let count = |m: &BTreeMap<&'static str, u64>, e: Expectation| -> serde_json::Map<String, serde_json::Value> {
+            STATE_PROPERTIES
+                .iter()
+                .filter(|p| p.expectation == e)
+                .map(|p| (p.name.to_string(), m.get(p.name).copied().unwrap_or(0).into()))
+                .collect()
+        };
+        serde_json::json!({
+            "events": events,
+            "status_bits": bits,
+            "driven_bits": StatusLayout::of(spec).map_or(0, |l| l.driven().len()),
+            "sometimes_reached": count(&self.reached, Expectation::Sometimes),
+            "always_failed": count(&self.always_failed, Expectation::Always),
+            "states_checked": self.states_checked,
+            "trips": self.trips.iter().collect::<Vec<_>>(),
+        })
+    }
+
     /// The report: every event kind, status bit and property, with what the run did to it.
     pub fn report(&self, spec: &Spec) -> String {
         let mut s = String::new();

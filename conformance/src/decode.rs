@@ -71,7 +71,7 @@ pub fn to_text(d: &Decoded) -> String {
         StatusReply::Error(n) => {
             let _ = writeln!(
                 s,
-                "ERR{n:03}: an error reply, not status words (ERR003 is \"data error or unrecognized command\")."
+                "ERR{n}: an error reply, not status words (ERR003 is \"data error or unrecognized command\")."
             );
             return s;
         }
@@ -112,7 +112,7 @@ pub fn to_json(d: &Decoded) -> String {
     let (kind, x, y, error) = match d.reply {
         StatusReply::Words { x, y } => ("status", Some(format!("{x:06X}")), Some(format!("{y:06X}")), None),
         StatusReply::Bootstrap => ("bootstrap", None, None, None),
-        StatusReply::Error(n) => ("error", None, None, Some(n)),
+        StatusReply::Error(n) => ("error", None, None, Some(n.get())),
     };
     let bits: Vec<serde_json::Value> = d
         .set

@@ -243,6 +243,15 @@ pub struct Stats {
     pub events: u64,
 }
 
+/// How far a generated run has come, for a progress display: the traces that passed, and once a
+/// trace diverged, the cases tried while shrinking it (up to 50,000 runs of up to `max_len`
+/// steps, which can take a while).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RunProgress {
+    pub traces: u32,
+    pub shrink_cases: u32,
+}
+
 /// A seed for a fresh run (from the clock); runs print it so that any one can be repeated.
 pub fn fresh_seed() -> u64 {
     std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
@@ -257,12 +266,12 @@ pub struct Settings {
 }
 
 /// Runs `settings.cases` generated traces on `S` and the model over `configs`; on a divergence
-/// returns the shrunk counterexample. `progress` is called with the traces done so far;
+/// returns the shrunk counterexample. `progress` is called after every case (see [`RunProgress`]);
 /// `observe` sees every event applied (and the model after it) in traces that pass.
 pub fn run<S: Subject>(
     configs: &[ModelConfig],
     settings: Settings,
-    progress: &dyn Fn(u32),
+    progress: &dyn Fn(RunProgress),
     observe: &mut dyn FnMut(&ModelConfig, &Event, &ModelSubject),
 ) -> Result<Stats, Box<Counterexample>> {
     let mut seed_bytes = [0u8; 32];
@@ -277,6 +286,7 @@ pub fn run<S: Subject>(
     let stats = Cell::new(Stats::default());
     let observe = RefCell::new(observe);
     let shrinking = Cell::new(false);
+    let shrink_cases = Cell::new(0u32);
     let result = runner.run(&strategy(configs.len(), settings.max_len), |g| {
         let cfg = &configs[g.which % configs.len()];
         let mut sink = |c: &ModelConfig, e: &Event, m: &ModelSubject| {
@@ -291,11 +301,18 @@ pub fn run<S: Subject>(
                     s.traces += 1;
                     s.events += events;
                     stats.set(s);
-                    progress(s.traces);
+                    progress(RunProgress { traces: s.traces, shrink_cases: 0 });
+                } else {
+                    shrink_cases.set(shrink_cases.get() + 1);
+                    progress(RunProgress { traces: stats.get().traces, shrink_cases: shrink_cases.get() });
                 }
                 Ok(())
             }
             Err((d, _)) => {
+                if shrinking.get() {
+                    shrink_cases.set(shrink_cases.get() + 1);
+                    progress(RunProgress { traces: stats.get().traces, shrink_cases: shrink_cases.get() });
+                }
                 shrinking.set(true);
                 Err(TestCaseError::fail(d.to_string()))
             }

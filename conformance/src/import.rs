@@ -515,8 +515,9 @@ impl CardScan {
         Ok(())
     }
 
-    /// What was found, each value checked: I10 must give a servo period, I8, I40 and I41 must
-    /// be in their ranges of `variables.yaml` (the error names the reply's line).
+    /// What was found, each value checked: I10 must give a servo period within the servo clock
+    /// range of `scheduling.yaml`, I8, I40 and I41 must be in their ranges of `variables.yaml`
+    /// (the error names the reply's line).
     pub fn finish(self, spec: &Spec) -> Result<CardFromLog, SpecError> {
         self.parser.finish()?;
         let iv = &spec.variables.i_variables;
@@ -553,6 +554,14 @@ impl CardScan {
                             ),
                         )
                     })?;
+                    let clocks = &spec.scheduling.servo_clock_hz_range;
+                    if !clocks.contains(hz) {
+                        return Err(SpecError::at(
+                            &self.parser.file,
+                            at,
+                            format!("I10 reads {v}: a servo clock of {hz} Hz, outside {}", clocks.describe()),
+                        ));
+                    }
                     out.card.servo_hz = Some(hz);
                 }
             }

@@ -7,7 +7,7 @@
 use crate::lockstep::{differences, Disagreement};
 use pmacwd_bridge::{core_config, core_event, core_observation};
 use pmacwd_core as core;
-use pmacwd_model::checker::STATES_MAX;
+use pmacwd_model::checker::{join_observed, Explored, STATES_MAX};
 use pmacwd_model::checker::{Action, State, WatchdogModel};
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::vocab::event::Event;
@@ -108,12 +108,23 @@ pub fn check(cfg: ModelConfig, threads: usize) -> ProductReport {
     check_product(ProductModel::new(cfg), threads)
 }
 
+/// As [`check`], telling `progress` how far it has come while it runs
+/// ([`pmacwd_model::checker::join_observed`]).
+pub fn check_observed(cfg: ModelConfig, threads: usize, progress: &mut dyn FnMut(Explored)) -> ProductReport {
+    check_product_observed(ProductModel::new(cfg), threads, progress)
+}
+
 /// Explores a product breadth-first (the canary test gives it a deliberately broken model).
 pub fn check_product(product: ProductModel, threads: usize) -> ProductReport {
+    check_product_observed(product, threads, &mut |_| {})
+}
+
+fn check_product_observed(product: ProductModel, threads: usize, progress: &mut dyn FnMut(Explored)) -> ProductReport {
     let cfg = &product.model.cfg;
     let (configuration, profile) = (cfg.configuration.clone(), cfg.profile.name.clone());
     let start = Instant::now();
-    let checker = product.checker().threads(threads).target_state_count(STATES_MAX).spawn_bfs().join();
+    let spawned = product.checker().threads(threads).target_state_count(STATES_MAX).spawn_bfs();
+    let checker = join_observed(spawned, progress);
     let duration = start.elapsed();
     let product = checker.model();
     let divergence = checker.discovery(AGREE).map(|path| {

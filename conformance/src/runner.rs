@@ -42,6 +42,17 @@ impl fmt::Display for Divergence {
     }
 }
 
+impl Divergence {
+    /// As JSON (`run --format json`, `docs/commands.md`): the step (1-based) and its line,
+    /// what differed, and the events before it.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "step": self.step + 1, "line": self.position.line, "what": self.what,
+            "expected": self.expected, "observed": self.observed, "recent": self.recent,
+        })
+    }
+}
+
 /// Why a trace run did not pass.
 #[derive(Debug)]
 pub enum Failure {
@@ -197,11 +208,20 @@ fn trace_config(spec: &Spec, loaded: &LoadedTrace, profile: &Profile) -> Result<
 
 /// Runs `step` on every step of `loaded`, keeping the window of recent events, and turns the
 /// first mismatch into a [`Failure`] that names the step, its line and the events before it.
+/// A step no deterministic run can apply (`elapsed`, `restart`: see [`deterministic`]) makes
+/// the trace unusable here, at its line, not a divergence: the trace is for `replay`.
 /// Returns the number of expectations checked.
 fn run_steps(loaded: &LoadedTrace, mut step: impl FnMut(&Step) -> Result<usize, Mismatch>) -> Result<usize, Failure> {
     let mut recent: Vec<String> = Vec::new();
     let mut checked = 0;
     for (i, s) in loaded.trace.steps.iter().enumerate() {
+        deterministic(&s.event).map_err(|why| {
+            Failure::Unusable(SpecError::at(
+                loaded.map.file(),
+                loaded.step_position(i),
+                format!("step {}: {why}", i + 1),
+            ))
+        })?;
         recent.push(s.event.to_string());
         if recent.len() > RECENT_EVENTS {
             recent.remove(0);
@@ -338,7 +358,6 @@ pub fn run_on_subject_observed<S: crate::subject::Subject>(
     let cfg = trace_config(spec, loaded, profile)?;
     let mut pair = crate::lockstep::Pair::<S>::power_on(&cfg);
     run_steps(loaded, |step| {
-        deterministic(&step.event).map_err(|why| Mismatch::Field("event", "an event a run can apply".into(), why))?;
         let obs = match pair.apply_trace_event(&step.event) {
             Ok(Some(obs)) => obs,
             Ok(None) => return Err(no_background("neither the model nor the implementation can complete one".into())),

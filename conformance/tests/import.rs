@@ -311,6 +311,12 @@ fn an_i10_of_zero_or_an_i40_out_of_range_in_the_log_is_an_error_at_its_reply_lin
     let e = err("> I40\n< 70000\n");
     assert_eq!(at(&e).0, 2, "{e}");
     assert!(e.message.contains("variables.yaml"), "{e}");
+    // I10 = 1 is a period of 1/8,388,608 ms, 8.4 GHz (SRM p.43): beyond u32 and far outside
+    // the servo clocks of scheduling.yaml, whose derived hardware delay would be billions of
+    // cycles. Refused at its line, not imported for replay to refuse later.
+    let e = err("> I10\n< 1\n");
+    assert_eq!(at(&e).0, 2, "{e}");
+    assert!(e.message.contains("I10 reads 1") && e.message.contains("servo_clock_hz_range"), "{e}");
 }
 
 #[test]

@@ -136,3 +136,48 @@ fn one_long_servo_event_equals_the_same_cycles_one_by_one() {
         }
     }
 }
+
+/// The model, except that it reports a counter of 0 as 1: a deliberate divergence, so that the
+/// generator finds one and shrinks it.
+struct CounterNeverZero(ModelSubject);
+
+impl Subject for CounterNeverZero {
+    fn name(&self) -> &'static str {
+        "the model with a counter that never reads 0"
+    }
+    fn power_on(cfg: &pmacwd_specs::config::ModelConfig) -> Self {
+        CounterNeverZero(ModelSubject::power_on(cfg))
+    }
+    fn background_possible(&self) -> bool {
+        self.0.background_possible()
+    }
+    fn apply(&mut self, event: &Event) -> pmacwd_specs::vocab::Observation {
+        let mut o = self.0.apply(event);
+        if o.counter == 0 {
+            o.counter = 1;
+        }
+        o
+    }
+}
+
+#[test]
+fn shrinking_a_divergence_reports_its_progress_case_by_case() {
+    // `conform` and `check` show progress while traces are generated, and shrinking a divergence
+    // (up to 50,000 smaller cases) must not look like a hang: every case tried is reported,
+    // with the count of passed traces held where the divergence was found.
+    use pmacwd_conformance::generate::RunProgress;
+    let spec = Spec::embedded().unwrap();
+    let configs = generate::all_configs(&spec).unwrap();
+    let seen = std::cell::RefCell::new(Vec::<RunProgress>::new());
+    let settings = Settings { cases: 1_000, max_len: 200, seed: 7 };
+    let result =
+        generate::run::<CounterNeverZero>(&configs, settings, &|p| seen.borrow_mut().push(p), &mut |_, _, _| {});
+    let found = result.expect_err("a counter that never reads 0 diverges from the model");
+    assert!(found.disagreement.to_string().contains("Y:$25: model 0, implementation 1"), "{}", found.disagreement);
+    let seen = seen.into_inner();
+    let shrinking: Vec<&RunProgress> = seen.iter().filter(|p| p.shrink_cases > 0).collect();
+    assert!(!shrinking.is_empty(), "no shrink step was reported");
+    assert!(shrinking.windows(2).all(|w| w[1].shrink_cases == w[0].shrink_cases + 1), "counted one by one");
+    let passed = seen.iter().filter(|p| p.shrink_cases == 0).count() as u32;
+    assert!(shrinking.iter().all(|p| p.traces == passed), "the passed traces stay as they were");
+}

@@ -149,3 +149,25 @@ fn a_run_stopped_at_the_state_bound_is_marked_incomplete_and_earns_no_verdict() 
     assert!(text.contains("INCOMPLETE"), "{text}");
     assert!(WatchdogModel::new(cfg).check(2).complete);
 }
+
+#[test]
+fn a_watched_run_reports_growing_counts_and_ends_with_the_same_report_as_an_unwatched_one() {
+    // `check` shows progress while a run explores (join_observed); watching must not change
+    // what the run finds, every count it reports is one the run passes through on its way to
+    // the final count, and a run longer than two intervals is reported on at least once.
+    use pmacwd_model::checker::{Explored, PROGRESS_INTERVAL};
+    let spec = Spec::embedded().unwrap();
+    let cfg = ModelConfig::from_spec(&spec, "timing", &spec.profiles.default_profile()).unwrap();
+    let mut seen: Vec<Explored> = Vec::new();
+    let watched = WatchdogModel::new(cfg.clone()).check_observed(1, &mut |e| seen.push(e));
+    let plain = WatchdogModel::new(cfg).check(1);
+    assert_eq!((watched.states, watched.depth, watched.complete), (plain.states, plain.depth, plain.complete));
+    let verdicts =
+        |r: &pmacwd_model::checker::RunReport| r.properties.iter().map(|p| (p.name, p.holds)).collect::<Vec<_>>();
+    assert_eq!(verdicts(&watched), verdicts(&plain));
+    assert!(seen.windows(2).all(|w| w[0].states <= w[1].states && w[0].depth <= w[1].depth), "{seen:?}");
+    assert!(seen.iter().all(|e| e.states <= watched.states && e.depth <= watched.depth), "{seen:?}");
+    if watched.duration >= 2 * PROGRESS_INTERVAL {
+        assert!(!seen.is_empty(), "a run of {:?} was never reported on", watched.duration);
+    }
+}

@@ -10,6 +10,7 @@ use pmacwd_bridge::{core_command, core_event, spec_load};
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
+use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::vocab::command::HostCommand;
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_trace::jsonl::step_line;
@@ -41,16 +42,22 @@ impl Default for Identity {
 pub const SERVO_HZ_MAX: u32 = 100_000;
 
 /// The servo rate to run at: `flag` (`--servo-hz`), or else the configuration's; refused,
-/// with the range, unless it is 1..[`SERVO_HZ_MAX`].
-pub fn servo_rate(flag: Option<u32>, configuration_hz: u32, configuration: &str) -> Result<u32, String> {
-    let hz = flag.unwrap_or(configuration_hz);
-    if (1..=SERVO_HZ_MAX).contains(&hz) {
+/// with the range, unless it is within the spec's servo clocks (`scheduling.yaml`'s
+/// `servo_clock_hz_range`, carried by `model`) and at most [`SERVO_HZ_MAX`], the emulator's own
+/// bound (a spec directory given with `--specs` may allow more).
+pub fn servo_rate(flag: Option<u32>, model: &ModelConfig) -> Result<u32, String> {
+    let (min, max) = (model.servo_hz_range.0.max(1), model.servo_hz_range.1.min(SERVO_HZ_MAX));
+    let hz = flag.unwrap_or(model.servo_hz);
+    if (min..=max).contains(&hz) {
         return Ok(hz);
     }
     Err(match flag {
-        Some(_) => format!("--servo-hz {hz}: the servo clock ranges 1..{SERVO_HZ_MAX} Hz (at least 1, at most {SERVO_HZ_MAX})"),
+        Some(_) => format!(
+            "--servo-hz {hz}: the servo clock ranges {min}..{max} Hz (at least {min}, at most {max}; scheduling.yaml's servo_clock_hz_range)"
+        ),
         None => format!(
-            "configuration {configuration} has a servo clock of {hz} Hz; the emulator's ranges 1..{SERVO_HZ_MAX} Hz (give --servo-hz)"
+            "configuration {} has a servo clock of {hz} Hz; the emulator's ranges {min}..{max} Hz (give --servo-hz)",
+            model.configuration
         ),
     })
 }
@@ -386,6 +393,25 @@ mod tests {
         let cfg =
             pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
         Card::power_on(pmacwd_bridge::core_config(&cfg), &SAVED_DEFAULT, Clock::Virtual, Identity::default())
+    }
+
+    #[test]
+    fn the_emulator_runs_every_servo_clock_the_embedded_spec_allows_and_no_other() {
+        // scheduling.yaml's servo_clock_hz_range is the range `--servo-hz` takes; the emulator
+        // bounds it by SERVO_HZ_MAX for its own lock holds, and with the embedded spec that
+        // bound must not cut the spec's range short.
+        let spec = pmacwd_specs::Spec::embedded().unwrap();
+        let model =
+            pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
+        let (min, max) = model.servo_hz_range;
+        assert!(max <= SERVO_HZ_MAX, "the spec allows {max} Hz, the emulator at most {SERVO_HZ_MAX}");
+        for hz in [min, model.servo_hz, max] {
+            assert_eq!(servo_rate(Some(hz), &model), Ok(hz));
+        }
+        for hz in [min - 1, max + 1, u32::MAX] {
+            let e = servo_rate(Some(hz), &model).unwrap_err();
+            assert!(e.contains(&format!("--servo-hz {hz}: the servo clock ranges {min}..{max} Hz")), "{e}");
+        }
     }
 
     #[test]

@@ -25,6 +25,7 @@ use crate::bounded::{accepted, spawn, CountedLog};
 use crate::capture::{CaptureWriter, Timing};
 use crate::control::{read_line_max, CONTROL_LINE_BYTES_MAX};
 use crate::framing::{ACK, BEL, CR};
+use crate::listen::bind;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
 use pmacwd_trace::Step;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
@@ -437,10 +438,10 @@ pub struct Proxy {
 
 impl Proxy {
     pub fn start(recorder: Recorder, options: RecordOptions) -> io::Result<Proxy> {
-        let listener = TcpListener::bind(options.listen)?;
+        let listener = bind("host port", options.listen)?;
         let local_addr = listener.local_addr()?;
         let control = match &options.control {
-            Some((listen, _)) => Some(TcpListener::bind(listen)?),
+            Some((listen, _)) => Some(bind("control port", *listen)?),
             None => None,
         };
         let control_addr = control.as_ref().map(|l| l.local_addr()).transpose()?;

@@ -13,6 +13,7 @@
 use crate::bounded::{accepted, spawn, CountedLog};
 use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
 use crate::control::{read_line_max, Control, CONTROL_LINE_BYTES_MAX};
+use crate::listen::bind;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
 use std::io::{self, BufReader, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
@@ -207,10 +208,10 @@ pub struct Server {
 impl Server {
     /// Binds the listeners and starts accepting.
     pub fn start(card: Card, options: ServeOptions) -> io::Result<Server> {
-        let listener = TcpListener::bind(options.listen)?;
+        let listener = bind("host port", options.listen)?;
         let local_addr = listener.local_addr()?;
         let control = match options.control {
-            Some(a) => Some(TcpListener::bind(a)?),
+            Some(a) => Some(bind("control port", a)?),
             None => None,
         };
         let control_addr = control.as_ref().map(|l| l.local_addr()).transpose()?;

@@ -54,6 +54,39 @@ pub enum Canary {
 /// checker stops here and the run is reported as incomplete instead of silently growing.
 pub const STATES_MAX: usize = 10_000_000;
 
+/// How far a running exploration has come: what a progress display shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Explored {
+    /// Distinct states found so far.
+    pub states: usize,
+    /// The deepest of them, in actions from power-up.
+    pub depth: usize,
+}
+
+/// The time between two reports of [`join_observed`].
+pub const PROGRESS_INTERVAL: Duration = Duration::from_millis(100);
+
+/// Waits for a spawned `checker` to finish, telling `progress` how far it has come every
+/// [`PROGRESS_INTERVAL`] while it runs. The checker's threads are joined on a thread of their
+/// own, which wakes this one the moment they are done: the run ends when it would with a plain
+/// `join` (no polling delay), and the states are counted only once per interval.
+pub fn join_observed<M: Model, C: Checker<M>>(mut checker: C, progress: &mut dyn FnMut(Explored)) -> C {
+    let handles = checker.handles();
+    let (done, finished) = std::sync::mpsc::channel::<()>();
+    std::thread::scope(|s| {
+        s.spawn(move || {
+            for h in handles {
+                h.join().expect("a checker thread panicked");
+            }
+            drop(done);
+        });
+        while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = finished.recv_timeout(PROGRESS_INTERVAL) {
+            progress(Explored { states: checker.unique_state_count(), depth: checker.max_depth() });
+        }
+    });
+    checker
+}
+
 /// Longest jump, in servo cycles, before the checker gives up looking for a change.
 const JUMP_CYCLES_MAX: u32 = 1 << 20;
 
@@ -471,21 +504,38 @@ impl WatchdogModel {
         self.check_bounded(threads, STATES_MAX)
     }
 
+    /// As [`WatchdogModel::check`], telling `progress` how far it has come while it runs (see
+    /// [`join_observed`]).
+    pub fn check_observed(self, threads: usize, progress: &mut dyn FnMut(Explored)) -> RunReport {
+        self.check_bounded_observed(threads, STATES_MAX, progress)
+    }
+
     /// As [`WatchdogModel::check`], stopping after about `states_max` states; the report then
     /// says it is incomplete.
     pub fn check_bounded(self, threads: usize, states_max: usize) -> RunReport {
+        self.check_bounded_observed(threads, states_max, &mut |_| {})
+    }
+
+    fn check_bounded_observed(
+        self,
+        threads: usize,
+        states_max: usize,
+        progress: &mut dyn FnMut(Explored),
+    ) -> RunReport {
         if self.detailed {
-            return self.check_detailed(threads, states_max);
+            return self.check_detailed(threads, states_max, progress);
         }
         let (cfg, canary) = (self.cfg.clone(), self.canary);
         let start = Instant::now();
-        let checker = self.checker().threads(threads).target_state_count(states_max).spawn_bfs().join();
+        let spawned = self.checker().threads(threads).target_state_count(states_max).spawn_bfs();
+        let checker = join_observed(spawned, progress);
         let duration = start.elapsed();
         let discoveries = checker.discoveries();
         if discoveries.contains_key(PROPERTY_IDS[0]) || discoveries.contains_key(PROPERTY_IDS[1]) {
             // Some `always` property fails: check each one on its own, for its verdict and its own
             // shortest counterexample.
-            let mut report = WatchdogModel { cfg, canary, detailed: true }.check_detailed(threads, states_max);
+            let mut report =
+                WatchdogModel { cfg, canary, detailed: true }.check_detailed(threads, states_max, progress);
             report.duration += duration;
             return report;
         }
@@ -519,11 +569,12 @@ impl WatchdogModel {
     }
 
     /// One stateright property per named property.
-    fn check_detailed(self, threads: usize, states_max: usize) -> RunReport {
+    fn check_detailed(self, threads: usize, states_max: usize, progress: &mut dyn FnMut(Explored)) -> RunReport {
         let configuration = self.cfg.configuration.clone();
         let profile = self.cfg.profile.name.clone();
         let start = Instant::now();
-        let checker = self.checker().threads(threads).target_state_count(states_max).spawn_bfs().join();
+        let spawned = self.checker().threads(threads).target_state_count(states_max).spawn_bfs();
+        let checker = join_observed(spawned, progress);
         let duration = start.elapsed();
         let model = checker.model();
         let discoveries = checker.discoveries();

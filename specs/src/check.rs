@@ -6,6 +6,7 @@
 //! host commands, resets, injected faults). Host commands are kept as text here and parsed by
 //! the model, which reports a bad one at its position in this file.
 
+use crate::facts::ServoClockRange;
 use crate::yaml::SourceMap;
 use crate::SpecError;
 use serde::Deserialize;
@@ -43,7 +44,8 @@ pub enum AllKeyword {
 #[serde(deny_unknown_fields)]
 pub struct Configuration {
     pub summary: String,
-    /// Servo clock; used to derive the hardware delay and to print times.
+    /// Servo clock in Hz, within `scheduling.yaml`'s `servo_clock_hz_range`; used to derive the
+    /// hardware delay and to print times.
     pub servo_hz: u32,
     /// Initial (saved) values of I8, I40, I41; INIT/ and power-up restore them.
     pub i8: u8,
@@ -164,11 +166,19 @@ pub struct PassCycles {
 }
 
 impl Check {
-    pub(crate) fn validate(&self, map: &SourceMap, profile_names: &[String]) -> Result<(), SpecError> {
+    pub(crate) fn validate(
+        &self,
+        map: &SourceMap,
+        profile_names: &[String],
+        servo_clocks: &ServoClockRange,
+    ) -> Result<(), SpecError> {
         for (name, c) in &self.configurations {
             let p = format!("configurations.{name}");
-            if c.servo_hz == 0 {
-                return Err(map.error(&format!("{p}.servo_hz"), "servo_hz must be positive"));
+            if !servo_clocks.contains(c.servo_hz) {
+                return Err(map.error(
+                    &format!("{p}.servo_hz"),
+                    format!("servo_hz {} is outside the servo clock range {}", c.servo_hz, servo_clocks.describe()),
+                ));
             }
             if c.i41 > 15 {
                 return Err(map.error(&format!("{p}.i41"), "I41 is 4 bits (0..=15)"));

@@ -120,6 +120,8 @@ pub struct ModelConfig {
     pub i8_range: (i64, i64),
     pub i40_range: (i64, i64),
     pub i41_range: (i64, i64),
+    /// The servo clocks a card may run at, in Hz (`scheduling.yaml`'s `servo_clock_hz_range`).
+    pub servo_hz_range: (u32, u32),
 }
 
 impl ModelConfig {
@@ -195,6 +197,7 @@ impl ModelConfig {
             i8_range,
             i40_range,
             i41_range,
+            servo_hz_range: (spec.scheduling.servo_clock_hz_range.min, spec.scheduling.servo_clock_hz_range.max),
         })
     }
 
@@ -273,13 +276,15 @@ pub fn servo_hz_of_i10(i10: i64) -> Option<u32> {
         return None;
     }
     let i10 = i10 as u64;
-    Some(((8_388_608_000u64 + i10 / 2) / i10) as u32)
+    // I10 = 1 is 8.4 GHz, beyond u32: saturated, so that the range check refuses it as read
+    // rather than a wrapped value.
+    Some(u32::try_from((8_388_608_000u64 + i10 / 2) / i10).unwrap_or(u32::MAX))
 }
 
 impl ModelConfig {
     /// This configuration with what a capture says about the card (its `card:` header): the
     /// saved I8, I40, I41 and the servo clock replaced by the values given, each checked
-    /// against its range in `variables.yaml` (the servo clock: at least 1 Hz), and a derived
+    /// against its range in `variables.yaml` (the servo clock: `scheduling.yaml`'s), and a derived
     /// hardware delay (`hardware_delay_cycles: derived` in `check.yaml`) derived again from
     /// the new servo clock. The error names the field, its value and its range.
     pub fn with_card(mut self, spec: &Spec, card: &CardConfig) -> Result<ModelConfig, String> {
@@ -300,8 +305,9 @@ impl ModelConfig {
             self.saved.i41 = check("i41", v, self.i41_range)? as u8;
         }
         if let Some(hz) = card.servo_hz {
-            if hz == 0 {
-                return Err("card: servo_hz = 0: a servo clock needs at least 1 Hz".into());
+            let range = &spec.scheduling.servo_clock_hz_range;
+            if !range.contains(hz) {
+                return Err(format!("card: servo_hz = {hz} is outside its range {}", range.describe()));
             }
             self.servo_hz = hz;
             let derived = spec
@@ -447,7 +453,17 @@ mod tests {
         assert!(e.contains("i40 = 70000") && e.contains("variables.yaml"), "{e}");
         let e = cfg.clone().with_card(&spec, &CardConfig { i8: Some(-1), ..CardConfig::default() }).unwrap_err();
         assert!(e.contains("i8 = -1"), "{e}");
-        let e = cfg.with_card(&spec, &CardConfig { servo_hz: Some(0), ..CardConfig::default() }).unwrap_err();
-        assert!(e.contains("servo_hz = 0"), "{e}");
+        // The servo clock against scheduling.yaml's range, on both sides: 0 Hz is no clock, and
+        // a clock above the range (I10 = 1 in a host log reads as 8.4 GHz) would make a derived
+        // hardware delay of millions of cycles.
+        let range = &spec.scheduling.servo_clock_hz_range;
+        for hz in [range.min - 1, range.max + 1, u32::MAX] {
+            let e =
+                cfg.clone().with_card(&spec, &CardConfig { servo_hz: Some(hz), ..CardConfig::default() }).unwrap_err();
+            assert!(e.contains(&format!("servo_hz = {hz}")) && e.contains("servo_clock_hz_range"), "{e}");
+        }
+        for hz in [range.min, range.max] {
+            assert!(cfg.clone().with_card(&spec, &CardConfig { servo_hz: Some(hz), ..CardConfig::default() }).is_ok());
+        }
     }
 }

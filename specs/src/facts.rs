@@ -94,6 +94,9 @@ pub enum Tristate {
 #[serde(deny_unknown_fields)]
 pub struct Scheduling {
     pub servo_clock_hz: Quantity,
+    /// The servo clocks taken anywhere one is given (`check.yaml`, a trace's `card:` header,
+    /// `serve`/`record --servo-hz`).
+    pub servo_clock_hz_range: ServoClockRange,
     pub servo_cost_per_motor_percent: Quantity,
     pub phase_and_servo_load_max_percent: Quantity,
     /// Task priorities, highest first.
@@ -104,6 +107,27 @@ pub struct Scheduling {
     #[serde(default)]
     pub registers_note: Option<String>,
     pub cite: Cites,
+}
+
+/// `scheduling.yaml`'s `servo_clock_hz_range`: inclusive bounds in Hz, with why.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ServoClockRange {
+    pub min: u32,
+    pub max: u32,
+    pub reason: String,
+    pub cite: Cites,
+}
+
+impl ServoClockRange {
+    pub fn contains(&self, hz: u32) -> bool {
+        (self.min..=self.max).contains(&hz)
+    }
+
+    /// `1..=100000 Hz (scheduling.yaml's servo_clock_hz_range)`, for error messages.
+    pub fn describe(&self) -> String {
+        format!("{}..={} Hz (scheduling.yaml's servo_clock_hz_range)", self.min, self.max)
+    }
 }
 
 impl Watchdog {
@@ -175,9 +199,18 @@ impl Scheduling {
         unique_rule_ids(map, "rti", &self.rti)?;
         unique_rule_ids(map, "plc0", &self.plc0)?;
         unique_rule_ids(map, "background", &self.background)?;
+        let r = &self.servo_clock_hz_range;
+        if r.min == 0 || r.min > r.max {
+            return Err(map.error(
+                "servo_clock_hz_range",
+                format!("{}..={} Hz is no range of servo clocks (at least 1 Hz, min <= max)", r.min, r.max),
+            ));
+        }
         let hz = self.servo_clock_hz.value;
-        if !(100.0..=40_000.0).contains(&hz) {
-            return Err(map.error("servo_clock_hz.value", format!("{hz} Hz is not a servo clock a Turbo PMAC runs")));
+        if !(f64::from(r.min)..=f64::from(r.max)).contains(&hz) {
+            return Err(
+                map.error("servo_clock_hz.value", format!("{hz} Hz is outside the servo clock range {}", r.describe()))
+            );
         }
         Ok(())
     }

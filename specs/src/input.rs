@@ -10,7 +10,8 @@ use std::path::Path;
 
 /// A spec file (`variables.yaml`, ...): the shipped ones are under 64 KiB.
 pub const SPEC_FILE_BYTES_MAX: u64 = 4 << 20;
-/// A YAML trace, which is read whole (JSON Lines traces are streamed).
+/// A trace read whole: a YAML trace, or a JSON Lines one that `pmacwd run` runs (`replay`
+/// streams JSON Lines traces of any length).
 pub const YAML_TRACE_BYTES_MAX: u64 = 64 << 20;
 /// One line of a JSON Lines trace or of a host log.
 pub const LINE_BYTES_MAX: usize = 1 << 20;

@@ -158,7 +158,7 @@ impl Spec {
         profiles.validate(&m)?;
         let (check, check_map) = load::<check::Check>(dir, "check.yaml", &read)?;
         let names: Vec<String> = profiles.profiles.keys().cloned().collect();
-        check.validate(&check_map, &names)?;
+        check.validate(&check_map, &names, &scheduling.servo_clock_hz_range)?;
         Ok(Spec {
             dir: dir.to_path_buf(),
             variables,

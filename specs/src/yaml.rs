@@ -53,6 +53,28 @@ impl SourceMap {
         Ok(SourceMap { file: file.to_path_buf(), children: walker.children })
     }
 
+    /// A map of the top-level keys and items given, each at its position (`steps.3` at line
+    /// 5), for a file whose form is not YAML (a JSON Lines trace: one step per line), so that
+    /// what reads positions from a [`SourceMap`] works for it too. A dotted path given here
+    /// is one node; a path below it is found at it, as [`SourceMap::position`] finds the
+    /// nearest enclosing node.
+    pub fn from_positions(file: &Path, positions: impl IntoIterator<Item = (String, Position)>) -> SourceMap {
+        let mut children = HashMap::new();
+        for (path, at) in positions {
+            let mut node = ROOT;
+            let parts: Vec<&str> = path.split('.').collect();
+            for (depth, part) in parts.iter().enumerate() {
+                let next = (children.len() + 1) as u32;
+                let entry = children.entry((node, (*part).into())).or_insert((next, at));
+                if depth + 1 == parts.len() {
+                    entry.1 = at;
+                }
+                node = entry.0;
+            }
+        }
+        SourceMap { file: file.to_path_buf(), children }
+    }
+
     pub fn file(&self) -> &Path {
         &self.file
     }

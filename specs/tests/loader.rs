@@ -170,6 +170,27 @@ fn a_default_outside_its_range_and_a_lockout_overlap_are_refused() {
 }
 
 #[test]
+fn a_servo_clock_outside_the_range_of_scheduling_yaml_is_refused_at_its_line() {
+    // Issue 15: `servo_hz: 4294967295` in check.yaml ran for about an hour (the hardware delay
+    // derived from it is tens of millions of cycles). check.yaml's servo clocks, and the
+    // default of scheduling.yaml itself, must lie in scheduling.yaml's servo_clock_hz_range.
+    let spec = Spec::load_dir(&specs_dir()).unwrap();
+    let range = &spec.scheduling.servo_clock_hz_range;
+    assert!(range.contains(2250), "the manual's default, 2.25 kHz (UM p.236)");
+    for hz in [0, range.max + 1, u32::MAX] {
+        let (r, text) =
+            load_edited("servo-hz", "check.yaml", |t| t.replacen("servo_hz: 2250", &format!("servo_hz: {hz}"), 1));
+        let e = expect_error(r, line_of(&text, &format!("servo_hz: {hz}")), "servo_clock_hz_range");
+        assert!(e.message.contains(&format!("servo_hz {hz} is outside")), "{e}");
+        assert_eq!(e.position.map(|p| p.column), Some(5), "the column of the key, as every loader error: {e}");
+    }
+    let (r, text) = load_edited("servo-default", "scheduling.yaml", |t| t.replacen("value: 2250", "value: 200000", 1));
+    expect_error(r, line_of(&text, "value: 200000"), "outside the servo clock range");
+    let (r, text) = load_edited("servo-range", "scheduling.yaml", |t| t.replacen("  min: 1\n", "  min: 0\n", 1));
+    expect_error(r, line_of(&text, "servo_clock_hz_range:"), "no range of servo clocks");
+}
+
+#[test]
 fn a_stray_yaml_file_in_the_spec_directory_is_refused_rather_than_ignored() {
     let dir = std::env::temp_dir().join(format!("pmacwd-specs-{}-stray", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

@@ -34,6 +34,10 @@ pub struct Header {
 pub struct StepReader<R: BufRead> {
     file: PathBuf,
     lines: Lines<R>,
+    /// The header's line, where a trace without steps is refused.
+    header_line: usize,
+    /// Steps read so far (only whether there was one matters).
+    steps: u64,
     pub header: Header,
 }
 
@@ -78,22 +82,62 @@ impl<R: BufRead> StepReader<R> {
                 ));
             }
         }
-        Ok(StepReader { file: file.to_path_buf(), lines, header })
+        Ok(StepReader { file: file.to_path_buf(), lines, header_line: line, steps: 0, header })
     }
 
-    /// The next step and its line number; `None` at the end. Blank lines are allowed.
+    /// The next step and its line number; `None` at the end. Blank lines are allowed. A header
+    /// followed by no step is an error at the header's line, as the YAML form refuses
+    /// `steps: []`: a trace without steps checks nothing, and would pass.
     pub fn next_step(&mut self) -> Result<Option<(usize, Step)>, SpecError> {
         loop {
             let Some((line, text)) = self.lines.next()? else {
+                if self.steps == 0 {
+                    return Err(SpecError::at(
+                        &self.file,
+                        Position { line: self.header_line, column: 1 },
+                        "a trace needs at least one step: no step follows the header",
+                    ));
+                }
                 return Ok(None);
             };
             if text.trim().is_empty() {
                 continue;
             }
             let step: Step = serde_json::from_str(&text).map_err(|e| json_error(&self.file, line, &e))?;
+            self.steps += 1;
             return Ok(Some((line, step)));
         }
     }
+}
+
+/// Reads a whole JSON Lines trace into memory with the line of every step, as a
+/// [`crate::LoadedTrace`] like a YAML one: its header keys at the header's line, `steps.N` at
+/// step N's line, so that what reports positions (a divergence's step and line) works for both
+/// forms. For traces short enough to hold (`pmacwd run`); `replay` streams with [`StepReader`].
+pub fn load_text(file: &Path, text: &str) -> Result<crate::LoadedTrace, SpecError> {
+    let mut reader = StepReader::new(file, text.as_bytes())?;
+    let header_at = Position { line: reader.header_line, column: 1 };
+    let mut positions: Vec<(String, Position)> =
+        ["version", "description", "cite", "configuration", "card", "profiles", "steps"]
+            .iter()
+            .map(|k| (k.to_string(), header_at))
+            .collect();
+    let mut steps = Vec::new();
+    while let Some((line, step)) = reader.next_step()? {
+        positions.push((format!("steps.{}", steps.len()), Position { line, column: 1 }));
+        steps.push(step);
+    }
+    let h = reader.header;
+    let trace = Trace {
+        version: h.version,
+        description: h.description,
+        cite: h.cite,
+        configuration: h.configuration,
+        profiles: h.profiles,
+        steps,
+    };
+    let map = pmacwd_specs::yaml::SourceMap::from_positions(file, positions);
+    Ok(crate::LoadedTrace { trace, map, card: h.card })
 }
 
 /// Reads a whole JSON Lines trace into memory (for short traces and tests).

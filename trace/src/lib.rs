@@ -398,6 +398,37 @@ pub fn load_yaml(file: &Path) -> Result<LoadedTrace, SpecError> {
     parse_yaml(file, &text)
 }
 
+/// The two forms of a trace file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Form {
+    Yaml,
+    Jsonl,
+}
+
+/// Which form `text` is in, told as `pmacwd replay` tells it: JSON Lines when the first
+/// character that is not white space (after a byte-order mark) is `{`, YAML otherwise.
+pub fn form_of(text: &str) -> Form {
+    match text.trim_start_matches('\u{feff}').trim_start().starts_with('{') {
+        true => Form::Jsonl,
+        false => Form::Yaml,
+    }
+}
+
+/// Parses a trace in either form ([`form_of`]), whole.
+pub fn parse(file: &Path, text: &str) -> Result<LoadedTrace, SpecError> {
+    match form_of(text) {
+        Form::Jsonl => jsonl::load_text(file, text),
+        Form::Yaml => parse_yaml(file, text),
+    }
+}
+
+/// Reads a trace in either form whole, up to [`pmacwd_specs::input::YAML_TRACE_BYTES_MAX`]
+/// bytes (a longer capture is for `pmacwd replay`, which streams it).
+pub fn load(file: &Path) -> Result<LoadedTrace, SpecError> {
+    let text = pmacwd_specs::input::read_text(file, pmacwd_specs::input::YAML_TRACE_BYTES_MAX)?;
+    parse(file, &text)
+}
+
 /// Writes a trace back as YAML in the documented form (used to save shrunk failures and to
 /// check that parsing and writing round-trip).
 pub fn to_yaml(trace: &Trace) -> String {
@@ -672,6 +703,45 @@ mod tests {
         assert!(e.message.contains("duplicate key `note`"), "{e}");
         let e = jsonl(&[r#"{"command":"???","expect":{"reply":"X","reply":"Y"}}"#]).unwrap_err();
         assert!(e.message.contains("duplicate field `reply`"), "{e}");
+    }
+
+    #[test]
+    fn a_trace_without_steps_is_refused_in_both_forms_at_a_line() {
+        // The JSON Lines reader used to accept a header alone, which the YAML reader refuses
+        // (`steps: []`); run on it, such a trace checks nothing and passes. Both refuse it now,
+        // the JSON Lines form at the header's line (blank lines after it change nothing).
+        for text in [format!("{HEADER}\n"), format!("\n{HEADER}\n\n\n")] {
+            let e = jsonl::read_all(Path::new("t.jsonl"), text.as_bytes()).unwrap_err();
+            let header_line = text.lines().position(|l| l == HEADER).unwrap() + 1;
+            assert_eq!(e.position.map(|p| p.line), Some(header_line), "{e}");
+            assert!(e.message.contains("a trace needs at least one step"), "{e}");
+        }
+        let yaml = "version: 1\ndescription: t\nconfiguration: i40-zero\nprofiles: all\nsteps: []\n";
+        let e = parse_yaml(Path::new("t.yaml"), yaml).err().expect("refused");
+        assert_eq!(e.position.map(|p| p.line), Some(5), "{e}");
+        assert!(e.message.contains("a trace needs at least one step"), "{e}");
+        // One step is enough.
+        assert_eq!(jsonl(&[r#"{"servo":1}"#]).unwrap().steps.len(), 1);
+    }
+
+    #[test]
+    fn a_json_lines_trace_loads_whole_with_the_line_of_every_step() {
+        // `pmacwd run` takes both forms; a divergence names the step's line, and an error about
+        // the header (an unknown profile, configuration or card value) the header's line.
+        let text = format!("\n{HEADER}\n{{\"servo\":1}}\n\n{{\"command\":\"???\"}}\n");
+        assert_eq!(form_of(&text), Form::Jsonl);
+        let loaded = parse(Path::new("t.jsonl"), &text).unwrap();
+        assert_eq!(loaded.trace.steps.len(), 2);
+        assert_eq!(loaded.step_position(0).line, 3);
+        assert_eq!(loaded.step_position(1).line, 5);
+        assert_eq!(loaded.map.position("profiles.0").line, 2);
+        assert_eq!(loaded.map.position("steps.1.expect.status_set.0").line, 5);
+        // The same trace in YAML is read as YAML, a byte-order mark and blank lines first or not.
+        let yaml = to_yaml(&loaded.trace);
+        assert_eq!(form_of(&format!("\u{feff}\n{yaml}")), Form::Yaml);
+        assert_eq!(form_of(&format!("\u{feff} {HEADER}")), Form::Jsonl);
+        let again = parse(Path::new("t.yaml"), &yaml).unwrap();
+        assert_eq!(format!("{:?}", again.trace), format!("{:?}", loaded.trace));
     }
 
     #[test]

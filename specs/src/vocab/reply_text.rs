@@ -13,7 +13,37 @@ pub enum StatusReply {
     },
     Bootstrap,
     /// `BEL ERRnnn CR`.
-    Error(u16),
+    Error(ErrorNumber),
+}
+
+/// The number of an error reply, ERR000 to ERR999: three digits are all the text form has
+/// (facts s.3), so a number it cannot write cannot be held, and every reply encodes to a text
+/// [`decode`] reads back.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ErrorNumber(u16);
+
+impl ErrorNumber {
+    pub const MAX: u16 = 999;
+
+    /// `n` if it has a three-digit form (0 to 999).
+    pub const fn new(n: u16) -> Option<ErrorNumber> {
+        if n <= Self::MAX {
+            Some(ErrorNumber(n))
+        } else {
+            None
+        }
+    }
+
+    pub const fn get(self) -> u16 {
+        self.0
+    }
+}
+
+/// `003`: the three digits of the reply text.
+impl fmt::Display for ErrorNumber {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:03}", self.0)
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -32,7 +62,7 @@ pub fn encode(reply: StatusReply) -> String {
         // 20-23 of the second word.
         StatusReply::Words { x, y } => format!("{:06X}{:06X}", x & 0xFF_FFFF, y & 0xFF_FFFF),
         StatusReply::Bootstrap => "BOOTSTRAP PROM".to_string(),
-        StatusReply::Error(n) => format!("\u{7}ERR{n:03}\r"),
+        StatusReply::Error(n) => format!("\u{7}ERR{n}\r"),
     }
 }
 
@@ -58,7 +88,8 @@ pub fn decode(text: &str) -> Result<StatusReply, DecodeError> {
                 text.escape_debug()
             )));
         }
-        return Ok(StatusReply::Error(digits.parse().expect("three digits")));
+        let n = digits.parse().ok().and_then(ErrorNumber::new).expect("three digits are 0 to 999");
+        return Ok(StatusReply::Error(n));
     }
     // Counted in characters, as the message says: `00000000000é` is 12 characters, 13 bytes,
     // and fails as a non-hex character below.
@@ -93,11 +124,40 @@ mod tests {
         assert!(decode("12345").unwrap_err().0.contains("12 hex characters"));
         assert!(decode("12345678901G").unwrap_err().0.contains("`G` is not a hex digit"));
         assert!(decode("\u{7}ERR3\r").unwrap_err().0.contains("three digits"));
-        assert_eq!(decode("\u{7}ERR003\r"), Ok(StatusReply::Error(3)));
+        let err3 = StatusReply::Error(ErrorNumber::new(3).unwrap());
+        assert_eq!(decode("\u{7}ERR003\r"), Ok(err3));
         // As a log or a terminal writes it, without the BEL.
-        assert_eq!(decode("ERR003"), Ok(StatusReply::Error(3)));
+        assert_eq!(decode("ERR003"), Ok(err3));
         assert_eq!(decode("BOOTSTRAP PROM\r\u{6}"), Ok(StatusReply::Bootstrap));
         // Twelve characters but not twelve bytes: the bad character is named, not the count.
         assert!(decode("00000000000é").unwrap_err().0.contains("`é` is not a hex digit"));
+    }
+
+    #[test]
+    fn an_error_number_as_a_log_writes_it_encodes_back_in_the_card_s_form() {
+        // Found by the status_reply fuzz target (its seed `ERR003`): `decode` takes the number
+        // without BEL and CR, as logs write it; `encode` writes what the card sends, which
+        // decodes to the same reply.
+        let reply = decode("ERR003").unwrap();
+        assert_eq!(encode(reply), "\u{7}ERR003\r");
+        assert_eq!(decode(&encode(reply)), Ok(reply));
+    }
+
+    #[test]
+    fn every_error_number_the_type_holds_round_trips_and_no_other_can_be_made() {
+        // Error(u16) used to hold 1000, which encoded to ERR1000 and did not decode (found by
+        // writing the status_reply fuzz target, docs/fuzzing.md). The whole domain of u16:
+        // 0..=999 are numbers and round-trip; the rest cannot be made.
+        for n in 0..=u16::MAX {
+            match ErrorNumber::new(n) {
+                Some(e) => {
+                    assert_eq!(e.get(), n);
+                    let text = encode(StatusReply::Error(e));
+                    assert_eq!(text, format!("\u{7}ERR{n:03}\r"));
+                    assert_eq!(decode(&text), Ok(StatusReply::Error(e)), "{n}");
+                }
+                None => assert!(n > 999, "{n} has three digits"),
+            }
+        }
     }
 }
