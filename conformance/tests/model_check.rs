@@ -135,6 +135,21 @@ fn canary_a_model_whose_trip_is_not_latched_is_caught() {
 }
 
 #[test]
+fn canary_a_model_whose_trip_leaves_amplifiers_enabled_is_caught() {
+    // UM p.215: a trip holds the Servo ICs in reset, outputs off. A model that leaves an enabled
+    // amplifier on must fail the trip property, with the shortest path: enable, sag the supply.
+    let report = canary(Canary::TripLeavesAmplifiersOn, "motion");
+    let p = report
+        .properties
+        .iter()
+        .find(|p| p.name == "after a trip every amplifier is disabled, every output zero and no motor moves")
+        .unwrap();
+    assert!(!p.holds);
+    let events: Vec<String> = p.path.as_ref().unwrap().iter().map(|s| s.event.to_string()).collect();
+    assert_eq!(events, ["host sends `#1J/`", "supply 4.500 V"]);
+}
+
+#[test]
 fn the_fast_check_with_conjoined_always_properties_agrees_with_the_detailed_one() {
     // `check` gives stateright the `always` properties as two conjunctions for speed; with
     // every property separate it must reach the same states and the same verdicts.

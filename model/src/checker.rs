@@ -48,6 +48,8 @@ pub enum Canary {
     LockoutIgnored,
     /// A restored supply undoes an undervoltage trip, as if the trip were not latched.
     SupplyRestoreUntrips,
+    /// A trip leaves the amplifiers that were enabled enabled (the Servo ICs not held in reset).
+    TripLeavesAmplifiersOn,
 }
 
 /// The most states one run explores. The configurations of `check.yaml` take at most about
@@ -145,6 +147,11 @@ impl WatchdogModel {
                     && next.controller.trip == Some(crate::controller::TripCause::Undervoltage) =>
             {
                 next.controller.trip = None;
+            }
+            (Some(Canary::TripLeavesAmplifiersOn), _) if !prev.tripped() && next.controller.tripped() => {
+                for (n, p) in next.controller.axes.motors_mut().iter_mut().zip(prev.axes.motors()) {
+                    n.amplifier_enabled = p.amplifier_enabled;
+                }
             }
             _ => {}
         }
