@@ -165,7 +165,7 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         holds: |_, s| {
             motors(s).iter().all(|m| {
                 let killed = m.state == MotorState::Killed;
-                m.amplifier_enabled == !killed && m.output_zero == killed
+                m.amplifier_enabled != killed && m.output_zero == killed
             })
         },
     },
