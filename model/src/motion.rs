@@ -441,19 +441,18 @@ impl Axes {
                             }
                         }
                     }
-                    GlobalCommand::AbortAll | GlobalCommand::QuitAll | GlobalCommand::HoldAll => {
-                        let c = match g {
-                            GlobalCommand::AbortAll => CsCommand::Abort,
-                            GlobalCommand::QuitAll => CsCommand::Quit,
-                            _ => CsCommand::Hold,
-                        };
-                        for cs in 1..=self.programs().len() as u8 {
-                            self.cs_command(setup, cs, c, decel);
-                        }
-                    }
+                    GlobalCommand::AbortAll => self.every_cs(setup, CsCommand::Abort, decel),
+                    GlobalCommand::QuitAll => self.every_cs(setup, CsCommand::Quit, decel),
+                    GlobalCommand::HoldAll => self.every_cs(setup, CsCommand::Hold, decel),
                 }
                 Reply::Ack
             }
+        }
+    }
+
+    fn every_cs(&mut self, setup: &MotionSetup, c: CsCommand, decel: u8) {
+        for cs in 1..=self.program_count {
+            self.cs_command(setup, cs, c, decel);
         }
     }
 
@@ -587,7 +586,10 @@ impl Axes {
             let open_loop = self.motor_slots[k].state == MotorState::Killed;
             let lost = self.motor_slots[k].encoder_lost;
             // UM p.214-215: a closed-loop motor whose encoder-loss input reports loss is killed
-            // and the loss latched in Mtr1EncLossStatus. MODEL: the kill acts as the firmware's
+            // and the loss latched in Mtr1EncLossStatus. (The seed excerpt starts at the clear
+            // logic; the detection branch is read from the program's purpose as UM p.215 states
+            // it, "monitoring encoder loss", and its clear branch's variables: MODEL for its
+            // exact condition, closed loop and loss.) MODEL: the kill acts as the firmware's
             // own fault kills do (UM p.213, "the offending motor is killed"), even while its
             // C.S. runs a program, and that program is then aborted (its lookahead lost).
             if !open_loop && lost {
