@@ -37,19 +37,14 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("i40-zero", "um-215-50hz", 3_578),
     ("motion", "um-215", 47_842),
     ("motion", "srm-57", 57_782),
-    ("motion", "srm-57-sticky-bit9", 57_782),
-    ("motion", "um-215-4095", 47_842),
-    ("motion", "um-215-50hz", 47_842),
-    ("motion", "um-215-literal-plc", 47_842),
-    ("motion", "um-215-m83", 47_842),
-    ("encoder-loss", "um-215", 12_480),
-    ("encoder-loss", "srm-57", 15_168),
-    ("encoder-loss", "srm-57-sticky-bit9", 15_168),
-    ("encoder-loss", "um-215-4095", 12_480),
-    ("encoder-loss", "um-215-50hz", 12_480),
+    ("encoder-loss", "um-215", 14_680),
+    ("encoder-loss", "srm-57", 17_880),
+    ("encoder-loss", "srm-57-sticky-bit9", 17_880),
+    ("encoder-loss", "um-215-4095", 14_680),
+    ("encoder-loss", "um-215-50hz", 14_680),
     // The literal reading of the clear logic never clears a latched loss: fewer states.
-    ("encoder-loss", "um-215-literal-plc", 9_376),
-    ("encoder-loss", "um-215-m83", 12_480),
+    ("encoder-loss", "um-215-literal-plc", 11_064),
+    ("encoder-loss", "um-215-m83", 14_680),
 ];
 
 #[test]
