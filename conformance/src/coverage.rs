@@ -39,6 +39,10 @@ pub const EVENT_KINDS: &[&str] = &[
     "firmware checksum fault",
     "user-program checksum fault",
     "clear bit 22",
+    "motion command that starts motion",
+    "stop command (UM p.217)",
+    "encoder lost",
+    "encoder restored",
 ];
 
 fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
@@ -56,6 +60,8 @@ fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
             HostCommand::Open(Buffer::Plc(_)) => "OPEN PLC",
             HostCommand::Open(Buffer::Program(_)) => "OPEN PROG",
             HostCommand::Close => "CLOSE",
+            HostCommand::Motion(m) if m.stop_table_name().is_some() => "stop command (UM p.217)",
+            HostCommand::Motion(_) => "motion command that starts motion",
             HostCommand::Unrecognized(_) => "unrecognized command",
         }],
         Event::Supply { millivolts } if *millivolts < cfg.supply_min_millivolts => vec!["supply below minimum"],
@@ -79,6 +85,8 @@ fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
         Event::ChecksumFault(ChecksumTarget::Firmware) => vec!["firmware checksum fault"],
         Event::ChecksumFault(ChecksumTarget::UserProgram) => vec!["user-program checksum fault"],
         Event::ClearRtiReentry => vec!["clear bit 22"],
+        Event::EncoderInput(i) if i.lost => vec!["encoder lost"],
+        Event::EncoderInput(_) => vec!["encoder restored"],
     }
 }
 

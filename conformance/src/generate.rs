@@ -78,6 +78,17 @@ pub const COMMANDS: &[&str] = &[
     "CLOSE",
     "$$$",
     "HELLO",
+    // Motion (UM p.217): the core accepts these without motors; lockstep compares the rest
+    // of the observation after them (NOT_YET_COMPARED).
+    "#1J/",
+    "#1J+",
+    "#1K",
+    "&1B",
+    "&1R",
+    "&1A",
+    "&1Q",
+    "&1H",
+    "<CTRL-K>",
 ];
 
 /// One step of a generated trace, resolved against the model's state when it is applied.
@@ -127,6 +138,8 @@ fn choice() -> impl Strategy<Value = Choice> {
         1 => prop::sample::select(&[ChecksumTarget::Firmware, ChecksumTarget::UserProgram][..])
             .prop_map(|a| Choice::Event(Event::ChecksumFault(a))),
         1 => Just(Choice::Event(Event::ClearRtiReentry)),
+        1 => (1u8..=2, any::<bool>())
+            .prop_map(|(motor, lost)| Choice::Event(Event::EncoderInput(pmacwd_specs::vocab::EncoderInput { motor, lost }))),
     ]
 }
 

@@ -49,7 +49,7 @@ impl ProductModel {
         let core_reply = core.apply(&self.core_cfg, core_event(&event), &mut store);
         let m = pmacwd_model::observe::of(&model.controller, &self.model.cfg, reply);
         let k = core_observation(&core, &self.core_cfg, core_reply);
-        let mut fields = differences(&m, &k);
+        let mut fields = differences(&event, &m, &k);
         let (bm, bk) = (model.controller.background_possible(), core.background_possible());
         if bm != bk {
             fields.push(format!("background cycle possible: model {bm}, implementation {bk}"));

@@ -35,6 +35,16 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("i40-zero", "srm-57", 17_840),
     ("i40-zero", "um-215-4095", 3_668),
     ("i40-zero", "um-215-50hz", 3_578),
+    ("motion", "um-215", 47_842),
+    ("motion", "srm-57", 57_782),
+    ("encoder-loss", "um-215", 14_680),
+    ("encoder-loss", "srm-57", 17_880),
+    ("encoder-loss", "srm-57-sticky-bit9", 17_880),
+    ("encoder-loss", "um-215-4095", 14_680),
+    ("encoder-loss", "um-215-50hz", 14_680),
+    // The literal reading of the clear logic never clears a latched loss: fewer states.
+    ("encoder-loss", "um-215-literal-plc", 11_064),
+    ("encoder-loss", "um-215-m83", 14_680),
 ];
 
 #[test]
@@ -117,6 +127,21 @@ fn canary_a_model_whose_trip_is_not_latched_is_caught() {
     assert!(!p.holds);
     let events: Vec<String> = p.path.as_ref().unwrap().iter().map(|s| s.event.to_string()).collect();
     assert_eq!(events, ["supply 4.500 V", "supply 5.000 V"]);
+}
+
+#[test]
+fn canary_a_model_whose_trip_leaves_amplifiers_enabled_is_caught() {
+    // UM p.215: a trip holds the Servo ICs in reset, outputs off. A model that leaves an enabled
+    // amplifier on must fail the trip property, with the shortest path: enable, sag the supply.
+    let report = canary(Canary::TripLeavesAmplifiersOn, "motion");
+    let p = report
+        .properties
+        .iter()
+        .find(|p| p.name == "after a trip every amplifier is disabled, every output zero and no motor moves")
+        .unwrap();
+    assert!(!p.holds);
+    let events: Vec<String> = p.path.as_ref().unwrap().iter().map(|s| s.event.to_string()).collect();
+    assert_eq!(events, ["host sends `#1J/`", "supply 4.500 V"]);
 }
 
 #[test]

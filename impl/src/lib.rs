@@ -238,6 +238,9 @@ pub enum Command {
     OpenPlc,
     OpenProgram,
     Close,
+    /// A command that starts or stops motion (UM p.217). The core has no motors yet: it
+    /// accepts the command and nothing moves (docs/conformance.md, "Not yet in the core").
+    Motion,
     Unrecognized,
 }
 
@@ -252,6 +255,9 @@ pub enum Event {
     Reset(Reset),
     ChecksumFault(Area),
     ClearRtiReentry,
+    /// A motor's encoder-loss input changes (UM p.214). The core has no motors yet and reads
+    /// no encoder inputs (docs/conformance.md, "Not yet in the core").
+    EncoderInput,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -474,6 +480,7 @@ impl Core {
                 }
                 Reply::None
             }
+            Event::EncoderInput => Reply::None,
         }
     }
 
@@ -769,6 +776,7 @@ impl Core {
                 self.tokens = (self.tokens & !8) | ((self.tokens & 4) << 1);
                 Reply::Ack
             }
+            Command::Motion => Reply::Ack,
             Command::Unrecognized => Reply::Error(3),
         }
     }

@@ -25,6 +25,8 @@ use std::time::{Duration, Instant};
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Action {
     Do(Event),
+    /// A motion command whose deceleration, if it starts one, takes `decel` servo cycles.
+    Decelerating(Event, u8),
     /// Servo cycles up to the first cycle whose [`signature`] differs.
     ServoToNextChange,
     /// Servo cycles up to the cycle just before that one.
@@ -46,6 +48,8 @@ pub enum Canary {
     LockoutIgnored,
     /// A restored supply undoes an undervoltage trip, as if the trip were not latched.
     SupplyRestoreUntrips,
+    /// A trip leaves the amplifiers that were enabled enabled (the Servo ICs not held in reset).
+    TripLeavesAmplifiersOn,
 }
 
 /// The most states one run explores. The configurations of `check.yaml` take at most about
@@ -92,7 +96,7 @@ const JUMP_CYCLES_MAX: u32 = 1 << 20;
 
 /// What the environment can react to; time advances between changes of this.
 pub fn signature(cfg: &ModelConfig, c: &Controller) -> impl PartialEq {
-    (c.trip, c.counter > 0, c.counter >= 0, c.background_possible(), c.status_words(cfg))
+    (c.trip, c.counter > 0, c.counter >= 0, c.background_possible(), c.status_words(cfg), c.axes.motion_signature())
 }
 
 impl WatchdogModel {
@@ -123,6 +127,10 @@ impl WatchdogModel {
                 let (reply, next) = self.step(state, e);
                 (e.clone(), reply, next)
             }
+            Action::Decelerating(e, decel) => {
+                let (reply, next) = self.step_with_decel(state, e, *decel);
+                (e.clone(), reply, next)
+            }
             Action::ServoToNextChange | Action::ServoToJustBeforeChange => {
                 let (cycles, next) = self.advance_to_change(state, *action == Action::ServoToJustBeforeChange);
                 (Event::Servo { cycles }, Reply::None, next)
@@ -132,6 +140,11 @@ impl WatchdogModel {
 
     /// Applies `event` to `state`, running every monitor; returns the reply and next state.
     pub fn step(&self, state: &State, event: &Event) -> (Reply, State) {
+        self.step_with_decel(state, event, self.cfg.motion.decel_cycles_max)
+    }
+
+    /// [`Self::step`], with any deceleration a stop command starts taking `decel` cycles.
+    pub fn step_with_decel(&self, state: &State, event: &Event, decel: u8) -> (Reply, State) {
         let cfg = &self.cfg;
         let prev = &state.controller;
         let mut next = State { controller: prev.clone(), violations: state.violations };
@@ -143,14 +156,14 @@ impl WatchdogModel {
                     for (k, m) in MONITORS.iter().enumerate() {
                         if let Check::Cycle(f) = m.check {
                             if !f(cfg, &before, report, &next.controller) {
-                                next.violations |= 1 << k;
+                                next.violations |= 1u64 << k;
                             }
                         }
                     }
                 }
                 Reply::None
             }
-            _ => next.controller.apply(cfg, event),
+            _ => next.controller.apply_with_decel(cfg, event, decel),
         };
         match (self.canary, event) {
             (Some(Canary::LockoutIgnored), Event::Command(pmacwd_specs::vocab::command::HostCommand::WriteI(n, v)))
@@ -168,12 +181,17 @@ impl WatchdogModel {
             {
                 next.controller.trip = None;
             }
+            (Some(Canary::TripLeavesAmplifiersOn), _) if !prev.tripped() && next.controller.tripped() => {
+                for (n, p) in next.controller.axes.motors_mut().iter_mut().zip(prev.axes.motors()) {
+                    n.amplifier_enabled = p.amplifier_enabled;
+                }
+            }
             _ => {}
         }
         for (k, m) in MONITORS.iter().enumerate() {
             if let Check::Event(f) = m.check {
                 if !f(cfg, prev, event, reply, &next.controller) {
-                    next.violations |= 1 << k;
+                    next.violations |= 1u64 << k;
                 }
             }
         }
@@ -224,9 +242,25 @@ impl Model for WatchdogModel {
                 actions.push(Action::Do(Event::ClearRtiReentry));
             }
         }
-        // Commands reach a tripped card too: it must stay silent.
+        // Commands reach a tripped card too: it must stay silent. A motion command is offered
+        // once per deceleration length when it can start a deceleration on a running card.
         for cmd in &cfg.commands {
-            actions.push(Action::Do(Event::Command(cmd.clone())));
+            let event = Event::Command(cmd.clone());
+            match cmd {
+                pmacwd_specs::vocab::HostCommand::Motion(_) if running && cfg.motion.decel_cycles_max > 1 => {
+                    for decel in 1..=cfg.motion.decel_cycles_max {
+                        actions.push(Action::Decelerating(event.clone(), decel));
+                    }
+                }
+                _ => actions.push(Action::Do(event)),
+            }
+        }
+        // UM p.214: each motor's encoder can be lost and come back at any time.
+        if cfg.motion.encoder_inputs {
+            for (k, m) in c.axes.motors().iter().enumerate() {
+                let input = pmacwd_specs::vocab::EncoderInput { motor: k as u8 + 1, lost: !m.encoder_lost };
+                actions.push(Action::Do(Event::EncoderInput(input)));
+            }
         }
         for mv in &cfg.supply_millivolts {
             let low = *mv < cfg.supply_min_millivolts;
@@ -246,6 +280,7 @@ impl Model for WatchdogModel {
     fn format_action(&self, action: &Action) -> String {
         match action {
             Action::Do(e) => e.to_string(),
+            Action::Decelerating(e, decel) => format!("{e} (a deceleration takes {decel} servo cycles)"),
             Action::ServoToNextChange => "servo interrupts up to the next change".into(),
             Action::ServoToJustBeforeChange => "servo interrupts up to just before the next change".into(),
         }
@@ -286,10 +321,10 @@ impl Model for WatchdogModel {
 }
 
 fn monitor_holds<const K: usize>(_: &WatchdogModel, s: &State) -> bool {
-    s.violations & (1 << K) == 0
+    s.violations & (1u64 << K) == 0
 }
 
-const MONITOR_HOLDS: [fn(&WatchdogModel, &State) -> bool; 32] = [
+const MONITOR_HOLDS: [fn(&WatchdogModel, &State) -> bool; 64] = [
     monitor_holds::<0>,
     monitor_holds::<1>,
     monitor_holds::<2>,
@@ -322,6 +357,38 @@ const MONITOR_HOLDS: [fn(&WatchdogModel, &State) -> bool; 32] = [
     monitor_holds::<29>,
     monitor_holds::<30>,
     monitor_holds::<31>,
+    monitor_holds::<32>,
+    monitor_holds::<33>,
+    monitor_holds::<34>,
+    monitor_holds::<35>,
+    monitor_holds::<36>,
+    monitor_holds::<37>,
+    monitor_holds::<38>,
+    monitor_holds::<39>,
+    monitor_holds::<40>,
+    monitor_holds::<41>,
+    monitor_holds::<42>,
+    monitor_holds::<43>,
+    monitor_holds::<44>,
+    monitor_holds::<45>,
+    monitor_holds::<46>,
+    monitor_holds::<47>,
+    monitor_holds::<48>,
+    monitor_holds::<49>,
+    monitor_holds::<50>,
+    monitor_holds::<51>,
+    monitor_holds::<52>,
+    monitor_holds::<53>,
+    monitor_holds::<54>,
+    monitor_holds::<55>,
+    monitor_holds::<56>,
+    monitor_holds::<57>,
+    monitor_holds::<58>,
+    monitor_holds::<59>,
+    monitor_holds::<60>,
+    monitor_holds::<61>,
+    monitor_holds::<62>,
+    monitor_holds::<63>,
 ];
 
 const _: () = assert!(MONITORS.len() <= MONITOR_HOLDS.len(), "one violation bit per monitor");
@@ -386,11 +453,13 @@ const STATE_HOLDS: [fn(&WatchdogModel, &State) -> bool; 48] = [
 const _: () = assert!(STATE_PROPERTIES.len() <= STATE_HOLDS.len(), "one fn pointer per state property");
 
 /// The ids stateright knows the properties by, in [`property_table`] order.
-const PROPERTY_IDS: [&str; 64] = [
+const PROPERTY_IDS: [&str; 96] = [
     "p00", "p01", "p02", "p03", "p04", "p05", "p06", "p07", "p08", "p09", "p10", "p11", "p12", "p13", "p14", "p15",
     "p16", "p17", "p18", "p19", "p20", "p21", "p22", "p23", "p24", "p25", "p26", "p27", "p28", "p29", "p30", "p31",
     "p32", "p33", "p34", "p35", "p36", "p37", "p38", "p39", "p40", "p41", "p42", "p43", "p44", "p45", "p46", "p47",
     "p48", "p49", "p50", "p51", "p52", "p53", "p54", "p55", "p56", "p57", "p58", "p59", "p60", "p61", "p62", "p63",
+    "p64", "p65", "p66", "p67", "p68", "p69", "p70", "p71", "p72", "p73", "p74", "p75", "p76", "p77", "p78", "p79",
+    "p80", "p81", "p82", "p83", "p84", "p85", "p86", "p87", "p88", "p89", "p90", "p91", "p92", "p93", "p94", "p95",
 ];
 
 const _: () = assert!(MONITORS.len() + STATE_PROPERTIES.len() <= PROPERTY_IDS.len(), "one id per property");

@@ -6,6 +6,7 @@
 //!
 //! Modelling choices the manuals leave open are marked `MODEL:` and explained where made.
 
+use crate::motion::Axes;
 use pmacwd_specs::check::{ChecksumTarget, Load, ResetEvent, ResetKind};
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::{Bit12Meaning, RtiWarningLatch, StrobeStop, Strober};
@@ -88,6 +89,20 @@ impl ChecksumEngine {
     }
 }
 
+/// The watchdog's outputs and what a trip forces (UM p.215), as their own state: the trip
+/// rule sets them, a reset clears them, and the properties check them against the trip.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Outputs {
+    /// "a red LED indicating watchdog failure".
+    pub led_red: bool,
+    /// FEFCO/, "turned on when the timer trips" (Turbo PMAC).
+    pub fefco_on: bool,
+    /// The watchdog relay has changed over (Turbo PMAC2).
+    pub relay_tripped: bool,
+    /// The ICs are held in reset: discrete outputs off, DAC/PWM/PFM at zero.
+    pub forced_off: bool,
+}
+
 /// Bookkeeping that no rule reads; it exists so properties can be stated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Ghost {
@@ -129,6 +144,9 @@ pub struct Controller {
     pub checksum: ChecksumEngine,
     /// X:$000000, masked to the configured width.
     pub servo_cycles: u32,
+    pub outputs: Outputs,
+    /// The motors and coordinate systems (`motion.rs`).
+    pub axes: Axes,
     pub ghost: Ghost,
 }
 
@@ -161,6 +179,8 @@ impl Controller {
             status: StatusFlags::default(),
             checksum: ChecksumEngine::fresh(),
             servo_cycles: 0,
+            outputs: Outputs::default(),
+            axes: Axes::power_on(&cfg.motion),
             ghost: Ghost { cycles_since_background: 0, last_reload: 0, recovered_by: None },
         };
         c.restart(cfg, ResetEvent { kind: ResetKind::Power, dpram_fault: false, flash_fault: false, bootstrap: false });
@@ -171,8 +191,15 @@ impl Controller {
         self.trip.is_some()
     }
 
-    /// Applies one event and returns the reply it produced (for host commands).
+    /// Applies one event and returns the reply it produced (for host commands). A stop command
+    /// decelerates for the configuration's longest deceleration (see [`Self::apply_with_decel`]).
     pub fn apply(&mut self, cfg: &ModelConfig, event: &Event) -> Reply {
+        self.apply_with_decel(cfg, event, cfg.motion.decel_cycles_max)
+    }
+
+    /// [`Self::apply`], with any deceleration a stop command starts taking `decel` servo cycles
+    /// (the checker explores every length from 1 to `decel_cycles_max`).
+    pub fn apply_with_decel(&mut self, cfg: &ModelConfig, event: &Event, decel: u8) -> Reply {
         match event {
             Event::Servo { cycles } => {
                 for _ in 0..*cycles {
@@ -188,7 +215,7 @@ impl Controller {
                 self.load = *load;
                 Reply::None
             }
-            Event::Command(cmd) => self.host_command(cfg, cmd),
+            Event::Command(cmd) => self.host_command_with_decel(cfg, cmd, decel),
             Event::Supply { millivolts } => {
                 self.supply(cfg, *millivolts);
                 Reply::None
@@ -207,6 +234,12 @@ impl Controller {
                 if !self.tripped() {
                     self.status.rti_reentry = false;
                 }
+                Reply::None
+            }
+            Event::EncoderInput(input) => {
+                // UM p.214: the encoder-loss circuit's status bit; a hardware input, which
+                // changes whether or not the card runs.
+                self.axes.encoder_input(input.motor, input.lost);
                 Reply::None
             }
         }
@@ -231,6 +264,8 @@ impl Controller {
         let servo_units = u32::from(self.load.motors) * u32::from(cfg.cpu.servo_units_per_motor);
         self.status.servo_error = servo_units > cycle;
         let mut free = cycle.saturating_sub(servo_units);
+        // The motors' stops under way advance one servo cycle (motion.rs).
+        self.axes.servo_cycle(&cfg.motion);
 
         // Watchdog counter, in the servo interrupt.
         let strobe_allowed = match cfg.profile.choices.strobe_stop {
@@ -331,6 +366,8 @@ impl Controller {
         self.ghost.last_reload = self.counter;
         // UM p.217: the checksums are computed "as a background task".
         self.checksum_step(cfg);
+        // UM p.215: the safety PLCs scan once per background cycle.
+        self.axes.encoder_loss_plc(cfg);
     }
 
     fn checksum_step(&mut self, cfg: &ModelConfig) {
@@ -380,6 +417,10 @@ impl Controller {
     /// A host command. Commands are answered by the background's command processing (UM
     /// p.236); MODEL: the model answers at once and does not model reply latency.
     pub fn host_command(&mut self, cfg: &ModelConfig, cmd: &HostCommand) -> Reply {
+        self.host_command_with_decel(cfg, cmd, cfg.motion.decel_cycles_max)
+    }
+
+    fn host_command_with_decel(&mut self, cfg: &ModelConfig, cmd: &HostCommand, decel: u8) -> Reply {
         // UM p.215: a tripped card "will not communicate".
         if self.tripped() {
             return Reply::Silence;
@@ -423,6 +464,8 @@ impl Controller {
                 self.checksum.program_reference = self.checksum.program;
                 Reply::Ack
             }
+            // UM p.217, UM p.319: the stop commands and those that start motion (motion.rs).
+            HostCommand::Motion(m) => self.axes.command(cfg, *m, decel),
             // Facts s.3: ERR003, "data error or unrecognized command".
             HostCommand::Unrecognized(_) => Reply::Error(3),
         }
@@ -541,9 +584,14 @@ impl Controller {
     }
 
     fn trip_now(&mut self, cause: TripCause) {
-        // UM p.215: "the system is latched into a reset state"; the observations of a tripped
-        // card (LED, FEFCO/, relay, outputs, silence) follow from `trip` (see observe.rs).
+        // UM p.215: "the system is latched into a reset state, with a red LED indicating
+        // watchdog failure"; "All Servo, MACRO, and I/O ICs are forced into their reset states,
+        // which force discrete outputs off, and proportional outputs (DAC, PWM, PFM) to
+        // zero-level"; FEFCO/ "is turned on when the timer trips"; on Turbo PMAC2 the relay
+        // changes over. MODEL: a card has one of FEFCO/ and the relay; the model drives both.
         self.trip = Some(cause);
+        self.outputs = Outputs { led_red: true, fefco_on: true, relay_tripped: true, forced_off: true };
+        self.axes.force_off();
         self.ghost.recovered_by = None;
     }
 
@@ -589,6 +637,10 @@ impl Controller {
         // (a corruption in RAM) is gone and the checksum engine starts over.
         self.checksum = ChecksumEngine::fresh();
         self.servo_cycles = 0;
+        // UM p.215: a reset restores "normal functioning": the LED, FEFCO/ and the relay return
+        // to normal and the ICs leave reset; the motors start as at power-up.
+        self.outputs = Outputs::default();
+        self.axes.restart();
         self.ghost = Ghost { cycles_since_background: 0, last_reload: self.counter, recovered_by };
     }
 }

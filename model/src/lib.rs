@@ -20,6 +20,7 @@
 pub mod checker;
 pub mod controller;
 pub mod monitor;
+pub mod motion;
 pub mod observe;
 pub mod properties;
 pub mod state;

@@ -7,10 +7,14 @@
 //! monitor never influences the semantics, and a model that obeys every monitor adds no state.
 
 use crate::controller::{Controller, CycleReport};
+use crate::motion::{Program, Stop};
 use pmacwd_specs::check::ChecksumTarget;
 use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::profiles::EncoderLossClear;
+use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand};
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::{Event, Reply};
+use pmacwd_specs::vocab::MotorState;
 
 /// A transition monitor: its property name, the sentence it encodes, and its check.
 pub struct Monitor {
@@ -48,6 +52,27 @@ fn bit(word: u32, b: u8) -> bool {
     word & (1 << b) != 0
 }
 
+/// The motion command of `ev`, when the card ran it (it was running before).
+fn motion(prev: &Controller, ev: &Event) -> Option<Motion> {
+    match ev {
+        Event::Command(HostCommand::Motion(m)) if running(prev) => Some(*m),
+        _ => None,
+    }
+}
+
+/// The motors (0-based) of coordinate system `cs`.
+fn members(cfg: &ModelConfig, cs: u8) -> impl Iterator<Item = usize> + '_ {
+    (1..=cfg.motion.motors).filter(move |m| cfg.motion.coordinate_system(*m) == cs).map(|m| usize::from(m) - 1)
+}
+
+fn program(c: &Controller, cs: u8) -> Program {
+    c.axes.programs()[usize::from(cs) - 1]
+}
+
+fn cs_of(cfg: &ModelConfig, k: usize) -> u8 {
+    cfg.motion.coordinate_system(k as u8 + 1)
+}
+
 pub const MONITORS: &[Monitor] = &[
     Monitor {
         name: "a tripped card does not reply to any command",
@@ -69,8 +94,12 @@ pub const MONITORS: &[Monitor] = &[
             if !prev.tripped() || matches!(ev, Event::Reset(_)) {
                 return true;
             }
+            // The supply and the encoder-loss inputs are hardware inputs, not the card's state.
             let mut same = next.clone();
             same.supply_low = prev.supply_low;
+            for (s, p) in same.axes.motors_mut().iter_mut().zip(prev.axes.motors()) {
+                s.encoder_lost = p.encoder_lost;
+            }
             same == *prev
         }),
     },
@@ -212,6 +241,201 @@ pub const MONITORS: &[Monitor] = &[
             let (x, _) = next.status_words(cfg);
             !(prev.checksum.error.is_none() && next.checksum.error == Some(ChecksumTarget::Firmware))
                 || (bit(x, cfg.layout.checksum_error.1) && bit(x, cfg.layout.prom_checksum_active.1))
+        }),
+    },
+    // ------------------------------------------------------------ stop commands (UM p.217, p.319)
+    Monitor {
+        name: "after K the motor's amplifier is disabled and its output zero in the same servo cycle",
+        cite: "UM p.319",
+        sentence: "disables ... motors ... by opening the servo loops, forcing zero-value command outputs, and disabling the amplifiers (K: Begin Immed? Yes, UM p.217).",
+        check: Check::Event(|cfg, prev, ev, reply, next| match motion(prev, ev) {
+            Some(Motion::Motor(n, MotorCommand::Kill)) if n <= cfg.motion.motors && reply == Reply::Ack => {
+                let m = &next.axes.motors()[usize::from(n) - 1];
+                m.state == MotorState::Killed && !m.amplifier_enabled && m.output_zero
+            }
+            _ => true,
+        }),
+    },
+    Monitor {
+        name: "K is refused while the motor's coordinate system executes a program",
+        cite: "UM p.319",
+        sentence: "the motor-specific K kill command is not permitted when the motor is in a coordinate system that is executing a motion program. The program must first be halted.",
+        check: Check::Event(|cfg, prev, ev, reply, next| match motion(prev, ev) {
+            Some(Motion::Motor(n, MotorCommand::Kill)) if n <= cfg.motion.motors => {
+                let executing = program(prev, cfg.motion.coordinate_system(n)).executing();
+                implies(executing, reply == Reply::Error(1) && next.axes == prev.axes)
+            }
+            _ => true,
+        }),
+    },
+    Monitor {
+        name: "after <CTRL-K> every motor is killed at once",
+        cite: "UM p.319",
+        sentence: "The <CTRL-K> kill-all command breaks into the executing trajectory immediately, and disables all motors.",
+        check: Check::Event(|_, prev, ev, _, next| match motion(prev, ev) {
+            Some(Motion::Global(GlobalCommand::KillAll)) => {
+                next.axes.motors().iter().all(|m| m.state == MotorState::Killed && !m.amplifier_enabled && m.output_zero)
+            }
+            _ => true,
+        }),
+    },
+    Monitor {
+        name: "a killed motor does not move until it is re-enabled",
+        cite: "UM p.319",
+        sentence: "Motors will coast to a stop ... Although the program could be resumed after re-enabling the servo loops (MODEL: J/ re-enables, to closed loop at rest).",
+        check: Check::Event(|_, prev, ev, _, next| {
+            prev.axes.motors().iter().zip(next.axes.motors()).enumerate().all(|(k, (p, n))| {
+                let reenabled = matches!(motion(prev, ev), Some(Motion::Motor(m, MotorCommand::JogStop)) if usize::from(m) == k + 1);
+                implies(p.state == MotorState::Killed && n.state != MotorState::Killed, reenabled && n.state == MotorState::Closed)
+            })
+        }),
+    },
+    Monitor {
+        name: "A begins immediately: no motor of the coordinate system runs its program or jogs after it",
+        cite: "UM p.217",
+        sentence: "A: Scope C.S., Begin Immed? Yes, Decel Rate Ixx15 (UM p.319: A breaks into the executing trajectory immediately).",
+        check: Check::Event(|cfg, prev, ev, _, next| match motion(prev, ev) {
+            Some(Motion::CoordinateSystem(cs, CsCommand::Abort)) => members(cfg, cs).all(|k| {
+                let m = &next.axes.motors()[k];
+                !matches!(m.state, MotorState::Program | MotorState::Jogging | MotorState::Holding)
+            }),
+            Some(Motion::Global(GlobalCommand::AbortAll)) => next
+                .axes
+                .motors()
+                .iter()
+                .all(|m| !matches!(m.state, MotorState::Program | MotorState::Jogging | MotorState::Holding)),
+            _ => true,
+        }),
+    },
+    Monitor {
+        name: "A does not finish calculated moves: an executing program loses its lookahead",
+        cite: "UM p.217",
+        sentence: "A: Stop at Prog Pt? No, No easy restart (UM p.319: segments already in the lookahead buffer are discarded; they cannot be recovered).",
+        check: Check::Event(|cfg, prev, ev, _, next| {
+            let aborted: Vec<u8> = match motion(prev, ev) {
+                Some(Motion::CoordinateSystem(cs, CsCommand::Abort)) => vec![cs],
+                Some(Motion::Global(GlobalCommand::AbortAll)) => (1..=prev.axes.programs().len() as u8).collect(),
+                _ => return true,
+            };
+            aborted.iter().all(|cs| {
+                implies(program(prev, *cs).executing(), program(next, *cs) == Program::Lost)
+                    && members(cfg, *cs).all(|k| next.axes.motors()[k].stop != Some(Stop::Quit))
+            })
+        }),
+    },
+    Monitor {
+        name: "Q does not begin immediately: the program's motors go on with their calculated moves",
+        cite: "UM p.217",
+        sentence: "Q: Begin Immed? No, Stop on Path? Yes, Finishes calculated moves.",
+        check: Check::Event(|cfg, prev, ev, _, next| {
+            let quit: Vec<u8> = match motion(prev, ev) {
+                Some(Motion::CoordinateSystem(cs, CsCommand::Quit | CsCommand::EndOfMove)) => vec![cs],
+                Some(Motion::Global(GlobalCommand::QuitAll)) => (1..=prev.axes.programs().len() as u8).collect(),
+                _ => return true,
+            };
+            quit.iter().all(|cs| {
+                members(cfg, *cs).all(|k| {
+                    implies(prev.axes.motors()[k].state == MotorState::Program, next.axes.motors()[k].state == MotorState::Program)
+                }) && implies(program(prev, *cs) == Program::Running, program(next, *cs) == Program::Running)
+            })
+        }),
+    },
+    Monitor {
+        name: "Q and / stop at a program point",
+        cite: "UM p.217",
+        sentence: "Q: Stop at Prog Pt? Yes, Finishes calculated moves; /: Stop at Prog Pt? Yes, End of currently executing move.",
+        check: Check::Cycle(|cfg, prev, _, next| {
+            prev.axes.motors().iter().zip(next.axes.motors()).enumerate().all(|(k, (p, n))| {
+                let ended = matches!(p.stop, Some(Stop::Quit | Stop::EndOfMove)) && n.stop.is_none() && !next.tripped();
+                implies(ended, n.state == MotorState::Closed && matches!(program(next, cs_of(cfg, k)), Program::AtPoint | Program::Running))
+            }) && (1..=prev.axes.programs().len() as u8).all(|cs| {
+                implies(
+                    program(prev, cs) == Program::Running && program(next, cs) != Program::Running,
+                    program(next, cs) == Program::AtPoint,
+                )
+            })
+        }),
+    },
+    Monitor {
+        name: "H stops on the path: its motors end holding, and R can resume the program",
+        cite: "UM p.217",
+        sentence: "H: Stop on Path? Yes, Stop at Prog Pt? No, Decel Rate Isx95, Similar to %0 (SRM p.260: can be started up again with an R).",
+        check: Check::Cycle(|cfg, prev, _, next| {
+            prev.axes.motors().iter().zip(next.axes.motors()).enumerate().all(|(k, (p, n))| {
+                implies(
+                    p.stop == Some(Stop::Hold) && n.stop.is_none() && !next.tripped(),
+                    n.state == MotorState::Holding && program(next, cs_of(cfg, k)) == Program::Held,
+                )
+            })
+        }),
+    },
+    Monitor {
+        name: "a coordinate-system command acts only on the motors of its coordinate system",
+        cite: "UM p.217",
+        sentence: "Scope: C.S. (A, Q, /, H, \\).",
+        check: Check::Event(|cfg, prev, ev, _, next| match motion(prev, ev) {
+            Some(Motion::CoordinateSystem(cs, _)) => (0..prev.axes.motors().len())
+                .filter(|k| cs_of(cfg, *k) != cs)
+                .all(|k| prev.axes.motors()[k] == next.axes.motors()[k]),
+            _ => true,
+        }),
+    },
+    Monitor {
+        name: "<CTRL-O> holds every running program and <CTRL-Q> quits each",
+        cite: "SRM p.260",
+        sentence: "This command causes all coordinate systems in Turbo PMAC to undergo a feed hold. It is equivalent to issuing the H command to each coordinate system.",
+        check: Check::Event(|_, prev, ev, _, next| match motion(prev, ev) {
+            Some(Motion::Global(GlobalCommand::HoldAll)) => next.axes.programs().iter().all(|p| *p != Program::Running),
+            Some(Motion::Global(GlobalCommand::QuitAll)) => next
+                .axes
+                .motors()
+                .iter()
+                .all(|m| m.state != MotorState::Program || matches!(m.stop, Some(Stop::Quit | Stop::EndOfMove))),
+            _ => true,
+        }),
+    },
+    // ------------------------------------------------------------ the encoder-loss PLC (UM p.214-215)
+    Monitor {
+        name: "a closed-loop motor whose encoder is lost is killed at the next background cycle, its loss latched",
+        cite: "UM p.214-215",
+        sentence: "the encoder-loss PLC kills a motor when its feedback is lost (a compiled background PLC, which scans once per background cycle).",
+        check: Check::Event(|_, prev, ev, _, next| {
+            !matches!(ev, Event::Background)
+                || !prev.background_possible()
+                || prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| {
+                    implies(p.state != MotorState::Killed && p.encoder_lost, n.state == MotorState::Killed && n.loss_status)
+                })
+        }),
+    },
+    Monitor {
+        name: "the encoder-loss status is latched only by the PLC's scan in a background cycle",
+        cite: "UM p.215",
+        sentence: "These algorithms are best implemented in a compiled background PLC program, which scans ... once per background cycle.",
+        check: Check::Event(|_, prev, ev, _, next| {
+            prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| implies(!p.loss_status && n.loss_status, matches!(ev, Event::Background)))
+        }),
+    },
+    Monitor {
+        name: "under the intended reading the PLC clears a latched loss once the motor is closed-loop with its encoder OK",
+        cite: "UM p.215",
+        sentence: "Logic to clear fault status: IF (Mtr1OpenLoop=0 AND Enc1LossIn=OK AND Mtr1EncLossStatus=...) Mtr1EncLossStatus=0 (facts s.6: the evident intent).",
+        check: Check::Event(|cfg, prev, ev, _, next| {
+            cfg.profile.choices.encoder_loss_clear != EncoderLossClear::Intent
+                || !matches!(ev, Event::Background)
+                || !prev.background_possible()
+                || prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| {
+                    implies(p.loss_status && p.state != MotorState::Killed && !p.encoder_lost, !n.loss_status)
+                })
+        }),
+    },
+    Monitor {
+        name: "under the literal reading a latched encoder loss stays latched until a reset",
+        cite: "UM p.215",
+        sentence: "IF (Mtr1OpenLoop=0 AND Enc1LossIn=OK AND Mtr1EncLossStatus=0) Mtr1EncLossStatus=0 (as printed, the branch needs the status already 0).",
+        check: Check::Event(|cfg, prev, ev, _, next| {
+            cfg.profile.choices.encoder_loss_clear != EncoderLossClear::Literal
+                || is_reset(ev)
+                || prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| implies(p.loss_status, n.loss_status))
         }),
     },
 ];

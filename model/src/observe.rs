@@ -7,21 +7,19 @@ use pmacwd_specs::vocab::{Observation, Reply};
 
 /// What the reference controller shows after an event whose reply was `reply`.
 pub fn of(c: &Controller, cfg: &ModelConfig, reply: Reply) -> Observation {
-    let tripped = c.tripped();
     let (status_x, status_y) = c.status_words(cfg);
-    // UM p.215: on a trip the card is latched in reset "with a red LED indicating watchdog
-    // failure"; "All Servo, MACRO, and I/O ICs are forced into their reset states, which
-    // force discrete outputs off, and proportional outputs (DAC, PWM, PFM) to zero-level";
-    // FEFCO/ "is turned on when the timer trips"; Turbo PMAC2 has a relay instead.
+    // The outputs are their own state, set by the trip rule and cleared by a reset
+    // (controller.rs, `trip_now` and `restart`).
     Observation {
         reply,
-        led_red: tripped,
-        fefco_on: tripped,
-        relay_tripped: tripped,
-        outputs_forced_off: tripped,
+        led_red: c.outputs.led_red,
+        fefco_on: c.outputs.fefco_on,
+        relay_tripped: c.outputs.relay_tripped,
+        outputs_forced_off: c.outputs.forced_off,
         counter: c.counter,
         counter_min: c.counter_min,
         status_x,
         status_y,
+        motion: Some(c.axes.view()),
     }
 }

@@ -9,12 +9,15 @@
 //!   show the behaviour at all.
 
 use crate::controller::TripCause;
+use crate::motion::{Program, Stop};
 use crate::state::State;
 use pmacwd_specs::check::{ChecksumTarget, ResetKind};
 use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::profiles::EncoderLossClear;
 use pmacwd_specs::profiles::{Bit12Meaning, StrobeStop};
-use pmacwd_specs::vocab::command::{Buffer, HostCommand};
+use pmacwd_specs::vocab::command::{Buffer, CsCommand, HostCommand, Motion, MotorCommand};
 use pmacwd_specs::vocab::event::Reply;
+use pmacwd_specs::vocab::MotorState;
 use pmacwd_specs::vocab::Observation;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -79,6 +82,14 @@ fn running(s: &State) -> bool {
     !s.controller.tripped() && !s.controller.bootstrap
 }
 
+fn has_motion(cfg: &ModelConfig, f: fn(Motion) -> bool) -> bool {
+    cfg.commands.iter().any(|c| matches!(c, HostCommand::Motion(m) if f(*m)))
+}
+
+fn motors(s: &State) -> &[crate::motion::Motor] {
+    s.controller.axes.motors()
+}
+
 use Expectation::{Always, Sometimes};
 
 pub const STATE_PROPERTIES: &[StateProperty] = &[
@@ -129,6 +140,59 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         holds: |cfg, s| {
             let o = obs(cfg, s);
             s.controller.tripped() || !(o.led_red || o.fefco_on || o.relay_tripped || o.outputs_forced_off)
+        },
+    },
+    StateProperty {
+        name: "after a trip every amplifier is disabled, every output zero and no motor moves",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.215",
+        sentence: "All Servo, MACRO, and I/O ICs are forced into their reset states, which force discrete outputs off, and proportional outputs (DAC, PWM, PFM) to zero-level.",
+        holds: |_, s| {
+            !s.controller.tripped()
+                || motors(s).iter().all(|m| !m.amplifier_enabled && m.output_zero && !m.state.moving())
+        },
+    },
+    // ------------------------------------------------------------ motors (UM p.217, p.319)
+    StateProperty {
+        name: "a motor's amplifier is enabled and its output live exactly when it is not killed",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "SRM p.281",
+        sentence: "Amplifier Enabled: This bit is 1 when the outputs for this motor's amplifier are enabled ... It is 0 when the outputs are disabled (killed).",
+        holds: |_, s| {
+            motors(s).iter().all(|m| {
+                let killed = m.state == MotorState::Killed;
+                m.amplifier_enabled != killed && m.output_zero == killed
+            })
+        },
+    },
+    StateProperty {
+        name: "on a running card an executing program has no killed motor",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.319",
+        sentence: "the motor-specific K kill command is not permitted when the motor is in a coordinate system that is executing a motion program.",
+        holds: |cfg, s| {
+            !running(s)
+                || motors(s).iter().enumerate().all(|(k, m)| {
+                    let cs = cfg.motion.coordinate_system(k as u8 + 1);
+                    !s.controller.axes.programs()[usize::from(cs) - 1].executing() || m.state != MotorState::Killed
+                })
+        },
+    },
+    StateProperty {
+        name: "a stop under way ends within the longest deceleration",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "UM p.217",
+        sentence: "Decel Rate: Ixx19-21, Ixx15, TA/TS, Isx95, Ixx17 (MODEL: each a length of 1 to decel_cycles_max servo cycles).",
+        holds: |cfg, s| {
+            motors(s).iter().all(|m| m.stop.is_some() == (m.stop_cycles > 0) && m.stop_cycles <= cfg.motion.decel_cycles_max)
         },
     },
     // ------------------------------------------------------------ hardware conditions
@@ -371,6 +435,71 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         cite: "UM p.215",
         sentence: "power to the Turbo PMAC must be cycled off and on.",
         holds: |_, s| running(s) && s.controller.ghost.recovered_by == Some(ResetKind::Power),
+    },
+    StateProperty {
+        name: "a motor can jog",
+        expectation: Sometimes,
+        applies: |c| has_motion(c, |m| matches!(m, Motion::Motor(_, MotorCommand::JogPlus))),
+        needs: "a J+ command",
+        cite: "UM p.217",
+        sentence: "J/: Scope Motor, Begin Immed? Yes, Decel Rate Ixx19-21 (a jog to stop).",
+        holds: |_, s| running(s) && motors(s).iter().any(|m| m.state == MotorState::Jogging),
+    },
+    StateProperty {
+        name: "a program can finish its calculated moves after Q",
+        expectation: Sometimes,
+        applies: |c| has_motion(c, |m| matches!(m, Motion::CoordinateSystem(_, CsCommand::Quit))),
+        needs: "a Q command",
+        cite: "UM p.217",
+        sentence: "Q: Begin Immed? No ... Finishes calculated moves.",
+        holds: |_, s| running(s) && motors(s).iter().any(|m| m.state == MotorState::Program && m.stop == Some(Stop::Quit)),
+    },
+    StateProperty {
+        name: "a program can be held on its path, its motors at rest",
+        expectation: Sometimes,
+        applies: |c| has_motion(c, |m| matches!(m, Motion::CoordinateSystem(_, CsCommand::Hold))),
+        needs: "an H command",
+        cite: "UM p.217",
+        sentence: "H: Stop on Path? Yes ... Similar to %0.",
+        holds: |_, s| running(s) && s.controller.axes.programs().contains(&Program::Held) && motors(s).iter().any(|m| m.state == MotorState::Holding),
+    },
+    StateProperty {
+        name: "an aborted program can lose its lookahead while its motors decelerate",
+        expectation: Sometimes,
+        applies: |c| has_motion(c, |m| matches!(m, Motion::CoordinateSystem(_, CsCommand::Abort))),
+        needs: "an A command",
+        cite: "UM p.319",
+        sentence: "Segments and synchronous M-variable assignments already in the lookahead buffer are discarded; they cannot be recovered.",
+        holds: |_, s| {
+            running(s)
+                && s.controller.axes.programs().contains(&Program::Lost)
+                && motors(s).iter().any(|m| m.stop == Some(Stop::Abort))
+        },
+    },
+    StateProperty {
+        name: "the encoder-loss PLC can kill a motor and latch the loss",
+        expectation: Sometimes,
+        applies: |c| c.motion.encoder_inputs,
+        needs: "encoder inputs",
+        cite: "UM p.214-215",
+        sentence: "the encoder-loss PLC kills a motor when its feedback is lost.",
+        holds: |_, s| running(s) && motors(s).iter().any(|m| m.state == MotorState::Killed && m.loss_status),
+    },
+    StateProperty {
+        name: "the encoder-loss PLC can find a re-enabled motor with its encoder OK and a latched loss, and clear it as its reading says",
+        expectation: Sometimes,
+        applies: |c| c.motion.encoder_inputs && has_motion(c, |m| matches!(m, Motion::Motor(_, MotorCommand::JogStop))),
+        needs: "encoder inputs and a J/ command",
+        cite: "UM p.215",
+        sentence: "IF (Mtr1OpenLoop=0 AND Enc1LossIn=OK AND Mtr1EncLossStatus=0) Mtr1EncLossStatus=0: as printed the latched loss stays (bit 1 of the ghost); as intended it clears (bit 0).",
+        holds: |cfg, s| {
+            running(s)
+                && s.controller.axes.ghost_healthy_latched_scans
+                    == match cfg.profile.choices.encoder_loss_clear {
+                        EncoderLossClear::Intent => 1,
+                        EncoderLossClear::Literal => 2,
+                    }
+        },
     },
     StateProperty {
         name: "a near miss leaves X:$25 at the last strobing value on a running card",

@@ -9,7 +9,7 @@ use pmacwd_specs::check::ChecksumTarget;
 pub struct State {
     pub controller: Controller,
     /// Bit k set: monitor k of [`MONITORS`] has seen a violating transition.
-    pub violations: u32,
+    pub violations: u64,
 }
 
 /// Hashing is a third of the checker's time, and SipHash pays per `write` call: the state is fed
@@ -38,8 +38,13 @@ impl std::hash::Hash for State {
             status,
             checksum,
             servo_cycles,
+            outputs,
+            axes,
             ghost,
         } = controller;
+        let crate::controller::Outputs { led_red, fefco_on, relay_tripped, forced_off } = outputs;
+        let crate::motion::Axes { motor_slots, motor_count, program_slots, program_count, ghost_healthy_latched_scans } =
+            axes;
         let crate::controller::StatusFlags {
             rti_reentry,
             rti_warning,
@@ -70,6 +75,10 @@ impl std::hash::Hash for State {
             motion_buffer_open,
             supply_low,
             bootstrap,
+            led_red,
+            fefco_on,
+            relay_tripped,
+            forced_off,
         ]
         .iter()
         .fold(0u64, |acc, b| acc << 1 | u64::from(**b));
@@ -100,7 +109,7 @@ impl std::hash::Hash for State {
                 | u64::from(*firmware_reference) << 16
                 | u64::from(*program) << 8
                 | u64::from(*program_reference),
-            u64::from(*servo_cycles) << 32 | u64::from(*violations),
+            u64::from(*servo_cycles),
             u64::from(*cycles_since_background) << 32 | *last_reload as u32 as u64,
         ];
         let mut bytes = [0u8; 64];
@@ -108,6 +117,35 @@ impl std::hash::Hash for State {
             chunk.copy_from_slice(&w.to_le_bytes());
         }
         h.write(&bytes);
+        h.write_u64(*violations);
+        // One word per motor, one byte per program: destructured without `..` as above.
+        h.write_u16(u16::from(*motor_count) << 8 | u16::from(*program_count));
+        for m in motor_slots {
+            let crate::motion::Motor {
+                state,
+                stop,
+                stop_cycles,
+                amplifier_enabled,
+                output_zero,
+                encoder_lost,
+                loss_status,
+            } = m;
+            let stop = stop.map_or(0u64, |s| s as u64 + 1);
+            h.write_u64(
+                (*state as u64) << 40
+                    | stop << 32
+                    | u64::from(*stop_cycles) << 24
+                    | [amplifier_enabled, output_zero, encoder_lost, loss_status]
+                        .iter()
+                        .fold(0u64, |acc, b| acc << 1 | u64::from(**b)),
+            );
+        }
+        let mut programs = [0u8; 17];
+        for (b, p) in programs.iter_mut().zip(program_slots) {
+            *b = *p as u8;
+        }
+        programs[16] = *ghost_healthy_latched_scans;
+        h.write(&programs);
         for (n, v) in other_i_variables {
             h.write_u16(*n);
             h.write_i64(*v);
@@ -171,6 +209,22 @@ mod tests {
             ("servo_cycles", |s| s.controller.servo_cycles += 1),
             ("ghost.cycles_since_background", |s| s.controller.ghost.cycles_since_background += 1),
             ("ghost.last_reload", |s| s.controller.ghost.last_reload += 1),
+            ("outputs.led_red", |s| s.controller.outputs.led_red = true),
+            ("outputs.fefco_on", |s| s.controller.outputs.fefco_on = true),
+            ("outputs.relay_tripped", |s| s.controller.outputs.relay_tripped = true),
+            ("outputs.forced_off", |s| s.controller.outputs.forced_off = true),
+            ("motor.state", |s| s.controller.axes.motor_slots[0].state = pmacwd_specs::vocab::MotorState::Jogging),
+            ("motor.stop", |s| s.controller.axes.motor_slots[0].stop = Some(crate::motion::Stop::Hold)),
+            ("motor.stop_cycles", |s| s.controller.axes.motor_slots[0].stop_cycles = 2),
+            ("motor.amplifier_enabled", |s| s.controller.axes.motor_slots[0].amplifier_enabled = true),
+            ("motor.output_zero", |s| s.controller.axes.motor_slots[0].output_zero = false),
+            ("motor.encoder_lost", |s| s.controller.axes.motor_slots[0].encoder_lost = true),
+            ("motor.loss_status", |s| s.controller.axes.motor_slots[0].loss_status = true),
+            ("motor 2", |s| s.controller.axes.motor_slots[1].loss_status = true),
+            ("programs", |s| s.controller.axes.program_slots[0] = crate::motion::Program::Lost),
+            ("axes.motor_count", |s| s.controller.axes.motor_count -= 1),
+            ("axes.program_count", |s| s.controller.axes.program_count += 1),
+            ("axes.ghost_healthy_latched_scans", |s| s.controller.axes.ghost_healthy_latched_scans = 1),
             ("ghost.recovered_by", |s| s.controller.ghost.recovered_by = Some(pmacwd_specs::check::ResetKind::Init)),
             ("violations", |s| s.violations = 1),
         ];

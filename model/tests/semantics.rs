@@ -229,3 +229,77 @@ fn bootstrap_mode_answers_bootstrap_prom_and_runs_no_servo_tasks() {
     servo(&mut card, &cfg, 100);
     assert!(!card.tripped());
 }
+
+/// The same history under the two readings of the encoder-loss clear logic (UM p.215, facts
+/// s.6): lose the encoder of a closed-loop motor, get it back, re-enable the motor, let the PLC
+/// scan. Read as intended the latch clears; read literally it stays until a reset.
+#[test]
+fn the_two_readings_of_the_encoder_loss_clear_logic_end_differently() {
+    use pmacwd_specs::vocab::EncoderInput;
+    let mut outcome = Vec::new();
+    for profile in ["um-215", "um-215-literal-plc"] {
+        let cfg = config("encoder-loss", profile);
+        let mut card = Controller::power_on(&cfg);
+        let scan = |card: &mut Controller| {
+            servo(card, &cfg, 1);
+            assert!(card.background_possible());
+            card.apply(&cfg, &Event::Background);
+        };
+        cmd(&mut card, &cfg, "#1J/");
+        card.apply(&cfg, &Event::EncoderInput(EncoderInput { motor: 1, lost: true }));
+        scan(&mut card);
+        let m = card.axes.motors()[0];
+        assert!(m.loss_status && !m.amplifier_enabled && m.output_zero, "{profile}: killed and latched");
+        card.apply(&cfg, &Event::EncoderInput(EncoderInput { motor: 1, lost: false }));
+        cmd(&mut card, &cfg, "#1J/");
+        scan(&mut card);
+        scan(&mut card);
+        outcome.push(card.axes.motors()[0].loss_status);
+        card.apply(&cfg, &INIT);
+        assert!(!card.axes.motors()[0].loss_status, "{profile}: a reset clears the latch");
+    }
+    assert_eq!(outcome, [false, true], "intended: cleared; literal: still latched");
+}
+
+/// UM p.319: K is not permitted while the motor's C.S. runs a program, but A halts the program
+/// and K then kills the motor without any servo cycle in between (UM p.217: begins immediately).
+#[test]
+fn k_waits_for_the_program_to_stop_and_then_kills_in_the_same_servo_cycle() {
+    let cfg = config("motion", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    for c in ["#1J/", "&1B", "&1R"] {
+        assert_eq!(cmd(&mut card, &cfg, c), Reply::Ack, "{c}");
+    }
+    assert_eq!(cmd(&mut card, &cfg, "#1K"), Reply::Error(1));
+    assert!(card.axes.motors()[0].amplifier_enabled);
+    cmd(&mut card, &cfg, "&1A");
+    assert_eq!(cmd(&mut card, &cfg, "#1K"), Reply::Ack);
+    let m = card.axes.motors()[0];
+    assert!(!m.amplifier_enabled && m.output_zero && !m.state.moving());
+}
+
+/// A trip drives the outputs state, not a reading of the trip flag: the LED, FEFCO/, relay and
+/// forced-off outputs are set by the trip rule and cleared by INIT/ (UM p.215).
+#[test]
+fn a_trip_sets_the_outputs_and_init_clears_them() {
+    let cfg = config("motion", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    cmd(&mut card, &cfg, "#1J/");
+    card.apply(&cfg, &Event::Supply { millivolts: 4500 });
+    let o = card.outputs;
+    assert!(o.led_red && o.fefco_on && o.relay_tripped && o.forced_off);
+    assert!(card.axes.motors().iter().all(|m| !m.amplifier_enabled && m.output_zero));
+    card.apply(&cfg, &Event::Supply { millivolts: 5000 });
+    card.apply(&cfg, &INIT);
+    assert_eq!(card.outputs, pmacwd_model::controller::Outputs::default());
+}
+
+/// The model does not track host addressing: a stop command without its motor or C.S. stays
+/// unrecognized (ERR003), as it was before motion was modelled (docs/model.md, MODEL).
+#[test]
+fn a_stop_command_without_its_address_is_answered_err003() {
+    let cfg = config("motion", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    assert_eq!(cmd(&mut card, &cfg, "K"), Reply::Error(3));
+    assert_eq!(cmd(&mut card, &cfg, "A"), Reply::Error(3));
+}

@@ -74,6 +74,50 @@ pub struct Configuration {
     pub checksum_pass_cycles: PassCycles,
     /// Whether the environment may clear bit 22 by a memory write.
     pub clear_rti_reentry: bool,
+    /// The motors and what the environment may do to them; absent: the default below.
+    #[serde(default)]
+    pub motion: MotionSetup,
+}
+
+/// The motors of a configuration (the stop rules of UM p.217, the encoder-loss PLC of UM
+/// p.214-215). Motion commands themselves are listed in `commands`.
+#[derive(Clone, Debug, Deserialize, PartialEq, Eq, Hash)]
+#[serde(deny_unknown_fields)]
+pub struct MotionSetup {
+    /// How many motors (1..=8); default 8.
+    #[serde(default = "eight")]
+    pub motors: u8,
+    /// The coordinate system of each motor, in motor order; empty: every motor in &1.
+    #[serde(default)]
+    pub coordinate_systems: Vec<u8>,
+    /// The longest deceleration, in servo cycles: a stop command's deceleration takes between
+    /// 1 and this many cycles, each length explored by the checker (default 1).
+    #[serde(default = "one")]
+    pub decel_cycles_max: u8,
+    /// Whether the environment may lose and restore each motor's encoder (UM p.214).
+    #[serde(default)]
+    pub encoder_inputs: bool,
+}
+
+fn eight() -> u8 {
+    8
+}
+
+fn one() -> u8 {
+    1
+}
+
+impl Default for MotionSetup {
+    fn default() -> Self {
+        MotionSetup { motors: eight(), coordinate_systems: Vec::new(), decel_cycles_max: one(), encoder_inputs: false }
+    }
+}
+
+impl MotionSetup {
+    /// The coordinate system of motor `m` (from 1).
+    pub fn coordinate_system(&self, m: u8) -> u8 {
+        self.coordinate_systems.get(usize::from(m) - 1).copied().unwrap_or(1)
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -194,6 +238,22 @@ impl Check {
             }
             if c.supply_millivolts.is_empty() {
                 return Err(map.error(&format!("{p}.supply_millivolts"), "at least one supply voltage is needed"));
+            }
+            let m = &c.motion;
+            if !(1..=crate::vocab::observation::MOTORS_SHOWN as u8).contains(&m.motors) {
+                return Err(map.error(&format!("{p}.motion.motors"), "the model has 1 to 8 motors"));
+            }
+            if !m.coordinate_systems.is_empty() && m.coordinate_systems.len() != usize::from(m.motors) {
+                return Err(map.error(
+                    &format!("{p}.motion.coordinate_systems"),
+                    "one coordinate system per motor, or none (every motor in &1)",
+                ));
+            }
+            if m.coordinate_systems.iter().any(|cs| !(1..=crate::vocab::command::COORDINATE_SYSTEM_MAX).contains(cs)) {
+                return Err(map.error(&format!("{p}.motion.coordinate_systems"), "coordinate systems are &1..&16"));
+            }
+            if m.decel_cycles_max == 0 {
+                return Err(map.error(&format!("{p}.motion.decel_cycles_max"), "a deceleration takes at least 1 cycle"));
             }
             if c.checksum_pass_cycles.firmware == 0 || c.checksum_pass_cycles.user_program == 0 {
                 return Err(map.error(

@@ -113,6 +113,8 @@ pub struct ModelConfig {
     pub checksum_faults: Vec<ChecksumTarget>,
     pub pass_cycles: PassCycles,
     pub clear_rti_reentry: bool,
+    /// The motors (`check.yaml`'s `motion`).
+    pub motion: crate::check::MotionSetup,
     pub layout: StatusLayout,
     /// I41 lockout ranges, indexed by I41 bit (SRM p.57).
     pub lockout: [(u16, u16); 4],
@@ -192,6 +194,7 @@ impl ModelConfig {
             checksum_faults: c.checksum_faults.clone(),
             pass_cycles: c.checksum_pass_cycles,
             clear_rti_reentry: c.clear_rti_reentry,
+            motion: c.motion.clone(),
             layout,
             lockout,
             i8_range,

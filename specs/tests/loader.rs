@@ -91,10 +91,13 @@ fn the_stop_table_has_its_11_rows_with_the_lost_commands_marked_reconstructed() 
     let spec = Spec::embedded().unwrap();
     let rows = &spec.stop_commands.rows;
     let commands: Vec<&str> = rows.iter().map(|r| r.command.as_str()).collect();
-    assert_eq!(commands, ["J/", "A", "<CTRL-A>", "Q", "<CTRL-Q>", "S", "H", "<CTRL-O>", "\\", "K", "<CTRL-K>"]);
+    // The sixth row is `/`, stop at the end of the currently executing move (FACTS s.5); `S` is
+    // the single-step command that starts a program (UM p.319) and must not be in this table.
+    assert_eq!(commands, ["J/", "A", "<CTRL-A>", "Q", "<CTRL-Q>", "/", "H", "<CTRL-O>", "\\", "K", "<CTRL-K>"]);
+    assert!(!commands.contains(&"S"), "S starts a program (UM p.319); it stops nothing");
     let reconstructed: Vec<&str> =
         rows.iter().filter(|r| r.command_reconstructed).map(|r| r.command.as_str()).collect();
-    assert_eq!(reconstructed, ["A", "Q", "S", "H", "\\", "K"]);
+    assert_eq!(reconstructed, ["A", "Q", "/", "H", "\\", "K"]);
     assert!(rows.iter().filter(|r| r.command.starts_with("<CTRL")).all(|r| r.scope == StopScope::Global));
 }
 

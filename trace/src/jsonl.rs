@@ -223,6 +223,7 @@ fn model_event_json(e: &Event) -> serde_json::Value {
             "dpram_fault": r.dpram_fault, "flash_fault": r.flash_fault, "bootstrap": r.bootstrap } }),
         Event::ChecksumFault(ChecksumTarget::Firmware) => serde_json::json!({ "checksum_fault": "firmware" }),
         Event::ChecksumFault(ChecksumTarget::UserProgram) => serde_json::json!({ "checksum_fault": "user_program" }),
+        Event::EncoderInput(i) => serde_json::json!({ "encoder": { "motor": i.motor, "lost": i.lost } }),
     }
 }
 
@@ -240,6 +241,8 @@ fn expect_json(e: &Expect) -> serde_json::Value {
         window_cycles,
         status_set,
         status_clear,
+        motors,
+        encoder_loss,
     } = e;
     let mut m = serde_json::Map::new();
     if let Some(r) = reply {
@@ -270,6 +273,12 @@ fn expect_json(e: &Expect) -> serde_json::Value {
     }
     if !status_clear.is_empty() {
         m.insert("status_clear".into(), serde_json::json!(status_clear));
+    }
+    if !motors.is_empty() {
+        m.insert("motors".into(), serde_json::json!(motors));
+    }
+    if !encoder_loss.is_empty() {
+        m.insert("encoder_loss".into(), serde_json::json!(encoder_loss));
     }
     serde_json::Value::Object(m)
 }

@@ -123,6 +123,14 @@ pub struct Expect {
     /// Status bits that must be 0.
     #[serde(default)]
     pub status_clear: Vec<String>,
+    /// Each motor's motion state, in motor order (`killed`, `closed`, `jogging`, `program`,
+    /// `decelerating`, `holding`); empty: not expected. An implementation that reports no
+    /// motors (the compact core today) is not checked against it (docs/conformance.md).
+    #[serde(default)]
+    pub motors: Vec<String>,
+    /// Each motor's latched encoder-loss status (the PLC's `Mtr1EncLossStatus`, UM p.215).
+    #[serde(default)]
+    pub encoder_loss: Vec<bool>,
 }
 
 impl Expect {
@@ -140,7 +148,7 @@ pub const STEP_CYCLES_MAX: u32 = 1 << 24;
 /// The keys a step may have besides its one event key.
 const STEP_EXTRAS: [&str; 2] = ["expect", "note"];
 /// The event keys.
-const EVENT_KEYS: [&str; 11] = [
+const EVENT_KEYS: [&str; 12] = [
     "servo",
     "run",
     "elapsed",
@@ -152,6 +160,7 @@ const EVENT_KEYS: [&str; 11] = [
     "restart",
     "checksum_fault",
     "clear_rti_reentry",
+    "encoder",
 ];
 
 /// `elapsed: N` or `elapsed: {min: A, max: B}` (`max` optional: unbounded).
@@ -289,6 +298,9 @@ impl<'de> Deserialize<'de> for Step {
                             ))
                         }
                         "supply_mv" => TraceEvent::Model(Event::Supply { millivolts: map.next_value()? }),
+                        "encoder" => TraceEvent::Model(Event::EncoderInput(
+                            map.next_value::<pmacwd_specs::vocab::EncoderInput>()?,
+                        )),
                         "reset" => TraceEvent::Model(Event::Reset(map.next_value::<ResetEvent>()?)),
                         "checksum_fault" => {
                             TraceEvent::Model(Event::ChecksumFault(map.next_value::<ChecksumTarget>()?))
@@ -508,6 +520,7 @@ pub fn yaml_step(step: &Step) -> String {
                 ),
                 Event::ChecksumFault(ChecksumTarget::Firmware) => "checksum_fault: firmware".into(),
                 Event::ChecksumFault(ChecksumTarget::UserProgram) => "checksum_fault: user_program".into(),
+                Event::EncoderInput(i) => format!("encoder: {{motor: {}, lost: {}}}", i.motor, i.lost),
             },
         };
         let _ = writeln!(s, "  - {event}");
@@ -529,6 +542,8 @@ pub fn yaml_step(step: &Step) -> String {
                 window_cycles,
                 status_set,
                 status_clear,
+                motors,
+                encoder_loss,
             } = &step.expect;
             s.push_str("    expect:\n");
             if let Some(v) = reply {
@@ -559,6 +574,13 @@ pub fn yaml_step(step: &Step) -> String {
             }
             if !status_clear.is_empty() {
                 let _ = writeln!(s, "      status_clear: [{}]", quoted_list(status_clear));
+            }
+            if !motors.is_empty() {
+                let _ = writeln!(s, "      motors: [{}]", quoted_list(motors));
+            }
+            if !encoder_loss.is_empty() {
+                let list: Vec<String> = encoder_loss.iter().map(bool::to_string).collect();
+                let _ = writeln!(s, "      encoder_loss: [{}]", list.join(", "));
             }
         }
     }

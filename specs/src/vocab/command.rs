@@ -10,6 +10,14 @@
 //! | `$$$` | [`HostCommand::Reset`] | nothing; the card resets |
 //! | `OPEN PLC 1`, `OPEN PROG 1` | [`HostCommand::Open`] | nothing |
 //! | `CLOSE` | [`HostCommand::Close`] | nothing; X:$1090 takes the program checksum (UM p.217) |
+//! | `#1J+`, `#1J-`, `#1J/`, `#1J=`, `#1K` | [`HostCommand::Motion`], motor scope | nothing; `#1K` while motor 1's C.S. runs a program: ERR001 (UM p.319) |
+//! | `&1A`, `&1Q`, `&1/`, `&1H`, `&1\`, `&1R`, `&1S`, `&1B`, `&1%0` | [`HostCommand::Motion`], C.S. scope | nothing |
+//! | `<CTRL-A>`, `<CTRL-Q>`, `<CTRL-O>`, `<CTRL-K>` | [`HostCommand::Motion`], global | nothing |
+//!
+//! Motion commands carry their motor (`#n`, 1..=32) or coordinate system (`&n`, 1..=16): the
+//! model does not track which motor or C.S. the host last addressed, so a bare `K` or `A` stays
+//! [`HostCommand::Unrecognized`] (MODEL: see docs/model.md). The global control characters are
+//! written as the manual prints them (UM p.217), `<CTRL-K>`, since a trace is text.
 //!
 //! Keywords are case-insensitive and spaces around `=` are allowed. Text that is not one of
 //! these is kept as [`HostCommand::Unrecognized`]: the controller answers it with ERR003
@@ -73,6 +81,198 @@ pub enum Buffer {
     Program(u16),
 }
 
+/// A command that starts or stops motion: the stop commands of UM p.217, and the commands
+/// that start motion as far as the stop rules need them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Motion {
+    /// `#n` followed by a motor command.
+    Motor(u8, MotorCommand),
+    /// `&n` followed by a coordinate-system command.
+    CoordinateSystem(u8, CsCommand),
+    /// A global control character.
+    Global(GlobalCommand),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum MotorCommand {
+    /// `J+`: jog in the positive direction.
+    JogPlus,
+    /// `J-`: jog in the negative direction.
+    JogMinus,
+    /// `J/`: jog stop (UM p.217, row 1); on a killed motor it closes the loop.
+    JogStop,
+    /// `J=` (optionally `J={position}`): jog to a position.
+    JogToPosition,
+    /// `K`: kill (UM p.217, row 10).
+    Kill,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum CsCommand {
+    /// `A`: abort (UM p.217, row 2).
+    Abort,
+    /// `Q`: quit (row 4).
+    Quit,
+    /// `/`: stop at the end of the currently executing move (row 6).
+    EndOfMove,
+    /// `H`: feed hold (row 7).
+    Hold,
+    /// `\`: quick stop (row 9).
+    QuickStop,
+    /// `R`: run the program.
+    Run,
+    /// `S`: single-step the program (UM p.319: "resumed with an R or S command").
+    Step,
+    /// `B` or `B{n}`: point the C.S. at the beginning of a program.
+    Begin,
+    /// `%n`: feedrate override in percent.
+    Feedrate(u16),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum GlobalCommand {
+    /// `<CTRL-A>`: abort all (row 3).
+    AbortAll,
+    /// `<CTRL-Q>`: quit all (row 5).
+    QuitAll,
+    /// `<CTRL-O>`: feed hold all (row 8).
+    HoldAll,
+    /// `<CTRL-K>`: kill all (row 11).
+    KillAll,
+}
+
+/// Turbo PMAC's motors are #1..#32 and its coordinate systems &1..&16.
+pub const MOTOR_MAX: u8 = 32;
+pub const COORDINATE_SYSTEM_MAX: u8 = 16;
+
+impl Motion {
+    /// The command as UM p.217 prints it in its first column (`J/`, `A`, `<CTRL-A>`, ...), for
+    /// the stop commands; `None` for the commands that start motion.
+    pub fn stop_table_name(self) -> Option<&'static str> {
+        match self {
+            Motion::Motor(_, MotorCommand::JogStop) => Some("J/"),
+            Motion::Motor(_, MotorCommand::Kill) => Some("K"),
+            Motion::Motor(_, MotorCommand::JogPlus | MotorCommand::JogMinus | MotorCommand::JogToPosition) => None,
+            Motion::CoordinateSystem(_, c) => match c {
+                CsCommand::Abort => Some("A"),
+                CsCommand::Quit => Some("Q"),
+                CsCommand::EndOfMove => Some("/"),
+                CsCommand::Hold => Some("H"),
+                CsCommand::QuickStop => Some("\\"),
+                CsCommand::Run | CsCommand::Step | CsCommand::Begin | CsCommand::Feedrate(_) => None,
+            },
+            Motion::Global(g) => Some(match g {
+                GlobalCommand::AbortAll => "<CTRL-A>",
+                GlobalCommand::QuitAll => "<CTRL-Q>",
+                GlobalCommand::HoldAll => "<CTRL-O>",
+                GlobalCommand::KillAll => "<CTRL-K>",
+            }),
+        }
+    }
+
+    fn parse(compact: &str) -> Option<Motion> {
+        let global = match compact {
+            "<CTRL-A>" => Some(GlobalCommand::AbortAll),
+            "<CTRL-Q>" => Some(GlobalCommand::QuitAll),
+            "<CTRL-O>" => Some(GlobalCommand::HoldAll),
+            "<CTRL-K>" => Some(GlobalCommand::KillAll),
+            _ => None,
+        };
+        if let Some(g) = global {
+            return Some(Motion::Global(g));
+        }
+        let (sigil, rest) = compact.split_at_checked(1)?;
+        let digits = rest.chars().take_while(char::is_ascii_digit).count();
+        let (number, body) = rest.split_at(digits);
+        let number: u8 = number.parse().ok()?;
+        let body = body.trim_start();
+        match sigil {
+            "#" if (1..=MOTOR_MAX).contains(&number) => {
+                let c = match body {
+                    "J+" => MotorCommand::JogPlus,
+                    "J-" => MotorCommand::JogMinus,
+                    "J/" => MotorCommand::JogStop,
+                    "K" => MotorCommand::Kill,
+                    _ => match body.strip_prefix("J=") {
+                        Some(v) if v.trim().is_empty() || parse_value(v.trim()).is_some() => {
+                            MotorCommand::JogToPosition
+                        }
+                        _ => return None,
+                    },
+                };
+                Some(Motion::Motor(number, c))
+            }
+            "&" if (1..=COORDINATE_SYSTEM_MAX).contains(&number) => {
+                let c = match body {
+                    "A" => CsCommand::Abort,
+                    "Q" => CsCommand::Quit,
+                    "/" => CsCommand::EndOfMove,
+                    "H" => CsCommand::Hold,
+                    "\\" => CsCommand::QuickStop,
+                    "R" => CsCommand::Run,
+                    "S" => CsCommand::Step,
+                    _ => {
+                        if let Some(n) = body.strip_prefix('B') {
+                            if n.trim().is_empty()
+                                || n.trim().chars().all(|c| c.is_ascii_digit()) && n.trim().len() <= 5
+                            {
+                                CsCommand::Begin
+                            } else {
+                                return None;
+                            }
+                        } else if let Some(p) = body.strip_prefix('%') {
+                            let p = p.trim();
+                            if p.is_empty() || p.len() > 5 || !p.chars().all(|c| c.is_ascii_digit()) {
+                                return None;
+                            }
+                            CsCommand::Feedrate(p.parse().ok()?)
+                        } else {
+                            return None;
+                        }
+                    }
+                };
+                Some(Motion::CoordinateSystem(number, c))
+            }
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for Motion {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Motion::Motor(n, c) => write!(
+                f,
+                "#{n}{}",
+                match c {
+                    MotorCommand::JogPlus => "J+",
+                    MotorCommand::JogMinus => "J-",
+                    MotorCommand::JogStop => "J/",
+                    MotorCommand::JogToPosition => "J=",
+                    MotorCommand::Kill => "K",
+                }
+            ),
+            Motion::CoordinateSystem(n, CsCommand::Feedrate(p)) => write!(f, "&{n}%{p}"),
+            Motion::CoordinateSystem(n, c) => write!(
+                f,
+                "&{n}{}",
+                match c {
+                    CsCommand::Abort => "A",
+                    CsCommand::Quit => "Q",
+                    CsCommand::EndOfMove => "/",
+                    CsCommand::Hold => "H",
+                    CsCommand::QuickStop => "\\",
+                    CsCommand::Run => "R",
+                    CsCommand::Step => "S",
+                    CsCommand::Begin => "B",
+                    CsCommand::Feedrate(_) => unreachable!("printed above"),
+                }
+            ),
+            Motion::Global(_) => f.write_str(self.stop_table_name().expect("every global command is a stop command")),
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum HostCommand {
     GlobalStatus,
@@ -82,6 +282,8 @@ pub enum HostCommand {
     Reset,
     Open(Buffer),
     Close,
+    /// A command that starts or stops motion (UM p.217).
+    Motion(Motion),
     /// Anything else: answered with ERR003.
     Unrecognized(String),
 }
@@ -115,6 +317,9 @@ impl HostCommand {
         }
         if compact == "CLOSE" {
             return Ok(HostCommand::Close);
+        }
+        if let Some(m) = Motion::parse(&compact) {
+            return Ok(HostCommand::Motion(m));
         }
         if let Some(rest) = compact.strip_prefix("OPEN ") {
             let words: Vec<&str> = rest.split(' ').collect();
@@ -215,6 +420,7 @@ impl fmt::Display for HostCommand {
             HostCommand::Open(Buffer::Plc(n)) => write!(f, "OPEN PLC {n}"),
             HostCommand::Open(Buffer::Program(n)) => write!(f, "OPEN PROG {n}"),
             HostCommand::Close => f.write_str("CLOSE"),
+            HostCommand::Motion(m) => write!(f, "{m}"),
             HostCommand::Unrecognized(t) => f.write_str(t),
         }
     }
@@ -237,6 +443,16 @@ mod tests {
             ("open plc 1", "OPEN PLC 1"),
             ("OPEN PROG 10", "OPEN PROG 10"),
             ("close", "CLOSE"),
+            ("#1j/", "#1J/"),
+            ("#2 K", "#2K"),
+            ("#1J=1000", "#1J="),
+            ("&1a", "&1A"),
+            ("&1/", "&1/"),
+            ("&1\\", "&1\\"),
+            ("&2B1", "&2B"),
+            ("&1%0", "&1%0"),
+            ("<ctrl-k>", "<CTRL-K>"),
+            ("<CTRL-O>", "<CTRL-O>"),
         ] {
             assert_eq!(HostCommand::parse(text).unwrap().to_string(), canonical, "{text}");
         }
@@ -245,7 +461,10 @@ mod tests {
     #[test]
     fn text_the_controller_would_reject_is_kept_for_an_err003_reply() {
         // A real controller answers these with ERR003, so the model must too: they are inputs.
-        for text in ["HELLO", "I40=abc", "OPEN PLC 99", "RHZ:$25", "I"] {
+        // A motion command without its motor or C.S. (the model does not track addressing), or
+        // with one the card does not have, stays unrecognized.
+        for text in ["HELLO", "I40=abc", "OPEN PLC 99", "RHZ:$25", "I", "K", "#0K", "#33J+", "&17A", "&1%x", "#1J=abc"]
+        {
             assert!(matches!(HostCommand::parse(text), Ok(HostCommand::Unrecognized(_))), "{text}");
         }
     }

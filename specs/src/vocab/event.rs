@@ -25,6 +25,18 @@ pub enum Event {
     ChecksumFault(ChecksumTarget),
     /// The host writes 0 to bit 22 of X:$000006 (memory write or M-variable).
     ClearRtiReentry,
+    /// A motor's encoder-loss input changes (UM p.214: the status bit is 1 for a valid encoder
+    /// signal, 0 to signify encoder loss).
+    EncoderInput(EncoderInput),
+}
+
+/// One motor's encoder-loss input: `lost` when the detection circuit reports loss.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EncoderInput {
+    /// The motor, from 1.
+    pub motor: u8,
+    pub lost: bool,
 }
 
 /// What a host sees in answer to a command.
@@ -95,6 +107,8 @@ impl fmt::Display for Event {
             Event::ChecksumFault(ChecksumTarget::Firmware) => f.write_str("firmware memory corrupted"),
             Event::ChecksumFault(ChecksumTarget::UserProgram) => f.write_str("user program memory corrupted"),
             Event::ClearRtiReentry => f.write_str("host clears bit 22"),
+            Event::EncoderInput(EncoderInput { motor, lost: true }) => write!(f, "motor {motor}'s encoder is lost"),
+            Event::EncoderInput(EncoderInput { motor, lost: false }) => write!(f, "motor {motor}'s encoder is back"),
         }
     }
 }

@@ -11,6 +11,6 @@ pub mod event;
 pub mod observation;
 pub mod reply_text;
 
-pub use command::{Buffer, HostCommand, Register, Space};
-pub use event::{Event, Reply};
-pub use observation::Observation;
+pub use command::{Buffer, CsCommand, GlobalCommand, HostCommand, Motion, MotorCommand, Register, Space};
+pub use event::{EncoderInput, Event, Reply};
+pub use observation::{MotionView, MotorState, MotorView, Observation};
