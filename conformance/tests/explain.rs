@@ -385,7 +385,7 @@ fn for_debugging_one_capture_is_searched_on_one_lane_and_where_it_dies_is_printe
             let (_, w) = report::witness_for(&spec, &path, None, lanes[0].def.clone(), lanes[0].tolerances).unwrap();
             println!("witness: {:?}\n{}", w.checked, w.story.join("\n"));
             for (i, st) in w.steps.iter().enumerate() {
-                println!("    step {}: {} {:?}", i + 1, st.event, st.expect.reply);
+                println!("    step {}: {} {:?}", i + 1, st.event(), st.expect().and_then(|e| e.reply.as_ref()));
             }
             println!("---");
         }

@@ -2,7 +2,6 @@
 //! explanation is rebuilt from.
 
 use super::gap::Plan;
-use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::ResetEvent;
 use std::sync::Arc;
 
@@ -14,9 +13,6 @@ pub struct Node {
     pub kind: NodeKind,
 }
 
-// The model's Controller grew by its motors (issue 16, fixed arrays so that cloning it does not
-// allocate), which puts `Gap` past clippy's 200-byte variant difference.
-#[allow(clippy::large_enum_variant)]
 #[derive(Debug)]
 pub enum NodeKind {
     Start {
@@ -26,7 +22,7 @@ pub enum NodeKind {
         plan_hi: Plan,
         plan_lo: Plan,
         lo: i32,
-        end: Controller,
+        end: super::End,
     },
     Restart(ResetEvent),
     /// X:$25 read as this value, where the search had an interval.

@@ -37,15 +37,42 @@ pub fn normalize(card: &mut Controller) {
 /// the search keeps as intervals (the credit refills in the next servo cycle, before any plan
 /// can use it).
 pub fn same_but_counters(a: &Controller, b: &Controller) -> bool {
-    let blank = |c: &Controller| {
-        let mut c = c.clone();
-        normalize(&mut c);
-        c.counter = 0;
-        c.counter_min = 0;
-        c.background_credit = 0;
-        c
-    };
     blank(a) == blank(b)
+}
+
+/// A card but for Y:$25, X:$25 and the background's CPU credit.
+fn blank(c: &Controller) -> Controller {
+    let mut c = c.clone();
+    normalize(&mut c);
+    c.counter = 0;
+    c.counter_min = 0;
+    c.background_credit = 0;
+    c
+}
+
+/// Where a gap of a recorded history ended, kept small (a history holds one per gap of the
+/// capture): Y:$25, X:$25, and a fingerprint of the rest of the card. Comparing fingerprints
+/// stands for [`same_but_counters`]; a collision could only pick a wrong plan for an
+/// explanation, which is run on the model and checked before it is printed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct End {
+    pub counter: i32,
+    pub counter_min: i32,
+    rest: u64,
+}
+
+impl End {
+    pub fn of(c: &Controller) -> End {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        blank(c).hash(&mut h);
+        End { counter: c.counter, counter_min: c.counter_min, rest: h.finish() }
+    }
+
+    /// Whether `c` is this end but for Y:$25, X:$25 and the background's credit.
+    pub fn same_but_counters(&self, c: &Controller) -> bool {
+        End::of(c).rest == self.rest
+    }
 }
 
 /// Y:$25 after `cycles` servo cycles without a background cycle from `counter`, as the

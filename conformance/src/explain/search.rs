@@ -500,7 +500,7 @@ impl Lane {
                                         plan_hi: o.plan_hi,
                                         plan_lo: o.plan_lo,
                                         lo: o.min_lo,
-                                        end: o.card.clone(),
+                                        end: super::End::of(&o.card),
                                     },
                                 })
                             });

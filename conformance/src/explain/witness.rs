@@ -15,10 +15,51 @@ use pmacwd_trace::{Expect, Step, TraceEvent};
 use std::path::Path;
 use std::sync::Arc;
 
+/// One step of an explanation, kept small: a day-long capture's explanation has over a
+/// million, most of them servo and background events with nothing expected (24 bytes instead
+/// of a whole step's 200).
+#[derive(Clone, Debug)]
+pub enum WitnessStep {
+    Bare(TraceEvent),
+    Full(Box<Step>),
+}
+
+impl WitnessStep {
+    pub fn new(step: Step) -> WitnessStep {
+        if step.note.is_none() && step.expect == Expect::default() {
+            WitnessStep::Bare(step.event)
+        } else {
+            WitnessStep::Full(Box::new(step))
+        }
+    }
+
+    pub fn event(&self) -> &TraceEvent {
+        match self {
+            WitnessStep::Bare(e) => e,
+            WitnessStep::Full(s) => &s.event,
+        }
+    }
+
+    pub fn expect(&self) -> Option<&Expect> {
+        match self {
+            WitnessStep::Bare(_) => None,
+            WitnessStep::Full(s) => Some(&s.expect),
+        }
+    }
+
+    /// The step in the trace format.
+    pub fn to_step(&self) -> Step {
+        match self {
+            WitnessStep::Bare(e) => Step { event: e.clone(), expect: Expect::default(), note: None },
+            WitnessStep::Full(s) => (**s).clone(),
+        }
+    }
+}
+
 /// The explanation of a capture under one lane.
 pub struct Witness {
     /// The capture with every gap replaced by concrete events (the trace format's steps).
-    pub steps: Vec<Step>,
+    pub steps: Vec<WitnessStep>,
     /// What happened that the host could not see, in words, with the capture's lines.
     pub story: Vec<String>,
     pub cpu: u8,
@@ -45,14 +86,14 @@ fn area(a: ChecksumTarget) -> &'static str {
 fn realize<'a>(
     cfg: &'a ModelConfig,
     card: &Controller,
-    node: (&Plan, &Plan, &Controller),
+    node: (&Plan, &Plan, &super::End),
     need: Option<i32>,
     need_counter: Option<i32>,
 ) -> Option<Sim<'a>> {
     let (plan_hi, plan_lo, end) = node;
     // Y:$25 may have been merged into an interval by the search: a Y:$25 read that matters is
     // met through `need_counter`, and the whole witness is checked at the end.
-    let same_end = |c: &Controller| super::same_but_counters(c, end);
+    let same_end = |c: &Controller| end.same_but_counters(c);
     let fits = |c: &Controller| need.is_none_or(|v| c.counter_min == v) && need_counter.is_none_or(|v| c.counter == v);
     if need.is_none() && need_counter.is_none() {
         return gap::run(cfg, card, *plan_hi, true);
@@ -135,10 +176,10 @@ pub fn build(
     let mut last_line = 0usize;
     let mut lowest_min = card.counter_min;
     let mut dip_line = 0usize;
-    let push_events = |steps: &mut Vec<Step>, events: Vec<TraceEvent>, note: Option<String>| {
+    let push_events = |steps: &mut Vec<WitnessStep>, events: Vec<TraceEvent>, note: Option<String>| {
         let mut note = note;
         for e in events {
-            steps.push(Step { event: e, expect: Expect::default(), note: note.take() });
+            steps.push(WitnessStep::new(Step { event: e, expect: Expect::default(), note: note.take() }));
         }
     };
     // Each X:$25 read that narrowed an interval is met by the latest gap before it that can
@@ -211,7 +252,7 @@ pub fn build(
                 let starved = match plan_hi {
                     Plan::Schedule { cycles, .. } if starve.contains(&at) => {
                         gap::run(cfg, &card, Plan::Starved { cycles: *cycles, heavy: 0 }, true)
-                            .filter(|sim| super::same_but_counters(&sim.card, end))
+                            .filter(|sim| end.same_but_counters(&sim.card))
                     }
                     _ => None,
                 };
@@ -303,14 +344,18 @@ pub fn build(
                 let e = Event::Reset(*reset);
                 card.apply(cfg, &e);
                 lowest_min = card.counter_min;
-                steps.push(Step { event: TraceEvent::Model(e), expect: step.expect.clone(), note: step.note.clone() });
+                steps.push(WitnessStep::new(Step {
+                    event: TraceEvent::Model(e),
+                    expect: step.expect.clone(),
+                    note: step.note.clone(),
+                }));
             }
             TraceEvent::Run { cycles } => {
                 let mut s = Sim::new(cfg, card.clone(), false);
                 s.greedy(*cycles);
                 card = s.card;
                 now += u64::from(*cycles);
-                steps.push(step.clone());
+                steps.push(WitnessStep::new(step.clone()));
             }
             TraceEvent::Model(e) => {
                 if let Event::Servo { cycles } = e {
@@ -320,7 +365,7 @@ pub fn build(
                 if matches!(e, Event::Command(pmacwd_specs::vocab::command::HostCommand::Reset)) {
                     lowest_min = card.counter_min;
                 }
-                steps.push(step.clone());
+                steps.push(WitnessStep::new(step.clone()));
             }
         }
         last_line = line;
@@ -378,8 +423,9 @@ pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> 
     use super::observe::observation;
     let mut card = Controller::power_on(cfg);
     let mut checked = 0;
+    let nothing = Expect::default();
     for (i, step) in w.steps.iter().enumerate() {
-        let reply = match &step.event {
+        let reply = match step.event() {
             TraceEvent::Model(Event::Background) if !card.background_possible() => {
                 return Err(format!("witness step {}: a background cycle the model cannot complete", i + 1))
             }
@@ -391,17 +437,17 @@ pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> 
                 pmacwd_specs::vocab::event::Reply::None
             }
             TraceEvent::Elapsed { .. } | TraceEvent::Restart => {
-                return Err(format!("witness step {}: `{}` left unresolved", i + 1, step.event))
+                return Err(format!("witness step {}: `{}` left unresolved", i + 1, step.event()))
             }
         };
         let obs = observation(spec, cfg, &card, w.cpu, reply);
-        match crate::runner::compare(spec, &step.expect, &obs) {
+        match crate::runner::compare(spec, step.expect().unwrap_or(&nothing), &obs) {
             Ok(n) => checked += n,
             Err(crate::runner::Mismatch::Field(what, expected, observed)) => {
                 return Err(format!(
                     "witness step {} (`{}`): {what}: expected {expected}, observed {observed}",
                     i + 1,
-                    step.event
+                    step.event()
                 ))
             }
             Err(crate::runner::Mismatch::UnknownBit(_, _, name)) => return Err(format!("unknown status bit `{name}`")),
@@ -465,7 +511,7 @@ pub fn write_trace(
         writeln!(out, "{}", pmacwd_trace::jsonl::header_line_with_card(&trace, card))?;
     }
     for step in &w.steps {
-        let mut step = step.clone();
+        let mut step = step.to_step();
         if let Some(r) = &step.expect.reply {
             if let Ok(StatusReply::Words { x, y }) = reply_text::decode(r) {
                 if r.len() == 12 {
