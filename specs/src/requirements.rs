@@ -11,7 +11,8 @@
 //!       - property: a background cycle reloads the counter from I40   # model property or monitor
 //!       - scenario: a-reset-starts-x25-over-at-the-reset-value       # file stem in scenarios/
 //!       - test: model/tests/semantics.rs::with_i40_zero_each_profile_reloads_its_own_reset_value
-//!     status: data_only        # optional: data_only (only YAML data, no rule reads it) or missing
+//!     status: data_only        # optional: data_only (only YAML data, no rule reads it),
+//!                              # by_definition (its checks hold by construction) or missing
 //!     deviation: {reason: ...} # optional: deliberately not encoded, and why
 //!     note: ...                # optional free text
 //! ```
@@ -20,6 +21,9 @@
 //!
 //! - **checked**: `encoded_by` names at least one property, scenario or test, and neither a
 //!   status nor a deviation is given;
+//! - **by definition**: `status: by_definition`, with the checks that name it and a `note`
+//!   saying why they cannot fail (the model defines the observed value from the state the
+//!   property assumes: the LED, FEFCO/, the relay and the outputs are `tripped` itself);
 //! - **data only**: `status: data_only`, and `encoded_by` names only `spec` keys (at least one);
 //! - **missing**: `status: missing`, and `encoded_by` is empty;
 //! - **deviation**: a `deviation` with its reason, and no status.
@@ -83,12 +87,16 @@ impl<'de> Deserialize<'de> for Reference {
         impl<'de> serde::de::Visitor<'de> for Visitor {
             type Value = Reference;
             fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                f.write_str("a reference: one of `spec: FILE#path`, `property: NAME`, `scenario: STEM`, `test: PATH::fn`")
+                f.write_str(
+                    "a reference: one of `spec: FILE#path`, `property: NAME`, `scenario: STEM`, `test: PATH::fn`",
+                )
             }
             fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Reference, A::Error> {
                 use serde::de::Error as _;
                 let Some(key) = map.next_key::<String>()? else {
-                    return Err(A::Error::custom("an empty reference: give one of `spec`, `property`, `scenario`, `test`"));
+                    return Err(A::Error::custom(
+                        "an empty reference: give one of `spec`, `property`, `scenario`, `test`",
+                    ));
                 };
                 let value: String = map.next_value()?;
                 let r = match key.as_str() {
@@ -145,6 +153,9 @@ impl fmt::Display for Reference {
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum Status {
+    /// Named by properties or scenarios that hold by construction of the model (and the core's
+    /// bridge), so they cannot fail on their own.
+    ByDefinition,
     /// Held as YAML data that no rule of the model or the core reads.
     DataOnly,
     /// Not encoded anywhere yet.
@@ -161,17 +172,20 @@ pub struct Deviation {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Category {
     Checked,
+    ByDefinition,
     DataOnly,
     Missing,
     Deviation,
 }
 
 impl Category {
-    pub const ALL: [Category; 4] = [Category::Checked, Category::DataOnly, Category::Missing, Category::Deviation];
+    pub const ALL: [Category; 5] =
+        [Category::Checked, Category::ByDefinition, Category::DataOnly, Category::Missing, Category::Deviation];
 
     pub fn label(self) -> &'static str {
         match self {
             Category::Checked => "encoded and checked",
+            Category::ByDefinition => "by definition",
             Category::DataOnly => "data only",
             Category::Missing => "missing",
             Category::Deviation => "deviation",
@@ -182,6 +196,7 @@ impl Category {
     pub fn key(self) -> &'static str {
         match self {
             Category::Checked => "checked",
+            Category::ByDefinition => "by_definition",
             Category::DataOnly => "data_only",
             Category::Missing => "missing",
             Category::Deviation => "deviation",
@@ -194,6 +209,7 @@ impl Statement {
     pub fn category(&self) -> Category {
         match (&self.deviation, self.status) {
             (Some(_), _) => Category::Deviation,
+            (None, Some(Status::ByDefinition)) => Category::ByDefinition,
             (None, Some(Status::DataOnly)) => Category::DataOnly,
             (None, Some(Status::Missing)) => Category::Missing,
             (None, None) => Category::Checked,
@@ -244,7 +260,9 @@ impl Requirements {
         for (i, s) in self.statements.iter().enumerate() {
             let at = format!("statements.{i}");
             if !is_identifier(&s.id) {
-                return Err(map.error(&format!("{at}.id"), format!("statement id `{}` is not a snake_case identifier", s.id)));
+                return Err(
+                    map.error(&format!("{at}.id"), format!("statement id `{}` is not a snake_case identifier", s.id))
+                );
             }
             if !ids.insert(s.id.as_str()) {
                 return Err(map.error(&format!("{at}.id"), format!("duplicate statement id `{}`", s.id)));
@@ -268,6 +286,9 @@ impl Requirements {
                 (Some(_), None) => Ok(()),
                 (None, Some(Status::DataOnly)) if s.encoded_by.is_empty() || checks > 0 => Err(
                     "`status: data_only` lists the spec keys that hold the statement, and no property, scenario or test (with one, drop the status)",
+                ),
+                (None, Some(Status::ByDefinition)) if checks == 0 || s.note.is_none() => Err(
+                    "`status: by_definition` names the checks that hold by construction and a `note` saying why",
                 ),
                 (None, Some(Status::Missing)) if !s.encoded_by.is_empty() => {
                     Err("`status: missing` with references: drop the references, or the status")

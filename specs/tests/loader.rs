@@ -260,15 +260,31 @@ fn a_requirement_with_neither_a_check_nor_a_reason_is_refused() {
     // A statement that loses its last property, scenario and test must say why (data only,
     // missing, deviation) instead of passing as covered.
     let (r, text) = load_edited("reqnocheck", "requirements.yaml", |t| {
+        t.replacen("      - property: a checksum error stops both checksums\n", "", 1)
+    });
+    expect_error(
+        r,
+        line_of(&text, "id: um217_firmware_mismatch_stops_checksums"),
+        "no property, scenario or test checks this statement",
+    );
+    let (r, text) = load_edited("reqbydef", "requirements.yaml", |t| {
         t.replacen("      - property: a tripped Turbo PMAC2 changes its watchdog relay over\n", "", 1)
     });
-    expect_error(r, line_of(&text, "id: um215_pmac2_relay"), "no property, scenario or test checks this statement");
+    expect_error(r, line_of(&text, "id: um215_pmac2_relay"), "`status: by_definition` names the checks");
     let (r, text) = load_edited("reqdataonly", "requirements.yaml", |t| {
-        t.replacen("    status: data_only\n    encoded_by:\n      - spec: status.yaml#words.X.bits.23\n", "    status: data_only\n", 1)
+        t.replacen(
+            "    status: data_only\n    encoded_by:\n      - spec: status.yaml#words.X.bits.23\n",
+            "    status: data_only\n",
+            1,
+        )
     });
     expect_error(r, line_of(&text, "id: srm289_x23_reserved"), "`status: data_only` lists the spec keys");
     let (r, text) = load_edited("reqtwokeys", "requirements.yaml", |t| {
-        t.replacen("      - property: a tripped card lights the red watchdog LED\n", "      - {property: a tripped card lights the red watchdog LED, scenario: x}\n", 1)
+        t.replacen(
+            "      - property: a tripped card lights the red watchdog LED\n",
+            "      - {property: a tripped card lights the red watchdog LED, scenario: x}\n",
+            1,
+        )
     });
     expect_error(r, line_of(&text, "scenario: x}"), "exactly one of the keys");
     let (r, text) = load_edited("reqsource", "requirements.yaml", |t| {
