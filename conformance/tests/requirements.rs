@@ -204,3 +204,32 @@ fn the_page_scan_reads_ranges_and_skips_the_older_manuals() {
     let pages: Vec<&str> = pages.iter().map(String::as_str).collect();
     assert_eq!(pages, ["SRM p.289", "SRM p.290", "UM p.215", "UM p.236"]);
 }
+
+#[test]
+fn every_property_citing_a_quoted_page_is_named_by_a_statement_of_that_page() {
+    // A property or monitor that cites a page of the matrix encodes one of its statements, so
+    // the matrix must say which. Those citing only other sources (SRM p.290, UM p.240,
+    // GlobalStatus.py) wait for their pages to be quoted.
+    let m = matrix();
+    let quoted: BTreeSet<String> = m.statements.iter().flat_map(|s| s.pages()).collect();
+    let named = |name: &str, page: &str| {
+        m.statements.iter().any(|s| {
+            s.pages().iter().any(|p| p == page)
+                && s.encoded_by.iter().any(|r| matches!(r, Reference::Property(n) if n == name))
+        })
+    };
+    let all = STATE_PROPERTIES.iter().map(|p| (p.name, p.cite)).chain(MONITORS.iter().map(|p| (p.name, p.cite)));
+    let mut orphans = Vec::new();
+    for (name, cite) in all {
+        let mut pages = BTreeSet::new();
+        cited_pages(cite, &mut pages);
+        if pages.iter().any(|p| quoted.contains(p)) && !pages.iter().any(|p| named(name, p)) {
+            orphans.push(format!("{name} ({cite})"));
+        }
+    }
+    assert!(
+        orphans.is_empty(),
+        "properties citing a quoted page that no statement of it names:\n{}",
+        orphans.join("\n")
+    );
+}
