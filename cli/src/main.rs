@@ -10,6 +10,7 @@ mod margin;
 mod progress;
 mod record;
 mod replay;
+mod requirements;
 mod run;
 mod serve;
 mod timeline;
@@ -262,6 +263,22 @@ enum Command {
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
     },
+    /// Print the requirements matrix: each normative statement of the manual pages, by page,
+    /// with what encodes and checks it, and the coverage figures.
+    ///
+    /// Reads specs/requirements.yaml (docs/specs.md): a statement is encoded and checked (a
+    /// model property, a scenario or a test names it), by definition (its checks hold by
+    /// construction), data only (YAML that no rule reads), missing, or a deviation with its
+    /// reason.
+    #[command(after_help = "Exit codes: 0 printed, 2 unusable input (the spec directory).")]
+    Requirements {
+        /// Output format.
+        #[arg(long, value_name = "FORMAT", default_value = "text", value_parser = ["text", "json"])]
+        format: String,
+        /// Spec directory to use instead of the embedded one.
+        #[arg(long, value_name = "DIR")]
+        specs: Option<PathBuf>,
+    },
     /// Turn a plain host log (commands, replies, X:$0 read alongside) into a trace.
     ///
     /// The log format and how to capture one from a real controller: docs/capturing.md. Writes
@@ -354,6 +371,7 @@ fn main() -> ExitCode {
         Command::Timeline { trace, format, output, profile, specs } => {
             timeline::timeline(timeline::TimelineArgs { trace, format, output, profile, specs })
         }
+        Command::Requirements { format, specs } => requirements::requirements(&format, specs),
         Command::Import { log, out, configuration, yaml } => import::import_log(&log, out, &configuration, yaml),
         Command::Check { specs, profile, configuration, witnesses, threads, no_conformance, format } => {
             check::check(check::CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance, format })

@@ -652,3 +652,48 @@ fn check_run_and_conform_print_one_json_document_that_agrees_with_their_text_and
     assert!(doc["exhaustive"].is_null());
     assert!(doc["coverage"]["events"].as_object().unwrap().values().any(|n| n.as_u64() > Some(0)));
 }
+
+#[test]
+fn requirements_prints_the_matrix_by_page_and_figures_that_add_up() {
+    let out = pmacwd().args(["requirements", "--format", "json"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    let total = v["statements"].as_u64().unwrap();
+    let coverage = v["coverage"].as_object().unwrap();
+    let keys: Vec<&str> = coverage.keys().map(String::as_str).collect();
+    for k in ["checked", "by_definition", "data_only", "missing", "deviation"] {
+        assert!(keys.contains(&k), "{k} in {keys:?}");
+    }
+    assert_eq!(coverage.values().map(|c| c.as_u64().unwrap()).sum::<u64>(), total);
+    let pages = v["pages"].as_array().unwrap();
+    let listed: usize = pages.iter().map(|p| p["statements"].as_array().unwrap().len()).sum();
+    assert_eq!(listed as u64, total);
+    let names: Vec<&str> = pages.iter().map(|p| p["page"].as_str().unwrap()).collect();
+    assert_eq!(names, ["UM p.215", "SRM p.57", "UM p.217", "SRM p.289", "UM p.236"]);
+
+    let out = pmacwd().arg("requirements").output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{text}");
+    assert!(
+        text.starts_with(&format!("Requirements matrix (specs/requirements.yaml): {total} statements\n")),
+        "{text}"
+    );
+    assert!(
+        text.contains("\nUM p.215: 27 statements (") && text.contains("  [checked] um215_two_conditions\n"),
+        "{text}"
+    );
+    assert!(text.contains("      property: a trip is undone only by INIT/ or a power cycle\n"), "{text}");
+}
+
+#[test]
+fn requirements_with_a_broken_matrix_exits_2_naming_file_line_and_column() {
+    let dir = broken_specs("req-broken", "requirements.yaml", |t| {
+        t.replacen("spec: watchdog.yaml#rules.two_conditions", "spec: watchdog.yaml#rules.nothing", 1)
+    });
+    let edited = std::fs::read_to_string(dir.join("requirements.yaml")).unwrap();
+    let out = pmacwd().args(["requirements", "--specs"]).arg(&dir).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    let at = format!("requirements.yaml:{}:", line_of(&edited, "rules.nothing"));
+    assert!(stderr.contains(&at) && stderr.contains("is not a key of watchdog.yaml"), "{stderr}");
+}

@@ -84,6 +84,7 @@ const HELP: &[Case] = &[
     case("run_dash_dash_help_describes_trace_runs_and_their_flags", &["run", "--help"]),
     case("help_conform_describes_the_conformance_suite_and_its_flags", &["help", "conform"]),
     case("conform_dash_dash_help_describes_the_conformance_suite_and_its_flags", &["conform", "--help"]),
+    case("help_requirements_describes_the_matrix_and_its_figures", &["help", "requirements"]),
     case("help_decode_describes_reply_decoding", &["help", "decode"]),
     case("decode_dash_dash_help_describes_reply_decoding", &["decode", "--help"]),
     case("help_replay_describes_capture_replay_and_its_formats", &["help", "replay"]),

@@ -1,7 +1,7 @@
 //! The strict spec loader on one mutated file at a time.
 //!
-//! Input: the first byte chooses which of the 8 spec files is replaced (byte % 8, in load
-//! order); the rest is that file's text. The other 7 are the shipped `specs/*.yaml`, so every
+//! Input: the first byte chooses which of the 9 spec files is replaced (byte % 9, in load
+//! order); the rest is that file's text. The other 8 are the shipped `specs/*.yaml`, so every
 //! check of the loader, cross-file ones included, is reachable.
 //!
 //! Invariants:
@@ -19,7 +19,7 @@ use pmacwd_specs::Spec;
 use std::path::Path;
 
 /// The spec files in load order (as `Spec::file_names()` lists them), shipped texts.
-const SHIPPED: [(&str, &str); 8] = [
+const SHIPPED: [(&str, &str); 9] = [
     ("variables.yaml", include_str!("../../specs/variables.yaml")),
     ("watchdog.yaml", include_str!("../../specs/watchdog.yaml")),
     ("status.yaml", include_str!("../../specs/status.yaml")),
@@ -28,6 +28,7 @@ const SHIPPED: [(&str, &str); 8] = [
     ("scheduling.yaml", include_str!("../../specs/scheduling.yaml")),
     ("profiles.yaml", include_str!("../../specs/profiles.yaml")),
     ("check.yaml", include_str!("../../specs/check.yaml")),
+    ("requirements.yaml", include_str!("../../specs/requirements.yaml")),
 ];
 
 fuzz_target!(|data: &[u8]| {
@@ -36,7 +37,7 @@ fuzz_target!(|data: &[u8]| {
     let mut files = SHIPPED;
     files[usize::from(which) % files.len()].1 = text;
     let dir = Path::new("specs");
-    // The error names one of the 8 files and points inside that file's text.
+    // The error names one of the 9 files and points inside that file's text.
     let check = |e: &pmacwd_specs::SpecError| {
         let Some(&(_, t)) = files.iter().find(|(n, _)| e.file == dir.join(n)) else {
             panic!("an error that names no spec file: {e:?}");

@@ -14,6 +14,7 @@
 //! | `scheduling.yaml` | [`facts::Scheduling`] | servo clock, RTI, PLC 0, background cycle |
 //! | `profiles.yaml` | [`profiles`] | the readings where sources disagree, and the named profiles |
 //! | `check.yaml` | [`check`] | the bounded configurations `pmacwd check` explores |
+//! | `requirements.yaml` | [`requirements`] | the requirements matrix: each normative statement of the manual pages, quoted, and what encodes and checks it |
 //!
 //! Subdirectories (`scenarios/`, `captures/`) belong to the conformance suite and are not read
 //! here; the scenario library is embedded as [`scenarios::SCENARIOS`] so that the command line
@@ -49,6 +50,7 @@ mod error;
 pub mod facts;
 pub mod input;
 pub mod profiles;
+pub mod requirements;
 pub mod scenarios {
     //! The scenario library of `specs/scenarios/`, compiled in (see `build.rs`).
     include!(concat!(env!("OUT_DIR"), "/scenarios.rs"));
@@ -63,7 +65,7 @@ pub use error::{Position, SpecError};
 use std::path::{Path, PathBuf};
 
 /// The spec files, in load order, with their embedded copies.
-const FILES: [(&str, &str); 8] = [
+const FILES: [(&str, &str); 9] = [
     ("variables.yaml", include_str!("../variables.yaml")),
     ("watchdog.yaml", include_str!("../watchdog.yaml")),
     ("status.yaml", include_str!("../status.yaml")),
@@ -72,6 +74,7 @@ const FILES: [(&str, &str); 8] = [
     ("scheduling.yaml", include_str!("../scheduling.yaml")),
     ("profiles.yaml", include_str!("../profiles.yaml")),
     ("check.yaml", include_str!("../check.yaml")),
+    ("requirements.yaml", include_str!("../requirements.yaml")),
 ];
 
 /// A loaded, validated spec directory.
@@ -89,6 +92,8 @@ pub struct Spec {
     pub check: check::Check,
     /// Positions in `check.yaml`, so later checks (host-command syntax) can point into it.
     pub check_map: yaml::SourceMap,
+    /// The requirements matrix; its `spec` references are checked against the other files.
+    pub requirements: requirements::Requirements,
 }
 
 impl Spec {
@@ -159,6 +164,9 @@ impl Spec {
         let (check, check_map) = load::<check::Check>(dir, "check.yaml", &read)?;
         let names: Vec<String> = profiles.profiles.keys().cloned().collect();
         check.validate(&check_map, &names, &scheduling.servo_clock_hz_range)?;
+        let (requirements, m) = load::<requirements::Requirements>(dir, "requirements.yaml", &read)?;
+        let others: Vec<&str> = FILES.iter().map(|(n, _)| *n).filter(|n| *n != "requirements.yaml").collect();
+        requirements.validate(&m, &others, &read)?;
         Ok(Spec {
             dir: dir.to_path_buf(),
             variables,
@@ -170,6 +178,7 @@ impl Spec {
             profiles,
             check,
             check_map,
+            requirements,
         })
     }
 

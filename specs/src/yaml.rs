@@ -263,6 +263,42 @@ pub fn parse<T: DeserializeOwned>(file: &Path, text: &str) -> Result<(T, SourceM
     Ok((value, map))
 }
 
+/// Whether `path` (dotted) names a node of the YAML `text`. In a mapping a component is a key
+/// (a key containing dots is found by its whole name); in a sequence it is an item whose `id`,
+/// `name` or `command` is the component, or the item's index. False when `text` does not parse.
+pub fn has_path(text: &str, path: &str) -> bool {
+    fn scalar(v: &serde_yaml::Value) -> Option<String> {
+        match v {
+            serde_yaml::Value::String(s) => Some(s.clone()),
+            serde_yaml::Value::Number(n) => Some(n.to_string()),
+            serde_yaml::Value::Bool(b) => Some(b.to_string()),
+            _ => None,
+        }
+    }
+    fn walk(v: &serde_yaml::Value, parts: &[&str]) -> bool {
+        if parts.is_empty() {
+            return true;
+        }
+        match v {
+            serde_yaml::Value::Mapping(m) => (1..=parts.len()).rev().any(|j| {
+                let key = parts[..j].join(".");
+                m.iter().any(|(k, child)| scalar(k).as_deref() == Some(key.as_str()) && walk(child, &parts[j..]))
+            }),
+            serde_yaml::Value::Sequence(items) => items.iter().enumerate().any(|(i, item)| {
+                let named =
+                    ["id", "name", "command"].iter().any(|f| item.get(f).and_then(scalar).as_deref() == Some(parts[0]));
+                (named || i.to_string() == parts[0]) && walk(item, &parts[1..])
+            }),
+            _ => false,
+        }
+    }
+    if path.is_empty() {
+        return false;
+    }
+    let Ok(value) = serde_yaml::from_str::<serde_yaml::Value>(text) else { return false };
+    walk(&value, &path.split('.').collect::<Vec<_>>())
+}
+
 /// serde_yaml appends " at line L column C" to its messages; we print the position up front.
 fn strip_location(e: &serde_yaml::Error) -> String {
     let text = e.to_string();
@@ -275,6 +311,18 @@ fn strip_location(e: &serde_yaml::Error) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn has_path_finds_keys_list_items_by_id_and_keys_with_dots() {
+        let text = "rules:\n  - id: a\n    x: 1\nbits:\n  22: {name: b}\nv:\n  1.947: {a: 1}\n";
+        for p in ["rules", "rules.a", "rules.a.x", "rules.0", "bits.22", "bits.22.name", "v.1.947.a"] {
+            assert!(has_path(text, p), "{p}");
+        }
+        for p in ["", "rule", "rules.b", "rules.a.y", "bits.21", "v.1", "bits.22.name.c"] {
+            assert!(!has_path(text, p), "{p}");
+        }
+        assert!(!has_path("a: [", "a"));
+    }
 
     #[test]
     fn source_map_points_at_keys_and_items_with_one_based_positions() {

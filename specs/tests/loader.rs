@@ -266,3 +266,53 @@ fn an_approximate_hardware_figure_needs_a_band_that_holds_its_stated_value() {
     let (r, text) = load_edited("badband", "watchdog.yaml", |t| t.replacen("min: 20\n", "min: 26\n", 1));
     expect_error(r, line_of(&text, "min: 26") - 1, "must be positive and hold the stated value 25");
 }
+
+#[test]
+fn a_requirement_whose_spec_key_does_not_exist_is_refused_where_the_reference_is_written() {
+    let (r, text) = load_edited("reqkey", "requirements.yaml", |t| {
+        t.replacen("spec: watchdog.yaml#rules.two_conditions", "spec: watchdog.yaml#rules.three_conditions", 1)
+    });
+    expect_error(r, line_of(&text, "rules.three_conditions"), "`rules.three_conditions` is not a key of watchdog.yaml");
+    let (r, text) = load_edited("reqfile", "requirements.yaml", |t| {
+        t.replacen("spec: watchdog.yaml#rules.two_conditions", "spec: watchdogs.yaml#rules.two_conditions", 1)
+    });
+    expect_error(r, line_of(&text, "watchdogs.yaml#"), "no spec file `watchdogs.yaml`");
+}
+
+#[test]
+fn a_requirement_with_neither_a_check_nor_a_reason_is_refused() {
+    // A statement that loses its last property, scenario and test must say why (data only,
+    // missing, deviation) instead of passing as covered.
+    let (r, text) = load_edited("reqnocheck", "requirements.yaml", |t| {
+        t.replacen("      - property: a checksum error stops both checksums\n", "", 1)
+    });
+    expect_error(
+        r,
+        line_of(&text, "id: um217_firmware_mismatch_stops_checksums"),
+        "no property, scenario or test checks this statement",
+    );
+    let (r, text) = load_edited("reqbydef", "requirements.yaml", |t| {
+        t.replacen("      - property: a tripped Turbo PMAC2 changes its watchdog relay over\n", "", 1)
+    });
+    expect_error(r, line_of(&text, "id: um215_pmac2_relay"), "`status: by_definition` names the checks");
+    let (r, text) = load_edited("reqdataonly", "requirements.yaml", |t| {
+        t.replacen(
+            "    status: data_only\n    encoded_by:\n      - spec: status.yaml#words.X.bits.23\n",
+            "    status: data_only\n",
+            1,
+        )
+    });
+    expect_error(r, line_of(&text, "id: srm289_x23_reserved"), "`status: data_only` lists the spec keys");
+    let (r, text) = load_edited("reqtwokeys", "requirements.yaml", |t| {
+        t.replacen(
+            "      - property: a tripped card lights the red watchdog LED\n",
+            "      - {property: a tripped card lights the red watchdog LED, scenario: x}\n",
+            1,
+        )
+    });
+    expect_error(r, line_of(&text, "scenario: x}"), "exactly one of the keys");
+    let (r, text) = load_edited("reqsource", "requirements.yaml", |t| {
+        t.replacen("  - id: um215_red_led\n    source: UM p.215\n", "  - id: um215_red_led\n    source: MODEL\n", 1)
+    });
+    expect_error(r, line_of(&text, "source: MODEL"), "a statement's source is a manual page");
+}

@@ -45,7 +45,10 @@ fn choices_of(o: [usize; 7]) -> Choices {
 /// Why a reading cannot be judged by a capture in this configuration, if it cannot.
 pub fn not_exercised(spec: &Spec, configuration: &str, reading: usize) -> Option<&'static str> {
     match READINGS[reading].0 {
-        "encoder_loss_clear" => Some("no rule of the model reads it yet (the encoder-loss PLC is not modelled)"),
+        "encoder_loss_clear" => Some(
+            "replay does not search encoder inputs or motor states yet (the model runs the encoder-loss PLC, but a \
+             capture is judged under both readings together)",
+        ),
         "strobe_hz_min" => {
             let delay = |hz: StrobeHzMin| {
                 let mut c = spec.profiles.default_profile().choices;
