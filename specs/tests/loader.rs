@@ -291,8 +291,13 @@ fn a_requirement_with_neither_a_check_nor_a_reason_is_refused() {
         line_of(&text, "id: um217_firmware_mismatch_stops_checksums"),
         "no property, scenario or test checks this statement",
     );
+    // A statement said to hold by definition must still name the checks that hold so.
     let (r, text) = load_edited("reqbydef", "requirements.yaml", |t| {
-        t.replacen("      - property: a tripped Turbo PMAC2 changes its watchdog relay over\n", "", 1)
+        t.replacen("      - property: a tripped Turbo PMAC2 changes its watchdog relay over\n", "", 1).replacen(
+            "  - id: um215_drop_amplifier_power\n",
+            "    status: by_definition\n  - id: um215_drop_amplifier_power\n",
+            1,
+        )
     });
     expect_error(r, line_of(&text, "id: um215_pmac2_relay"), "`status: by_definition` names the checks");
     let (r, text) = load_edited("reqdataonly", "requirements.yaml", |t| {
