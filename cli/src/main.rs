@@ -158,44 +158,7 @@ enum Command {
     #[command(
         after_help = "Exit codes: 0 measured, 1 the load trips the card under the default profile, 2 unusable arguments."
     )]
-    Margin {
-        /// The check.yaml configuration to start from.
-        #[arg(long, value_name = "NAME", default_value = "i40-zero")]
-        configuration: String,
-        /// Only this profile (default: every profile).
-        #[arg(long, value_name = "NAME")]
-        profile: Option<String>,
-        /// Servo clock in Hz.
-        #[arg(long, value_name = "HZ")]
-        servo_hz: Option<u32>,
-        /// Servo clock as I10 (SRM p.43: 8,388,608,000 / I10 Hz).
-        #[arg(long, value_name = "I10")]
-        i10: Option<i64>,
-        /// I8: the RTI comes every I8 + 1 servo cycles.
-        #[arg(long, value_name = "N")]
-        i8: Option<i64>,
-        /// I40: the watchdog counter's reload (0: 4095 or 4096 by the profile's reading).
-        #[arg(long, value_name = "N")]
-        i40: Option<i64>,
-        /// Motors closed by the servo routines.
-        #[arg(long, value_name = "N")]
-        motors: Option<u8>,
-        /// PLC 0 cost per RTI, in the configuration's CPU units.
-        #[arg(long, value_name = "UNITS")]
-        plc0_units: Option<u16>,
-        /// CPU units one background cycle needs.
-        #[arg(long, value_name = "UNITS")]
-        background_units: Option<u16>,
-        /// Print JSON instead of text.
-        #[arg(long)]
-        json: bool,
-        /// Also draw the margin against PLC 0 load as an SVG plot.
-        #[arg(long, value_name = "FILE")]
-        plot: Option<PathBuf>,
-        /// Spec directory to use instead of the embedded one.
-        #[arg(long, value_name = "DIR")]
-        specs: Option<PathBuf>,
-    },
+    Margin(margin::MarginArgs),
     /// Draw a trace run on the model: Y:$25, X:$25, the strobe, the trip, the background cycles
     /// and every status bit over absolute servo cycles and milliseconds.
     ///
@@ -341,33 +304,7 @@ fn main() -> ExitCode {
         Command::Replay { file, format, specs, configuration, witness } => {
             replay::replay_file(&file, format, specs, configuration, witness)
         }
-        Command::Margin {
-            configuration,
-            profile,
-            servo_hz,
-            i10,
-            i8,
-            i40,
-            motors,
-            plc0_units,
-            background_units,
-            json,
-            plot,
-            specs,
-        } => margin::margin(margin::MarginArgs {
-            configuration,
-            profile,
-            servo_hz,
-            i10,
-            i8,
-            i40,
-            motors,
-            plc0_units,
-            background_units,
-            json,
-            plot,
-            specs,
-        }),
+        Command::Margin(args) => margin::margin(args),
         Command::Timeline { trace, format, output, profile, specs } => {
             timeline::timeline(timeline::TimelineArgs { trace, format, output, profile, specs })
         }

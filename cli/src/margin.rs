@@ -10,18 +10,44 @@ use pmacwd_specs::profiles::Profile;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// The options of `pmacwd margin` (its help text is main.rs's, on the variant).
+#[derive(clap::Args, Debug)]
 pub struct MarginArgs {
+    /// The check.yaml configuration to start from.
+    #[arg(long, value_name = "NAME", default_value = "i40-zero")]
     pub configuration: String,
+    /// Only this profile (default: every profile).
+    #[arg(long, value_name = "NAME")]
     pub profile: Option<String>,
+    /// Servo clock in Hz.
+    #[arg(long, value_name = "HZ")]
     pub servo_hz: Option<u32>,
+    /// Servo clock as I10 (SRM p.43: 8,388,608,000 / I10 Hz).
+    #[arg(long, value_name = "I10")]
     pub i10: Option<i64>,
+    /// I8: the RTI comes every I8 + 1 servo cycles.
+    #[arg(long, value_name = "N")]
     pub i8: Option<i64>,
+    /// I40: the watchdog counter's reload (0: 4095 or 4096 by the profile's reading).
+    #[arg(long, value_name = "N")]
     pub i40: Option<i64>,
+    /// Motors closed by the servo routines.
+    #[arg(long, value_name = "N")]
     pub motors: Option<u8>,
+    /// PLC 0 cost per RTI, in the configuration's CPU units.
+    #[arg(long, value_name = "UNITS")]
     pub plc0_units: Option<u16>,
+    /// CPU units one background cycle needs.
+    #[arg(long, value_name = "UNITS")]
     pub background_units: Option<u16>,
+    /// Print JSON instead of text.
+    #[arg(long)]
     pub json: bool,
+    /// Also draw the margin against PLC 0 load as an SVG plot.
+    #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
+    /// Spec directory to use instead of the embedded one.
+    #[arg(long, value_name = "DIR")]
     pub specs: Option<PathBuf>,
 }
 

@@ -68,7 +68,8 @@ pub fn run_observed(
     WatchdogModel::new(cfg).check_observed(threads, progress)
 }
 
-fn thousands(n: usize) -> String {
+/// `1234567` as `1,234,567`.
+pub fn thousands(n: u64) -> String {
     let s = n.to_string();
     let mut out = String::new();
     for (i, c) in s.chars().enumerate() {
@@ -89,17 +90,17 @@ pub fn format_report(r: &RunReport, default_profile: &str, witnesses: bool) -> S
     let _ = writeln!(
         s,
         "   {} states, depth {}, {:.2} s, {} states/s",
-        thousands(r.states),
+        thousands(r.states as u64),
         r.depth,
         r.duration.as_secs_f64(),
-        thousands(r.states_per_second() as usize)
+        thousands(r.states_per_second() as u64)
     );
     if !r.complete {
         let _ = writeln!(
             s,
             "   INCOMPLETE: the checker stopped at {} states (its bound); no verdict below is earned. \
              Make the configuration smaller (I40, hardware delay, single_servo_cycles) to check it exhaustively.",
-            thousands(pmacwd_model::checker::STATES_MAX)
+            thousands(pmacwd_model::checker::STATES_MAX as u64)
         );
     }
     for p in &r.properties {
