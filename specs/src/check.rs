@@ -12,6 +12,10 @@ use crate::SpecError;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
+/// The most motors a configuration may have (the model's default configuration has 8; an
+/// observation shows this many, `vocab::observation::MOTORS_SHOWN`).
+pub const MOTORS_MAX: usize = 8;
+
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Check {
@@ -240,7 +244,7 @@ impl Check {
                 return Err(map.error(&format!("{p}.supply_millivolts"), "at least one supply voltage is needed"));
             }
             let m = &c.motion;
-            if !(1..=crate::vocab::observation::MOTORS_SHOWN as u8).contains(&m.motors) {
+            if !(1..=MOTORS_MAX as u8).contains(&m.motors) {
                 return Err(map.error(&format!("{p}.motion.motors"), "the model has 1 to 8 motors"));
             }
             if !m.coordinate_systems.is_empty() && m.coordinate_systems.len() != usize::from(m.motors) {

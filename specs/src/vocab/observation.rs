@@ -26,8 +26,8 @@ pub struct Observation {
     pub motion: Option<MotionView>,
 }
 
-/// The most motors an observation shows (the model's default configuration has 8).
-pub const MOTORS_SHOWN: usize = 8;
+/// The most motors an observation shows: as many as a configuration may have.
+pub const MOTORS_SHOWN: usize = crate::check::MOTORS_MAX;
 
 /// The motors as an instrument sees them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
