@@ -10,15 +10,35 @@ use std::cell::RefCell;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+/// The options of `pmacwd conform` (its help text is main.rs's, on the variant).
+#[derive(clap::Args)]
 pub struct ConformArgs {
+    /// Generated traces to run.
+    #[arg(long, value_name = "N", default_value_t = 10_000)]
     pub cases: u32,
+    /// Longest generated trace, in steps.
+    #[arg(long, value_name = "N", default_value_t = 1_000)]
     pub max_len: usize,
+    /// Seed of the generator (default: fresh; printed either way, so a run can be repeated).
+    #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
+    /// Scenario directory (default: specs/scenarios, or DIR/scenarios with --specs DIR).
+    #[arg(long, value_name = "DIR")]
     pub scenarios: Option<PathBuf>,
+    /// Spec directory to use instead of the embedded one.
+    #[arg(long, value_name = "DIR")]
     pub specs: Option<PathBuf>,
+    /// Skip the exhaustive product exploration.
+    #[arg(long)]
     pub no_exhaustive: bool,
+    /// Where a shrunk divergence is saved as a trace.
+    #[arg(long, value_name = "DIR", default_value = "conformance/regressions")]
     pub save_regressions: PathBuf,
+    /// Checker threads for the exhaustive part (default: the machine's cores).
+    #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
+    /// Output format: text, or one JSON document (docs/commands.md gives its schema).
+    #[arg(long, value_enum, default_value_t = Format::Text)]
     pub format: Format,
 }
 

@@ -197,35 +197,7 @@ enum Command {
     /// shrunk, printed and saved as a regression trace. Exit 0 no divergence, 1 a divergence,
     /// 2 unusable input.
     #[command(after_help = "Exit codes: 0 no divergence, 1 a divergence (shrunk and saved), 2 unusable input.")]
-    Conform {
-        /// Generated traces to run.
-        #[arg(long, value_name = "N", default_value_t = 10_000)]
-        cases: u32,
-        /// Longest generated trace, in steps.
-        #[arg(long, value_name = "N", default_value_t = 1_000)]
-        max_len: usize,
-        /// Seed of the generator (default: fresh; printed either way, so a run can be repeated).
-        #[arg(long, value_name = "N")]
-        seed: Option<u64>,
-        /// Scenario directory (default: specs/scenarios, or DIR/scenarios with --specs DIR).
-        #[arg(long, value_name = "DIR")]
-        scenarios: Option<PathBuf>,
-        /// Spec directory to use instead of the embedded one.
-        #[arg(long, value_name = "DIR")]
-        specs: Option<PathBuf>,
-        /// Skip the exhaustive product exploration.
-        #[arg(long)]
-        no_exhaustive: bool,
-        /// Where a shrunk divergence is saved as a trace.
-        #[arg(long, value_name = "DIR", default_value = "conformance/regressions")]
-        save_regressions: PathBuf,
-        /// Checker threads for the exhaustive part (default: the machine's cores).
-        #[arg(long, value_name = "N")]
-        threads: Option<usize>,
-        /// Output format: text, or one JSON document (docs/commands.md gives its schema).
-        #[arg(long, value_enum, default_value_t = Format::Text)]
-        format: Format,
-    },
+    Conform(conform::ConformArgs),
     /// Print the requirements matrix: each normative statement of the manual pages, by page,
     /// with what encodes and checks it, and the coverage figures.
     ///
@@ -276,27 +248,7 @@ fn main() -> ExitCode {
         return common::unusable(e);
     }
     match cli.command {
-        Command::Conform {
-            cases,
-            max_len,
-            seed,
-            scenarios,
-            specs,
-            no_exhaustive,
-            save_regressions,
-            threads,
-            format,
-        } => conform::conform(conform::ConformArgs {
-            cases,
-            max_len,
-            seed,
-            scenarios,
-            specs,
-            no_exhaustive,
-            save_regressions,
-            threads,
-            format,
-        }),
+        Command::Conform(args) => conform::conform(args),
         Command::Run { paths, specs, profile, format } => run::run_traces(paths, specs, profile, format),
         Command::Serve(args) => serve::serve(args),
         Command::Record(args) => record::record(args),
