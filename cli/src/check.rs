@@ -7,6 +7,7 @@ use crate::conform::scenarios_on_core;
 use crate::progress::{thousands, Progress};
 use crate::replay::Format;
 use pmacwd_conformance::check::{format_report, planned_runs, report_json, run_observed, verdict, Selection};
+use pmacwd_conformance::path_trace::{paths_to_save, Outcome, SavedPath};
 use pmacwd_model::checker::RunReport;
 use pmacwd_specs::Spec;
 use std::cell::RefCell;
@@ -19,13 +20,15 @@ pub struct CheckArgs {
     pub profile: Option<String>,
     pub configuration: Option<String>,
     pub witnesses: bool,
+    /// Where to write the paths as traces (`--save`).
+    pub save: Option<PathBuf>,
     pub threads: Option<usize>,
     pub no_conformance: bool,
     pub format: Format,
 }
 
 pub fn check(a: CheckArgs) -> ExitCode {
-    let CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance, format } = a;
+    let CheckArgs { specs, profile, configuration, witnesses, save, threads, no_conformance, format } = a;
     let text = matches!(format, Format::Text);
     let spec = match load_spec(&specs) {
         Ok(s) => s,
@@ -46,6 +49,12 @@ pub fn check(a: CheckArgs) -> ExitCode {
         Ok(t) => t,
         Err(code) => return code,
     };
+    if let Some(dir) = &save {
+        if let Err(e) = std::fs::create_dir_all(dir) {
+            eprintln!("pmacwd: --save {}: {e}", dir.display());
+            return ExitCode::from(2);
+        }
+    }
     let default_profile = spec.profiles.default_profile().name;
     if text {
         println!(
@@ -56,6 +65,7 @@ pub fn check(a: CheckArgs) -> ExitCode {
         );
     }
     let mut reports: Vec<RunReport> = Vec::new();
+    let mut saved_json: Vec<serde_json::Value> = Vec::new();
     let mut progress = Progress::start("model check", runs.len() as u64, "runs");
     for (i, cfg) in runs.iter().cloned().enumerate() {
         let name = format!("{} / {}", cfg.configuration, cfg.profile.name);
@@ -66,6 +76,19 @@ pub fn check(a: CheckArgs) -> ExitCode {
         progress.update(done + 1, String::new);
         if text {
             progress.print(&format_report(&report, &default_profile, witnesses));
+        }
+        if let Some(dir) = &save {
+            let paths = paths_to_save(&spec, &runs[i], &report, witnesses, threads);
+            match save_paths(dir, &paths) {
+                Ok(line) if text => progress.print(&line),
+                Ok(_) => {}
+                Err(e) => {
+                    progress.finish();
+                    eprintln!("pmacwd: --save {}: {e}", dir.display());
+                    return ExitCode::from(2);
+                }
+            }
+            saved_json.push(saved_paths_json(&report, &paths));
         }
         reports.push(report);
     }
@@ -119,6 +142,7 @@ pub fn check(a: CheckArgs) -> ExitCode {
                     "failing_runs": failures, "incomplete_runs": incomplete,
                 },
                 "conformance": conformance.as_ref().map(|c| &c.json),
+                "saved": save.as_ref().map(|dir| serde_json::json!({"dir": dir.display().to_string(), "runs": saved_json})),
                 "exit": code,
             });
             println!("{doc}");
@@ -132,6 +156,73 @@ pub fn check(a: CheckArgs) -> ExitCode {
         );
     }
     ExitCode::from(code)
+}
+
+/// Writes the saved paths of one run into `dir`; returns the line the text report prints.
+fn save_paths(dir: &std::path::Path, paths: &[SavedPath]) -> std::io::Result<String> {
+    let (mut direct, mut longest, mut at_power_up) = (0, 0, 0);
+    let mut refused = Vec::new();
+    for p in paths {
+        let trace = match &p.outcome {
+            Outcome::Saved { trace, .. } => {
+                direct += 1;
+                trace
+            }
+            Outcome::SavedLongestDecelerations { trace, .. } => {
+                longest += 1;
+                trace
+            }
+            Outcome::AtPowerUp => {
+                at_power_up += 1;
+                continue;
+            }
+            Outcome::NotReproducible(why) => {
+                refused.push(format!("            not saved: {}: {why}\n", p.property));
+                continue;
+            }
+        };
+        let file = dir.join(&p.file_name);
+        std::fs::write(&file, pmacwd_trace::to_yaml(trace))
+            .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", file.display())))?;
+    }
+    let mut line = format!("   saved {} in {}", plural((direct + longest) as u64, "trace", "traces"), dir.display());
+    let mut notes = Vec::new();
+    if longest > 0 {
+        notes.push(format!("{longest} as the shortest path with the longest decelerations, as `run` takes them"));
+    }
+    if at_power_up > 0 {
+        notes.push(format!("{at_power_up} reached at power-up, no event to save"));
+    }
+    if !refused.is_empty() {
+        notes.push(format!("{} not reproducible as a trace", refused.len()));
+    }
+    if !notes.is_empty() {
+        line.push_str(&format!(" ({})", notes.join("; ")));
+    }
+    line.push('\n');
+    line.extend(refused);
+    Ok(line)
+}
+
+/// The saved paths of one run, for `--format json`.
+fn saved_paths_json(report: &RunReport, paths: &[SavedPath]) -> serde_json::Value {
+    let files: Vec<serde_json::Value> = paths
+        .iter()
+        .map(|p| {
+            let (outcome, steps, why) = match &p.outcome {
+                Outcome::Saved { steps, .. } => ("saved", Some(*steps), None),
+                Outcome::SavedLongestDecelerations { steps, .. } => ("saved_longest_decelerations", Some(*steps), None),
+                Outcome::AtPowerUp => ("at_power_up", None, None),
+                Outcome::NotReproducible(why) => ("not_reproducible", None, Some(why.clone())),
+            };
+            let saved = matches!(outcome, "saved" | "saved_longest_decelerations");
+            serde_json::json!({
+                "property": p.property, "outcome": outcome, "steps": steps, "why": why,
+                "file": saved.then(|| p.file_name.clone()),
+            })
+        })
+        .collect();
+    serde_json::json!({"configuration": report.configuration, "profile": report.profile, "paths": files})
 }
 
 /// The table at the end of the text report: per configuration, its runs, states and how many

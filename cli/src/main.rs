@@ -64,6 +64,12 @@ enum Command {
         /// Also print the shortest witness of every `sometimes` property.
         #[arg(long)]
         witnesses: bool,
+        /// Write every counterexample (and with --witnesses every witness) as a trace file in
+        /// DIR, created if missing: `CONFIGURATION-PROFILE-PROPERTY.yaml`, every observation of
+        /// the path expected at every step, so that `pmacwd run` reproduces it and `pmacwd
+        /// timeline` draws it.
+        #[arg(long, value_name = "DIR")]
+        save: Option<PathBuf>,
         /// Checker threads (default: the machine's cores).
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
@@ -262,8 +268,17 @@ fn main() -> ExitCode {
         }
         Command::Requirements { format, specs } => requirements::requirements(&format, specs),
         Command::Import { log, out, configuration, yaml } => import::import_log(&log, out, &configuration, yaml),
-        Command::Check { specs, profile, configuration, witnesses, threads, no_conformance, format } => {
-            check::check(check::CheckArgs { specs, profile, configuration, witnesses, threads, no_conformance, format })
+        Command::Check { specs, profile, configuration, witnesses, save, threads, no_conformance, format } => {
+            check::check(check::CheckArgs {
+                specs,
+                profile,
+                configuration,
+                witnesses,
+                save,
+                threads,
+                no_conformance,
+                format,
+            })
         }
     }
 }

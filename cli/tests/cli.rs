@@ -45,6 +45,45 @@ fn check_of_the_embedded_specs_passes_and_prints_its_figures() {
     assert!(stdout.contains("every property holds"), "{stdout}");
 }
 
+/// `check --witnesses --save DIR` writes each witness as a trace that `run` passes: what the
+/// checker saw is what a run of the saved file sees, and the files land in DIR, which is
+/// created. A DIR that cannot be a directory is unusable input, refused before checking.
+#[test]
+fn check_saves_witnesses_as_traces_that_run_passes() {
+    let tmp = TempDir::new("saved-witnesses");
+    let dir = tmp.join("witnesses");
+    let out = pmacwd()
+        .args([
+            "check",
+            "--configuration",
+            "lockout",
+            "--profile",
+            "um-215",
+            "--witnesses",
+            "--no-conformance",
+            "--save",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains(&format!("traces in {}", dir.display())), "{stdout}");
+    let saved: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+    assert!(!saved.is_empty(), "{stdout}");
+    assert!(saved.iter().all(|p| p.file_name().unwrap().to_string_lossy().starts_with("lockout-um-215-")), "{saved:?}");
+    let run = pmacwd().arg("run").arg(&dir).output().unwrap();
+    let run_out = String::from_utf8_lossy(&run.stdout);
+    assert_eq!(run.status.code(), Some(0), "{run_out}");
+    assert!(run_out.contains(&format!("{} passed, 0 failed", saved.len())), "{run_out}");
+
+    let file = tmp.join("a-file");
+    std::fs::write(&file, "not a directory").unwrap();
+    let out = pmacwd().args(["check", "--configuration", "lockout", "--save"]).arg(file.join("sub")).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--save"), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
 #[test]
 fn check_of_the_shipped_spec_directory_from_disk_passes() {
     let out = pmacwd().args(["check", "--configuration", "lockout"]).arg("--specs").arg(specs_dir()).output().unwrap();

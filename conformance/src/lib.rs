@@ -16,6 +16,7 @@ pub mod generate;
 pub mod import;
 pub mod lockstep;
 pub mod margin;
+pub mod path_trace;
 pub mod product;
 pub mod replay;
 pub mod runner;

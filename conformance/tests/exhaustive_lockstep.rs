@@ -35,7 +35,12 @@ fn a_divergence_comes_back_as_the_shortest_event_sequence_that_reaches_it() {
     let cfg = pmacwd_specs::config::ModelConfig::from_spec(&spec, "lockout", &spec.profiles.default_profile()).unwrap();
     let product = ProductModel {
         core_cfg: core_config(&cfg),
-        model: WatchdogModel { cfg, canary: Some(Canary::LockoutIgnored), detailed: false },
+        model: WatchdogModel {
+            cfg,
+            canary: Some(Canary::LockoutIgnored),
+            detailed: false,
+            longest_decelerations_only: false,
+        },
     };
     let r = check_product(product, 1);
     let (events, d) = r.divergence.expect("the broken model diverges from the core");

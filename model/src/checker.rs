@@ -39,6 +39,11 @@ pub struct WatchdogModel {
     pub canary: Option<Canary>,
     /// Give stateright every `always` property separately (see [`WatchdogModel::check`]).
     pub detailed: bool,
+    /// Offer each motion command with the longest deceleration only, as a trace's deterministic
+    /// run takes it (`Controller::apply`), instead of every length: the witnesses found are
+    /// then paths that `pmacwd run` reproduces (`check --save`), at the price of the behaviours
+    /// only a shorter deceleration shows.
+    pub longest_decelerations_only: bool,
 }
 
 /// Deliberate bugs that the checker must catch (the canary tests).
@@ -101,7 +106,7 @@ pub fn signature(cfg: &ModelConfig, c: &Controller) -> impl PartialEq {
 
 impl WatchdogModel {
     pub fn new(cfg: ModelConfig) -> Self {
-        WatchdogModel { cfg, canary: None, detailed: false }
+        WatchdogModel { cfg, canary: None, detailed: false, longest_decelerations_only: false }
     }
 
     /// Advances servo cycle by servo cycle (monitors included) up to the first cycle whose
@@ -247,7 +252,9 @@ impl Model for WatchdogModel {
         for cmd in &cfg.commands {
             let event = Event::Command(cmd.clone());
             match cmd {
-                pmacwd_specs::vocab::HostCommand::Motion(_) if running && cfg.motion.decel_cycles_max > 1 => {
+                pmacwd_specs::vocab::HostCommand::Motion(_)
+                    if running && cfg.motion.decel_cycles_max > 1 && !self.longest_decelerations_only =>
+                {
                     for decel in 1..=cfg.motion.decel_cycles_max {
                         actions.push(Action::Decelerating(event.clone(), decel));
                     }
@@ -594,7 +601,8 @@ impl WatchdogModel {
         if self.detailed {
             return self.check_detailed(threads, states_max, progress);
         }
-        let (cfg, canary) = (self.cfg.clone(), self.canary);
+        let (cfg, canary, longest_decelerations_only) =
+            (self.cfg.clone(), self.canary, self.longest_decelerations_only);
         let start = Instant::now();
         let spawned = self.checker().threads(threads).target_state_count(states_max).spawn_bfs();
         let checker = join_observed(spawned, progress);
@@ -603,8 +611,8 @@ impl WatchdogModel {
         if discoveries.contains_key(PROPERTY_IDS[0]) || discoveries.contains_key(PROPERTY_IDS[1]) {
             // Some `always` property fails: check each one on its own, for its verdict and its own
             // shortest counterexample.
-            let mut report =
-                WatchdogModel { cfg, canary, detailed: true }.check_detailed(threads, states_max, progress);
+            let mut report = WatchdogModel { cfg, canary, detailed: true, longest_decelerations_only }
+                .check_detailed(threads, states_max, progress);
             report.duration += duration;
             return report;
         }
