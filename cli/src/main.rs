@@ -4,6 +4,7 @@
 mod check;
 mod common;
 mod conform;
+mod control;
 mod decode;
 mod import;
 mod margin;
@@ -38,6 +39,22 @@ enum Command {
     /// Load and faults come through the control interface (docs/emulator.md).
     #[command(after_help = "Exit codes: 0 stopped normally, 2 unusable arguments or a port that cannot be bound.")]
     Serve(serve::ServeArgs),
+    /// Send commands to the control port of `pmacwd serve` (or of `pmacwd record
+    /// --control-listen`): load, supply, INIT/, power, faults, virtual time, state
+    /// (docs/emulator.md). One command per argument, or, with none, one per line from standard
+    /// input (with a prompt on a terminal). Prints each reply line as it arrives.
+    #[command(
+        after_help = "Examples:\n  pmacwd control state\n  pmacwd control 'supply 4500' state init\n  printf 'starve\\nstep 4000\\nstate\\n' | pmacwd control\n\nExit codes: 0 every command answered ok, 1 a command answered with an error, 2 no control port at the address or the connection failed."
+    )]
+    Control {
+        /// Commands, one per argument (`step 1000`, quoted when it has spaces); none: read them
+        /// from standard input, one per line (`#` comments and blank lines skipped).
+        #[arg(value_name = "COMMAND")]
+        commands: Vec<String>,
+        /// The control port, HOST:PORT (`pmacwd serve --control`).
+        #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:1026", value_parser = common::listen_address)]
+        address: std::net::SocketAddr,
+    },
     /// Transparent proxy between a host program and a card that writes every request and reply,
     /// with timing, as a capture for `pmacwd replay` (docs/emulator.md).
     #[command(
@@ -257,6 +274,7 @@ fn main() -> ExitCode {
         Command::Conform(args) => conform::conform(args),
         Command::Run { paths, specs, profile, format } => run::run_traces(paths, specs, profile, format),
         Command::Serve(args) => serve::serve(args),
+        Command::Control { commands, address } => control::control(control::ControlArgs { address, commands }),
         Command::Record(args) => record::record(args),
         Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
         Command::Replay { file, format, specs, configuration, witness } => {

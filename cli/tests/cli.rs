@@ -736,3 +736,51 @@ fn requirements_with_a_broken_matrix_exits_2_naming_file_line_and_column() {
     let at = format!("requirements.yaml:{}:", line_of(&edited, "rules.nothing"));
     assert!(stderr.contains(&at) && stderr.contains("is not a key of watchdog.yaml"), "{stderr}");
 }
+
+/// `pmacwd control` is the test bench's hand on a running emulator without `nc`: commands as
+/// arguments, or as lines on standard input (comments skipped), each reply printed; exit 1 when
+/// the emulator refused a command, 2 when there is no control port to talk to. The supply dip
+/// trips the card (UM p.215), which `state` then shows.
+#[test]
+fn control_sends_commands_from_arguments_or_stdin_and_exits_by_the_replies() {
+    use std::io::{BufRead, Write};
+    let mut serve = pmacwd()
+        .args(["serve", "--listen", "127.0.0.1:0", "--control", "127.0.0.1:0", "--virtual-time"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufReader::new(serve.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
+    // "pmacwd serve: Turbo PMAC emulator on 127.0.0.1:PORT (control on 127.0.0.1:PORT), ..."
+    let control = first.split("control on ").nth(1).and_then(|r| r.split(')').next()).expect("the control address");
+
+    let out = pmacwd().args(["control", "--address", control, "state", "supply 4500", "state"]).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert_eq!(lines.len(), 3, "one reply per command: {stdout}");
+    assert!(lines[0].starts_with("ok tripped=false"), "{stdout}");
+    assert!(lines[2].starts_with("ok tripped=true"), "{stdout}");
+
+    let mut piped = pmacwd()
+        .args(["control", "--address", control])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    piped.stdin.take().unwrap().write_all(b"# set the bench up\nsupply 5000\n\nno_such_command\ninit\n").unwrap();
+    let out = piped.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "an error reply exits 1: {stdout}");
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert_eq!(lines.len(), 3, "comments and blank lines are not sent: {stdout}");
+    assert!(lines[1].starts_with("error: unknown command `no_such_command`"), "{stdout}");
+    assert!(lines[2].starts_with("ok "), "the commands after an error still run: {stdout}");
+
+    serve.kill().unwrap();
+    serve.wait().unwrap();
+    let out = pmacwd().args(["control", "--address", control, "state"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2), "nothing listens any more");
+    assert!(String::from_utf8_lossy(&out.stderr).contains(&format!("control port {control}")));
+}
