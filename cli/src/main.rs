@@ -177,9 +177,11 @@ enum Command {
     /// the longest run the load makes (motors, PLC 0 and background in CPU units), the margin
     /// between them in servo cycles and ms (also with the shortest hardware delay the strobe
     /// minimum's band admits), and whether PLC 0 overruns the RTI or starves the background.
-    /// --plot FILE.svg draws the margin against PLC 0 load (docs/commands.md).
+    /// --plot FILE.svg draws the margin against PLC 0 load (docs/commands.md). With --x25 (and
+    /// --y25) read from a card, also what those readings prove: the longest run without a
+    /// background cycle since reset, and the servo cycles that were left to a trip then.
     #[command(
-        after_help = "Exit codes: 0 measured, 1 the load trips the card under the default profile, 2 unusable arguments."
+        after_help = "Exit codes: 0 measured, 1 the load trips the card under the default profile or no profile's card can show the readings, 2 unusable arguments."
     )]
     Margin(margin::MarginArgs),
     /// Draw a trace run on the model: Y:$25, X:$25, the strobe, the trip, the background cycles

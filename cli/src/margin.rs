@@ -3,7 +3,7 @@
 //! against PLC 0 load.
 
 use crate::common::load_spec;
-use pmacwd_conformance::margin::{self, Margin};
+use pmacwd_conformance::margin::{self, Margin, ReadingMargin};
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::{servo_hz_of_i10, CardConfig, ModelConfig};
 use pmacwd_specs::profiles::Profile;
@@ -40,6 +40,15 @@ pub struct MarginArgs {
     /// CPU units one background cycle needs.
     #[arg(long, value_name = "UNITS")]
     pub background_units: Option<u16>,
+    /// A measured X:$25 (`RHX:$25`: the lowest watchdog counter value since reset, SRM p.57):
+    /// also say, per profile, the longest run without a background cycle it proves and how many
+    /// servo cycles were left to a trip at that point.
+    #[arg(long, value_name = "VALUE", allow_negative_numbers = true, value_parser = clap::value_parser!(i32).range(-8_388_608..=8_388_607))]
+    pub x25: Option<i32>,
+    /// A measured Y:$25 (`RHY:$25`: the counter now), with --x25: also say how long ago the last
+    /// background cycle was.
+    #[arg(long, value_name = "VALUE", requires = "x25", allow_negative_numbers = true, value_parser = clap::value_parser!(i32).range(-8_388_608..=8_388_607))]
+    pub y25: Option<i32>,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -60,6 +69,8 @@ struct Row {
     /// The same load with the shortest hardware delay the band admits (UM p.215 gives the
     /// strobe minimum only approximately; watchdog.yaml).
     shortest_delay: Margin,
+    /// What --x25 (and --y25) say under this profile.
+    reading: Option<ReadingMargin>,
 }
 
 fn ms(cfg: &ModelConfig, cycles: f64) -> f64 {
@@ -123,7 +134,8 @@ pub fn margin(a: MarginArgs) -> ExitCode {
         let mut short = cfg.clone();
         short.hardware_delay_cycles = cfg.hardware_delay_band.0;
         let shortest_delay = margin::measure(&short, load);
-        rows.push((load, Row { default: p.name == default, profile: p, cfg, stated, shortest_delay }));
+        let reading = a.x25.map(|x| margin::from_readings(&cfg, load, x, a.y25));
+        rows.push((load, Row { default: p.name == default, profile: p, cfg, stated, shortest_delay, reading }));
     }
     let Some((load, _)) = rows.first().map(|(l, r)| (*l, r)) else {
         eprintln!("pmacwd: no profile to measure");
@@ -141,8 +153,10 @@ pub fn margin(a: MarginArgs) -> ExitCode {
     } else {
         print!("{}", to_text(&a.configuration, load, &rows));
     }
-    // A load that trips the card under the default profile is a finding, not an error.
-    if rows.iter().any(|r| r.default && r.stated.tripped) {
+    // A load that trips the card under the default profile is a finding, not an error; so are
+    // readings no profile's card can show.
+    let readings_impossible = rows.iter().all(|r| matches!(r.reading, Some(ReadingMargin::Impossible(_))));
+    if rows.iter().any(|r| r.default && r.stated.tripped) || readings_impossible {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
@@ -231,6 +245,28 @@ fn to_text(configuration: &str, load: Load, rows: &[Row]) -> String {
                 let _ = writeln!(s, "  margin: NONE: the card trips under this load");
             }
         }
+        match &r.reading {
+            None => {}
+            Some(ReadingMargin::Impossible(why)) => {
+                let _ = writeln!(s, "  readings: IMPOSSIBLE under this profile: {why}");
+            }
+            Some(ReadingMargin::Seen { longest_gap_cycles, spare_cycles, since_last_background_cycles }) => {
+                let _ = writeln!(
+                    s,
+                    "  readings: since reset the card went {longest_gap_cycles} servo cycles ({:.1} ms) without a background \
+                     cycle (X:$25, SRM p.57); at that point {spare_cycles} more ({:.1} ms) were left before a trip",
+                    ms(cfg, *longest_gap_cycles as f64),
+                    ms(cfg, *spare_cycles as f64)
+                );
+                if let Some(n) = since_last_background_cycles {
+                    let _ = writeln!(
+                        s,
+                        "  readings: the last background cycle was {n} servo cycles ({:.1} ms) before Y:$25 was read",
+                        ms(cfg, *n as f64)
+                    );
+                }
+            }
+        }
         let _ = writeln!(
             s,
             "  RTI: {}; servo routines: {}",
@@ -262,6 +298,15 @@ fn to_json(configuration: &str, load: Load, rows: &[Row]) -> String {
                 "margin_cycles": m.margin_cycles(),
                 "margin_ms": m.margin_cycles().map(|c| ms(&r.cfg, c as f64)),
                 "margin_cycles_shortest_delay": r.shortest_delay.margin_cycles(),
+                "readings": r.reading.as_ref().map(|reading| match reading {
+                    ReadingMargin::Impossible(why) => serde_json::json!({"possible": false, "why": why}),
+                    ReadingMargin::Seen { longest_gap_cycles, spare_cycles, since_last_background_cycles } => serde_json::json!({
+                        "possible": true, "longest_gap_cycles": longest_gap_cycles,
+                        "longest_gap_ms": ms(&r.cfg, *longest_gap_cycles as f64),
+                        "spare_cycles": spare_cycles, "spare_ms": ms(&r.cfg, *spare_cycles as f64),
+                        "since_last_background_cycles": since_last_background_cycles,
+                    }),
+                }),
             })
         })
         .collect();

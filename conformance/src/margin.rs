@@ -57,11 +57,11 @@ fn settled(cfg: &ModelConfig, load: Load) -> Controller {
     card
 }
 
-/// Servo cycles from a background cycle until the timer trips with no other background
-/// cycle, at most `max`.
-fn cycles_to_trip(cfg: &ModelConfig, load: Load, max: u64) -> u64 {
+/// A card of `cfg` running `load` just after the first background cycle the load allows (the
+/// counter reloaded there), searched for at most `max` servo cycles; a load that starves the
+/// background from power-on gives the card at power-on, just reloaded too.
+fn after_first_background(cfg: &ModelConfig, load: Load, max: u64) -> Controller {
     let mut card = settled(cfg, load);
-    // The first background cycle the load allows: the counter reloads there.
     let mut n = 0u64;
     while !card.background_possible() && n < max {
         card.servo_cycle(cfg);
@@ -69,10 +69,16 @@ fn cycles_to_trip(cfg: &ModelConfig, load: Load, max: u64) -> u64 {
     }
     if card.background_possible() {
         card.background_cycle(cfg);
+        card
     } else {
-        // A load that starves the background from power-on: count from the power-on reload.
-        card = settled(cfg, load);
+        settled(cfg, load)
     }
+}
+
+/// Servo cycles from a background cycle until the timer trips with no other background
+/// cycle, at most `max`.
+fn cycles_to_trip(cfg: &ModelConfig, load: Load, max: u64) -> u64 {
+    let mut card = after_first_background(cfg, load, max);
     let mut t = 0u64;
     while !card.tripped() && t < max {
         card.servo_cycle(cfg);
@@ -133,4 +139,98 @@ pub fn sweep_plc0(cfg: &ModelConfig, load: Load, plc0_max: u16, steps: u16) -> V
             (units, measure(cfg, Load { plc0_units: units, ..load }))
         })
         .collect()
+}
+
+/// What measured readings of a card say under one profile: X:$25, the lowest value the
+/// counter has reached since reset (SRM p.57, UM p.240), and optionally Y:$25, its value now.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ReadingMargin {
+    /// No card of this reading shows these values; why, with the citation.
+    Impossible(String),
+    /// What the readings prove happened, measured on the model.
+    Seen {
+        /// The longest run of servo cycles without a background cycle since reset: the
+        /// counter came down from its reload to X:$25.
+        longest_gap_cycles: u64,
+        /// From that deepest point, servo cycles with no background cycle until the trip: a
+        /// background cycle within `spare_cycles` cycles of it saved the card.
+        spare_cycles: u64,
+        /// With Y:$25: servo cycles since the last background cycle now.
+        since_last_background_cycles: Option<u64>,
+    },
+}
+
+/// What `x25` (and `y25`) read from a card of `cfg` running `load` say: measured by running the
+/// model from a reload (the load's first background cycle, as [`measure`] does), servo cycle
+/// by servo cycle with no background cycle, down to the counter value read, then on to the
+/// trip. Nothing here is a formula of its own: a reading the model's counter never shows on a
+/// running card is impossible under this profile. MODEL: where the trip is detected in the RTI
+/// (the counter gone below zero, SRM p.57), the spare cycles depend on the RTI's phase at the
+/// reload, which a reading does not give: they are counted at the phase [`measure`] uses, and
+/// another phase moves them by at most I8 cycles.
+pub fn from_readings(cfg: &ModelConfig, load: Load, x25: i32, y25: Option<i32>) -> ReadingMargin {
+    let reload = cfg.reset_value(cfg.saved.i40);
+    let card = after_first_background(cfg, load, 4 * (u64::from(reload.unsigned_abs()) + 64));
+    if card.counter != reload {
+        return ReadingMargin::Impossible(format!(
+            "the load leaves no background cycle to reload the counter from ({} motors, PLC 0 {} units)",
+            load.motors, load.plc0_units
+        ));
+    }
+    if x25 > reload {
+        return ReadingMargin::Impossible(format!(
+            "X:$25 = {x25} is above the counter's reload {reload} ({}), and X:$25 holds the lowest value since reset",
+            reload_reading(cfg)
+        ));
+    }
+    if let Some(y) = y25 {
+        if y < x25 {
+            return ReadingMargin::Impossible(format!(
+                "Y:$25 = {y} is below X:$25 = {x25}, which holds the lowest counter value since reset (SRM p.57, UM p.240)"
+            ));
+        }
+        if y > reload {
+            return ReadingMargin::Impossible(format!(
+                "Y:$25 = {y} is above the counter's reload {reload} ({})",
+                reload_reading(cfg)
+            ));
+        }
+    }
+    let bound = u64::from(reload.unsigned_abs()) + u64::from(cfg.hardware_delay_cycles) + 2;
+    let steps_to = |target: i32| -> Option<(u64, Controller)> {
+        let mut c = card.clone();
+        let mut n = 0u64;
+        // From the reload the counter only falls, so its value is the stretch's lowest.
+        while c.counter > target {
+            if c.tripped() || n > bound {
+                return None;
+            }
+            c.servo_cycle(cfg);
+            n += 1;
+        }
+        (c.counter == target && !c.tripped()).then_some((n, c))
+    };
+    let Some((gap, mut deepest)) = steps_to(x25) else {
+        return ReadingMargin::Impossible(format!(
+            "the counter of a running card never reads {x25}: it stops or the card trips first (UM p.215, SRM p.57)"
+        ));
+    };
+    let mut spare = 0u64;
+    while !deepest.tripped() && spare <= bound {
+        deepest.servo_cycle(cfg);
+        spare += 1;
+    }
+    let since_last_background_cycles = y25.and_then(|y| steps_to(y).map(|(n, _)| n));
+    ReadingMargin::Seen { longest_gap_cycles: gap, spare_cycles: spare.saturating_sub(1), since_last_background_cycles }
+}
+
+/// Which reading of the reload a configuration follows, for the messages.
+fn reload_reading(cfg: &ModelConfig) -> &'static str {
+    if cfg.saved.i40 != 0 {
+        "I40, UM p.215"
+    } else if cfg.reset_value(0) == 4096 {
+        "I40 = 0 reloads 4096 under this reading, UM p.215, UM p.237"
+    } else {
+        "I40 = 0 reloads 4095 under this reading, SRM p.57, UM p.240"
+    }
 }

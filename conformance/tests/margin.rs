@@ -60,3 +60,62 @@ fn a_plc0_that_takes_every_spare_unit_leaves_no_margin() {
     let m = margin::measure(&cfg, starved);
     assert!(m.tripped && m.margin_cycles().is_none() && m.longest_interval_cycles.is_none(), "{m:?}");
 }
+
+/// A card's own X:$25 must tell the same story as its configuration: reading the X:$25 that the
+/// load leaves (the lowest counter value of the steady stretch) gives back the load's longest
+/// interval between background cycles and its margin, under every profile.
+#[test]
+fn reading_the_x25_a_load_leaves_gives_back_that_loads_margin() {
+    let spec = Spec::embedded().unwrap();
+    for p in spec.profiles.all() {
+        let cfg = config(&p.name);
+        let load = cfg.loads[0];
+        let m = margin::measure(&cfg, load);
+        let reading = margin::from_readings(&cfg, load, m.counter_min, None);
+        let margin::ReadingMargin::Seen { longest_gap_cycles, spare_cycles, since_last_background_cycles } = reading
+        else {
+            panic!("{}: {reading:?}", p.name)
+        };
+        assert_eq!(Some(longest_gap_cycles), m.longest_interval_cycles, "{}", p.name);
+        assert_eq!(Some(spare_cycles as i64), m.margin_cycles(), "{}", p.name);
+        assert_eq!(since_last_background_cycles, None);
+    }
+}
+
+/// The readings tell the readings of the manuals apart: X:$25 = 4096 is the reload under
+/// UM p.215's I40 = 0 reading and above it under SRM p.57's 4095; X:$25 = -1 is the counter gone
+/// below zero, which SRM p.57 allows (a card 44 cycles from its trip) and UM p.215's counter,
+/// which stops at zero, never shows.
+#[test]
+fn x25_readings_of_4096_and_minus_1_each_rule_out_one_reading_of_the_reload() {
+    let um = config("um-215");
+    let srm = config("srm-57");
+    let load = um.loads[0];
+    let seen = |r: margin::ReadingMargin| matches!(r, margin::ReadingMargin::Seen { .. });
+    assert!(seen(margin::from_readings(&um, load, 4096, None)));
+    assert!(!seen(margin::from_readings(&srm, load, 4096, None)));
+    assert!(!seen(margin::from_readings(&um, load, -1, None)));
+    let margin::ReadingMargin::Seen { longest_gap_cycles, spare_cycles, .. } =
+        margin::from_readings(&srm, load, -1, None)
+    else {
+        panic!("SRM p.57's counter goes below zero")
+    };
+    assert_eq!(longest_gap_cycles, 4096, "4095 down to -1");
+    let trip = margin::measure(&srm, load).trip_after_cycles;
+    assert_eq!(longest_gap_cycles + spare_cycles + 1, trip, "the reading sits on the way to the trip");
+}
+
+/// Y:$25 is the counter now and X:$25 its lowest value since reset, so Y below X is no card's
+/// reading; Y above X says how long ago the last background cycle was.
+#[test]
+fn y25_below_x25_is_impossible_and_above_it_dates_the_last_background_cycle() {
+    let cfg = config("um-215");
+    let load = cfg.loads[0];
+    assert!(matches!(margin::from_readings(&cfg, load, 4000, Some(3999)), margin::ReadingMargin::Impossible(_)));
+    let margin::ReadingMargin::Seen { since_last_background_cycles, .. } =
+        margin::from_readings(&cfg, load, 4000, Some(4090))
+    else {
+        panic!("possible")
+    };
+    assert_eq!(since_last_background_cycles, Some(6), "4096 down to 4090");
+}
