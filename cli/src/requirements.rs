@@ -2,7 +2,7 @@
 //! and its coverage figures.
 
 use crate::common::load_spec;
-use pmacwd_specs::requirements::{Category, Requirements, Statement};
+use pmacwd_specs::requirements::{one_line, Category, Requirements, Statement};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -34,10 +34,6 @@ fn by_page(m: &Requirements) -> Vec<(String, Vec<&Statement>)> {
     pages
 }
 
-fn one_line(text: &str) -> String {
-    text.split_whitespace().collect::<Vec<_>>().join(" ")
-}
-
 fn figures(statements: &[&Statement]) -> String {
     Category::ALL
         .iter()
@@ -54,10 +50,15 @@ fn to_text(m: &Requirements) -> String {
         let _ = writeln!(out, "  {:<20} {:>4}", c.label(), m.count(c));
     }
     for (page, list) in by_page(m) {
-        let _ = writeln!(out, "\n{page}: {} statements ({})", list.len(), figures(&list));
+        let _ = writeln!(
+            out,
+            "\n{page}: {} ({})",
+            crate::common::plural(list.len() as u64, "statement", "statements"),
+            figures(&list)
+        );
         for s in list {
             let _ = writeln!(out, "  [{}] {}", s.category().key(), s.id);
-            let _ = writeln!(out, "      \"{}\"", one_line(&s.quote));
+            let _ = writeln!(out, "      {}", s.text());
             for r in &s.encoded_by {
                 let _ = writeln!(out, "      {r}");
             }
@@ -83,7 +84,8 @@ fn to_json(m: &Requirements) -> serde_json::Value {
                 .map(|s| {
                     json!({
                         "id": s.id,
-                        "quote": one_line(&s.quote),
+                        "quote": s.quote.as_deref().map(one_line),
+                        "summary": s.summary.as_deref().map(one_line),
                         "category": s.category().key(),
                         "encoded_by": s.encoded_by.iter().map(|r| json!({"kind": r.kind(), "target": r.target()})).collect::<Vec<_>>(),
                         "deviation": s.deviation.as_ref().map(|d| one_line(&d.reason)),

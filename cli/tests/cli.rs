@@ -708,7 +708,15 @@ fn requirements_prints_the_matrix_by_page_and_figures_that_add_up() {
     let listed: usize = pages.iter().map(|p| p["statements"].as_array().unwrap().len()).sum();
     assert_eq!(listed as u64, total);
     let names: Vec<&str> = pages.iter().map(|p| p["page"].as_str().unwrap()).collect();
-    assert_eq!(names, ["UM p.215", "SRM p.57", "UM p.217", "SRM p.289", "UM p.236"]);
+    // The five seed pages first, quoted; then the pages read beyond them, summarized.
+    assert_eq!(names[..5], ["UM p.215", "SRM p.57", "UM p.217", "SRM p.289", "UM p.236"]);
+    for p in pages {
+        for s in p["statements"].as_array().unwrap() {
+            let seed = names[..5].contains(&p["page"].as_str().unwrap());
+            assert_eq!(s["quote"].is_string(), seed, "{s}");
+            assert_eq!(s["summary"].is_string(), !seed, "{s}");
+        }
+    }
 
     let out = pmacwd().arg("requirements").output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout);

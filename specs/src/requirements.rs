@@ -6,6 +6,8 @@
 //!   - id: counter_reset_each_background_cycle      # snake_case, unique
 //!     source: UM p.215                             # one manual page (UM, SRM, PMAC-UM, PMAC-SRM)
 //!     quote: At the end of each background cycle, the CPU resets the counter value ...
+//!     # or, for a page read beyond the seed excerpts, the statement in this project's words:
+//!     # summary: Y:$25 is reloaded at the end of every background cycle ...
 //!     encoded_by:                                  # what encodes it, what checks it
 //!       - spec: watchdog.yaml#rules.counter_reset  # a key of a spec file; list items by id
 //!       - property: a background cycle reloads the counter from I40   # model property or monitor
@@ -47,15 +49,21 @@ pub struct Requirements {
     pub statements: Vec<Statement>,
 }
 
-/// One normative sentence (or clause) of a manual page, quoted.
+/// One normative sentence (or clause) of a manual page, quoted or summarized.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Statement {
     pub id: String,
     /// The page it is on: exactly one manual citation with a page.
     pub source: Cites,
-    /// The manual's words, verbatim (elisions marked `...`).
-    pub quote: String,
+    /// The manual's words, verbatim (elisions marked `...`): for the seed excerpts the project
+    /// was created from.
+    #[serde(default)]
+    pub quote: Option<String>,
+    /// The statement in this project's words, for a page read elsewhere (the manuals' pages
+    /// are cited, not copied): what it requires, precisely enough to check against the page.
+    #[serde(default)]
+    pub summary: Option<String>,
     #[serde(default)]
     pub encoded_by: Vec<Reference>,
     #[serde(default)]
@@ -205,6 +213,16 @@ impl Category {
 }
 
 impl Statement {
+    /// The statement as the matrix prints it: the quote in double quotes, or the summary
+    /// marked as one.
+    pub fn text(&self) -> String {
+        match (&self.quote, &self.summary) {
+            (Some(q), _) => format!("\"{}\"", one_line(q)),
+            (None, Some(s)) => format!("(summary) {}", one_line(s)),
+            (None, None) => String::new(),
+        }
+    }
+
     /// The category; the loader has made sure exactly one applies.
     pub fn category(&self) -> Category {
         match (&self.deviation, self.status) {
@@ -276,8 +294,23 @@ impl Requirements {
                     format!("`{}`: a statement's source is a manual page (UM, SRM, PMAC-UM, PMAC-SRM p.N)", s.source),
                 ));
             }
-            if s.quote.trim().is_empty() {
-                return Err(map.error(&format!("{at}.quote"), "the quote is empty"));
+            match (&s.quote, &s.summary) {
+                (Some(q), None) if q.trim().is_empty() => {
+                    return Err(map.error(&format!("{at}.quote"), "the quote is empty"));
+                }
+                (None, Some(q)) if q.trim().is_empty() => {
+                    return Err(map.error(&format!("{at}.summary"), "the summary is empty"));
+                }
+                (Some(_), None) | (None, Some(_)) => {}
+                (Some(_), Some(_)) => {
+                    return Err(map.error(&at, format!("statement `{}`: give a quote or a summary, not both", s.id)));
+                }
+                (None, None) => {
+                    return Err(map.error(
+                        &at,
+                        format!("statement `{}`: give the `quote` (the manual's words) or a `summary` (in ours)", s.id),
+                    ));
+                }
             }
             let checks = s.encoded_by.iter().filter(|r| r.is_check()).count();
             let shape = match (&s.deviation, s.status) {
@@ -332,4 +365,9 @@ impl Requirements {
         }
         Ok(())
     }
+}
+
+/// `text` on one line: runs of whitespace (YAML's folded line breaks) as one space.
+pub fn one_line(text: &str) -> String {
+    text.split_whitespace().collect::<Vec<_>>().join(" ")
 }

@@ -321,3 +321,26 @@ fn a_requirement_with_neither_a_check_nor_a_reason_is_refused() {
     });
     expect_error(r, line_of(&text, "source: MODEL"), "a statement's source is a manual page");
 }
+
+#[test]
+fn a_requirement_gives_either_the_quote_or_a_summary() {
+    // The seed pages are quoted, the pages read beyond them summarized; a statement with both
+    // would be ambiguous about which words are the manual's, and one with neither states
+    // nothing to check against its page.
+    let (r, text) = load_edited("reqboth", "requirements.yaml", |t| {
+        t.replacen(
+            "    summary: >\n      The data gathering function",
+            "    quote: invented\n    summary: >\n      The data gathering function",
+            1,
+        )
+    });
+    expect_error(r, line_of(&text, "id: um240_data_gathering_times_background"), "give a quote or a summary, not both");
+    let (r, text) = load_edited("reqneither", "requirements.yaml", |t| {
+        t.replacen(
+            "    summary: >\n      The data gathering function is the suggested way to find out how long background cycles\n      take.\n",
+            "",
+            1,
+        )
+    });
+    expect_error(r, line_of(&text, "id: um240_data_gathering_times_background"), "give the `quote`");
+}
