@@ -163,16 +163,6 @@ pub fn margin(a: MarginArgs) -> ExitCode {
     }
 }
 
-fn reload_cite(cfg: &ModelConfig) -> &'static str {
-    if cfg.saved.i40 != 0 {
-        "I40, UM p.215"
-    } else if cfg.reset_value(0) == 4096 {
-        "I40 = 0: 4096, UM p.215, UM p.237"
-    } else {
-        "I40 = 0: 4095, SRM p.57, UM p.240"
-    }
-}
-
 fn to_text(configuration: &str, load: Load, rows: &[Row]) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
@@ -200,7 +190,7 @@ fn to_text(configuration: &str, load: Load, rows: &[Row]) -> String {
              the band of watchdog.yaml)",
             r.profile.name,
             m.reload,
-            reload_cite(cfg),
+            margin::reload_cite(cfg),
             m.hardware_delay_cycles,
             cfg.profile.choices.strobe_hz_min.hz(),
             cfg.hardware_delay_band.0,

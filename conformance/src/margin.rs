@@ -180,7 +180,7 @@ pub fn from_readings(cfg: &ModelConfig, load: Load, x25: i32, y25: Option<i32>) 
     if x25 > reload {
         return ReadingMargin::Impossible(format!(
             "X:$25 = {x25} is above the counter's reload {reload} ({}), and X:$25 holds the lowest value since reset",
-            reload_reading(cfg)
+            reload_cite(cfg)
         ));
     }
     if let Some(y) = y25 {
@@ -192,7 +192,7 @@ pub fn from_readings(cfg: &ModelConfig, load: Load, x25: i32, y25: Option<i32>) 
         if y > reload {
             return ReadingMargin::Impossible(format!(
                 "Y:$25 = {y} is above the counter's reload {reload} ({})",
-                reload_reading(cfg)
+                reload_cite(cfg)
             ));
         }
     }
@@ -224,13 +224,15 @@ pub fn from_readings(cfg: &ModelConfig, load: Load, x25: i32, y25: Option<i32>) 
     ReadingMargin::Seen { longest_gap_cycles: gap, spare_cycles: spare.saturating_sub(1), since_last_background_cycles }
 }
 
-/// Which reading of the reload a configuration follows, for the messages.
-fn reload_reading(cfg: &ModelConfig) -> &'static str {
+/// Which reading of the reload a configuration follows, with its citation: `I40, UM p.215`, or
+/// for I40 = 0 the value of the profile's reading (4096: UM p.215, UM p.237; 4095: SRM p.57,
+/// UM p.240).
+pub fn reload_cite(cfg: &ModelConfig) -> &'static str {
     if cfg.saved.i40 != 0 {
         "I40, UM p.215"
     } else if cfg.reset_value(0) == 4096 {
-        "I40 = 0 reloads 4096 under this reading, UM p.215, UM p.237"
+        "I40 = 0: 4096, UM p.215, UM p.237"
     } else {
-        "I40 = 0 reloads 4095 under this reading, SRM p.57, UM p.240"
+        "I40 = 0: 4095, SRM p.57, UM p.240"
     }
 }
