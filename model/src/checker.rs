@@ -11,7 +11,7 @@
 //! environment has nothing new to react to, so the behaviours are the same; each jump is still
 //! simulated one plain servo cycle at a time.
 
-use crate::controller::Controller;
+use crate::controller::{Controller, CycleReport};
 use crate::monitor::{Check, MONITORS};
 use crate::properties::{Expectation, STATE_PROPERTIES};
 pub use crate::state::State;
@@ -107,17 +107,26 @@ impl WatchdogModel {
     /// Advances servo cycle by servo cycle (monitors included) up to the first cycle whose
     /// [`signature`] differs, or the cycle before it; returns the cycles taken and the state.
     /// Gives up after [`JUMP_CYCLES_MAX`] cycles.
+    ///
+    /// A leap at I40 = 0 runs up to about 4,100 cycles, so it clones the state once and runs
+    /// every cycle on it in place, exactly as [`Self::step`] runs one `Servo { cycles: 1 }`
+    /// event. The monitors compare each cycle with the state it started from, which is kept in
+    /// a second buffer overwritten each cycle (a copy of plain data, no allocation).
     pub fn advance_to_change(&self, state: &State, just_before: bool) -> (u32, State) {
         let start = signature(&self.cfg, &state.controller);
-        let mut current = state.clone();
+        let decel = self.cfg.motion.decel_cycles_max;
+        let one = Event::Servo { cycles: 1 };
+        let mut next = state.clone();
+        let mut before = state.clone();
         for n in 1..=JUMP_CYCLES_MAX {
-            let (_, next) = self.step(&current, &Event::Servo { cycles: 1 });
+            // Here `before` and `next` are equal: the state after n - 1 cycles.
+            self.apply_in_place(&before.controller, &mut next, &one, decel);
             if signature(&self.cfg, &next.controller) != start {
-                return if just_before { (n - 1, current) } else { (n, next) };
+                return if just_before { (n - 1, before) } else { (n, next) };
             }
-            current = next;
+            before.clone_from(&next);
         }
-        (JUMP_CYCLES_MAX, current)
+        (JUMP_CYCLES_MAX, next)
     }
 
     /// The concrete event an action stands for in `state`, and the state after it.
@@ -145,21 +154,42 @@ impl WatchdogModel {
 
     /// [`Self::step`], with any deceleration a stop command starts taking `decel` cycles.
     pub fn step_with_decel(&self, state: &State, event: &Event, decel: u8) -> (Reply, State) {
+        let mut next = state.clone();
+        let reply = self.apply_in_place(&state.controller, &mut next, event, decel);
+        (reply, next)
+    }
+
+    /// The state after `action`: what [`Self::perform`] returns, without building the event.
+    fn successor(&self, state: &State, action: &Action) -> State {
+        let (event, decel) = match action {
+            Action::Do(e) => (e, self.cfg.motion.decel_cycles_max),
+            Action::Decelerating(e, decel) => (e, *decel),
+            Action::ServoToNextChange | Action::ServoToJustBeforeChange => {
+                return self.advance_to_change(state, *action == Action::ServoToJustBeforeChange).1;
+            }
+        };
+        let mut next = state.clone();
+        self.apply_in_place(&state.controller, &mut next, event, decel);
+        next
+    }
+
+    /// Applies `event` to `next`, which the caller made equal to `prev` (with the violations
+    /// so far), running every monitor; returns the reply. In place, so that the checker moves
+    /// no state around per event and a leap clones no state per cycle.
+    fn apply_in_place(&self, prev: &Controller, next: &mut State, event: &Event, decel: u8) -> Reply {
         let cfg = &self.cfg;
-        let prev = &state.controller;
-        let mut next = State { controller: prev.clone(), violations: state.violations };
         let reply = match event {
             Event::Servo { cycles } => {
-                for _ in 0..*cycles {
-                    let before = next.controller.clone();
-                    let report = next.controller.servo_cycle(cfg);
-                    for (k, m) in MONITORS.iter().enumerate() {
-                        if let Check::Cycle(f) = m.check {
-                            if !f(cfg, &before, report, &next.controller) {
-                                next.violations |= 1u64 << k;
-                            }
-                        }
+                // The first cycle starts from `prev`; a later one (a multi-cycle event, which
+                // only replays use) from a copy of the state after the cycle before it.
+                let mut later: Option<Controller> = None;
+                for k in 0..*cycles {
+                    if k > 0 {
+                        later = Some(next.controller.clone());
                     }
+                    let before = later.as_ref().unwrap_or(prev);
+                    let report = next.controller.servo_cycle(cfg);
+                    next.violations |= cycle_violations(cfg, before, report, &next.controller);
                 }
                 Reply::None
             }
@@ -188,15 +218,83 @@ impl WatchdogModel {
             }
             _ => {}
         }
-        for (k, m) in MONITORS.iter().enumerate() {
-            if let Check::Event(f) = m.check {
-                if !f(cfg, prev, event, reply, &next.controller) {
-                    next.violations |= 1u64 << k;
-                }
-            }
-        }
-        (reply, next)
+        next.violations |= event_violations(cfg, prev, event, reply, &next.controller);
+        reply
     }
+}
+
+// ---------------------------------------------------------------------- monitor dispatch
+//
+// The monitors run on every transition the checker generates (about eight per state), so their
+// calling cost counts. A loop over `MONITORS` calls each closure through a fn pointer the
+// compiler cannot see through. Below, each monitor index gets its own call with the index as a
+// constant: the compiler then knows which closure runs and inlines it, and the checks that
+// start by matching the event share that match. Same monitors, same order, same bits.
+
+/// Monitor K's violation bit on `event` (0 when it holds, or monitor K is a cycle monitor or
+/// beyond the table).
+#[inline(always)]
+fn event_bit<const K: usize>(
+    cfg: &ModelConfig,
+    prev: &Controller,
+    event: &Event,
+    reply: Reply,
+    next: &Controller,
+) -> u64 {
+    match MONITORS.get(K) {
+        Some(crate::monitor::Monitor { check: Check::Event(f), .. }) if !f(cfg, prev, event, reply, next) => 1 << K,
+        _ => 0,
+    }
+}
+
+/// Monitor K's violation bit on one servo cycle, as [`event_bit`] for the cycle monitors.
+#[inline(always)]
+fn cycle_bit<const K: usize>(cfg: &ModelConfig, before: &Controller, report: CycleReport, after: &Controller) -> u64 {
+    match MONITORS.get(K) {
+        Some(crate::monitor::Monitor { check: Check::Cycle(f), .. }) if !f(cfg, before, report, after) => 1 << K,
+        _ => 0,
+    }
+}
+
+/// `f::<K> args` for every K of 0..64, joined by `op` (`|` for bits, `&&` for verdicts).
+macro_rules! each_index {
+    ($op:tt $f:ident $args:tt) => {
+        each_index!(@ $op $f $args; 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29
+            30 31 32 33 34 35 36 37 38 39 40 41 42 43 44 45 46 47 48 49 50 51 52 53 54 55 56 57 58 59 60 61 62 63)
+    };
+    (@ | $f:ident $args:tt; $($k:literal)*) => {
+        $($f::<$k> $args)|*
+    };
+    (@ && $f:ident $args:tt; $($k:literal)*) => {
+        $($f::<$k> $args)&&*
+    };
+}
+
+/// The violation bits of every event monitor on one event.
+fn event_violations(cfg: &ModelConfig, prev: &Controller, event: &Event, reply: Reply, next: &Controller) -> u64 {
+    each_index!(| event_bit(cfg, prev, event, reply, next))
+}
+
+/// The violation bits of every cycle monitor on one servo cycle.
+fn cycle_violations(cfg: &ModelConfig, before: &Controller, report: CycleReport, after: &Controller) -> u64 {
+    each_index!(| cycle_bit(cfg, before, report, after))
+}
+
+/// State property K's verdict when it is an `always` property (true otherwise, or beyond the
+/// table), for [`every_always_holds`].
+#[inline(always)]
+fn always_holds<const K: usize>(cfg: &ModelConfig, s: &State) -> bool {
+    match STATE_PROPERTIES.get(K) {
+        Some(p) if p.expectation == Expectation::Always => (p.holds)(cfg, s),
+        _ => true,
+    }
+}
+
+/// Whether every `always` state property holds in `s`: the conjunction stateright checks in
+/// every state (see [`WatchdogModel::properties`]), one inlined call per property as the
+/// monitors above.
+fn every_always_holds(cfg: &ModelConfig, s: &State) -> bool {
+    each_index!(&&always_holds(cfg, s))
 }
 
 impl Model for WatchdogModel {
@@ -274,7 +372,7 @@ impl Model for WatchdogModel {
     }
 
     fn next_state(&self, state: &State, action: Action) -> Option<State> {
-        Some(self.perform(state, &action).2)
+        Some(self.successor(state, &action))
     }
 
     fn format_action(&self, action: &Action) -> String {
@@ -295,12 +393,7 @@ impl Model for WatchdogModel {
         if !self.detailed {
             let mut v: Vec<Property<Self>> = vec![
                 Property::always(PROPERTY_IDS[0], |_, s: &State| s.violations == 0),
-                Property::always(PROPERTY_IDS[1], |m, s: &State| {
-                    STATE_PROPERTIES
-                        .iter()
-                        .filter(|p| p.expectation == Expectation::Always)
-                        .all(|p| (p.holds)(&m.cfg, s))
-                }),
+                Property::always(PROPERTY_IDS[1], |m, s: &State| every_always_holds(&m.cfg, s)),
             ];
             for (k, _) in STATE_PROPERTIES.iter().enumerate().filter(|(_, p)| p.expectation == Expectation::Sometimes) {
                 v.push(Property::sometimes(PROPERTY_IDS[v.len()], STATE_HOLDS[k]));

@@ -190,6 +190,13 @@ where
         global_max_depth: &AtomicUsize,
     ) {
         let properties = model.properties();
+        // PATCH (pmacwd): which properties have a discovery, by index, so that a state costs
+        // no lookup by name in `discoveries` (a SipHash-keyed map) per property. Read once per
+        // block; a discovery another thread makes meanwhile is seen at the next block.
+        let mut discovered: Vec<bool> = properties
+            .iter()
+            .map(|p| discoveries.contains_key(p.name))
+            .collect();
 
         let mut current_max_depth = global_max_depth.load(Ordering::Relaxed);
         let mut actions = Vec::new();
@@ -230,7 +237,7 @@ where
             // Done if discoveries found for all properties.
             let mut is_awaiting_discoveries = false;
             for (i, property) in properties.iter().enumerate() {
-                if discoveries.contains_key(property.name) {
+                if discovered[i] {
                     continue;
                 }
                 match property {
@@ -240,8 +247,10 @@ where
                         ..
                     } => {
                         if !always(model, &state) {
-                            // Races other threads, but that's fine.
-                            discoveries.insert(property.name, state_fp);
+                            // PATCH (pmacwd): the first discovery stays (another thread's
+                            // may have come since this block began).
+                            discoveries.entry(property.name).or_insert(state_fp);
+                            discovered[i] = true;
                         } else {
                             is_awaiting_discoveries = true;
                         }
@@ -252,8 +261,9 @@ where
                         ..
                     } => {
                         if sometimes(model, &state) {
-                            // Races other threads, but that's fine.
-                            discoveries.insert(property.name, state_fp);
+                            // PATCH (pmacwd): as above.
+                            discoveries.entry(property.name).or_insert(state_fp);
+                            discovered[i] = true;
                         } else {
                             is_awaiting_discoveries = true;
                         }
@@ -328,6 +338,7 @@ where
                     if ebits.contains(i) {
                         // Races other threads, but that's fine.
                         discoveries.insert(property.name, state_fp);
+                        discovered[i] = true;
                     }
                 }
             }
