@@ -104,29 +104,42 @@ impl WatchdogModel {
         WatchdogModel { cfg, canary: None, detailed: false }
     }
 
-    /// Advances servo cycle by servo cycle (monitors included) up to the first cycle whose
-    /// [`signature`] differs, or the cycle before it; returns the cycles taken and the state.
-    /// Gives up after [`JUMP_CYCLES_MAX`] cycles.
+    /// Advances servo cycle by servo cycle up to the first cycle whose [`signature`] differs,
+    /// or the cycle before it; returns the cycles taken and the state. Gives up after
+    /// [`JUMP_CYCLES_MAX`] cycles.
     ///
-    /// A leap at I40 = 0 runs up to about 4,100 cycles, so it clones the state once and runs
-    /// every cycle on it in place, exactly as [`Self::step`] runs one `Servo { cycles: 1 }`
-    /// event. The monitors compare each cycle with the state it started from, which is kept in
-    /// a second buffer overwritten each cycle (a copy of plain data, no allocation).
+    /// The leap is the event `Servo { cycles }` (a trace shows it so) and is checked as
+    /// [`Self::step`] checks that event: the cycle monitors on every cycle, the event monitors
+    /// on the whole event. A leap at I40 = 0 runs up to about 4,100 cycles, so the state is
+    /// cloned once per leap and each cycle runs on it in place; the cycle monitors read the
+    /// cycle's starting point from a second controller, overwritten each cycle (a copy into the
+    /// same buffer, no allocation).
     pub fn advance_to_change(&self, state: &State, just_before: bool) -> (u32, State) {
-        let start = signature(&self.cfg, &state.controller);
-        let decel = self.cfg.motion.decel_cycles_max;
-        let one = Event::Servo { cycles: 1 };
+        let cfg = &self.cfg;
+        let start = signature(cfg, &state.controller);
         let mut next = state.clone();
-        let mut before = state.clone();
+        let mut before = state.controller.clone();
+        let mut violations_before = state.violations;
+        let mut cycles = JUMP_CYCLES_MAX;
         for n in 1..=JUMP_CYCLES_MAX {
-            // Here `before` and `next` are equal: the state after n - 1 cycles.
-            self.apply_in_place(&before.controller, &mut next, &one, decel);
-            if signature(&self.cfg, &next.controller) != start {
-                return if just_before { (n - 1, before) } else { (n, next) };
+            let report = next.controller.servo_cycle(cfg);
+            next.violations |= cycle_violations(cfg, &before, report, &next.controller);
+            if signature(cfg, &next.controller) != start {
+                cycles = n;
+                if just_before {
+                    cycles = n - 1;
+                    next = State { controller: before, violations: violations_before };
+                }
+                break;
             }
-            before.clone_from(&next);
+            before.clone_from(&next.controller);
+            violations_before = next.violations;
         }
-        (JUMP_CYCLES_MAX, next)
+        // No cycle at all (the change was one cycle away): the state itself, nothing happened.
+        if cycles > 0 {
+            self.check_event(&state.controller, &mut next, &Event::Servo { cycles }, Reply::None);
+        }
+        (cycles, next)
     }
 
     /// The concrete event an action stands for in `state`, and the state after it.
@@ -175,7 +188,7 @@ impl WatchdogModel {
 
     /// Applies `event` to `next`, which the caller made equal to `prev` (with the violations
     /// so far), running every monitor; returns the reply. In place, so that the checker moves
-    /// no state around per event and a leap clones no state per cycle.
+    /// no state around per event.
     fn apply_in_place(&self, prev: &Controller, next: &mut State, event: &Event, decel: u8) -> Reply {
         let cfg = &self.cfg;
         let reply = match event {
@@ -195,6 +208,14 @@ impl WatchdogModel {
             }
             _ => next.controller.apply_with_decel(cfg, event, decel),
         };
+        self.check_event(prev, next, event, reply);
+        reply
+    }
+
+    /// After `event` took `prev` to `next`: the canary's deliberate bug, then the event
+    /// monitors.
+    fn check_event(&self, prev: &Controller, next: &mut State, event: &Event, reply: Reply) {
+        let cfg = &self.cfg;
         match (self.canary, event) {
             (Some(Canary::LockoutIgnored), Event::Command(pmacwd_specs::vocab::command::HostCommand::WriteI(n, v)))
                 if !prev.tripped() && !prev.bootstrap =>
@@ -219,7 +240,6 @@ impl WatchdogModel {
             _ => {}
         }
         next.violations |= event_violations(cfg, prev, event, reply, &next.controller);
-        reply
     }
 }
 
