@@ -9,7 +9,9 @@
 //! changes ([`signature`]: the trip, the counter's sign, whether a background cycle could
 //! complete, the status words) and to the cycle just before it. Between two such points the
 //! environment has nothing new to react to, so the behaviours are the same; each jump is still
-//! simulated one plain servo cycle at a time.
+//! simulated one plain servo cycle at a time. A jump is the event `Servo { cycles }` (traces
+//! show it so) and is checked as that event always is: the cycle monitors on every cycle, the
+//! event monitors on the whole event.
 
 use crate::controller::{Controller, CycleReport};
 use crate::monitor::{Check, MONITORS};

@@ -444,7 +444,8 @@ pub const MONITORS: &[Monitor] = &[
         cite: "UM p.215",
         sentence: "These algorithms are best implemented in a compiled background PLC program, which scans ... once per background cycle.",
         check: Check::Event(|_, prev, ev, _, next| {
-            matches!(ev, Event::Background) || prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| !(!p.loss_status && n.loss_status))
+            // Outside a background cycle, no motor's status goes from clear to latched.
+            matches!(ev, Event::Background) || prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| p.loss_status || !n.loss_status)
         }),
     },
     Monitor {

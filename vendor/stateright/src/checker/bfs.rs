@@ -292,12 +292,8 @@ where
             // Otherwise enqueue newly generated states (with related metadata).
             let mut is_terminal = true;
             model.actions(&state, &mut actions);
-            // PATCH (pmacwd): a plain loop instead of `flat_map`, which moves each successor
-            // once more (through `Option::into_iter`) before it is hashed.
-            for action in actions.drain(..) {
-                let Some(next_state) = model.next_state(&state, action) else {
-                    continue;
-                };
+            let next_states = actions.drain(..).flat_map(|a| model.next_state(&state, a));
+            for next_state in next_states {
                 // Skip if outside boundary.
                 if !model.within_boundary(&next_state) {
                     continue;
