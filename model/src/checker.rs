@@ -115,7 +115,8 @@ impl WatchdogModel {
     /// on the whole event. A leap at I40 = 0 runs up to about 4,100 cycles, so the state is
     /// cloned once per leap and each cycle runs on it in place; the cycle monitors read the
     /// cycle's starting point from a second controller, overwritten each cycle (a copy into the
-    /// same buffer, no allocation).
+    /// same buffer, which allocates only for I-variables other than I8, I40 and I41 written
+    /// since reset: no configuration that leaps writes any).
     pub fn advance_to_change(&self, state: &State, just_before: bool) -> (u32, State) {
         let cfg = &self.cfg;
         let start = signature(cfg, &state.controller);
@@ -248,10 +249,10 @@ impl WatchdogModel {
 // ---------------------------------------------------------------------- monitor dispatch
 //
 // The monitors run on every transition the checker generates (about eight per state), so their
-// calling cost counts. A loop over `MONITORS` calls each closure through a fn pointer the
-// compiler cannot see through. Below, each monitor index gets its own call with the index as a
-// constant: the compiler then knows which closure runs and inlines it, and the checks that
-// start by matching the event share that match. Same monitors, same order, same bits.
+// calling cost counts: a loop over `MONITORS`, calling each closure through a fn pointer the
+// compiler cannot see through, was 40% of the checker's instructions on `timing` (callgrind).
+// Below, each monitor index gets its own call with the index as a constant, so the compiler
+// knows which closure runs and can inline it. Same monitors, same order, same bits.
 
 /// Monitor K's violation bit on `event` (0 when it holds, or monitor K is a cycle monitor or
 /// beyond the table).
