@@ -73,6 +73,33 @@ fn cs_of(cfg: &ModelConfig, k: usize) -> u8 {
     cfg.motion.coordinate_system(k as u8 + 1)
 }
 
+/// Whether the text of a `Status { x, y }` reply is twelve hex characters, `x` first.
+///
+/// The text depends on the reply alone and writing it allocates, while the checker meets the
+/// same few status words on tens of thousands of transitions: each reply's answer is kept (per
+/// thread, as the checker's threads run monitors side by side).
+fn status_text_is_the_words(reply: Reply) -> bool {
+    /// More distinct status words than a configuration shows; past them, no memory.
+    const REMEMBERED_MAX: usize = 64;
+    thread_local! {
+        static SEEN: std::cell::RefCell<Vec<(Reply, bool)>> = const { std::cell::RefCell::new(Vec::new()) };
+    }
+    let Reply::Status { x, y } = reply else { return false };
+    SEEN.with_borrow_mut(|seen| {
+        if let Some((_, answer)) = seen.iter().find(|(r, _)| *r == reply) {
+            return *answer;
+        }
+        let text = reply.to_string();
+        let answer = text.len() == 12
+            && u32::from_str_radix(&text[..6], 16) == Ok(x)
+            && u32::from_str_radix(&text[6..], 16) == Ok(y);
+        if seen.len() < REMEMBERED_MAX {
+            seen.push((reply, answer));
+        }
+        answer
+    })
+}
+
 pub const MONITORS: &[Monitor] = &[
     Monitor {
         name: "a tripped card does not reply to any command",
@@ -202,8 +229,7 @@ pub const MONITORS: &[Monitor] = &[
         sentence: "Turbo PMAC returns twelve characters, representing two status words.",
         check: Check::Event(|cfg, _, ev, reply, next| match (ev, reply) {
             (Event::Command(HostCommand::GlobalStatus), Reply::Status { x, y }) => {
-                let text = reply.to_string();
-                text.len() == 12 && u32::from_str_radix(&text[..6], 16) == Ok(x) && u32::from_str_radix(&text[6..], 16) == Ok(y) && (x, y) == next.status_words(cfg)
+                status_text_is_the_words(reply) && (x, y) == next.status_words(cfg)
             }
             _ => true,
         }),
@@ -238,9 +264,12 @@ pub const MONITORS: &[Monitor] = &[
         cite: "UM p.217",
         sentence: "it sets global status bits (bits 12 and 13 of X:$000006 ...) and stops performing any checksum operations.",
         check: Check::Event(|cfg, prev, _, _, next| {
-            let (x, _) = next.status_words(cfg);
-            !(prev.checksum.error.is_none() && next.checksum.error == Some(ChecksumTarget::Firmware))
-                || (bit(x, cfg.layout.checksum_error.1) && bit(x, cfg.layout.prom_checksum_active.1))
+            // The words are built only when the error has just appeared (every transition
+            // runs this check).
+            !(prev.checksum.error.is_none() && next.checksum.error == Some(ChecksumTarget::Firmware)) || {
+                let (x, _) = next.status_words(cfg);
+                bit(x, cfg.layout.checksum_error.1) && bit(x, cfg.layout.prom_checksum_active.1)
+            }
         }),
     },
     // ------------------------------------------------------------ stop commands (UM p.217, p.319)
@@ -285,8 +314,11 @@ pub const MONITORS: &[Monitor] = &[
         sentence: "Motors will coast to a stop ... Although the program could be resumed after re-enabling the servo loops (MODEL: J/ re-enables, to closed loop at rest).",
         check: Check::Event(|_, prev, ev, _, next| {
             prev.axes.motors().iter().zip(next.axes.motors()).enumerate().all(|(k, (p, n))| {
-                let reenabled = matches!(motion(prev, ev), Some(Motion::Motor(m, MotorCommand::JogStop)) if usize::from(m) == k + 1);
-                implies(p.state == MotorState::Killed && n.state != MotorState::Killed, reenabled && n.state == MotorState::Closed)
+                // `||` rather than `implies`: the command is looked at only for a motor that left Killed.
+                !(p.state == MotorState::Killed && n.state != MotorState::Killed) || {
+                    let reenabled = matches!(motion(prev, ev), Some(Motion::Motor(m, MotorCommand::JogStop)) if usize::from(m) == k + 1);
+                    reenabled && n.state == MotorState::Closed
+                }
             })
         }),
     },
@@ -412,7 +444,8 @@ pub const MONITORS: &[Monitor] = &[
         cite: "UM p.215",
         sentence: "These algorithms are best implemented in a compiled background PLC program, which scans ... once per background cycle.",
         check: Check::Event(|_, prev, ev, _, next| {
-            prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| implies(!p.loss_status && n.loss_status, matches!(ev, Event::Background)))
+            // Outside a background cycle, no motor's status goes from clear to latched.
+            matches!(ev, Event::Background) || prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| p.loss_status || !n.loss_status)
         }),
     },
     Monitor {
