@@ -17,10 +17,12 @@
 
 use crate::lockstep::{Disagreement, Pair};
 use crate::subject::{ModelSubject, Subject};
+use pmacwd_model::motion::Program;
 use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetEvent, ResetKind};
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::vocab::command::HostCommand;
+use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion, MotorCommand};
 use pmacwd_specs::vocab::event::Event;
+use pmacwd_specs::vocab::observation::MotorState;
 use pmacwd_specs::{Spec, SpecError};
 use pmacwd_trace::{self as trace, Expect, Step, Trace, TraceEvent};
 use proptest::prelude::*;
@@ -105,6 +107,12 @@ pub enum Choice {
     ServoToCounter(i32),
     /// Servo cycles until the strobe has been stopped for the hardware delay plus `offset`.
     ServoPastStrobeStop(i32),
+    /// The next command toward a running program in coordinate system `cs` (1 or 2): `#nJ/`
+    /// on its lowest-numbered killed motor (J/ closes a killed motor's loop), else `&csB` when
+    /// no program is pointed at, else `&csR`. A program runs only when every motor of its C.S.
+    /// is closed-loop at rest (UM p.319), which random commands rarely achieve with eight motors
+    /// in &1 before the card trips; the stop commands then meet running programs.
+    TowardProgram(u8),
 }
 
 /// A generated case: which (configuration, profile) pair, and the steps.
@@ -143,6 +151,7 @@ fn choice() -> impl Strategy<Value = Choice> {
         1 => prop::sample::select(&[ChecksumTarget::Firmware, ChecksumTarget::UserProgram][..])
             .prop_map(|a| Choice::Event(Event::ChecksumFault(a))),
         1 => Just(Choice::Event(Event::ClearRtiReentry)),
+        3 => (1u8..=2).prop_map(Choice::TowardProgram),
         2 => (1u8..=3, any::<bool>())
             .prop_map(|(motor, lost)| Choice::Event(Event::EncoderInput(pmacwd_specs::vocab::EncoderInput { motor, lost }))),
     ]
@@ -169,6 +178,19 @@ fn resolve<S: Subject>(pair: &Pair<S>, cfg: &ModelConfig, choice: &Choice) -> Re
         Choice::ServoToCounter(offset) => Some(servo(i64::from(card.counter) - i64::from(*offset))),
         Choice::ServoPastStrobeStop(offset) => {
             Some(servo(i64::from(card.counter.max(0)) + i64::from(cfg.hardware_delay_cycles) + i64::from(*offset)))
+        }
+        Choice::TowardProgram(cs) => {
+            let setup = &cfg.motion;
+            let killed = (1..=setup.motors)
+                .filter(|m| setup.coordinate_system(*m) == *cs)
+                .find(|m| card.axes.motors()[usize::from(*m) - 1].state == MotorState::Killed);
+            let program = card.axes.programs().get(usize::from(*cs) - 1).copied().unwrap_or_default();
+            let m = match (killed, program) {
+                (Some(n), _) => Motion::Motor(n, MotorCommand::JogStop),
+                (None, Program::None) => Motion::CoordinateSystem(*cs, CsCommand::Begin),
+                (None, _) => Motion::CoordinateSystem(*cs, CsCommand::Run),
+            };
+            Some(Event::Command(HostCommand::Motion(m)))
         }
     })
 }

@@ -6,7 +6,7 @@
 use crate::subject::{ModelSubject, Subject};
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::vocab::event::Event;
-use pmacwd_specs::vocab::Observation;
+use pmacwd_specs::vocab::{MotionView, Observation};
 use pmacwd_trace::TraceEvent;
 use std::fmt;
 
@@ -57,12 +57,24 @@ pub fn differences(model: &Observation, subject: &Observation) -> Vec<String> {
     field("X:$25", counter_min.to_string(), subject.counter_min.to_string());
     field("X:$6", format!("{status_x:06X}"), format!("{:06X}", subject.status_x));
     field("Y:$6", format!("{status_y:06X}"), format!("{:06X}", subject.status_y));
-    let motors = |m: &Option<pmacwd_specs::vocab::MotionView>| match m {
-        Some(v) => format!("{:?}", v.motors()),
-        None => "none reported".to_string(),
-    };
-    field("motors", motors(motion), motors(&subject.motion));
+    match (motion, &subject.motion) {
+        // Motor by motor, so a divergence names the motor (and its count when that differs).
+        (Some(m), Some(s)) => {
+            field("motor count", m.count.to_string(), s.count.to_string());
+            for (n, (a, b)) in m.motors().iter().zip(s.motors()).enumerate() {
+                field(&format!("motor #{}", n + 1), format!("{a:?}"), format!("{b:?}"));
+            }
+        }
+        (m, s) => field("motors", reported(m), reported(s)),
+    }
     out
+}
+
+fn reported(m: &Option<MotionView>) -> String {
+    match m {
+        Some(v) => format!("{} motors", v.count),
+        None => "none reported".into(),
+    }
 }
 
 /// The model and an implementation, powered up together.
