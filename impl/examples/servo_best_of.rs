@@ -1,0 +1,58 @@
+//! The servo event's cost as the best of 50 runs of 10^7 cycles each: on a machine shared with
+//! other work, criterion's median measures the load as much as the code, while the fastest run
+//! is the one least disturbed. Idle motors, then eight jogging motors with 0, 1, 2, 4 and 8 of
+//! them decelerating (the cost per moving motor).
+//!
+//! Run: `cargo run --release -p pmacwd-core --example servo_best_of`.
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use pmacwd_core::motion::MotorCommand;
+use pmacwd_core::{Command, Config, Core, Event, FewIVariables, MotionCommand, MotionConfig};
+use std::hint::black_box;
+
+/// Eight motors jogging, `stopping` of them decelerating from a J/ for 255 servo cycles.
+fn moving(stopping: u8) -> (Config, Core) {
+    let cfg = Config { motion: MotionConfig::all_in_cs1(8, 255), ..common::realistic_config() };
+    let mut core = Core::power_on(&cfg);
+    let mut store = FewIVariables::<4>::default();
+    let mut send = |core: &mut Core, n: u8, c: MotorCommand| {
+        core.apply(&cfg, Event::Command(Command::Motion(MotionCommand::Motor(n, c))), &mut store)
+    };
+    for n in 1..=8 {
+        send(&mut core, n, MotorCommand::JogStop);
+        send(&mut core, n, MotorCommand::Jog);
+    }
+    for n in 1..=stopping {
+        send(&mut core, n, MotorCommand::JogStop);
+    }
+    (cfg, core)
+}
+
+/// Nanoseconds per servo cycle, the best of 50 runs of 10^7 cycles in batches of `batch`
+/// from `start` (batches of 200 stay within the 255-cycle stops).
+fn best(cfg: &Config, start: Core, batch: u32) -> f64 {
+    let mut best = f64::MAX;
+    for _ in 0..50 {
+        let t = std::time::Instant::now();
+        for _ in 0..10_000_000 / batch {
+            let mut core = black_box(start);
+            for _ in 0..batch {
+                core.servo_cycle(black_box(cfg));
+            }
+            black_box(core);
+        }
+        best = best.min(t.elapsed().as_secs_f64() * 100.0);
+    }
+    best
+}
+
+fn main() {
+    let cfg = common::realistic_config();
+    println!("motors idle (killed), batches of 1,000: {:.2} ns", best(&cfg, Core::power_on(&cfg), 1_000));
+    for stopping in [0u8, 1, 2, 4, 8] {
+        let (cfg, start) = moving(stopping);
+        println!("8 motors jogging, {stopping} decelerating, batches of 200: {:.2} ns", best(&cfg, start, 200));
+    }
+}
