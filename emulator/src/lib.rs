@@ -7,6 +7,7 @@ pub mod capture;
 pub mod card;
 pub mod control;
 pub mod framing;
+pub mod grammar;
 pub mod listen;
 pub mod protocol;
 pub mod proxy;
