@@ -97,11 +97,25 @@ pub enum Command {
     /// `%` of a C.S.: report its feedrate override.
     FeedRead(u8),
     /// `In`, `In..m`, `Mn`, `Pn`, `Qn` (Q-variables of the addressed C.S.).
-    Read { kind: VarKind, first: u16, last: u16, cs: u8 },
+    Read {
+        kind: VarKind,
+        first: u16,
+        last: u16,
+        cs: u8,
+    },
     /// `In=v` and the like. `text` is the value as sent (an I-variable keeps its integer).
-    Write { kind: VarKind, number: u16, value: f64, cs: u8 },
+    Write {
+        kind: VarKind,
+        number: u16,
+        value: f64,
+        cs: u8,
+    },
     /// `MSn,Im` and `MSn,Im=v`: a MACRO station's I-variable.
-    MacroStation { station: u8, ivar: u16, value: Option<f64> },
+    MacroStation {
+        station: u8,
+        ivar: u16,
+        value: Option<f64>,
+    },
     /// `RHX:$25`: a register read, in the vocabulary's text form for its parser.
     ReadHex(String),
     /// A motion or stop command for the core (motor, C.S. or global; UM p.217).
@@ -158,8 +172,24 @@ struct Parser<'a, 'b> {
 /// starts. Single letters (`P`, `V`, `K`, `A`, ...) are tried only when none of these matches,
 /// so that `SAVE` is not `S` (step) and `HM` is not `H` (hold).
 const KEYWORDS: [&str; 18] = [
-    "ENDGATHER", "ENDG", "DEFINE", "DELETE", "GATHER", "CLOSE", "HOME", "LIST", "OPEN", "SAVE", "VER", "CID", "DEF",
-    "DEL", "GAT", "LIS", "HM", "MS",
+    "ENDGATHER",
+    "ENDG",
+    "DEFINE",
+    "DELETE",
+    "GATHER",
+    "CLOSE",
+    "HOME",
+    "LIST",
+    "OPEN",
+    "SAVE",
+    "VER",
+    "CID",
+    "DEF",
+    "DEL",
+    "GAT",
+    "LIS",
+    "HM",
+    "MS",
 ];
 
 impl Parser<'_, '_> {
@@ -440,7 +470,9 @@ impl Parser<'_, '_> {
             return match self.value() {
                 // A value must end where the next command can start: `I124=I124&$FDFFFF`
                 // is an expression, which the emulator does not evaluate.
-                Some(value) if !self.peek().is_some_and(|c| matches!(c, b'&' | b'|' | b'*' | b'+' | b'-' | b'/' | b'^')) => {
+                Some(value)
+                    if !self.peek().is_some_and(|c| matches!(c, b'&' | b'|' | b'*' | b'+' | b'-' | b'/' | b'^')) =>
+                {
                     Ok(Command::Write { kind, number: first, value, cs })
                 }
                 _ => Err(self.error(start, "the value is a constant (expressions are not evaluated)")),
@@ -558,7 +590,12 @@ mod tests {
                     Command::Position(m),
                     Command::Velocity(m),
                     Command::FollowingError(m),
-                    Command::Read { kind: VarKind::M, first: u16::from(m) * 100 + 90, last: u16::from(m) * 100 + 90, cs: 1 },
+                    Command::Read {
+                        kind: VarKind::M,
+                        first: u16::from(m) * 100 + 90,
+                        last: u16::from(m) * 100 + 90,
+                        cs: 1
+                    },
                     Command::Read { kind: VarKind::P, first: 99, last: 99, cs: 1 },
                 ]
             );
@@ -597,10 +634,13 @@ mod tests {
         assert_eq!(ok("#1J=0"), [Command::Jog(1, Jog::To(Some(0.0)))]);
         assert_eq!(ok("#2J="), [Command::Jog(2, Jog::To(None))]);
         assert_eq!(ok("#1k"), [Command::Motion(Motion::Motor(1, MotorCommand::Kill))]);
-        assert_eq!(ok("#1 J/ #2 K"), [
-            Command::Motion(Motion::Motor(1, MotorCommand::JogStop)),
-            Command::Motion(Motion::Motor(2, MotorCommand::Kill))
-        ]);
+        assert_eq!(
+            ok("#1 J/ #2 K"),
+            [
+                Command::Motion(Motion::Motor(1, MotorCommand::JogStop)),
+                Command::Motion(Motion::Motor(2, MotorCommand::Kill))
+            ]
+        );
     }
 
     #[test]
@@ -627,19 +667,22 @@ mod tests {
     #[test]
     fn keywords_win_over_single_letters() {
         assert_eq!(ok("SAVE"), [Command::Save]);
-        assert_eq!(ok("define gather 1000 gather list gather delete gather endgather"), [
-            Command::Gather(Gather::Define(Some(1000))),
-            Command::Gather(Gather::Start),
-            Command::Gather(Gather::List),
-            Command::Gather(Gather::Delete),
-            Command::Gather(Gather::End),
-        ]);
+        assert_eq!(
+            ok("define gather 1000 gather list gather delete gather endgather"),
+            [
+                Command::Gather(Gather::Define(Some(1000))),
+                Command::Gather(Gather::Start),
+                Command::Gather(Gather::List),
+                Command::Gather(Gather::Delete),
+                Command::Gather(Gather::End),
+            ]
+        );
         assert_eq!(ok("ms0,i910"), [Command::MacroStation { station: 0, ivar: 910, value: None }]);
         assert_eq!(ok("OPEN PLC 1 CLOSE"), [Command::OpenPlc(1), Command::Close]);
-        assert_eq!(ok("&1%50 %"), [
-            Command::Motion(Motion::CoordinateSystem(1, CsCommand::Feedrate(50))),
-            Command::FeedRead(1)
-        ]);
+        assert_eq!(
+            ok("&1%50 %"),
+            [Command::Motion(Motion::CoordinateSystem(1, CsCommand::Feedrate(50))), Command::FeedRead(1)]
+        );
         assert_eq!(ok("RHX:$25"), [Command::ReadHex("RHX:$25".into())]);
     }
 

@@ -9,6 +9,8 @@ pub mod control;
 pub mod framing;
 pub mod grammar;
 pub mod listen;
+pub mod memory;
+pub mod motor_status;
 pub mod protocol;
 pub mod proxy;
 pub mod server;
