@@ -9,10 +9,16 @@
 //! reply is a compile error here until it is mapped.
 
 use pmacwd_core as core;
-use pmacwd_specs::check::{ChecksumTarget, ResetKind};
+use pmacwd_core::motion as cm;
+use pmacwd_specs::check::{ChecksumTarget, MotionSetup, ResetKind, MOTORS_MAX};
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::profiles::{Bit12Meaning, RtiWarningLatch, StrobeStop, Strober};
+use pmacwd_specs::profiles::{Bit12Meaning, EncoderLossClear, RtiWarningLatch, StrobeStop, Strober};
+use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand};
+use pmacwd_specs::vocab::observation::{MotionView, MotorState, MotorView, MOTORS_SHOWN};
 use pmacwd_specs::vocab::{Buffer, Event, HostCommand, Observation, Register, Reply};
+
+// The core keeps as many motors as a configuration may have (it cannot import the constant).
+const _: () = assert!(cm::MOTORS_MAX == MOTORS_MAX && MOTORS_SHOWN == MOTORS_MAX);
 
 /// The core's configuration for a model configuration.
 pub fn core_config(cfg: &ModelConfig) -> core::Config {
@@ -27,6 +33,10 @@ pub fn core_config(cfg: &ModelConfig) -> core::Config {
             rti_strobes: c.strober == Strober::RealTimeInterrupt,
             bit12_firmware_error: c.bit12_meaning == Bit12Meaning::FirmwareChecksumError,
             rti_warning_sticky: c.rti_warning_latch == RtiWarningLatch::Sticky,
+            encoder_loss_clear_intended: match c.encoder_loss_clear {
+                EncoderLossClear::Intent => true,
+                EncoderLossClear::Literal => false,
+            },
         },
         hardware_delay_cycles: cfg.hardware_delay_cycles,
         cycle_units: cfg.cpu.cycle_units,
@@ -40,6 +50,54 @@ pub fn core_config(cfg: &ModelConfig) -> core::Config {
         supply_min_millivolts: cfg.supply_min_millivolts,
         servo_counter_mask: cfg.servo_counter_mask,
         load: core_load(&cfg.loads[0]),
+        motion: core_motion_config(&cfg.motion),
+    }
+}
+
+/// The core's motors for a configuration's. A trace (deterministic) decelerates for the
+/// longest deceleration, as the model does when it is not exploring every length
+/// (`Controller::apply`); the exhaustive product sets `decel_cycles` to each length the checker
+/// explores (`conformance/src/product.rs`).
+pub fn core_motion_config(m: &MotionSetup) -> core::MotionConfig {
+    let mut coordinate_systems = [1u8; cm::MOTORS_MAX];
+    for (n, cs) in (1..=m.motors).zip(coordinate_systems.iter_mut()) {
+        *cs = m.coordinate_system(n);
+    }
+    core::MotionConfig { motors: m.motors, coordinate_systems, decel_cycles: m.decel_cycles_max }
+}
+
+/// The core's motion command for the vocabulary's.
+pub fn core_motion(m: &Motion) -> core::MotionCommand {
+    match *m {
+        Motion::Motor(n, c) => core::MotionCommand::Motor(
+            n,
+            match c {
+                // Direction and target are positions, which neither the model nor the core has.
+                MotorCommand::JogPlus | MotorCommand::JogMinus | MotorCommand::JogToPosition => cm::MotorCommand::Jog,
+                MotorCommand::JogStop => cm::MotorCommand::JogStop,
+                MotorCommand::Kill => cm::MotorCommand::Kill,
+            },
+        ),
+        Motion::CoordinateSystem(n, c) => core::MotionCommand::CoordinateSystem(
+            n,
+            match c {
+                CsCommand::Abort => cm::CsCommand::Abort,
+                CsCommand::Quit => cm::CsCommand::Quit,
+                CsCommand::EndOfMove => cm::CsCommand::EndOfMove,
+                CsCommand::Hold => cm::CsCommand::Hold,
+                CsCommand::QuickStop => cm::CsCommand::QuickStop,
+                CsCommand::Run => cm::CsCommand::Run,
+                CsCommand::Step => cm::CsCommand::Step,
+                CsCommand::Begin => cm::CsCommand::Begin,
+                CsCommand::Feedrate(p) => cm::CsCommand::Feedrate(p),
+            },
+        ),
+        Motion::Global(g) => core::MotionCommand::Global(match g {
+            GlobalCommand::AbortAll => cm::GlobalCommand::AbortAll,
+            GlobalCommand::QuitAll => cm::GlobalCommand::QuitAll,
+            GlobalCommand::HoldAll => cm::GlobalCommand::HoldAll,
+            GlobalCommand::KillAll => cm::GlobalCommand::KillAll,
+        }),
     }
 }
 
@@ -71,7 +129,7 @@ pub fn core_command(c: &HostCommand) -> core::Command {
         HostCommand::Open(Buffer::Plc(_)) => core::Command::OpenPlc,
         HostCommand::Open(Buffer::Program(_)) => core::Command::OpenProgram,
         HostCommand::Close => core::Command::Close,
-        HostCommand::Motion(_) => core::Command::Motion,
+        HostCommand::Motion(m) => core::Command::Motion(core_motion(m)),
         HostCommand::Unrecognized(_) => core::Command::Unrecognized,
     }
 }
@@ -96,7 +154,7 @@ pub fn core_event(e: &Event) -> core::Event {
         Event::ChecksumFault(ChecksumTarget::Firmware) => core::Event::ChecksumFault(core::Area::Firmware),
         Event::ChecksumFault(ChecksumTarget::UserProgram) => core::Event::ChecksumFault(core::Area::UserProgram),
         Event::ClearRtiReentry => core::Event::ClearRtiReentry,
-        Event::EncoderInput(_) => core::Event::EncoderInput,
+        Event::EncoderInput(i) => core::Event::EncoderInput { motor: i.motor, lost: i.lost },
     }
 }
 
@@ -127,8 +185,67 @@ pub fn core_observation(core: &core::Core, cfg: &core::Config, reply: core::Repl
         counter_min: o.counter_min,
         status_x: o.status_x,
         status_y: o.status_y,
-        // The core has no motors yet: it reports none, and lockstep does not compare them
-        // (conformance's `lockstep::differences_after`, docs/conformance.md).
-        motion: None,
+        motion: Some(motion_view(core, cfg)),
     }
+}
+
+/// The vocabulary's name for a core motor state.
+pub fn vocab_motor_state(s: cm::MotorState) -> MotorState {
+    match s {
+        cm::MotorState::Killed => MotorState::Killed,
+        cm::MotorState::Closed => MotorState::Closed,
+        cm::MotorState::Jogging => MotorState::Jogging,
+        cm::MotorState::Program => MotorState::Program,
+        cm::MotorState::Decelerating => MotorState::Decelerating,
+        cm::MotorState::Holding => MotorState::Holding,
+    }
+}
+
+/// One core motor as an instrument sees it (what lockstep compares).
+pub fn motor_view(m: &core::MotorStatus) -> MotorView {
+    MotorView {
+        state: vocab_motor_state(m.state),
+        amplifier_enabled: m.amplifier_enabled,
+        output_zero: m.output_zero,
+        encoder_lost: m.encoder_lost,
+        encoder_loss_status: m.encoder_loss_status,
+    }
+}
+
+/// The core's motors as the vocabulary's observation shows them.
+pub fn motion_view(core: &core::Core, cfg: &core::Config) -> MotionView {
+    let mut motors = [MotorView::default(); MOTORS_SHOWN];
+    let mut count = 0u8;
+    for (n, slot) in (1..=cfg.motion.motors).zip(motors.iter_mut()) {
+        if let Some(m) = core.motor(cfg, n) {
+            *slot = motor_view(&m);
+            count = n;
+        }
+    }
+    MotionView { count, motors }
+}
+
+/// Motor `n` (from 1) of the core, for an emulator answering `#n?` (SRM p.281, the motor
+/// status words): the observed view (state, amplifier enable, commanded output, encoder input,
+/// latched loss), the motor's coordinate system, where that system's program stands and the
+/// stop under way with its cycles left. `None` for a motor the configuration does not have.
+pub fn motor_status(core: &core::Core, cfg: &core::Config, n: u8) -> Option<MotorStatus> {
+    core.motor(cfg, n).map(|m| MotorStatus {
+        view: motor_view(&m),
+        coordinate_system: m.coordinate_system,
+        program: m.program,
+        stop: m.stop,
+    })
+}
+
+/// A motor as [`motor_status`] reports it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MotorStatus {
+    pub view: MotorView,
+    /// The motor's coordinate system (1..=16).
+    pub coordinate_system: u8,
+    /// Where that coordinate system's program stands (running, held, at a program point...).
+    pub program: cm::Program,
+    /// The stop being carried out (UM p.217's row, as the core's `Stop`) and its servo cycles left.
+    pub stop: Option<(cm::Stop, u8)>,
 }

@@ -6,8 +6,10 @@
 //! long idle gaps (which an implementation may fast-forward), I40 = 0 and small I40 values,
 //! RTI overruns (the configurations' heavy PLC 0 loads and I8 writes), trips by undervoltage
 //! and starvation, INIT/ and power cycles with reset-time faults and bootstrap, locked
-//! I-variable ranges under several I41 values, and checksum faults; every (configuration,
-//! profile) pair of the spec is drawn.
+//! I-variable ranges under several I41 values, checksum faults, and motion: every stop command
+//! of UM p.217 and the commands that start motion, with encoder inputs lost and restored
+//! (servo runs then meet stops under way, background cycles the encoder-loss PLC); every
+//! (configuration, profile) pair of the spec is drawn.
 //!
 //! A failing case is shrunk by proptest to a minimal one and returned as a [`Counterexample`],
 //! which writes itself as a YAML trace (docs/trace-format.md) that reproduces it: the
@@ -15,10 +17,12 @@
 
 use crate::lockstep::{Disagreement, Pair};
 use crate::subject::{ModelSubject, Subject};
+use pmacwd_model::motion::Program;
 use pmacwd_specs::check::{ChecksumTarget, ProfileSelection, ResetEvent, ResetKind};
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::vocab::command::HostCommand;
+use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion, MotorCommand};
 use pmacwd_specs::vocab::event::Event;
+use pmacwd_specs::vocab::observation::MotorState;
 use pmacwd_specs::{Spec, SpecError};
 use pmacwd_trace::{self as trace, Expect, Step, Trace, TraceEvent};
 use proptest::prelude::*;
@@ -78,17 +82,17 @@ pub const COMMANDS: &[&str] = &[
     "CLOSE",
     "$$$",
     "HELLO",
-    // Motion (UM p.217): the core accepts these without motors; lockstep compares the rest
-    // of the observation after them (NOT_YET_COMPARED).
-    "#1J/",
-    "#1J+",
-    "#1K",
-    "&1B",
-    "&1R",
-    "&1A",
-    "&1Q",
-    "&1H",
-    "<CTRL-K>",
+];
+
+/// Motion command lines the generator draws from (UM p.217, UM p.319): every row of the stop
+/// table and every command that starts motion, on motors #1 and #2 and coordinate systems &1
+/// and &2 (the `motion` configuration has one motor in each, every other configuration its
+/// motors in &1), a motor and a coordinate system beyond every configuration's (#9, &3), and
+/// the global control characters; B and R often enough that programs run and stops meet them.
+pub const MOTION_COMMANDS: &[&str] = &[
+    "#1J/", "#1J+", "#1J-", "#1J=", "#1K", "#2J/", "#2J+", "#2K", "#9J/", "#9K", "&1B", "&1B", "&1R", "&1R", "&1S",
+    "&1A", "&1Q", "&1/", "&1H", "&1\\", "&1%0", "&1%100", "&2B", "&2R", "&2S", "&2A", "&2Q", "&2/", "&2H", "&3B",
+    "&3R", "<CTRL-A>", "<CTRL-Q>", "<CTRL-O>", "<CTRL-K>",
 ];
 
 /// One step of a generated trace, resolved against the model's state when it is applied.
@@ -103,6 +107,12 @@ pub enum Choice {
     ServoToCounter(i32),
     /// Servo cycles until the strobe has been stopped for the hardware delay plus `offset`.
     ServoPastStrobeStop(i32),
+    /// The next command toward a running program in coordinate system `cs` (1 or 2): `#nJ/`
+    /// on its lowest-numbered killed motor (J/ closes a killed motor's loop), else `&csB` when
+    /// no program is pointed at, else `&csR`. A program runs only when every motor of its C.S.
+    /// is closed-loop at rest (UM p.319), which random commands rarely achieve with eight motors
+    /// in &1 before the card trips; the stop commands then meet running programs.
+    TowardProgram(u8),
 }
 
 /// A generated case: which (configuration, profile) pair, and the steps.
@@ -133,12 +143,16 @@ fn choice() -> impl Strategy<Value = Choice> {
         5 => prop::sample::select(COMMANDS).prop_map(|t| Choice::Event(Event::Command(
             HostCommand::parse(t).expect("the generator's commands parse")
         ))),
+        4 => prop::sample::select(MOTION_COMMANDS).prop_map(|t| Choice::Event(Event::Command(
+            HostCommand::parse(t).expect("the generator's motion commands parse")
+        ))),
         1 => prop::sample::select(&[4500u32, 4749, 4750, 5000][..]).prop_map(|mv| Choice::Event(Event::Supply { millivolts: mv })),
         1 => reset,
         1 => prop::sample::select(&[ChecksumTarget::Firmware, ChecksumTarget::UserProgram][..])
             .prop_map(|a| Choice::Event(Event::ChecksumFault(a))),
         1 => Just(Choice::Event(Event::ClearRtiReentry)),
-        1 => (1u8..=2, any::<bool>())
+        3 => (1u8..=2).prop_map(Choice::TowardProgram),
+        2 => (1u8..=3, any::<bool>())
             .prop_map(|(motor, lost)| Choice::Event(Event::EncoderInput(pmacwd_specs::vocab::EncoderInput { motor, lost }))),
     ]
 }
@@ -164,6 +178,19 @@ fn resolve<S: Subject>(pair: &Pair<S>, cfg: &ModelConfig, choice: &Choice) -> Re
         Choice::ServoToCounter(offset) => Some(servo(i64::from(card.counter) - i64::from(*offset))),
         Choice::ServoPastStrobeStop(offset) => {
             Some(servo(i64::from(card.counter.max(0)) + i64::from(cfg.hardware_delay_cycles) + i64::from(*offset)))
+        }
+        Choice::TowardProgram(cs) => {
+            let setup = &cfg.motion;
+            let killed = (1..=setup.motors)
+                .filter(|m| setup.coordinate_system(*m) == *cs)
+                .find(|m| card.axes.motors()[usize::from(*m) - 1].state == MotorState::Killed);
+            let program = card.axes.programs().get(usize::from(*cs) - 1).copied().unwrap_or_default();
+            let m = match (killed, program) {
+                (Some(n), _) => Motion::Motor(n, MotorCommand::JogStop),
+                (None, Program::None) => Motion::CoordinateSystem(*cs, CsCommand::Begin),
+                (None, _) => Motion::CoordinateSystem(*cs, CsCommand::Run),
+            };
+            Some(Event::Command(HostCommand::Motion(m)))
         }
     })
 }

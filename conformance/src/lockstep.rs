@@ -6,8 +6,7 @@
 use crate::subject::{ModelSubject, Subject};
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::vocab::event::Event;
-use pmacwd_specs::vocab::HostCommand;
-use pmacwd_specs::vocab::Observation;
+use pmacwd_specs::vocab::{MotionView, Observation};
 use pmacwd_trace::TraceEvent;
 use std::fmt;
 
@@ -26,22 +25,10 @@ impl fmt::Display for Disagreement {
     }
 }
 
-/// What lockstep does not compare yet, because the compact core does not implement it: an
-/// implementation that reports no motors (`motion: None`) is compared on neither the motors
-/// nor its reply to a motion command (UM p.217; the model's stop rules, `model/src/motion.rs`).
-/// docs/conformance.md, "Not yet in the core", lists the same.
-pub const NOT_YET_COMPARED: &str =
-    "motors (states, amplifiers, outputs, encoder-loss PLC) and the replies to motion commands, from an implementation that reports no motors";
-
-/// Whether the reply to `event` is compared: not for a motion command when the implementation
-/// reports no motors ([`NOT_YET_COMPARED`]).
-fn reply_compared(event: &Event, subject: &Observation) -> bool {
-    subject.motion.is_some() || !matches!(event, Event::Command(HostCommand::Motion(_)))
-}
-
-/// The fields in which two observations after `event` differ, as `field: model X,
-/// implementation Y`, leaving out what [`NOT_YET_COMPARED`] names.
-pub fn differences(event: &Event, model: &Observation, subject: &Observation) -> Vec<String> {
+/// The fields in which two observations differ, as `field: model X,
+/// implementation Y`: every field, the motors included (an implementation that reports no
+/// motors differs from the model, which always does).
+pub fn differences(model: &Observation, subject: &Observation) -> Vec<String> {
     // Destructured without `..`: a new observation is a compile error here until it is compared.
     let Observation {
         reply,
@@ -61,9 +48,7 @@ pub fn differences(event: &Event, model: &Observation, subject: &Observation) ->
             out.push(format!("{name}: model {m}, implementation {s}"));
         }
     };
-    if reply_compared(event, subject) {
-        field("reply", format!("{reply:?}"), format!("{:?}", subject.reply));
-    }
+    field("reply", format!("{reply:?}"), format!("{:?}", subject.reply));
     field("led_red", led_red.to_string(), subject.led_red.to_string());
     field("fefco_on", fefco_on.to_string(), subject.fefco_on.to_string());
     field("relay_tripped", relay_tripped.to_string(), subject.relay_tripped.to_string());
@@ -72,11 +57,24 @@ pub fn differences(event: &Event, model: &Observation, subject: &Observation) ->
     field("X:$25", counter_min.to_string(), subject.counter_min.to_string());
     field("X:$6", format!("{status_x:06X}"), format!("{:06X}", subject.status_x));
     field("Y:$6", format!("{status_y:06X}"), format!("{:06X}", subject.status_y));
-    // Compared only when both report motors (NOT_YET_COMPARED).
-    if let (Some(m), Some(s)) = (motion, subject.motion) {
-        field("motors", format!("{:?}", m.motors()), format!("{:?}", s.motors()));
+    match (motion, &subject.motion) {
+        // Motor by motor, so a divergence names the motor (and its count when that differs).
+        (Some(m), Some(s)) => {
+            field("motor count", m.count.to_string(), s.count.to_string());
+            for (n, (a, b)) in m.motors().iter().zip(s.motors()).enumerate() {
+                field(&format!("motor #{}", n + 1), format!("{a:?}"), format!("{b:?}"));
+            }
+        }
+        (m, s) => field("motors", reported(m), reported(s)),
     }
     out
+}
+
+fn reported(m: &Option<MotionView>) -> String {
+    match m {
+        Some(v) => format!("{} motors", v.count),
+        None => "none reported".into(),
+    }
 }
 
 /// The model and an implementation, powered up together.
@@ -120,7 +118,7 @@ impl<S: Subject> Pair<S> {
         self.count += 1;
         let m = self.model.apply(event);
         let s = self.subject.apply(event);
-        let fields = differences(event, &m, &s);
+        let fields = differences(&m, &s);
         if !fields.is_empty() {
             return Err(Disagreement { event: event.clone(), fields });
         }

@@ -46,10 +46,19 @@ impl ProductModel {
         let (event, reply, model) = self.model.perform(&s.model, action);
         let mut core = s.core;
         let mut store = s.store;
-        let core_reply = core.apply(&self.core_cfg, core_event(&event), &mut store);
+        // The checker explores every deceleration length a stop command can take; the core
+        // takes its length from its configuration, so it gets the one the checker chose.
+        let core_cfg = match action {
+            Action::Decelerating(_, decel) => core::Config {
+                motion: core::MotionConfig { decel_cycles: *decel, ..self.core_cfg.motion },
+                ..self.core_cfg
+            },
+            Action::Do(_) | Action::ServoToNextChange | Action::ServoToJustBeforeChange => self.core_cfg,
+        };
+        let core_reply = core.apply(&core_cfg, core_event(&event), &mut store);
         let m = pmacwd_model::observe::of(&model.controller, &self.model.cfg, reply);
-        let k = core_observation(&core, &self.core_cfg, core_reply);
-        let mut fields = differences(&event, &m, &k);
+        let k = core_observation(&core, &core_cfg, core_reply);
+        let mut fields = differences(&m, &k);
         let (bm, bk) = (model.controller.background_possible(), core.background_possible());
         if bm != bk {
             fields.push(format!("background cycle possible: model {bm}, implementation {bk}"));

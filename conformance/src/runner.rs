@@ -5,7 +5,6 @@ use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::Profile;
 use pmacwd_specs::status::WordId;
 use pmacwd_specs::vocab::event::{Event, Reply};
-use pmacwd_specs::vocab::HostCommand;
 use pmacwd_specs::vocab::Observation;
 use pmacwd_specs::{Position, Spec, SpecError};
 use pmacwd_trace::{Expect, LoadedTrace, Step, TraceEvent};
@@ -315,8 +314,10 @@ pub fn compare(spec: &Spec, e: &Expect, o: &Observation) -> Result<usize, Mismat
             }
         }
     }
-    // The motors: an implementation that reports none (the compact core today) is not checked
-    // against them; lockstep's NOT_YET_COMPARED says the same, and docs/conformance.md.
+    // The motors: an implementation that reports none fails any expectation about them.
+    if o.motion.is_none() && !(motors.is_empty() && encoder_loss.is_empty()) {
+        return Err(Mismatch::Field("motors", "motors reported".into(), "none reported".into()));
+    }
     if let Some(view) = o.motion {
         let shown = view.motors();
         if !motors.is_empty() {
@@ -403,16 +404,6 @@ pub fn run_on_subject_observed<S: crate::subject::Subject>(
         observe(&cfg, &event, &pair.model);
         if step.expect.window_cycles.is_some() {
             return Ok(0);
-        }
-        // An implementation that reports no motors is not checked on its reply to a motion
-        // command either (lockstep's NOT_YET_COMPARED; docs/conformance.md).
-        if obs.motion.is_none()
-            && matches!(event, Event::Command(HostCommand::Motion(_)))
-            && step.expect.reply.is_some()
-        {
-            let mut rest = step.expect.clone();
-            rest.reply = None;
-            return compare(spec, &rest, &obs);
         }
         compare(spec, &step.expect, &obs)
     })

@@ -1,9 +1,13 @@
 //! The compact core keeps its own constants (a shared table would let one wrong constant pass
 //! every comparison); this checks each against `specs/`.
 
-use pmacwd_core::{bits, Profile, StrobeStop, I40_MAX, I41_MAX, I8_MAX, I_VARIABLE_MAX, LOCKOUT};
-use pmacwd_specs::profiles::{ResetValueWhenI40Zero, StrobeStop as SpecStop, Strober};
+use pmacwd_core::{
+    bits, motion, Command, MotionCommand, Profile, StrobeStop, I40_MAX, I41_MAX, I8_MAX, I_VARIABLE_MAX, LOCKOUT,
+};
+use pmacwd_specs::facts::StopScope;
+use pmacwd_specs::profiles::{EncoderLossClear, ResetValueWhenI40Zero, StrobeStop as SpecStop, Strober};
 use pmacwd_specs::status::WordId;
+use pmacwd_specs::vocab::HostCommand;
 use pmacwd_specs::Spec;
 
 #[test]
@@ -52,6 +56,41 @@ fn the_core_named_profiles_match_profiles_yaml() {
         assert_eq!(p.reset_value_i40_zero, rv, "{name}");
         assert_eq!(p.strobe_stop == StrobeStop::BelowZero, c.strobe_stop == SpecStop::BelowZero, "{name}");
         assert_eq!(p.rti_strobes, c.strober == Strober::RealTimeInterrupt, "{name}");
+        assert_eq!(p.encoder_loss_clear_intended, c.encoder_loss_clear == EncoderLossClear::Intent, "{name}");
+    }
+}
+
+/// The core keeps eight motors and sixteen coordinate systems: as many motors as a
+/// configuration may have (check.rs) and Turbo PMAC's &1..&16 (the command parser's range).
+#[test]
+fn the_core_motor_and_coordinate_system_counts_match_the_spec() {
+    assert_eq!(motion::MOTORS_MAX, pmacwd_specs::check::MOTORS_MAX);
+    assert_eq!(motion::COORDINATE_SYSTEMS_MAX, pmacwd_specs::vocab::command::COORDINATE_SYSTEM_MAX);
+}
+
+/// Every row of UM p.217's stop table (`stop_commands.yaml`) reaches the core as a command of
+/// the row's scope: a motor command for the motor rows, a coordinate-system command for the
+/// C.S. rows, a global one for the control characters. (What each does is compared with the
+/// model's rules, which are checked column by column against the same table, in lockstep.)
+#[test]
+fn every_row_of_the_stop_table_reaches_the_core_with_its_scope() {
+    let spec = Spec::embedded().unwrap();
+    assert_eq!(spec.stop_commands.rows.len(), 11);
+    for row in &spec.stop_commands.rows {
+        let text = match row.scope {
+            StopScope::Motor => format!("#1{}", row.command),
+            StopScope::CoordinateSystem => format!("&1{}", row.command),
+            StopScope::Global => row.command.clone(),
+        };
+        let cmd = HostCommand::parse(&text).unwrap_or_else(|e| panic!("`{text}`: {e:?}"));
+        let core = pmacwd_bridge::core_command(&cmd);
+        let scope = match core {
+            Command::Motion(MotionCommand::Motor(1, _)) => StopScope::Motor,
+            Command::Motion(MotionCommand::CoordinateSystem(1, _)) => StopScope::CoordinateSystem,
+            Command::Motion(MotionCommand::Global(_)) => StopScope::Global,
+            other => panic!("`{text}` reaches the core as {other:?}"),
+        };
+        assert_eq!(scope, row.scope, "`{text}`");
     }
 }
 

@@ -14,11 +14,13 @@
 #![deny(clippy::arithmetic_side_effects)]
 
 pub mod counter;
+pub mod motion;
 #[doc(hidden)]
 pub mod proofs;
 pub mod rti;
 
 pub use counter::StrobeStop;
+pub use motion::{MotionCommand, MotionConfig, MotorStatus};
 use rti::Tick;
 
 /// Status bit positions in the wire layout of X:$000006 / Y:$000006 (SRM p.289-290).
@@ -146,6 +148,9 @@ pub struct Profile {
     pub bit12_firmware_error: bool,
     /// Bit 9 sticky like bit 22 (otherwise cleared by an RTI whose predecessor finished).
     pub rti_warning_sticky: bool,
+    /// UM p.215's encoder-loss PLC clears a latched loss (the intended reading); otherwise
+    /// its clear branch is read literally and never clears one.
+    pub encoder_loss_clear_intended: bool,
 }
 
 impl Profile {
@@ -156,6 +161,7 @@ impl Profile {
         rti_strobes: false,
         bit12_firmware_error: false,
         rti_warning_sticky: false,
+        encoder_loss_clear_intended: true,
     };
     /// The profile `srm-57`.
     pub const SRM_57: Profile = Profile {
@@ -164,6 +170,7 @@ impl Profile {
         rti_strobes: true,
         bit12_firmware_error: false,
         rti_warning_sticky: false,
+        encoder_loss_clear_intended: true,
     };
 }
 
@@ -187,6 +194,8 @@ pub struct Config {
     pub servo_counter_mask: u32,
     /// The load at power-up.
     pub load: Load,
+    /// The motors, their coordinate systems, and how long a deceleration takes.
+    pub motion: MotionConfig,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -238,9 +247,8 @@ pub enum Command {
     OpenPlc,
     OpenProgram,
     Close,
-    /// A command that starts or stops motion (UM p.217). The core has no motors yet: it
-    /// accepts the command and nothing moves (docs/conformance.md, "Not yet in the core").
-    Motion,
+    /// A command that starts or stops motion (UM p.217, UM p.319; `motion.rs`).
+    Motion(MotionCommand),
     Unrecognized,
 }
 
@@ -255,9 +263,11 @@ pub enum Event {
     Reset(Reset),
     ChecksumFault(Area),
     ClearRtiReentry,
-    /// A motor's encoder-loss input changes (UM p.214). The core has no motors yet and reads
-    /// no encoder inputs (docs/conformance.md, "Not yet in the core").
-    EncoderInput,
+    /// Motor `motor`'s (from 1) encoder-loss input changes (UM p.214).
+    EncoderInput {
+        motor: u8,
+        lost: bool,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -332,6 +342,8 @@ pub struct Core {
     /// both follow from the load, so they are computed when it changes, not every cycle.
     free: u32,
     servo_error: u32,
+    /// The motors and coordinate systems (`motion.rs`).
+    motion: motion::Motion,
 }
 
 impl Core {
@@ -355,6 +367,7 @@ impl Core {
             tokens: 0,
             free: 0,
             servo_error: 0,
+            motion: motion::Motion::power_on(),
         };
         c.set_load(cfg, cfg.load);
         c.restart(cfg, Reset { kind: ResetKind::Power, dpram_fault: false, flash_fault: false, bootstrap: false });
@@ -386,6 +399,18 @@ impl Core {
 
     pub fn counter_min(&self) -> i32 {
         self.counter_min
+    }
+
+    /// Motor `n` (from 1) as a host or an instrument sees it: state, stop under way, amplifier
+    /// enable, commanded output, encoder input, the PLC's latched loss, its coordinate system
+    /// and that system's program; `None` for a motor the configuration does not have.
+    pub fn motor(&self, cfg: &Config, n: u8) -> Option<MotorStatus> {
+        self.motion.motor(&cfg.motion, n)
+    }
+
+    /// The motors and coordinate systems.
+    pub fn motion(&self) -> &motion::Motion {
+        &self.motion
     }
 
     pub fn background_possible(&self) -> bool {
@@ -445,7 +470,7 @@ impl Core {
                 // UM p.215: below about 4.75 V the relay trips and the card shuts down.
                 if mv < cfg.supply_min_millivolts {
                     self.flags |= SUPPLY_LOW;
-                    self.flags |= TRIPPED;
+                    self.trip();
                 } else {
                     self.flags &= !SUPPLY_LOW;
                 }
@@ -460,7 +485,8 @@ impl Core {
                 self.restart(cfg, r);
                 store.restore();
                 if low != 0 {
-                    self.flags |= SUPPLY_LOW | TRIPPED;
+                    self.flags |= SUPPLY_LOW;
+                    self.trip();
                 }
                 Reply::None
             }
@@ -480,7 +506,11 @@ impl Core {
                 }
                 Reply::None
             }
-            Event::EncoderInput => Reply::None,
+            Event::EncoderInput { motor, lost } => {
+                // UM p.214: a hardware input, which changes whether or not the card runs.
+                self.motion.encoder_input(&cfg.motion, motor, lost);
+                Reply::None
+            }
         }
     }
 
@@ -503,10 +533,15 @@ impl Core {
         self.position = 0;
         self.tokens = 0;
         self.servo_cycles = 0;
+        // UM p.215: a reset restores "normal functioning"; the motors start as at power-up.
+        self.motion.restart();
     }
 
+    /// UM p.215: "the system is latched into a reset state"; the ICs held in reset force the
+    /// outputs off, so every amplifier is disabled and every motor reads killed.
     fn trip(&mut self) {
         self.flags |= TRIPPED;
+        self.motion.force_off();
     }
 
     // ------------------------------------------------------------------ foreground
@@ -560,6 +595,8 @@ impl Core {
         }
         self.servo_cycles = self.servo_cycles.wrapping_add(1) & cfg.servo_counter_mask;
         let free = self.free_units();
+        // The stops under way advance one servo cycle (`motion.rs`); one byte read when none is.
+        self.motion.servo_cycles(&cfg.motion, 1);
         let (counter, allowed) = counter::decrement(self.counter, cfg.profile.strobe_stop);
         self.counter = counter;
         self.counter_min = self.counter_min.min(counter);
@@ -689,6 +726,9 @@ impl Core {
             self.credit_cycle(cfg, free);
             remaining_cycles = remaining_cycles.saturating_sub(1);
         }
+        // The stops under way, over the same k cycles (the trip cycle's motion comes before
+        // the trip, as in a single servo cycle).
+        self.motion.servo_cycles(&cfg.motion, k);
         if trips {
             self.trip();
         }
@@ -712,6 +752,14 @@ impl Core {
         // UM p.215: "At the end of each background cycle, the CPU resets the counter".
         self.counter = counter::reset_value(self.i40, cfg.profile.reset_value_i40_zero);
         self.counter_min = self.counter_min.min(self.counter);
+        self.checksum_step(cfg);
+        // UM p.215: the safety PLCs scan once per background cycle, after the checksum step
+        // (the order of the reference model; neither reads what the other writes).
+        self.motion.encoder_loss_plc(&cfg.motion, cfg.profile.encoder_loss_clear_intended);
+    }
+
+    /// One background step of the checksum engine.
+    fn checksum_step(&mut self, cfg: &Config) {
         // UM p.217: the checksums run in background and stop for good on a mismatch.
         if self.flags & (ERROR_FIRMWARE | ERROR_PROGRAM) != 0 {
             return;
@@ -776,7 +824,12 @@ impl Core {
                 self.tokens = (self.tokens & !8) | ((self.tokens & 4) << 1);
                 Reply::Ack
             }
-            Command::Motion => Reply::Ack,
+            // UM p.217, UM p.319 (`motion.rs`); ERR001, Turbo PMAC's "command not allowed
+            // during program execution", for a K the program refuses (as the reference model).
+            Command::Motion(m) => match self.motion.command(&cfg.motion, m) {
+                motion::Outcome::Accepted => Reply::Ack,
+                motion::Outcome::RefusedDuringProgram => Reply::Error(1),
+            },
             Command::Unrecognized => Reply::Error(3),
         }
     }

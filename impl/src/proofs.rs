@@ -12,6 +12,10 @@
 //! minimum): 800 cycles at 40 kHz and 25 Hz, far inside the enumerated range.
 
 use crate::counter::{after, decrement, reset_value, StrobeStop};
+use crate::motion::{
+    pack, program_in, unpack, with_program, CsCommand, GlobalCommand, Motion, MotionCommand, MotionConfig,
+    MotorCommand, MotorState, Program, Stop, COORDINATE_SYSTEMS_MAX,
+};
 
 #[cfg(test)]
 extern crate std;
@@ -59,6 +63,7 @@ pub fn check_advance_equals_single_steps(cfg: &crate::Config, start: &crate::Cor
         slow.servo_cycle(cfg);
     }
     assert_eq!(fast, slow, "advance({n}) differs from {n} single cycles");
+    assert!(fast.motion().consistent(), "the motion's redundant bits disagree with its motor bytes");
     assert!(fast.counter_min() <= fast.counter() || fast.tripped(), "X:$25 above Y:$25");
     assert!(fast.counter_min() <= start.counter_min(), "X:$25 rose without a reset");
 }
@@ -80,6 +85,75 @@ pub fn check_advance_any_n(cfg: &crate::Config, start: &crate::Core, n: u32, spl
     assert_eq!(whole, parts, "advance({n}) differs from advance({a}) then advance({})", n.saturating_sub(a));
 }
 
+/// A motor's byte holds its state and stop and gives both back: `unpack(pack(s, t)) = (s, t)`
+/// for every state and stop, distinct pairs pack to distinct bytes, and the all-zero byte is a
+/// motor at power-up (killed, no stop), which `Motion::power_on` relies on.
+pub fn check_motor_byte_round_trip(state: MotorState, stop: Option<Stop>) {
+    let byte = pack(state, stop);
+    assert_eq!(unpack(byte), (state, stop), "round trip of {state:?} {stop:?}");
+    assert!(byte < 64, "a motor byte uses six bits");
+    assert_eq!(unpack(0), (MotorState::Killed, None));
+}
+
+/// Replacing one coordinate system's program in the packed word changes that program and no
+/// other, for every program and every word; a number outside &1..&16 changes nothing and
+/// reads no program.
+pub fn check_program_word(word: u64, cs: u8, p: Program) {
+    let next = with_program(word, cs, p);
+    if cs == 0 || cs > COORDINATE_SYSTEMS_MAX {
+        assert_eq!(next, word, "&{cs} is not a coordinate system");
+        assert_eq!(program_in(word, cs), Program::None);
+        return;
+    }
+    assert_eq!(program_in(next, cs), p, "&{cs} reads back");
+    for other in 1..=COORDINATE_SYSTEMS_MAX {
+        if other != cs {
+            assert_eq!(program_in(next, other), program_in(word, other), "&{other} unchanged by &{cs}");
+        }
+    }
+    assert_eq!(next >> 48, word >> 48, "the bits above &16 are untouched");
+}
+
+/// The motion's closed form over servo cycles equals single cycles: after `commands` on a
+/// fresh card, `servo_cycles(n)` in one call equals `n` calls of one cycle, and the redundant
+/// bits stay consistent with the motor bytes after every step.
+pub fn check_motion_closed_form(cfg: &MotionConfig, commands: &[MotionCommand], n: u32) {
+    let mut m = Motion::power_on();
+    for c in commands {
+        m.command(cfg, *c);
+        assert!(m.consistent(), "after {c:?}");
+    }
+    let mut fast = m;
+    fast.servo_cycles(cfg, n);
+    let mut slow = m;
+    for _ in 0..n {
+        slow.servo_cycles(cfg, 1);
+        assert!(slow.consistent());
+    }
+    assert_eq!(fast, slow, "{n} servo cycles at once differ from one by one after {commands:?}");
+}
+
+/// The motion commands the closed-form harness draws from: every row of UM p.217 on motor #1 or
+/// #2 and &1 or &2, and the commands that start motion.
+pub const MOTION_COMMANDS: [MotionCommand; 16] = [
+    MotionCommand::Motor(1, MotorCommand::JogStop),
+    MotionCommand::Motor(1, MotorCommand::Jog),
+    MotionCommand::Motor(1, MotorCommand::Kill),
+    MotionCommand::Motor(2, MotorCommand::JogStop),
+    MotionCommand::CoordinateSystem(1, CsCommand::Begin),
+    MotionCommand::CoordinateSystem(1, CsCommand::Run),
+    MotionCommand::CoordinateSystem(1, CsCommand::Step),
+    MotionCommand::CoordinateSystem(1, CsCommand::Abort),
+    MotionCommand::CoordinateSystem(1, CsCommand::Quit),
+    MotionCommand::CoordinateSystem(1, CsCommand::EndOfMove),
+    MotionCommand::CoordinateSystem(1, CsCommand::Hold),
+    MotionCommand::CoordinateSystem(2, CsCommand::Begin),
+    MotionCommand::CoordinateSystem(2, CsCommand::Run),
+    MotionCommand::Global(GlobalCommand::QuitAll),
+    MotionCommand::Global(GlobalCommand::HoldAll),
+    MotionCommand::Global(GlobalCommand::AbortAll),
+];
+
 #[cfg(kani)]
 mod kani_proofs {
     use super::*;
@@ -98,6 +172,7 @@ mod kani_proofs {
                 rti_strobes: kani::any(),
                 bit12_firmware_error: kani::any(),
                 rti_warning_sticky: kani::any(),
+                encoder_loss_clear_intended: kani::any(),
             },
             hardware_delay_cycles: wide(kani::any()).into(),
             cycle_units: wide(kani::any()),
@@ -115,6 +190,7 @@ mod kani_proofs {
                 plc0_units: wide(kani::any()),
                 background_units: wide(kani::any()),
             },
+            motion: MotionConfig::all_in_cs1(2, kani::any::<u8>() % 4),
         }
     }
 
@@ -145,6 +221,33 @@ mod kani_proofs {
     fn i40_zero_mapping_matches_each_profile() {
         check_i40_mapping(kani::any());
     }
+
+    #[kani::proof]
+    fn motor_byte_round_trips() {
+        let state = MotorState::ALL[usize::from(kani::any::<u8>() % 6)];
+        let stop = if kani::any() { None } else { Some(Stop::ALL[usize::from(kani::any::<u8>() % 5)]) };
+        check_motor_byte_round_trip(state, stop);
+    }
+
+    #[kani::proof]
+    #[kani::unwind(17)]
+    fn program_word_replaces_one_program() {
+        check_program_word(kani::any(), kani::any(), Program::ALL[usize::from(kani::any::<u8>() % 5)]);
+    }
+
+    #[kani::proof]
+    #[kani::unwind(17)]
+    fn motion_closed_form_equals_single_cycles() {
+        let cfg = MotionConfig {
+            motors: 1 + kani::any::<u8>() % 2,
+            coordinate_systems: [1 + kani::any::<u8>() % 2, 1 + kani::any::<u8>() % 2, 1, 1, 1, 1, 1, 1],
+            decel_cycles: kani::any::<u8>() % 4,
+        };
+        let pick = || MOTION_COMMANDS[usize::from(kani::any::<u8>() % 16)];
+        let n: u8 = kani::any();
+        kani::assume(n <= 5);
+        check_motion_closed_form(&cfg, &[pick(), pick(), pick()], n.into());
+    }
 }
 
 #[cfg(test)]
@@ -171,6 +274,62 @@ mod exhaustive_twins {
     fn i40_zero_mapping_matches_each_profile_for_every_i40() {
         for i40 in 0..=u16::MAX {
             check_i40_mapping(i40);
+        }
+    }
+
+    #[test]
+    fn motor_byte_round_trips_for_every_state_and_stop() {
+        for state in MotorState::ALL {
+            check_motor_byte_round_trip(state, None);
+            for stop in Stop::ALL {
+                check_motor_byte_round_trip(state, Some(stop));
+            }
+        }
+    }
+
+    /// Every coordinate-system number (0..=255, so the ones outside &1..&16 too) and program,
+    /// on words holding every program in every slot (rotated so each slot sees each value next
+    /// to each neighbour value) and on all-ones and all-zero words.
+    #[test]
+    fn program_word_replaces_one_program_for_every_cs_and_program() {
+        let mut words = std::vec![0u64, u64::MAX];
+        for rotation in 0..5u64 {
+            let mut w = 0u64;
+            for slot in 0..16u64 {
+                w |= ((slot + rotation) % 5) << (3 * slot);
+            }
+            words.push(w);
+            words.push(w | 0xFFFF << 48);
+        }
+        for word in words {
+            for cs in 0..=u8::MAX {
+                for p in Program::ALL {
+                    check_program_word(word, cs, p);
+                }
+            }
+        }
+    }
+
+    /// Every sequence of three of [`MOTION_COMMANDS`] (4,096), on one and two motors in each
+    /// assignment to &1 and &2, with decelerations of 0 to 3 cycles, for n = 0..=5.
+    #[test]
+    fn motion_closed_form_equals_single_cycles_for_every_short_command_sequence() {
+        for motors in 1..=2u8 {
+            for (a, b) in [(1, 1), (1, 2), (2, 1), (2, 2)] {
+                for decel in 0..=3u8 {
+                    let cfg =
+                        MotionConfig { motors, coordinate_systems: [a, b, 1, 1, 1, 1, 1, 1], decel_cycles: decel };
+                    for x in MOTION_COMMANDS {
+                        for y in MOTION_COMMANDS {
+                            for z in MOTION_COMMANDS {
+                                for n in 0..=5 {
+                                    check_motion_closed_form(&cfg, &[x, y, z], n);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
         }
     }
 }

@@ -3,8 +3,12 @@
 
 mod common;
 
+use pmacwd_core::motion::{CsCommand, GlobalCommand, MotorCommand, MOTORS_MAX};
 use pmacwd_core::proofs::{check_advance_any_n, check_advance_equals_single_steps};
-use pmacwd_core::{Area, Command, Config, Core, Event, FewIVariables, Load, Profile, Reset, ResetKind, StrobeStop};
+use pmacwd_core::{
+    Area, Command, Config, Core, Event, FewIVariables, Load, MotionCommand, MotionConfig, Profile, Reset, ResetKind,
+    StrobeStop,
+};
 use proptest::prelude::*;
 
 fn config() -> impl Strategy<Value = Config> {
@@ -12,9 +16,17 @@ fn config() -> impl Strategy<Value = Config> {
         (any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>(), any::<bool>()),
         (1u32..=60, 1u16..=120, 0u16..=30, 0u16..=20, 0u8..=6, 0u16..=400),
         (0u8..=12, 0u16..=600, 0u16..=400),
+        // Motors in up to three coordinate systems, decelerations shorter and longer than the
+        // servo runs below, and the encoder-loss PLC's two readings.
+        (1u8..=8, prop::array::uniform8(1u8..=3), 0u8..=60, any::<bool>()),
     )
         .prop_map(
-            |((r4096, below, rti, m83, sticky), (delay, cycle, per_motor, planning, i8, i40), (motors, plc0, bg))| {
+            |(
+                (r4096, below, rti, m83, sticky),
+                (delay, cycle, per_motor, planning, i8, i40),
+                (motors, plc0, bg),
+                (count, cs, decel, intended),
+            )| {
                 Config {
                     profile: Profile {
                         reset_value_i40_zero: if r4096 { 4096 } else { 4095 },
@@ -22,6 +34,7 @@ fn config() -> impl Strategy<Value = Config> {
                         rti_strobes: rti,
                         bit12_firmware_error: m83,
                         rti_warning_sticky: sticky,
+                        encoder_loss_clear_intended: intended,
                     },
                     hardware_delay_cycles: delay,
                     cycle_units: cycle,
@@ -35,6 +48,7 @@ fn config() -> impl Strategy<Value = Config> {
                     supply_min_millivolts: 4750,
                     servo_counter_mask: 0xFF_FFFF,
                     load: Load { motors, plc0_units: plc0, background_units: bg },
+                    motion: MotionConfig { motors: count, coordinate_systems: cs, decel_cycles: decel },
                 }
             },
         )
@@ -50,6 +64,36 @@ fn event() -> impl Strategy<Value = Event> {
         1 => Just(Event::Reset(Reset { kind: ResetKind::Init, dpram_fault: false, flash_fault: false, bootstrap: false })),
         1 => Just(Event::ChecksumFault(Area::Firmware)),
         1 => Just(Event::ClearRtiReentry),
+        6 => motion_command().prop_map(|m| Event::Command(Command::Motion(m))),
+        1 => (0u8..=9, any::<bool>()).prop_map(|(motor, lost)| Event::EncoderInput { motor, lost }),
+    ]
+}
+
+/// Motion commands on motors #0..#9 and coordinate systems &0..&4 (both ranges one past the
+/// configurations' on each side), so that stops are under way when `advance` runs.
+fn motion_command() -> impl Strategy<Value = MotionCommand> {
+    let motor = prop::sample::select(&[MotorCommand::Jog, MotorCommand::JogStop, MotorCommand::Kill][..]);
+    let cs = prop::sample::select(
+        &[
+            CsCommand::Abort,
+            CsCommand::Quit,
+            CsCommand::EndOfMove,
+            CsCommand::Hold,
+            CsCommand::QuickStop,
+            CsCommand::Run,
+            CsCommand::Step,
+            CsCommand::Begin,
+            CsCommand::Feedrate(0),
+            CsCommand::Feedrate(100),
+        ][..],
+    );
+    let global = prop::sample::select(
+        &[GlobalCommand::AbortAll, GlobalCommand::QuitAll, GlobalCommand::HoldAll, GlobalCommand::KillAll][..],
+    );
+    prop_oneof![
+        3 => (0u8..=MOTORS_MAX as u8 + 1, motor).prop_map(|(n, c)| MotionCommand::Motor(n, c)),
+        4 => (0u8..=4, cs).prop_map(|(n, c)| MotionCommand::CoordinateSystem(n, c)),
+        1 => global.prop_map(MotionCommand::Global),
     ]
 }
 

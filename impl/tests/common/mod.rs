@@ -1,8 +1,8 @@
 //! The configuration the core's tests and benchmarks share: the default profile at a realistic
 //! operating point (I40 = 0, I8 = 2, eight motors, hardware delay 45 servo cycles: 2.25 kHz
-//! servo against the 25 Hz strobe minimum).
+//! servo against the 25 Hz strobe minimum), eight motors in &1 decelerating for 20 servo cycles.
 
-use pmacwd_core::{Config, Load, Profile};
+use pmacwd_core::{Config, Load, MotionConfig, Profile};
 
 pub fn realistic_config() -> Config {
     Config {
@@ -19,5 +19,6 @@ pub fn realistic_config() -> Config {
         supply_min_millivolts: 4750,
         servo_counter_mask: 0xFF_FFFF,
         load: Load { motors: 8, plc0_units: 30, background_units: 250 },
+        motion: MotionConfig::all_in_cs1(8, 20),
     }
 }

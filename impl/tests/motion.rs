@@ -1,0 +1,220 @@
+//! The core's motion on its own, rule by rule: each test drives the core with its own commands
+//! and checks one sentence of the manuals. (Lockstep checks every rule against the model too;
+//! these tests keep the core's behaviour readable, and fail on the core alone.)
+
+mod common;
+
+use pmacwd_core::motion::{CsCommand, GlobalCommand, MotorCommand, MotorState, Program, Stop};
+use pmacwd_core::{Command, Config, Core, Event, FewIVariables, MotionCommand, MotionConfig, Reply};
+
+/// Two motors, #1 in &1 and #2 in &2, stops taking 3 servo cycles.
+fn config() -> Config {
+    Config {
+        motion: MotionConfig { motors: 2, coordinate_systems: [1, 2, 1, 1, 1, 1, 1, 1], decel_cycles: 3 },
+        ..common::realistic_config()
+    }
+}
+
+struct Card {
+    cfg: Config,
+    core: Core,
+    store: FewIVariables<4>,
+}
+
+impl Card {
+    fn new(cfg: Config) -> Card {
+        Card { core: Core::power_on(&cfg), cfg, store: FewIVariables::default() }
+    }
+
+    fn send(&mut self, m: MotionCommand) -> Reply {
+        self.core.apply(&self.cfg, Event::Command(Command::Motion(m)), &mut self.store)
+    }
+
+    fn motor(&mut self, n: u8, c: MotorCommand) -> Reply {
+        self.send(MotionCommand::Motor(n, c))
+    }
+
+    fn cs(&mut self, n: u8, c: CsCommand) -> Reply {
+        self.send(MotionCommand::CoordinateSystem(n, c))
+    }
+
+    fn servo(&mut self, n: u32) {
+        self.core.apply(&self.cfg, Event::Servo(n), &mut self.store);
+    }
+
+    fn state(&self, n: u8) -> MotorState {
+        self.core.motor(&self.cfg, n).expect("configured motor").state
+    }
+
+    /// #1 closed-loop and &1 running its program.
+    fn running(cfg: Config) -> Card {
+        let mut c = Card::new(cfg);
+        c.motor(1, MotorCommand::JogStop);
+        c.cs(1, CsCommand::Begin);
+        c.cs(1, CsCommand::Run);
+        assert_eq!(c.state(1), MotorState::Program);
+        c
+    }
+}
+
+/// MODEL (Ixx80 = 0): motors power up killed, amplifier off, output at zero; J/ closes the loop.
+#[test]
+fn motors_power_up_killed_and_j_slash_closes_the_loop() {
+    let mut c = Card::new(config());
+    let m = c.core.motor(&c.cfg, 1).unwrap();
+    assert_eq!((m.state, m.amplifier_enabled, m.output_zero), (MotorState::Killed, false, true));
+    assert_eq!(c.motor(1, MotorCommand::JogStop), Reply::Ack);
+    let m = c.core.motor(&c.cfg, 1).unwrap();
+    assert_eq!((m.state, m.amplifier_enabled, m.output_zero), (MotorState::Closed, true, false));
+    assert_eq!(c.core.motor(&c.cfg, 3), None, "the configuration has two motors");
+}
+
+/// UM p.217 row 1: J/ begins immediately and decelerates (Ixx19-21) to closed loop at rest,
+/// here in the configured 3 servo cycles.
+#[test]
+fn j_slash_decelerates_a_jog_for_the_configured_cycles() {
+    let mut c = Card::new(config());
+    c.motor(1, MotorCommand::JogStop);
+    c.motor(1, MotorCommand::Jog);
+    assert_eq!(c.state(1), MotorState::Jogging);
+    c.motor(1, MotorCommand::JogStop);
+    assert_eq!(c.core.motor(&c.cfg, 1).unwrap().stop, Some((Stop::Jog, 3)));
+    c.servo(2);
+    assert_eq!(c.state(1), MotorState::Decelerating);
+    c.servo(1);
+    assert_eq!(c.state(1), MotorState::Closed);
+}
+
+/// UM p.319: K "is not permitted when the motor is in a coordinate system that is executing a
+/// motion program" (ERR001); after A has stopped the program, K kills in the same event.
+#[test]
+fn k_is_refused_while_the_program_runs_and_kills_once_a_stops_it() {
+    let mut c = Card::running(config());
+    assert_eq!(c.motor(1, MotorCommand::Kill), Reply::Error(1));
+    assert_eq!(c.state(1), MotorState::Program);
+    c.cs(1, CsCommand::Abort);
+    assert_eq!(c.core.motor(&c.cfg, 1).unwrap().program, Program::Lost);
+    assert_eq!(c.motor(1, MotorCommand::Kill), Reply::Ack);
+    let m = c.core.motor(&c.cfg, 1).unwrap();
+    assert_eq!((m.state, m.amplifier_enabled, m.output_zero), (MotorState::Killed, false, true));
+}
+
+/// UM p.217: Q does not begin immediately, it "Finishes calculated moves" and stops at a
+/// program point: the motor stays in the program until the stop ends, then the program
+/// stands at a point that R continues from.
+#[test]
+fn q_finishes_the_calculated_moves_and_stops_at_a_program_point() {
+    let mut c = Card::running(config());
+    c.cs(1, CsCommand::Quit);
+    assert_eq!(c.state(1), MotorState::Program);
+    c.servo(3);
+    let m = c.core.motor(&c.cfg, 1).unwrap();
+    assert_eq!((m.state, m.program), (MotorState::Closed, Program::AtPoint));
+    c.cs(1, CsCommand::Run);
+    assert_eq!(c.state(1), MotorState::Program);
+}
+
+/// UM p.217: H stops on the path, not at a program point ("Similar to %0"); SRM p.260: R
+/// starts a held C.S. again. A C.S. command leaves the other C.S. alone.
+#[test]
+fn h_holds_its_own_coordinate_system_on_the_path_and_r_resumes_it() {
+    let mut c = Card::running(config());
+    c.motor(2, MotorCommand::JogStop);
+    c.motor(2, MotorCommand::Jog);
+    c.cs(1, CsCommand::Hold);
+    c.servo(3);
+    let m = c.core.motor(&c.cfg, 1).unwrap();
+    assert_eq!((m.state, m.program), (MotorState::Holding, Program::Held));
+    assert_eq!(c.state(2), MotorState::Jogging, "&1H does not reach #2 in &2");
+    c.cs(1, CsCommand::Feedrate(100));
+    assert_eq!(c.state(1), MotorState::Program, "a non-zero %n resumes a hold, as R does");
+}
+
+/// UM p.319: <CTRL-K> disables every motor at once, even in a running program, and the
+/// lookahead is discarded.
+#[test]
+fn ctrl_k_kills_every_motor_at_once_even_in_a_running_program() {
+    let mut c = Card::running(config());
+    c.motor(2, MotorCommand::JogStop);
+    c.motor(2, MotorCommand::Jog);
+    assert_eq!(c.send(MotionCommand::Global(GlobalCommand::KillAll)), Reply::Ack);
+    assert_eq!((c.state(1), c.state(2)), (MotorState::Killed, MotorState::Killed));
+    assert_eq!(c.core.motor(&c.cfg, 1).unwrap().program, Program::Lost);
+}
+
+/// UM p.215: a trip forces every output off: every amplifier is disabled, every motor reads
+/// killed, in the servo cycle that trips (here an undervoltage).
+#[test]
+fn a_trip_kills_every_motor() {
+    let mut c = Card::running(config());
+    c.core.apply(&c.cfg, Event::Supply(4500), &mut c.store);
+    assert!(c.core.tripped());
+    for n in 1..=2 {
+        let m = c.core.motor(&c.cfg, n).unwrap();
+        assert_eq!((m.state, m.amplifier_enabled, m.output_zero), (MotorState::Killed, false, true), "#{n}");
+    }
+}
+
+/// UM p.214-215: the encoder-loss PLC, one scan per background cycle, kills a closed-loop
+/// motor whose encoder is lost and latches the loss; with the encoder back, the intended
+/// reading clears the latch and the literal one (which tests for a status already 0) never does.
+#[test]
+fn the_encoder_loss_plc_kills_and_latches_and_only_the_intended_reading_clears() {
+    for intended in [true, false] {
+        let mut cfg = config();
+        cfg.profile.encoder_loss_clear_intended = intended;
+        let mut c = Card::new(cfg);
+        c.motor(1, MotorCommand::JogStop);
+        c.core.apply(&c.cfg, Event::EncoderInput { motor: 1, lost: true }, &mut c.store);
+        assert_eq!(c.state(1), MotorState::Closed, "the PLC acts in the background, not at the input");
+        let background = |c: &mut Card| {
+            while !c.core.background_possible() {
+                c.servo(1);
+            }
+            c.core.background_cycle(&c.cfg);
+        };
+        background(&mut c);
+        let m = c.core.motor(&c.cfg, 1).unwrap();
+        assert_eq!((m.state, m.encoder_loss_status), (MotorState::Killed, true));
+        c.core.apply(&c.cfg, Event::EncoderInput { motor: 1, lost: false }, &mut c.store);
+        c.motor(1, MotorCommand::JogStop);
+        background(&mut c);
+        assert_eq!(c.core.motor(&c.cfg, 1).unwrap().encoder_loss_status, !intended, "intended reading: {intended}");
+    }
+}
+
+/// MODEL, as the reference model: the PLC's kill aborts the program of the killed motor's
+/// C.S., and the abort brings its other motors to rest in one servo cycle.
+#[test]
+fn the_encoder_loss_kill_aborts_the_program_of_its_coordinate_system() {
+    let cfg = Config {
+        motion: MotionConfig { motors: 2, coordinate_systems: [1, 1, 1, 1, 1, 1, 1, 1], decel_cycles: 3 },
+        ..config()
+    };
+    let mut c = Card::new(cfg);
+    c.motor(1, MotorCommand::JogStop);
+    c.motor(2, MotorCommand::JogStop);
+    c.cs(1, CsCommand::Begin);
+    c.cs(1, CsCommand::Run);
+    c.core.apply(&c.cfg, Event::EncoderInput { motor: 1, lost: true }, &mut c.store);
+    while !c.core.background_possible() {
+        c.servo(1);
+    }
+    c.core.background_cycle(&c.cfg);
+    let (one, two) = (c.core.motor(&c.cfg, 1).unwrap(), c.core.motor(&c.cfg, 2).unwrap());
+    assert_eq!((one.state, one.program), (MotorState::Killed, Program::Lost));
+    assert_eq!((two.state, two.stop), (MotorState::Decelerating, Some((Stop::Abort, 1))));
+}
+
+/// A reset brings every motor and program back to power-up; the encoder input, hardware,
+/// keeps its level (UM p.215: a reset restores "normal functioning").
+#[test]
+fn a_reset_restarts_the_motors_and_keeps_the_encoder_inputs() {
+    let mut c = Card::running(config());
+    c.core.apply(&c.cfg, Event::EncoderInput { motor: 2, lost: true }, &mut c.store);
+    c.core.apply(&c.cfg, Event::Command(Command::Reset), &mut c.store);
+    let (one, two) = (c.core.motor(&c.cfg, 1).unwrap(), c.core.motor(&c.cfg, 2).unwrap());
+    assert_eq!((one.state, one.program), (MotorState::Killed, Program::None));
+    assert!(two.encoder_lost);
+    assert!(c.core.motion().consistent());
+}
