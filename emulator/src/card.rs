@@ -8,7 +8,7 @@ use crate::control::{Control, HELP};
 use crate::framing::{framing_write_out_of_range, Answer, Framing};
 use crate::grammar::{parse_line, Addressing, Command, Gather, Jog, VarKind};
 use crate::memory::{format_value, HostDefaults, Memory};
-use crate::motor_status::{cs_words, hex_words, motor_view, motor_words};
+use crate::motor_status::{cs_words, hex_words, motor_words};
 use pmacwd_bridge::{core_command, core_event, spec_load};
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
@@ -16,7 +16,6 @@ use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion, MotorCommand};
 use pmacwd_specs::vocab::event::Event;
-use pmacwd_specs::vocab::observation::MotionView;
 use pmacwd_specs::vocab::Buffer;
 use pmacwd_trace::jsonl::step_line;
 use pmacwd_trace::{Expect, Step, TraceEvent};
@@ -320,13 +319,12 @@ impl Card {
         Some(out)
     }
 
-    /// The motors as the core reports them: `None` until the core models motors.
-    fn motion(&self) -> Option<MotionView> {
-        pmacwd_bridge::core_observation(&self.core, &self.cfg, core::Reply::None).motion
-    }
-
-    fn motors(&self) -> u8 {
-        self.core.load().motors
+    /// The core's motors of coordinate system `cs`.
+    fn members(&self, cs: u8) -> Vec<pmacwd_bridge::MotorStatus> {
+        (1..=self.cfg.motion.motors)
+            .filter_map(|n| pmacwd_bridge::motor_status(&self.core, &self.cfg, n))
+            .filter(|m| m.coordinate_system == cs)
+            .collect()
     }
 
     /// A motion command for the core.
@@ -367,12 +365,11 @@ impl Card {
             Command::Jog(n, Jog::Minus) => out.push(self.motion_answer(Motion::Motor(n, MotorCommand::JogMinus))),
             Command::Jog(n, Jog::Stop) => out.push(self.motion_answer(Motion::Motor(n, MotorCommand::JogStop))),
             Command::MotorStatus(n) => {
-                let motion = self.motion();
-                let (x, y) = motor_words(n, self.motors(), motor_view(motion.as_ref(), n));
+                let (x, y) = motor_words(pmacwd_bridge::motor_status(&self.core, &self.cfg, n).as_ref());
                 out.push(data(hex_words(&[x, y])));
             }
-            Command::CsStatus(_) => {
-                let (a, b, c) = cs_words(self.motion().as_ref());
+            Command::CsStatus(cs) => {
+                let (a, b, c) = cs_words(&self.members(cs));
                 out.push(data(hex_words(&[a, b, c])));
             }
             // Positions, velocities and following errors: the emulated motors do not move
@@ -664,7 +661,8 @@ mod tests {
         assert_eq!(v[1].len(), 12, "??? is 12 hex digits");
         assert_eq!(v[2], "000000000000000000");
         assert_eq!(v[3], "100", "feedrate override 100%");
-        assert_eq!(&v[4..10], ["850000000000", "0", "0", "0", "0", "0"], "motor 1 killed, at 0, no amp fault");
+        // Motor 1: activated, open loop (killed at power-up), in C.S. 1; at 0; no amp fault.
+        assert_eq!(&v[4..10], ["850000008000", "0", "0", "0", "0", "0"]);
     }
 
     #[test]
@@ -707,6 +705,21 @@ mod tests {
         assert_eq!(values(&c.line(b"&1%").unwrap()), ["50"]);
         assert_eq!(c.control_character(0x0b).unwrap(), b"\x06", "CTRL-K through the control-character request");
         assert_eq!(c.control_character(0x02).unwrap(), b"\x07ERR003\r", "CTRL-B is not emulated");
+    }
+
+    #[test]
+    fn closing_a_loop_enables_the_amplifier_and_kill_all_disables_every_one() {
+        // The core's motion (UM p.217: J/ on a killed motor closes its loop; UM p.319: a kill
+        // opens it and disables the amplifier), read back as the GUI and EPICS read it.
+        let mut c = card();
+        let amp = |c: &mut Card, m: u8| {
+            let w = u64::from_str_radix(&values(&c.line(format!("#{m}?").as_bytes()).unwrap())[0], 16).unwrap();
+            (w >> 24) & (1 << 19) != 0
+        };
+        c.line(b"#1J/#2J/");
+        assert!(amp(&mut c, 1) && amp(&mut c, 2) && !amp(&mut c, 3));
+        assert_eq!(c.line(b"\x0b").unwrap(), b"\x06");
+        assert!((1..=8).all(|m| !amp(&mut c, m)), "KILL ALL");
     }
 
     #[test]

@@ -1,13 +1,12 @@
 //! The status words a host reads with `#n?` (two 24-bit words, SRM p.282-284) and `&n??`
 //! (three, SRM p.284-287), composed from the motors as the safety chain sees them (the
-//! vocabulary's [`MotorView`]); every other bit is a documented constant.
-//!
-//! The core reports its motors to the emulator as a [`MotionView`] once it models them (the
-//! bridge's observation carries `motion: None` until then, docs/conformance.md "Not yet in
-//! the core"): without one, every motor the configuration has is reported killed, the state a
-//! Turbo PMAC's motors power up in unless Ixx80 says otherwise.
+//! vocabulary's [`MotorView`], with the motor's coordinate system and the stop under way as
+//! the bridge's [`MotorStatus`] reports them from the core); every other bit is a documented
+//! constant.
 
-use pmacwd_specs::vocab::observation::{MotionView, MotorState, MotorView};
+use pmacwd_bridge::MotorStatus;
+use pmacwd_core::motion::{Program, Stop};
+use pmacwd_specs::vocab::observation::MotorState;
 
 /// First word (X), SRM p.282-283.
 pub const MOTOR_ACTIVATED: u32 = 1 << 23;
@@ -17,21 +16,32 @@ pub const OPEN_LOOP: u32 = 1 << 18;
 /// answered `81200001C401`, has it set, SRM p.284).
 pub const INTEGRATION_MODE: u32 = 1 << 16;
 pub const DESIRED_VELOCITY_ZERO: u32 = 1 << 13;
-/// Second word (Y), SRM p.283-284.
+/// Decelerating after an abort (`A`, <CTRL-A>) or a limit (SRM p.283, bit 12).
+pub const ABORT_DECELERATION: u32 = 1 << 12;
+/// Second word (Y), SRM p.283-284: bits 20-23 the C.S. number less one, bit 15 assigned to
+/// a C.S., bit 0 in position.
+pub const ASSIGNED_TO_CS: u32 = 1 << 15;
+pub const CS_NUMBER_SHIFT: u32 = 20;
 pub const IN_POSITION: u32 = 1 << 0;
 
-/// `#n?` for motor `n` (1-based) of `count` activated motors, as `(first, second)`.
-/// `view` is the motor as the core reports it, `None` when the core models no motors.
-pub fn motor_words(n: u8, count: u8, view: Option<&MotorView>) -> (u32, u32) {
-    if n == 0 || n > count {
+/// `#n?` as `(first, second)` for a motor as the bridge reports it; `None` for a motor the
+/// configuration does not have.
+pub fn motor_words(status: Option<&MotorStatus>) -> (u32, u32) {
+    let Some(status) = status else {
         // Ixx00 = 0: a motor the configuration does not have is not activated, and a
         // deactivated motor reports nothing else (SRM p.282, bit 23).
         return (0, 0);
-    }
-    let killed = MotorView::default();
-    let m = view.unwrap_or(&killed);
+    };
+    let m = &status.view;
     let mut x = MOTOR_ACTIVATED | INTEGRATION_MODE;
-    let mut y = 0;
+    // Every configured motor belongs to its coordinate system (the model's `coordinate_systems`
+    // of check.yaml); the C.S. number goes in bits 20-23, less one (SRM p.284's example:
+    // bits 20-23 all 0, "assigned to C.S.1").
+    let cs = u32::from(status.coordinate_system.clamp(1, 16) - 1);
+    let mut y = ASSIGNED_TO_CS | cs << CS_NUMBER_SHIFT;
+    if matches!(status.stop, Some((Stop::Abort, _))) {
+        x |= ABORT_DECELERATION;
+    }
     if m.amplifier_enabled {
         x |= AMPLIFIER_ENABLED;
     }
@@ -50,19 +60,13 @@ pub fn motor_words(n: u8, count: u8, view: Option<&MotorView>) -> (u32, u32) {
     (x, y)
 }
 
-/// The motor view for motor `n` (1-based) from the core's motion, if it reports any.
-pub fn motor_view(motion: Option<&MotionView>, n: u8) -> Option<&MotorView> {
-    motion.and_then(|m| m.motors().get(usize::from(n).checked_sub(1)?))
-}
-
 /// First word bit 0 of `&n??`: the C.S. is running a motion program (SRM p.285).
 pub const CS_RUNNING_PROGRAM: u32 = 1 << 0;
 
-/// `&n??` as three words. No motor is assigned to a coordinate system on the emulated card
-/// (no axis definitions), so only "running program" can be set, and only from a motor the
-/// core reports in `Program` state; the other bits are constant 0.
-pub fn cs_words(motion: Option<&MotionView>) -> (u32, u32, u32) {
-    let running = motion.is_some_and(|m| m.motors().iter().any(|v| v.state == MotorState::Program));
+/// `&n??` as three words from the motors of that coordinate system: "running program" when
+/// its program runs (the core's `Program::Running`); the other bits are constant 0.
+pub fn cs_words(members: &[MotorStatus]) -> (u32, u32, u32) {
+    let running = members.iter().any(|m| m.program == Program::Running);
     (if running { CS_RUNNING_PROGRAM } else { 0 }, 0, 0)
 }
 
@@ -74,44 +78,51 @@ pub fn hex_words(words: &[u32]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use pmacwd_specs::vocab::observation::MOTORS_SHOWN;
+    use pmacwd_specs::vocab::observation::MotorView;
 
-    fn view(state: MotorState, amp: bool) -> MotorView {
-        MotorView { state, amplifier_enabled: amp, ..MotorView::default() }
+    fn status(state: MotorState, amp: bool, cs: u8) -> MotorStatus {
+        MotorStatus {
+            view: MotorView { state, amplifier_enabled: amp, ..MotorView::default() },
+            coordinate_system: cs,
+            program: Program::None,
+            stop: None,
+        }
     }
 
     #[test]
-    fn without_motors_from_the_core_every_motor_reads_killed() {
-        // Activated, open loop, amplifier off: what the EPICS driver reads as "done, no
-        // power" and dls-pmaccontrol's status window shows as open loop.
-        let (x, y) = motor_words(1, 8, None);
-        assert_eq!(hex_words(&[x, y]), "850000000000");
-        assert_eq!(motor_words(9, 8, None), (0, 0), "a motor the card does not have");
+    fn a_killed_motor_is_activated_open_loop_with_its_amplifier_off() {
+        // What the EPICS driver reads as "done, no power" and dls-pmaccontrol's status window
+        // shows as open loop; assigned to C.S. 1.
+        let (x, y) = motor_words(Some(&status(MotorState::Killed, false, 1)));
+        assert_eq!(hex_words(&[x, y]), "850000008000");
+        assert_eq!(motor_words(None), (0, 0), "a motor the card does not have");
     }
 
     #[test]
     fn the_bits_the_safety_chain_drives_follow_the_motor() {
-        let (x, y) = motor_words(1, 8, Some(&view(MotorState::Closed, true)));
+        let (x, y) = motor_words(Some(&status(MotorState::Closed, true, 1)));
         assert_eq!(
-            (x & AMPLIFIER_ENABLED, x & OPEN_LOOP, x & DESIRED_VELOCITY_ZERO, y),
+            (x & AMPLIFIER_ENABLED, x & OPEN_LOOP, x & DESIRED_VELOCITY_ZERO, y & IN_POSITION),
             (AMPLIFIER_ENABLED, 0, DESIRED_VELOCITY_ZERO, IN_POSITION)
         );
-        let (x, y) = motor_words(1, 8, Some(&view(MotorState::Jogging, true)));
+        let (x, y) = motor_words(Some(&status(MotorState::Jogging, true, 1)));
         assert_eq!((x & DESIRED_VELOCITY_ZERO, y & IN_POSITION), (0, 0), "moving");
         // A kill opens the loop and disables the amplifier (UM p.319).
-        let (x, _) = motor_words(1, 8, Some(&view(MotorState::Killed, false)));
+        let (x, _) = motor_words(Some(&status(MotorState::Killed, false, 1)));
         assert_eq!(x & (OPEN_LOOP | AMPLIFIER_ENABLED), OPEN_LOOP);
+        let mut aborting = status(MotorState::Decelerating, true, 2);
+        aborting.stop = Some((Stop::Abort, 3));
+        let (x, y) = motor_words(Some(&aborting));
+        assert_eq!(x & ABORT_DECELERATION, ABORT_DECELERATION);
+        assert_eq!(y >> CS_NUMBER_SHIFT, 1, "C.S. 2 is 1 in bits 20-23");
     }
 
     #[test]
     fn a_program_running_shows_in_the_coordinate_system_status() {
-        let mut motors = [MotorView::default(); MOTORS_SHOWN];
-        let motion = MotionView { count: 2, motors };
-        assert_eq!(cs_words(Some(&motion)), (0, 0, 0));
-        motors[1].state = MotorState::Program;
-        let motion = MotionView { count: 2, motors };
-        assert_eq!(cs_words(Some(&motion)).0, CS_RUNNING_PROGRAM);
-        assert_eq!(motor_view(Some(&motion), 2).unwrap().state, MotorState::Program);
+        let mut m = status(MotorState::Program, true, 1);
+        assert_eq!(cs_words(&[m]), (0, 0, 0), "no program pointed at");
+        m.program = Program::Running;
+        assert_eq!(cs_words(&[m]).0, CS_RUNNING_PROGRAM);
         assert_eq!(hex_words(&[1, 0, 0]).len(), 18);
     }
 }
