@@ -198,24 +198,33 @@ class DlsPmacControlAgainstTheEmulator(unittest.TestCase):
         self.assertEqual(values(direct)[0], values(reply)[1])
         print("screenshot:", shot(screen, "global-status.png"))
 
+    def amplifiers(self, since):
+        """Each motor's amplifier-enable bit (first word bit 19, SRM p.282) in the first poll
+        answered after `since`."""
+        _, reply = self.first_good_poll(since)
+        v = values(reply)[4:]
+        return [bool(int(v[6 * m], 16) >> 24 & (1 << 19)) for m in range(AXES)]
+
     def test_kill_all_disables_every_motor(self):
-        # Close every loop first (J/ on a killed motor closes its loop, UM p.217), so that
-        # KILL ALL has something to disable wherever the core models motors.
+        # Close every loop first (J/ on a killed motor closes its loop, UM p.217): the
+        # amplifiers come on, as the GUI's status window shows.
+        self.form.statusScreen.show()
         for m in range(1, AXES + 1):
             reply, ok = self.form.pmac.sendCommand(f"#{m}J/")
             self.assertEqual((reply, ok), ("\x06", True))
+        self.assertEqual(self.amplifiers(time.monotonic()), [True] * AXES, "J/ closed every loop")
+        pump(self.app, 0.5)
+        print("screenshot:", shot(self.form.statusScreen, "motor1-status-loop-closed.png"))
+        # KILL ALL: the GUI sends <CTRL-K> (UM p.217, row 11; UM p.319: open loop, amplifier off).
         self.form.btnKillAll.click()
         kill = [(c, r, ok) for _, c, r, ok in self.exchanges.log if c == "\x0b"]
         self.assertEqual(kill, [("\x0b", "\x06", True)], "CTRL-K sent and acknowledged")
         since = time.monotonic()
+        self.assertEqual(self.amplifiers(since), [False] * AXES, "every amplifier off after KILL ALL")
         _, reply = self.first_good_poll(since)
-        v = values(reply)[4:]
         for m in range(AXES):
-            word = int(v[6 * m], 16)
-            self.assertEqual(word >> 24 & (1 << 19), 0, f"motor {m + 1}: amplifier enabled after KILL ALL")
+            word = int(values(reply)[4 + 6 * m], 16)
             self.assertEqual(word >> 24 & (1 << 18), 1 << 18, f"motor {m + 1}: loop not open after KILL ALL")
-        pump(self.app, 0.3)
-        self.form.statusScreen.show()
         pump(self.app, 0.5)
         print("screenshot:", shot(self.form.statusScreen, "motor1-status-after-kill-all.png"))
         print("screenshot:", shot(self.form, "main-window-after-kill-all.png"))
