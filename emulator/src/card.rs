@@ -6,7 +6,7 @@
 use crate::capture::CaptureWriter;
 use crate::control::{Control, HELP};
 use crate::framing::{framing_write_out_of_range, Answer, Framing};
-use crate::grammar::{parse_line, Addressing, Command, Gather, Jog, VarKind};
+use crate::grammar::{parse_commands, Addressing, Command, Gather, Jog, VarKind};
 use crate::memory::{format_value, HostDefaults, Memory};
 use crate::motor_status::{cs_words, hex_words, motor_words};
 use pmacwd_bridge::{core_command, core_event, spec_load};
@@ -299,24 +299,54 @@ impl Card {
             self.framing().push_answer(&mut out, &Answer::Error(4));
             return Some(out);
         }
+        // While a program buffer is open, lines are program text for it, not on-line commands
+        // (UM p.46: "P1=1 ... stored in the buffer if one is open"), up to the CLOSE that ends
+        // it; an `OPEN` makes the rest of its own line program text. The emulator keeps no
+        // program text: what comes before CLOSE is acknowledged and dropped (MODEL: the core
+        // models a buffer's checksum, not its contents).
+        let mut rest = bytes;
         let mut answers = Vec::new();
-        for command in parse_line(bytes, addressing) {
-            answers.clear();
-            match command {
-                Ok(c) => self.command(c, *addressing, &mut answers),
-                Err(_) => answers.push(Answer::Error(3)),
-            }
-            // Each answer is framed as I3/I6 stand after its command: `i3=2` already counts.
-            let framing = self.framing();
-            for answer in &answers {
-                framing.push_answer(&mut out, answer);
-                if let Answer::Error(_) = answer {
-                    return Some(out);
+        loop {
+            if self.buffer_open() {
+                match find_close(rest) {
+                    Some(at) => rest = &rest[at..],
+                    None => break,
                 }
+            }
+            let mut opened_at = None;
+            for (command, end) in parse_commands(rest, addressing) {
+                answers.clear();
+                let opens = matches!(command, Ok(Command::OpenPlc(_) | Command::OpenProgram(_)));
+                match command {
+                    Ok(c) => self.command(c, *addressing, &mut answers),
+                    Err(_) => answers.push(Answer::Error(3)),
+                }
+                // Each answer is framed as I3/I6 stand after its command: `i3=2` already counts.
+                let framing = self.framing();
+                for answer in &answers {
+                    framing.push_answer(&mut out, answer);
+                    if let Answer::Error(_) = answer {
+                        return Some(out);
+                    }
+                }
+                if opens && self.buffer_open() {
+                    opened_at = Some(end);
+                    break;
+                }
+            }
+            match opened_at {
+                Some(end) => rest = &rest[end..],
+                None => break,
             }
         }
         self.framing().push_line_end(&mut out);
         Some(out)
+    }
+
+    /// Whether a PLC or motion program buffer is open (the core's Y:$000006 bits 17 and 19).
+    fn buffer_open(&self) -> bool {
+        let (_, y) = self.core.status_words(&self.cfg);
+        y & (core::bits::PLC_BUFFER_OPEN | core::bits::MOTION_BUFFER_OPEN) != 0
     }
 
     /// The core's motors of coordinate system `cs`.
@@ -414,6 +444,12 @@ impl Card {
             Command::MacroStation { value, .. } => {
                 out.push(if value.is_some() { Answer::Nothing } else { data("0".into()) })
             }
+            // Definitions are acknowledged and not applied (MODEL: no memory map behind
+            // M-variables); a suggested definition's value stays the documented constant.
+            Command::MDefinition(_) => out.push(Answer::Nothing),
+            // MODEL: user PLC programs are not run (their CPU load is the control port's
+            // `plc0` and `background`); switching them is acknowledged.
+            Command::PlcSwitch => out.push(Answer::Nothing),
             Command::Save => {
                 self.store.save();
                 out.push(Answer::Nothing);
@@ -528,6 +564,21 @@ impl Card {
             l.background_units
         )
     }
+}
+
+/// Where `CLOSE` (or its abbreviation `CLS`) starts in a line, as a word of its own.
+fn find_close(line: &[u8]) -> Option<usize> {
+    let upper = line.to_ascii_uppercase();
+    ["CLOSE", "CLS"]
+        .iter()
+        .filter_map(|w| {
+            upper.windows(w.len()).enumerate().find_map(|(i, win)| {
+                let before = i == 0 || !upper[i - 1].is_ascii_alphanumeric();
+                let after = upper.get(i + w.len()).is_none_or(|c| !c.is_ascii_alphanumeric());
+                (win == w.as_bytes() && before && after).then_some(i)
+            })
+        })
+        .min()
 }
 
 /// The framing-free answer for a core reply.
@@ -720,6 +771,30 @@ mod tests {
         assert!(amp(&mut c, 1) && amp(&mut c, 2) && !amp(&mut c, 3));
         assert_eq!(c.line(b"\x0b").unwrap(), b"\x06");
         assert!((1..=8).all(|m| !amp(&mut c, m)), "KILL ALL");
+    }
+
+    #[test]
+    fn a_pmc_download_is_acknowledged_line_by_line() {
+        // What dls-pmaccontrol's "load pmc" sends: settings, M-variable definitions, a PLC
+        // (program text while the buffer is open), SAVE.
+        let mut c = card();
+        for line in [
+            "I130=2000",
+            "M190->Y:$078F00,0,24,S",
+            "OPEN PLC 1 CLEAR",
+            "DISABLE PLC 1",
+            "IF (M1=1)",
+            "  P1=P1+1",
+            "ENDIF",
+            "CLOSE",
+            "ENABLE PLC 1",
+        ] {
+            assert_eq!(c.line(line.as_bytes()).unwrap(), b"\x06", "{line}");
+        }
+        assert_eq!(values(&c.line(b"P1 M190").unwrap()), ["0", "0"], "program text is not run");
+        assert_eq!(c.line(b"IF (M1=1)").unwrap(), b"\x07ERR003\r", "outside a buffer it is not a command");
+        // One line opening, filling and closing a buffer, then an on-line command.
+        assert_eq!(values(&c.line(b"OPEN PROG 1 CLEAR X100 CLOSE I130").unwrap()), ["2000"]);
     }
 
     #[test]

@@ -110,6 +110,8 @@ pub enum Command {
         value: f64,
         cs: u8,
     },
+    /// `Mn->{definition}`: an M-variable definition (`M190->Y:$078F00,0,24,S`).
+    MDefinition(u16),
     /// `MSn,Im` and `MSn,Im=v`: a MACRO station's I-variable.
     MacroStation {
         station: u8,
@@ -128,6 +130,8 @@ pub enum Command {
     OpenPlc(u8),
     OpenProgram(u16),
     Close,
+    /// `ENABLE PLC n[,m...]`, `DISABLE PLC n`, and the PLCC forms.
+    PlcSwitch,
     /// `$$$`
     Reset,
     /// `SAVE`
@@ -150,11 +154,17 @@ pub struct Unreadable {
 /// Reads a line into its commands, in order, updating `addressing` as `#n` and `&n` go by.
 /// The last element is the error, if any; nothing after it is read.
 pub fn parse_line(line: &[u8], addressing: &mut Addressing) -> Vec<Result<Command, Unreadable>> {
+    parse_commands(line, addressing).into_iter().map(|(c, _)| c).collect()
+}
+
+/// As [`parse_line`], with where in `line` each command ends (an `OPEN` makes the rest of the
+/// line program text, which the card then reads differently).
+pub fn parse_commands(line: &[u8], addressing: &mut Addressing) -> Vec<(Result<Command, Unreadable>, usize)> {
     let mut p = Parser { s: line, i: 0, addressing };
     let mut out = Vec::new();
     while let Some(next) = p.next_command() {
         let failed = next.is_err();
-        out.push(next);
+        out.push((next, p.i));
         if failed {
             break;
         }
@@ -171,11 +181,13 @@ struct Parser<'a, 'b> {
 /// Multi-letter keywords, longest first where one is a prefix of another, each with what it
 /// starts. Single letters (`P`, `V`, `K`, `A`, ...) are tried only when none of these matches,
 /// so that `SAVE` is not `S` (step) and `HM` is not `H` (hold).
-const KEYWORDS: [&str; 18] = [
+const KEYWORDS: [&str; 22] = [
     "ENDGATHER",
     "ENDG",
     "DEFINE",
     "DELETE",
+    "DISABLE",
+    "ENABLE",
     "GATHER",
     "CLOSE",
     "HOME",
@@ -186,6 +198,8 @@ const KEYWORDS: [&str; 18] = [
     "CID",
     "DEF",
     "DEL",
+    "DIS",
+    "ENA",
     "GAT",
     "LIS",
     "HM",
@@ -463,7 +477,17 @@ impl Parser<'_, '_> {
             };
         }
         if self.starts_with("->") {
-            return Err(self.error(start, "M-variable definitions are not emulated"));
+            self.i += 2;
+            let from = self.i;
+            // The definition runs to the next space (`Y:$078F00,0,24,S`, `*`, `TWB:...`).
+            while self.s.get(self.i).is_some_and(|c| *c > b' ') {
+                self.i += 1;
+            }
+            return match kind {
+                VarKind::M if self.i > from => Ok(Command::MDefinition(first)),
+                VarKind::M => Err(self.error(start, "reporting an M-variable definition (`M1->`) is not emulated")),
+                _ => Err(self.error(start, "only M-variables are defined with ->")),
+            };
         }
         if self.peek() == Some(b'=') {
             self.i += 1;
@@ -489,6 +513,25 @@ impl Parser<'_, '_> {
             "CLOSE" => Command::Close,
             "HM" | "HOME" => Command::Home(self.addressing.motor),
             "GATHER" | "GAT" => Command::Gather(Gather::Start),
+            "ENABLE" | "ENA" | "DISABLE" | "DIS" => {
+                self.skip_spaces();
+                if !self.starts_with("PLC") {
+                    return Err(self.error(start, "of ENABLE and DISABLE only the PLC forms are emulated"));
+                }
+                self.i += 3;
+                if self.peek() == Some(b'C') {
+                    self.i += 1;
+                }
+                // `n`, `n,m`, `n..m`.
+                self.skip_spaces();
+                if self.number().is_none() {
+                    return Err(self.error(start, "ENABLE PLC takes PLC numbers"));
+                }
+                while self.peek().is_some_and(|c| c == b',' || c == b'.' || c.is_ascii_digit()) {
+                    self.i += 1;
+                }
+                Command::PlcSwitch
+            }
             "ENDGATHER" | "ENDG" => Command::Gather(Gather::End),
             "DEFINE" | "DEF" | "DELETE" | "DEL" | "LIST" | "LIS" => {
                 self.skip_spaces();
@@ -661,6 +704,9 @@ mod tests {
         assert_eq!(ok("i6=1 i3=2 ver").len(), 3);
         assert!(parse("I8192").last().unwrap().is_err());
         assert!(parse("I124=I124&$FDFFFF").last().unwrap().is_err(), "expressions are refused, not half-run");
+        assert_eq!(ok("M190->Y:$078F00,0,24,S M191->*"), [Command::MDefinition(190), Command::MDefinition(191)]);
+        assert!(parse("M1->").last().unwrap().is_err());
+        assert!(parse("P1->X:$0").last().unwrap().is_err());
         assert!(parse("I23..20").last().unwrap().is_err());
     }
 
@@ -676,6 +722,10 @@ mod tests {
                 Command::Gather(Gather::Delete),
                 Command::Gather(Gather::End),
             ]
+        );
+        assert_eq!(
+            ok("ENABLE PLC 1,2 DISABLE PLCC 0..3 DIS PLC 5"),
+            [Command::PlcSwitch, Command::PlcSwitch, Command::PlcSwitch]
         );
         assert_eq!(ok("ms0,i910"), [Command::MacroStation { station: 0, ivar: 910, value: None }]);
         assert_eq!(ok("OPEN PLC 1 CLOSE"), [Command::OpenPlc(1), Command::Close]);
