@@ -22,7 +22,7 @@ pub struct Observation {
     pub status_y: u32,
     /// The motors: motion state, amplifier enable, commanded output, encoder-loss input and
     /// the encoder-loss PLC's latched status. `None` from an implementation that does not
-    /// model motors yet: the compact core today (docs/conformance.md, "Not yet in the core").
+    /// model motors; lockstep reports that as a difference from the model, which always does.
     pub motion: Option<MotionView>,
 }
 
