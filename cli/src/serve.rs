@@ -55,8 +55,9 @@ pub struct ServeArgs {
     /// Host connections open at once; beyond it the one idle longest is closed.
     #[arg(long, value_name = "N", default_value_t = 128)]
     pub clients_max: usize,
-    /// Close a host connection silent this long (0: never).
-    #[arg(long, value_name = "SECONDS", default_value_t = 600)]
+    /// Close a host connection silent this long (0: never, as a card never closes one; at
+    /// --clients-max the one idle longest makes room for a newcomer).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0)]
     pub idle_timeout: u64,
     /// Close a control connection silent this long (0: never); when 16 are open, the one idle
     /// longest is closed for a newcomer.

@@ -55,7 +55,7 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
         assert_eq!(ask(&mut c, "I130=5 I130"), b"5\r\x06");
         std::thread::sleep(Duration::from_millis(100));
         assert_eq!(ask(&mut c, "RHY:$25 I40").last(), Some(&0x06));
-        assert_eq!(ask(&mut c, "FOO"), b"\x07ERR003\r");
+        assert_eq!(ask(&mut c, "ZZZ"), b"\x07ERR003\r");
     }
     let (exchanges, _, notes) = proxy.wait().unwrap();
     let elapsed = started.elapsed().as_secs_f64();
@@ -205,7 +205,7 @@ fn every_recorded_reply_is_the_one_the_client_received_however_fast_or_impatient
                 let line = match i % 5 {
                     0 => format!("I130={}", round * 1000 + i),
                     1 => "I130".to_string(),
-                    2 => "FOO".to_string(),
+                    2 => "ZZZ".to_string(),
                     3 => "???".to_string(),
                     _ => format!("I41={}", i % 2),
                 };

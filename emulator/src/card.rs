@@ -5,14 +5,18 @@
 
 use crate::capture::CaptureWriter;
 use crate::control::{Control, HELP};
-use crate::framing::{framing_write_out_of_range, split_commands, Answer, Framing};
+use crate::framing::{framing_write_out_of_range, Answer, Framing};
+use crate::grammar::{parse_commands, Addressing, Command, Gather, Jog, VarKind};
+use crate::memory::{format_value, HostDefaults, Memory};
+use crate::motor_status::{cs_words, hex_words, motor_words};
 use pmacwd_bridge::{core_command, core_event, spec_load};
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::vocab::command::HostCommand;
+use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion, MotorCommand};
 use pmacwd_specs::vocab::event::Event;
+use pmacwd_specs::vocab::Buffer;
 use pmacwd_trace::jsonl::step_line;
 use pmacwd_trace::{Expect, Step, TraceEvent};
 use std::io::Write;
@@ -95,6 +99,13 @@ impl FlashIVariables {
     }
 }
 
+impl FlashIVariables {
+    /// `SAVE`: the values in use become the ones a reset restores (UM p.243).
+    pub fn save(&mut self) {
+        self.saved.0 = self.values.0;
+    }
+}
+
 impl IVariableStore for FlashIVariables {
     fn read(&self, n: u16) -> i64 {
         self.values.read(n)
@@ -121,18 +132,41 @@ pub struct Card {
     cycles: u64,
     identity: Identity,
     capture: Option<CaptureWriter<Box<dyn Write + Send>>>,
+    /// P-, Q-, M-variables, feedrate overrides, I-variable formats.
+    memory: Memory,
+    /// The addressing of callers that keep none of their own ([`Card::line`]); connections
+    /// keep theirs ([`Card::line_addressed`]).
+    addressing: Addressing,
 }
 
 impl Card {
+    /// A card with the embedded spec's host-variable defaults (`variables.yaml`); `saved`
+    /// overrides them.
     pub fn power_on(cfg: core::Config, saved: &[(u16, i64)], clock: Clock, identity: Identity) -> Card {
+        Card::power_on_with(cfg, &HostDefaults::embedded(), saved, clock, identity)
+    }
+
+    pub fn power_on_with(
+        cfg: core::Config,
+        defaults: &HostDefaults,
+        saved: &[(u16, i64)],
+        clock: Clock,
+        identity: Identity,
+    ) -> Card {
+        // What flash holds: the firmware defaults, then what was saved over them (UM p.243:
+        // the last saved values are copied into active memory at power-up).
+        let mut flash = defaults.i_defaults.clone();
+        flash.extend_from_slice(saved);
         Card {
             core: core::Core::power_on(&cfg),
             cfg,
-            store: FlashIVariables::new(saved),
+            store: FlashIVariables::new(&flash),
             clock,
             cycles: 0,
             identity,
             capture: None,
+            memory: Memory::new(defaults),
+            addressing: Addressing::default(),
         }
     }
 
@@ -234,17 +268,27 @@ impl Card {
         Framing { i3: self.core.read_i(3, &self.store), i6: self.core.read_i(6, &self.store) }
     }
 
-    /// Answers a command line; `None` when the card is silent (tripped).
+    /// Answers a command line with the card's own addressing (for callers that keep none:
+    /// tests, benches); `None` when the card is silent (tripped).
     pub fn line(&mut self, bytes: &[u8]) -> Option<Vec<u8>> {
+        let mut addressing = self.addressing;
+        let reply = self.line_addressed(bytes, &mut addressing);
+        self.addressing = addressing;
+        reply
+    }
+
+    /// Answers a command line from a connection that keeps its own `#n`/`&n` addressing
+    /// (SRM p.270: the addressed motor is the port's); `None` when the card is silent.
+    pub fn line_addressed(&mut self, bytes: &[u8], addressing: &mut Addressing) -> Option<Vec<u8>> {
         self.catch_up();
         let line = String::from_utf8_lossy(bytes).into_owned();
-        let reply = self.answer(bytes, &line);
+        let reply = self.answer(bytes, addressing);
         let r = reply.as_deref();
         self.captured(|c| c.exchange(&line, r));
         reply
     }
 
-    fn answer(&mut self, bytes: &[u8], line: &str) -> Option<Vec<u8>> {
+    fn answer(&mut self, bytes: &[u8], addressing: &mut Addressing) -> Option<Vec<u8>> {
         // UM p.215: a tripped card will not communicate.
         if self.core.tripped() {
             return None;
@@ -255,57 +299,195 @@ impl Card {
             self.framing().push_answer(&mut out, &Answer::Error(4));
             return Some(out);
         }
-        for text in split_commands(line) {
-            let answer = self.command(&text);
-            // Each answer is framed as I3/I6 stand after its command: `i3=2` already counts.
-            self.framing().push_answer(&mut out, &answer);
-            if let Answer::Error(_) = answer {
-                return Some(out);
+        // While a program buffer is open, lines are program text for it, not on-line commands
+        // (UM p.46: "P1=1 ... stored in the buffer if one is open"), up to the CLOSE that ends
+        // it; an `OPEN` makes the rest of its own line program text. The emulator keeps no
+        // program text: what comes before CLOSE is acknowledged and dropped (MODEL: the core
+        // models a buffer's checksum, not its contents).
+        let mut rest = bytes;
+        let mut answers = Vec::new();
+        loop {
+            if self.buffer_open() {
+                match find_close(rest) {
+                    Some(at) => rest = &rest[at..],
+                    None => break,
+                }
+            }
+            let mut opened_at = None;
+            for (command, end) in parse_commands(rest, addressing) {
+                answers.clear();
+                let opens = matches!(command, Ok(Command::OpenPlc(_) | Command::OpenProgram(_)));
+                match command {
+                    Ok(c) => self.command(c, *addressing, &mut answers),
+                    Err(_) => answers.push(Answer::Error(3)),
+                }
+                // Each answer is framed as I3/I6 stand after its command: `i3=2` already counts.
+                let framing = self.framing();
+                for answer in &answers {
+                    framing.push_answer(&mut out, answer);
+                    if let Answer::Error(_) = answer {
+                        return Some(out);
+                    }
+                }
+                if opens && self.buffer_open() {
+                    opened_at = Some(end);
+                    break;
+                }
+            }
+            match opened_at {
+                Some(end) => rest = &rest[end..],
+                None => break,
             }
         }
         self.framing().push_line_end(&mut out);
         Some(out)
     }
 
-    fn command(&mut self, text: &str) -> Answer {
-        if text.eq_ignore_ascii_case("ver") {
-            return Answer::Data(self.identity.version.clone());
-        }
-        if text.eq_ignore_ascii_case("cid") {
-            return Answer::Data(self.identity.card_id.clone());
-        }
-        // A command the model cannot hold (I9000, RHX:$1234) is a data error to the card.
-        let Ok(command) = HostCommand::parse(text) else {
-            return Answer::Error(3);
-        };
-        // I3 and I6 range 0..3; a write outside it is refused and changes nothing (MODEL,
-        // `framing::FRAMING_VALUE_MAX`). Neither lies in a range I41 locks (SRM p.57).
-        if let HostCommand::WriteI(n, v) = command {
-            if framing_write_out_of_range(n, v) {
-                return Answer::Error(3);
+    /// Whether a PLC or motion program buffer is open (the core's Y:$000006 bits 17 and 19).
+    fn buffer_open(&self) -> bool {
+        let (_, y) = self.core.status_words(&self.cfg);
+        y & (core::bits::PLC_BUFFER_OPEN | core::bits::MOTION_BUFFER_OPEN) != 0
+    }
+
+    /// The core's motors of coordinate system `cs`.
+    fn members(&self, cs: u8) -> Vec<pmacwd_bridge::MotorStatus> {
+        (1..=self.cfg.motion.motors)
+            .filter_map(|n| pmacwd_bridge::motor_status(&self.core, &self.cfg, n))
+            .filter(|m| m.coordinate_system == cs)
+            .collect()
+    }
+
+    /// A motion command for the core.
+    fn motion_answer(&mut self, m: Motion) -> Answer {
+        self.core_answer(&HostCommand::Motion(m))
+    }
+
+    /// One command's answers: one for most, one per variable for a range, none for a write.
+    /// `addressing` is the connection's as it stands after the command was read.
+    fn command(&mut self, c: Command, addressing: Addressing, out: &mut Vec<Answer>) {
+        let data = Answer::Data;
+        match c {
+            Command::Version => out.push(data(self.identity.version.clone())),
+            Command::CardId => out.push(data(self.identity.card_id.clone())),
+            Command::GlobalStatus => out.push(self.core_answer(&HostCommand::GlobalStatus)),
+            Command::ReadHex(text) => match HostCommand::parse(&text) {
+                Ok(h @ HostCommand::ReadHex(_)) => out.push(self.core_answer(&h)),
+                // A register the emulator does not hold, or not a register read at all.
+                _ => out.push(Answer::Error(3)),
+            },
+            Command::Reset => out.push(self.core_answer(&HostCommand::Reset)),
+            Command::Close => out.push(self.core_answer(&HostCommand::Close)),
+            Command::OpenPlc(n) => out.push(self.core_answer(&HostCommand::Open(Buffer::Plc(n)))),
+            Command::OpenProgram(n) => out.push(self.core_answer(&HostCommand::Open(Buffer::Program(n)))),
+            Command::Motion(m) => {
+                if let Motion::CoordinateSystem(cs, CsCommand::Feedrate(p)) = m {
+                    self.memory.set_feed(cs, f64::from(p));
+                }
+                out.push(self.motion_answer(m));
             }
-        }
-        match self.core.command(&self.cfg, core_command(&command), &mut self.store) {
-            core::Reply::None | core::Reply::Ack | core::Reply::Silence => Answer::Nothing,
-            core::Reply::Status { x, y } => {
-                Answer::Data(String::from_utf8_lossy(&core::Reply::status_text(x, y)).into_owned())
+            // A jog to a target or by a distance, and a homing search, start motion as a jog
+            // does: the core hears a jog to a position (MODEL: the stop rules of UM p.217 treat
+            // every jog move alike, and a homing search is a jog move until its trigger).
+            Command::Jog(n, Jog::To(_) | Jog::Relative(_)) | Command::Home(n) => {
+                out.push(self.motion_answer(Motion::Motor(n, MotorCommand::JogToPosition)))
             }
-            core::Reply::Bootstrap => Answer::Data("BOOTSTRAP PROM".into()),
-            core::Reply::Value(v) => Answer::Data(v.to_string()),
-            core::Reply::Hex(v) => Answer::Data(format!("{v:06X}")),
-            core::Reply::Error(n) => Answer::Error(n),
+            Command::Jog(n, Jog::Plus) => out.push(self.motion_answer(Motion::Motor(n, MotorCommand::JogPlus))),
+            Command::Jog(n, Jog::Minus) => out.push(self.motion_answer(Motion::Motor(n, MotorCommand::JogMinus))),
+            Command::Jog(n, Jog::Stop) => out.push(self.motion_answer(Motion::Motor(n, MotorCommand::JogStop))),
+            Command::MotorStatus(n) => {
+                let (x, y) = motor_words(pmacwd_bridge::motor_status(&self.core, &self.cfg, n).as_ref());
+                out.push(data(hex_words(&[x, y])));
+            }
+            Command::CsStatus(cs) => {
+                let (a, b, c) = cs_words(&self.members(cs));
+                out.push(data(hex_words(&[a, b, c])));
+            }
+            // Positions, velocities and following errors: the emulated motors do not move
+            // (the core models motion as states, not trajectories): 0 counts, a documented
+            // constant.
+            Command::Position(_) | Command::Velocity(_) | Command::FollowingError(_) => out.push(data("0".into())),
+            // Reported as `#1`, `&1` (SRM p.270: the motor "reported with the #{constant}
+            // command").
+            Command::ReportMotor => out.push(data(format!("#{}", addressing.motor))),
+            Command::ReportCs => out.push(data(format!("&{}", addressing.cs))),
+            Command::FeedRead(cs) => out.push(data(format_value(self.memory.feed(cs)))),
+            Command::Read { kind: VarKind::I, first, last, .. } => {
+                let i9 = self.core.read_i(9, &self.store);
+                for n in first..=last {
+                    match self.core.command(&self.cfg, core::Command::ReadI(n), &mut self.store) {
+                        core::Reply::Value(v) => out.push(data(self.memory.format_i(n, v, i9))),
+                        other => out.push(reply_answer(other)),
+                    }
+                }
+            }
+            Command::Read { kind, first, last, .. } => {
+                for n in first..=last {
+                    out.push(data(format_value(self.memory.read(kind, n))));
+                }
+            }
+            Command::Write { kind: VarKind::I, number, value, .. } => {
+                // The core's store holds whole numbers: a fraction is refused (MODEL: the
+                // I-variables host programs write are integers; a card would keep the fraction).
+                if value.fract() != 0.0 || !value.is_finite() || value.abs() > 9.0e15 {
+                    out.push(Answer::Error(3));
+                } else {
+                    out.push(self.core_answer(&HostCommand::WriteI(number, value as i64)));
+                }
+            }
+            Command::Write { kind, number, value, .. } => {
+                self.memory.write(kind, number, value);
+                out.push(Answer::Nothing);
+            }
+            // No MACRO ring on the emulated card (I20..I23 = $0): a station's variables read
+            // 0 and writes change nothing (MODEL: a card without the ring reports its
+            // auxiliary-communication error bit; the emulator does not model the ring).
+            Command::MacroStation { value, .. } => {
+                out.push(if value.is_some() { Answer::Nothing } else { data("0".into()) })
+            }
+            // Definitions are acknowledged and not applied (MODEL: no memory map behind
+            // M-variables); a suggested definition's value stays the documented constant.
+            Command::MDefinition(_) => out.push(Answer::Nothing),
+            // MODEL: user PLC programs are not run (their CPU load is the control port's
+            // `plc0` and `background`); switching them is acknowledged.
+            Command::PlcSwitch => out.push(Answer::Nothing),
+            Command::Save => {
+                self.store.save();
+                out.push(Answer::Nothing);
+            }
+            // Data gathering to the level dls-pmaccontrol uses it: the commands are accepted
+            // and LIST GATHER reports no samples (MODEL: nothing the emulator models changes
+            // between samples, so there is nothing to gather).
+            Command::Gather(Gather::Define(_) | Gather::Start | Gather::End | Gather::List | Gather::Delete) => {
+                out.push(Answer::Nothing)
+            }
+            Command::Ignored(_) => out.push(Answer::Nothing),
         }
     }
 
-    /// The answer to a control character (VR_CTRL_RESPONSE): the global stop commands are not
-    /// modelled yet, so the card answers as to any command it does not know.
-    pub fn control_character(&mut self, _c: u8) -> Option<Vec<u8>> {
+    /// A command for the core, checked as before for what the core cannot hold.
+    fn core_answer(&mut self, command: &HostCommand) -> Answer {
+        // I3 and I6 range 0..3; a write outside it is refused and changes nothing (MODEL,
+        // `framing::FRAMING_VALUE_MAX`). Neither lies in a range I41 locks (SRM p.57).
+        if let HostCommand::WriteI(n, v) = command {
+            if framing_write_out_of_range(*n, *v) {
+                return Answer::Error(3);
+            }
+        }
+        let reply = self.core.command(&self.cfg, core_command(command), &mut self.store);
+        if matches!(command, HostCommand::Reset) && reply != core::Reply::Silence {
+            self.memory.reset();
+        }
+        reply_answer(reply)
+    }
+
+    /// The answer to a control character sent on its own (VR_CTRL_RESPONSE): read as a line
+    /// of one character, so the global stop commands go to the core and are acknowledged and
+    /// others are ERR003.
+    pub fn control_character(&mut self, c: u8) -> Option<Vec<u8>> {
         if self.tripped() {
             return None;
         }
-        let mut out = Vec::new();
-        self.framing().push_answer(&mut out, &Answer::Error(3));
-        Some(out)
+        self.line(&[c])
     }
 
     /// A control-interface command; the reply line without its newline.
@@ -384,6 +566,35 @@ impl Card {
     }
 }
 
+/// Where `CLOSE` (or its abbreviation `CLS`) starts in a line, as a word of its own.
+fn find_close(line: &[u8]) -> Option<usize> {
+    let upper = line.to_ascii_uppercase();
+    ["CLOSE", "CLS"]
+        .iter()
+        .filter_map(|w| {
+            upper.windows(w.len()).enumerate().find_map(|(i, win)| {
+                let before = i == 0 || !upper[i - 1].is_ascii_alphanumeric();
+                let after = upper.get(i + w.len()).is_none_or(|c| !c.is_ascii_alphanumeric());
+                (win == w.as_bytes() && before && after).then_some(i)
+            })
+        })
+        .min()
+}
+
+/// The framing-free answer for a core reply.
+fn reply_answer(reply: core::Reply) -> Answer {
+    match reply {
+        core::Reply::None | core::Reply::Ack | core::Reply::Silence => Answer::Nothing,
+        core::Reply::Status { x, y } => {
+            Answer::Data(String::from_utf8_lossy(&core::Reply::status_text(x, y)).into_owned())
+        }
+        core::Reply::Bootstrap => Answer::Data("BOOTSTRAP PROM".into()),
+        core::Reply::Value(v) => Answer::Data(v.to_string()),
+        core::Reply::Hex(v) => Answer::Data(format!("{v:06X}")),
+        core::Reply::Error(n) => Answer::Error(n),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -424,7 +635,7 @@ mod tests {
     fn answers_follow_i3_as_it_stands_after_each_command() {
         let mut c = card();
         assert_eq!(c.line(b"i3=3 I40 i3=2 I40").unwrap(), b"\n0\r0\r\x06");
-        assert_eq!(c.line(b"I40 FOO I41").unwrap(), b"0\r\x07ERR003\r", "the error ends the line");
+        assert_eq!(c.line(b"I40 ZZZ I41").unwrap(), b"0\r\x07ERR003\r", "the error ends the line");
         assert_eq!(c.line(&[b'I', 0xC3, b'9']).unwrap(), b"\x07ERR004\r", "bytes above 127");
     }
 
@@ -479,5 +690,129 @@ mod tests {
         assert_eq!(c.line(b"I6=-1").unwrap(), b"\x07ERR003\r");
         assert_eq!(c.line(b"I3 I6").unwrap(), b"2\r1\r\x06", "both unchanged, the line acknowledged");
         assert_eq!(c.line(b"I3=3 I3=2").unwrap(), b"\x06", "0..3 are written as before");
+    }
+
+    fn values(reply: &[u8]) -> Vec<String> {
+        let text = String::from_utf8_lossy(reply);
+        assert!(text.ends_with('\x06'), "acknowledged: {text:?}");
+        text.trim_end_matches('\x06').split('\r').filter(|v| !v.is_empty()).map(str::to_string).collect()
+    }
+
+    #[test]
+    fn the_dls_pmaccontrol_poll_line_gets_its_52_values() {
+        // commsThread.py: 4 values, then 6 per motor; it takes I65 as the identity, the
+        // second as `???`, the third as `&1??` (18 hex digits), the fourth as `%`.
+        let mut line = String::from("i65???&1??%");
+        for m in 1..=8 {
+            line += &format!("#{m}?PVF m{m}90 p99");
+        }
+        let v = values(&card().line(line.as_bytes()).unwrap());
+        assert_eq!(v.len(), 52, "{v:?}");
+        assert_eq!(v[0], "0", "I65: identity not set");
+        assert_eq!(v[1].len(), 12, "??? is 12 hex digits");
+        assert_eq!(v[2], "000000000000000000");
+        assert_eq!(v[3], "100", "feedrate override 100%");
+        // Motor 1: activated, open loop (killed at power-up), in C.S. 1; at 0; no amp fault.
+        assert_eq!(&v[4..10], ["850000008000", "0", "0", "0", "0", "0"]);
+    }
+
+    #[test]
+    fn what_the_gui_reads_on_connect_is_what_a_card_answers() {
+        let mut c = card();
+        // I10: the servo period the GUI divides by (SRM p.42-43 default).
+        assert_eq!(values(&c.line(b"I10").unwrap()), ["3713707"]);
+        // I20..I23: no MACRO IC, in hex because I9 = 2 (SRM p.42), so the GUI polls 8 axes.
+        assert_eq!(values(&c.line(b"i20 i21 i22 i23 ").unwrap()), ["$0", "$0", "$0", "$0"]);
+        assert_eq!(values(&c.line(b"i20..23").unwrap()), ["$0", "$0", "$0", "$0"]);
+        assert_eq!(values(&c.line(b"cid").unwrap()), ["603382"]);
+    }
+
+    #[test]
+    fn a_hex_write_reads_back_in_hex_and_save_keeps_it_over_a_reset() {
+        let mut c = card();
+        assert_eq!(c.line(b"I124=$20001 I130=1000").unwrap(), b"\x06");
+        assert_eq!(values(&c.line(b"I124 I130").unwrap()), ["$20001", "1000"]);
+        assert_eq!(c.line(b"SAVE").unwrap(), b"\x06");
+        c.line(b"I130=5");
+        c.line(b"$$$");
+        assert_eq!(values(&c.line(b"I124 I130").unwrap()), ["$20001", "1000"], "the saved values");
+    }
+
+    #[test]
+    fn p_variables_hold_values_and_a_reset_clears_them() {
+        let mut c = card();
+        c.line(b"P1=-2.5 P2=$10");
+        assert_eq!(values(&c.line(b"P1 P2 P1..2").unwrap()), ["-2.5", "16", "-2.5", "16"]);
+        c.line(b"$$$");
+        assert_eq!(values(&c.line(b"P1").unwrap()), ["0"]);
+    }
+
+    #[test]
+    fn jog_home_kill_and_kill_all_are_acknowledged_and_reach_the_core() {
+        let mut c = card();
+        for line in [&b"#1J^1000"[..], b"#1HM", b"#1J/", b"#1J=0", b"#1K", b"\x0b", b"&1%50"] {
+            assert_eq!(c.line(line).unwrap(), b"\x06", "{}", line.escape_ascii());
+        }
+        assert_eq!(values(&c.line(b"&1%").unwrap()), ["50"]);
+        assert_eq!(c.control_character(0x0b).unwrap(), b"\x06", "CTRL-K through the control-character request");
+        assert_eq!(c.control_character(0x02).unwrap(), b"\x07ERR003\r", "CTRL-B is not emulated");
+    }
+
+    #[test]
+    fn closing_a_loop_enables_the_amplifier_and_kill_all_disables_every_one() {
+        // The core's motion (UM p.217: J/ on a killed motor closes its loop; UM p.319: a kill
+        // opens it and disables the amplifier), read back as the GUI and EPICS read it.
+        let mut c = card();
+        let amp = |c: &mut Card, m: u8| {
+            let w = u64::from_str_radix(&values(&c.line(format!("#{m}?").as_bytes()).unwrap())[0], 16).unwrap();
+            (w >> 24) & (1 << 19) != 0
+        };
+        c.line(b"#1J/#2J/");
+        assert!(amp(&mut c, 1) && amp(&mut c, 2) && !amp(&mut c, 3));
+        assert_eq!(c.line(b"\x0b").unwrap(), b"\x06");
+        assert!((1..=8).all(|m| !amp(&mut c, m)), "KILL ALL");
+    }
+
+    #[test]
+    fn a_pmc_download_is_acknowledged_line_by_line() {
+        // What dls-pmaccontrol's "load pmc" sends: settings, M-variable definitions, a PLC
+        // (program text while the buffer is open), SAVE.
+        let mut c = card();
+        for line in [
+            "I130=2000",
+            "M190->Y:$078F00,0,24,S",
+            "OPEN PLC 1 CLEAR",
+            "DISABLE PLC 1",
+            "IF (M1=1)",
+            "  P1=P1+1",
+            "ENDIF",
+            "CLOSE",
+            "ENABLE PLC 1",
+        ] {
+            assert_eq!(c.line(line.as_bytes()).unwrap(), b"\x06", "{line}");
+        }
+        assert_eq!(values(&c.line(b"P1 M190").unwrap()), ["0", "0"], "program text is not run");
+        assert_eq!(c.line(b"IF (M1=1)").unwrap(), b"\x07ERR003\r", "outside a buffer it is not a command");
+        // One line opening, filling and closing a buffer, then an on-line command.
+        assert_eq!(values(&c.line(b"OPEN PROG 1 CLEAR X100 CLOSE I130").unwrap()), ["2000"]);
+    }
+
+    #[test]
+    fn gather_macro_station_and_save_commands_get_the_answers_a_download_expects() {
+        let mut c = card();
+        for line in ["define gather 1000", "gather", "endgather", "list gather", "delete gather", "SAVE"] {
+            assert_eq!(c.line(line.as_bytes()).unwrap(), b"\x06", "{line}");
+        }
+        assert_eq!(values(&c.line(b"ms0,i910").unwrap()), ["0"]);
+    }
+
+    #[test]
+    fn addressing_persists_between_lines_of_one_caller() {
+        let mut c = card();
+        let mut a = Addressing::default();
+        c.line_addressed(b"#5&2", &mut a);
+        assert_eq!(values(&c.line_addressed(b"# &", &mut a).unwrap()), ["#5", "&2"]);
+        let mut other = Addressing::default();
+        assert_eq!(values(&c.line_addressed(b"#", &mut other).unwrap()), ["#1"], "another connection's own");
     }
 }

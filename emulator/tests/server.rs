@@ -187,7 +187,8 @@ fn a_hundred_concurrent_clients_each_get_their_own_answers() {
                 c.set_nodelay(true).unwrap();
                 for j in 0..200u32 {
                     let value = u32::from(k) * 1000 + j;
-                    let reply = ask(&mut c, &format!("I{}={value} I{}", 1000 + k, 1000 + k));
+                    // I6000..I6099: no address I-variable among them, so every value reads back in decimal.
+                    let reply = ask(&mut c, &format!("I{}={value} I{}", 6000 + k, 6000 + k));
                     assert_eq!(reply, format!("{value}\r\x06").as_bytes(), "client {k} line {j}");
                 }
             })
@@ -356,4 +357,33 @@ fn a_client_that_writes_i3_4_still_gets_terminated_replies_afterwards() {
     assert_eq!(ask(&mut c, "I3=4"), b"\x07ERR003\r");
     assert_eq!(ask(&mut c, "???"), b"001000000000\r\x06");
     assert_eq!(ask(&mut c, "I3"), b"2\r\x06");
+}
+
+#[test]
+fn a_client_looping_on_errors_is_slowed_and_one_answering_normally_is_not() {
+    // dls-pmaccontrol answers a failed poll with CLOSE and polls again at once; the server
+    // holds back each error reply until ERROR_REPLY_INTERVAL after the previous one, so such
+    // a loop costs at most 100 error replies a second. Counted, not timed: the counter says
+    // how many error replies had to wait.
+    let s = server(Clock::Virtual, 4, None);
+    let mut c = connect(&s);
+    for _ in 0..20 {
+        assert_eq!(ask(&mut c, "ZZZ"), b"\x07ERR003\r");
+    }
+    let slowed = s.stats().errors_slowed.load(Ordering::Relaxed);
+    assert!(slowed >= 1, "back-to-back errors were not slowed ({slowed} of 19)");
+    for _ in 0..20 {
+        assert_eq!(ask(&mut c, "I10"), b"3713707\r\x06");
+    }
+    assert_eq!(s.stats().errors_slowed.load(Ordering::Relaxed), slowed, "replies without an error never wait");
+}
+
+#[test]
+fn addressing_is_kept_per_connection() {
+    // `#3` on one connection does not move another's addressed motor (SRM p.270).
+    let s = server(Clock::Virtual, 4, None);
+    let (mut a, mut b) = (connect(&s), connect(&s));
+    assert_eq!(ask(&mut a, "#3"), b"\x06");
+    assert_eq!(ask(&mut a, "#"), b"#3\r\x06");
+    assert_eq!(ask(&mut b, "#"), b"#1\r\x06");
 }

@@ -94,7 +94,7 @@ fn host(k: u16, addr: SocketAddr, stop: &AtomicBool, counts: &Counts) {
                 Box::new(move |r: &[u8]| r == format!("{value}\r\x06").as_bytes()),
             ),
             (line("???"), Box::new(|r: &[u8]| r.len() == 14 && r.ends_with(b"\r\x06"))),
-            (line("FOO"), Box::new(|r: &[u8]| r == b"\x07ERR003\r")),
+            (line("ZZZ"), Box::new(|r: &[u8]| r == b"\x07ERR003\r")),
             (readready.to_vec(), Box::new(|r: &[u8]| r.len() == 2)),
         ];
         for (request, expected) in &steps {

@@ -11,6 +11,7 @@
 //! | `BRICK-HRM` | Geo Brick hardware reference manual | optional |
 //! | `M-FILE` | Delta Tau suggested M-variable definitions file | none |
 //! | `GlobalStatus.py` | DLS dls-pmac-control transcription of the SRM status bits ("T") | none |
+//! | `DLS-PMACCONTROL` | DLS's Qt GUI dls-pmaccontrol 3.2.3 (what it sends and how it reads the answers) | none |
 //! | `EPICS-PMAC` | DiamondLightSource/pmac `pmacHardwareTurbo.cpp` | none |
 //! | `DLS-PMACLIB` | the dls-pmaclib client library | none |
 //! | `TPMAC` | epics-modules/tpmac | none |
@@ -33,6 +34,7 @@ pub enum Source {
     BrickHrm,
     MFile,
     GlobalStatusPy,
+    DlsPmaccontrol,
     EpicsPmac,
     DlsPmaclib,
     Tpmac,
@@ -48,7 +50,7 @@ enum PageRule {
 }
 
 impl Source {
-    const ALL: [(Source, &'static str, PageRule); 12] = [
+    const ALL: [(Source, &'static str, PageRule); 13] = [
         (Source::Um, "UM", PageRule::Required),
         (Source::Srm, "SRM", PageRule::Required),
         (Source::PmacSrm, "PMAC-SRM", PageRule::Required),
@@ -56,6 +58,7 @@ impl Source {
         (Source::BrickHrm, "BRICK-HRM", PageRule::Optional),
         (Source::MFile, "M-FILE", PageRule::None),
         (Source::GlobalStatusPy, "GlobalStatus.py", PageRule::None),
+        (Source::DlsPmaccontrol, "DLS-PMACCONTROL", PageRule::None),
         (Source::EpicsPmac, "EPICS-PMAC", PageRule::None),
         (Source::DlsPmaclib, "DLS-PMACLIB", PageRule::None),
         (Source::Tpmac, "TPMAC", PageRule::None),

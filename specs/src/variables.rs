@@ -19,6 +19,61 @@ pub struct Variables {
     pub lockout_rules: Vec<Rule>,
     /// Registers by address, e.g. `Y:$000025`.
     pub registers: BTreeMap<String, Register>,
+    /// The I-variables host programs read, with the values a card reports.
+    #[serde(default)]
+    pub host_i_variables: Vec<HostIVariable>,
+    /// The M-variables host programs read whose value the card defines.
+    #[serde(default)]
+    pub host_m_variables: Vec<HostMVariable>,
+}
+
+/// An I-variable a host program reads: its default and how the card prints it.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HostIVariable {
+    /// `I10`, or `Ixx24` for one per motor.
+    pub number: String,
+    pub default: i64,
+    /// An address I-variable, reported as `$...` when I9 is 2 or 3 (SRM p.42).
+    pub hex: bool,
+    pub title: String,
+    pub meaning: String,
+    pub cite: Cites,
+}
+
+/// An M-variable with a value the card defines (a documented constant).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HostMVariable {
+    /// `M70`, or `Mxx90` for one per motor.
+    pub number: String,
+    pub value: i64,
+    pub title: String,
+    pub meaning: String,
+    pub cite: Cites,
+}
+
+/// Motors 1..=32 of a Turbo PMAC, which `xx` in `Ixx24` and `Mxx90` runs over.
+pub const MOTOR_NUMBERS: std::ops::RangeInclusive<u16> = 1..=32;
+
+/// The variable numbers `I10` or `Ixx24` (`letter` `I`) stands for: one number, or one per
+/// motor (`xx` = 01..32, so I124 ... I3224). `None` when the text is neither form or a number
+/// is beyond 8191.
+pub fn variable_numbers(text: &str, letter: char) -> Option<Vec<u16>> {
+    let rest = text.strip_prefix(letter)?;
+    let numbers: Vec<u16> = if let Some(offset) = rest.strip_prefix("xx") {
+        if offset.len() != 2 || !offset.bytes().all(|b| b.is_ascii_digit()) {
+            return None;
+        }
+        let offset: u16 = offset.parse().ok()?;
+        MOTOR_NUMBERS.map(|m| m * 100 + offset).collect()
+    } else {
+        if rest.is_empty() || rest.len() > 4 || !rest.bytes().all(|b| b.is_ascii_digit()) {
+            return None;
+        }
+        vec![rest.parse().ok()?]
+    };
+    numbers.iter().all(|n| *n <= 8191).then_some(numbers)
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -109,6 +164,22 @@ impl Variables {
                 }
             }
         }
+        for (i, v) in self.host_i_variables.iter().enumerate() {
+            if variable_numbers(&v.number, 'I').is_none() {
+                return Err(map.error(
+                    &format!("host_i_variables.{i}.number"),
+                    format!("`{}` is neither `I<n>` nor `Ixx<nn>` within I0..I8191", v.number),
+                ));
+            }
+        }
+        for (i, v) in self.host_m_variables.iter().enumerate() {
+            if variable_numbers(&v.number, 'M').is_none() {
+                return Err(map.error(
+                    &format!("host_m_variables.{i}.number"),
+                    format!("`{}` is neither `M<n>` nor `Mxx<nn>` within M0..M8191", v.number),
+                ));
+            }
+        }
         let numbers = self.i_variable_numbers;
         if numbers.min != 0 || numbers.max < 8191 || numbers.max > 65_535 {
             return Err(map.error("i_variable_numbers", "I-variable numbers must start at 0 and reach at least I8191"));
@@ -174,4 +245,30 @@ pub fn parse_address(text: &str) -> Option<(char, u32)> {
         return None;
     }
     u32::from_str_radix(hex, 16).ok().map(|a| (space, a))
+}
+
+#[cfg(test)]
+mod host_tests {
+    use super::*;
+
+    #[test]
+    fn one_variable_or_one_per_motor() {
+        assert_eq!(variable_numbers("I10", 'I'), Some(vec![10]));
+        let per_motor = variable_numbers("Ixx24", 'I').unwrap();
+        assert_eq!((per_motor.len(), per_motor[0], per_motor[31]), (32, 124, 3224));
+        assert_eq!(variable_numbers("Mxx90", 'M').unwrap()[7], 890);
+        for bad in ["I", "I8192", "Ix24", "Ixx2", "M10", "I1a"] {
+            assert_eq!(variable_numbers(bad, 'I'), None, "{bad}");
+        }
+    }
+
+    #[test]
+    fn the_embedded_host_variables_are_read_and_i10_is_the_srm_default() {
+        let spec = crate::Spec::embedded().unwrap();
+        let v = &spec.variables;
+        let i10 = v.host_i_variables.iter().find(|h| h.number == "I10").unwrap();
+        assert_eq!(i10.default, 3_713_707, "SRM p.42-43");
+        assert!(v.host_i_variables.iter().filter(|h| h.hex).any(|h| h.number == "I20"));
+        assert!(v.host_m_variables.iter().any(|h| h.number == "Mxx90"));
+    }
 }

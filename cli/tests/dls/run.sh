@@ -37,4 +37,4 @@ fi
 cargo build --release --locked --quiet --bin pmacwd
 venv_python="$PWD/$venv/bin/python"
 cd cli/tests/dls
-PMACWD="$OLDPWD/target/release/pmacwd" "$venv_python" -m unittest -v test_dls_pmaclib
+PMACWD="${CARGO_TARGET_DIR:-$OLDPWD/target}/release/pmacwd" "$venv_python" -m unittest -v test_dls_pmaclib

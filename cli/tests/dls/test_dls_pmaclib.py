@@ -116,7 +116,7 @@ class Session:
         t.assertEqual(self.ok("I130"), "1234\r\x06")
         self.pmac.setVar("I41", 0)
         # An unknown command: BEL ERR003 CR under I6 = 1, still a successful exchange.
-        t.assertEqual(self.ok("FOO"), "\x07ERR003\r")
+        t.assertEqual(self.ok("ZZZ"), "\x07ERR003\r")
         # Starve the background: the counter runs out, the strobe stops, the timer trips, and
         # the card stops communicating. The client sees a timeout, not an answer.
         self.control("starve")
