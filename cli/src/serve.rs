@@ -135,6 +135,11 @@ pub fn serve(a: ServeArgs) -> ExitCode {
     let clock = if a.virtual_time { Clock::Virtual } else { Clock::Wall { start: Instant::now(), servo_hz } };
     let identity = Identity { version: a.version_text.clone(), card_id: a.card_id.clone() };
     let mut card = Card::power_on(cfg, &saved, clock, identity);
+    // The card's console: a trip, INIT/, power, `$$$` and the recovery, one line each.
+    card.on_console(Box::new(|line| {
+        println!("pmacwd serve: {line}");
+        let _ = std::io::stdout().flush();
+    }));
     if let Some(path) = &a.record {
         let description = format!(
             "recorded by pmacwd serve ({}, profile {}, {servo_hz} Hz{})",

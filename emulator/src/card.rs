@@ -123,6 +123,11 @@ impl IVariableStore for FlashIVariables {
 /// (SRM p.37); `--saved I3=1` gives that.
 pub const SAVED_DEFAULT: [(u16, i64); 2] = [(3, 2), (6, 1)];
 
+/// Where a card tells its operator what happened to it: a trip (with its cause and the cycle),
+/// INIT/, a power cycle, a host's `$$$`, the recovery. `pmacwd serve` prints each line on its
+/// standard output (issue 19: a trip used to pass without a word).
+pub type Console = Box<dyn FnMut(&str) + Send>;
+
 pub struct Card {
     cfg: core::Config,
     core: core::Core,
@@ -137,6 +142,10 @@ pub struct Card {
     /// The addressing of callers that keep none of their own ([`Card::line`]); connections
     /// keep theirs ([`Card::line_addressed`]).
     addressing: Addressing,
+    /// Where the card's console lines go ([`Card::on_console`]); none by default.
+    console: Option<Console>,
+    /// Whether the console last saw the card tripped: a line is written when this changes.
+    tripped_seen: bool,
 }
 
 impl Card {
@@ -167,7 +176,66 @@ impl Card {
             capture: None,
             memory: Memory::new(defaults),
             addressing: Addressing::default(),
+            console: None,
+            tripped_seen: false,
         }
+    }
+
+    /// Sends the card's console lines to `console` from now on: one line when the card trips
+    /// (when, and why as far as the card can tell), at INIT/, a power cycle or a host's `$$$`,
+    /// and when a reset brings a tripped card back.
+    pub fn on_console(&mut self, console: Console) {
+        self.tripped_seen = self.core.tripped();
+        self.console = Some(console);
+    }
+
+    fn say(&mut self, line: &str) {
+        if let Some(c) = &mut self.console {
+            c(line);
+        }
+    }
+
+    /// The card's time now for a console line.
+    fn moment(&self) -> String {
+        self.moment_at(self.cycles)
+    }
+
+    /// Servo cycle `cycle` since power-up for a console line, and on the wall clock the
+    /// seconds it stands for.
+    fn moment_at(&self, cycle: u64) -> String {
+        match self.clock {
+            Clock::Wall { servo_hz, .. } => {
+                format!("servo cycle {cycle} ({:.3} s)", cycle as f64 / f64::from(servo_hz.max(1)))
+            }
+            Clock::Virtual => format!("servo cycle {cycle} (virtual time)"),
+        }
+    }
+
+    /// [`Card::watch_trip_at`] now.
+    fn watch_trip(&mut self, cause: &str) {
+        self.watch_trip_at(cause, self.cycles);
+    }
+
+    /// Writes a console line when the card has tripped or recovered since the last look;
+    /// `cause` says what the card was doing when it tripped, at servo cycle `cycle`.
+    fn watch_trip_at(&mut self, cause: &str, cycle: u64) {
+        if self.console.is_none() {
+            return;
+        }
+        let now = self.core.tripped();
+        if now && !self.tripped_seen {
+            let line = format!(
+                "TRIPPED at {}: {cause} (Y:$25 = {}, X:$25 = {}); silent until INIT/ or a power cycle (UM p.215)",
+                self.moment_at(cycle),
+                self.core.counter(),
+                self.core.counter_min()
+            );
+            self.say(&line);
+        } else if !now && self.tripped_seen {
+            let line = format!("running again at {}: the trip is cleared", self.moment());
+            self.say(&line);
+        }
+        self.tripped_seen = now;
     }
 
     /// The card `pmacwd serve` emulates by default: the embedded spec's `i40-zero`
@@ -243,19 +311,29 @@ impl Card {
     /// it: the `run` step of the trace format. Stops early once tripped (a tripped card does
     /// nothing until INIT/ or power, UM p.215).
     fn run(&mut self, n: u64) {
+        let first = self.cycles;
         self.cycles = self.cycles.saturating_add(n);
         self.captured(|c| {
             c.elapse(n);
             Ok(())
         });
-        for _ in 0..n {
+        let mut tripped_at = None;
+        for i in 0..n {
             if self.core.tripped() {
                 break;
             }
             self.core.servo_cycle(&self.cfg);
+            if self.core.tripped() {
+                tripped_at = Some(first.saturating_add(i + 1));
+            }
             if self.core.background_possible() {
                 self.core.background_cycle(&self.cfg);
             }
+        }
+        // The supply trips at its event, not in a servo cycle: a trip found here is the
+        // watchdog's, its strobe stopped for want of a background cycle (UM p.215, SRM p.57).
+        if let Some(cycle) = tripped_at {
+            self.watch_trip_at("the watchdog timer ran out: no background cycle reloaded its counter in time", cycle);
         }
     }
 
@@ -476,6 +554,8 @@ impl Card {
         let reply = self.core.command(&self.cfg, core_command(command), &mut self.store);
         if matches!(command, HostCommand::Reset) && reply != core::Reply::Silence {
             self.memory.reset();
+            let line = format!("$$$ from a host at {}: the card resets", self.moment());
+            self.say(&line);
         }
         reply_answer(reply)
     }
@@ -534,6 +614,38 @@ impl Card {
         if let Event::Servo { cycles } = event {
             self.cycles = self.cycles.saturating_add(u64::from(cycles));
         }
+        let cause = match &event {
+            Event::Reset(r) => {
+                let faults: Vec<&str> =
+                    [(r.dpram_fault, "DPRAM fault"), (r.flash_fault, "flash fault"), (r.bootstrap, "bootstrap mode")]
+                        .into_iter()
+                        .filter_map(|(on, what)| on.then_some(what))
+                        .collect();
+                let what = match r.kind {
+                    pmacwd_specs::check::ResetKind::Init => "INIT/ pulse",
+                    pmacwd_specs::check::ResetKind::Power => "power cycle",
+                };
+                let line = if faults.is_empty() {
+                    format!("{what} at {}: the card restarts", self.moment())
+                } else {
+                    format!(
+                        "{what} at {}: the card restarts, its reset-time checks finding {}",
+                        self.moment(),
+                        faults.join(", ")
+                    )
+                };
+                self.say(&line);
+                "the card tripped again as it restarted".to_string()
+            }
+            Event::Supply { millivolts } => {
+                format!("the logic supply fell to {millivolts} mV, below its minimum of about 4.75 V")
+            }
+            Event::Servo { .. } => {
+                "the watchdog timer ran out: no background cycle reloaded its counter in time".to_string()
+            }
+            other => format!("after the control event `{other}`"),
+        };
+        self.watch_trip(&cause);
         let step = Step { event: TraceEvent::Model(event), expect: Expect::default(), note: None };
         let line = step_line(&step);
         self.captured(|c| c.event(step));
@@ -598,6 +710,7 @@ fn reply_answer(reply: core::Reply) -> Answer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use pmacwd_specs::check::{ResetEvent, ResetKind};
 
     fn card() -> Card {
         let spec = pmacwd_specs::Spec::embedded().unwrap();
@@ -637,6 +750,35 @@ mod tests {
         assert_eq!(c.line(b"i3=3 I40 i3=2 I40").unwrap(), b"\n0\r0\r\x06");
         assert_eq!(c.line(b"I40 ZZZ I41").unwrap(), b"0\r\x07ERR003\r", "the error ends the line");
         assert_eq!(c.line(&[b'I', 0xC3, b'9']).unwrap(), b"\x07ERR004\r", "bytes above 127");
+    }
+
+    #[test]
+    fn the_console_tells_the_trip_its_cause_and_cycle_the_reset_and_the_recovery() {
+        // `pmacwd serve` used to say nothing when its card tripped or came back (issue 19).
+        let lines = std::sync::Arc::new(std::sync::Mutex::new(Vec::<String>::new()));
+        let mut c = card();
+        let sink = lines.clone();
+        c.on_console(Box::new(move |l| sink.lock().unwrap().push(l.to_string())));
+        c.control(Control::Starve);
+        c.control(Control::Step { cycles: 10_000 });
+        c.control(Control::Reset(ResetEvent {
+            kind: ResetKind::Init,
+            dpram_fault: false,
+            flash_fault: false,
+            bootstrap: false,
+        }));
+        c.line(b"$$$");
+        c.control(Control::Supply { millivolts: 4500 });
+        let lines = lines.lock().unwrap();
+        assert_eq!(lines.len(), 5, "{lines:#?}");
+        // Starved from cycle 0: the counter (4096) runs out and the hardware delay (45 cycles)
+        // passes, UM p.215: the trip's own cycle, not the end of the step that found it.
+        assert!(lines[0].starts_with("TRIPPED at servo cycle 4142 "), "{}", lines[0]);
+        assert!(lines[0].contains("no background cycle reloaded its counter"), "{}", lines[0]);
+        assert!(lines[1].starts_with("INIT/ pulse at servo cycle 10000"), "{}", lines[1]);
+        assert!(lines[2].starts_with("running again"), "{}", lines[2]);
+        assert!(lines[3].starts_with("$$$ from a host"), "{}", lines[3]);
+        assert!(lines[4].contains("the logic supply fell to 4500 mV"), "{}", lines[4]);
     }
 
     #[test]
