@@ -26,32 +26,11 @@ if [ "${#missing[@]}" -gt 0 ]; then
 fi
 
 # PyQt5 5.15 and dls-pmaclib (telnetlib) want Python 3.8 to 3.12.
-usable() { "$1" -c 'import sys; sys.exit(not ((3, 8) <= sys.version_info[:2] <= (3, 12)))' 2>/dev/null; }
-python=""
-for candidate in python3 python3.12 python3.11 python3.10 python3.9 python3.8; do
-  if command -v "$candidate" >/dev/null 2>&1 && usable "$candidate"; then
-    python="$candidate"
-    break
-  fi
-done
-if [ -z "$python" ]; then
-  echo "dls-pmaccontrol 3.2.3 needs Python 3.8 to 3.12; none is installed" >&2
-  exit 1
-fi
-venv=target/gui-venv
-if [ -x "$venv/bin/python" ] && ! cmp -s <("$python" -c 'import sys; print(sys.version)') <("$venv/bin/python" -c 'import sys; print(sys.version)'); then
-  rm -rf "$venv"
-fi
-if [ ! -x "$venv/bin/python" ] || ! cmp -s cli/tests/gui/requirements.txt "$venv/requirements.txt"; then
-  rm -rf "$venv"
-  "$python" -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check -r cli/tests/gui/requirements.txt
-  cp cli/tests/gui/requirements.txt "$venv/requirements.txt"
-fi
+source cli/tests/python-venv.sh
+python_venv target/gui-venv cli/tests/gui/requirements.txt "dls-pmaccontrol 3.2.3"
 cargo build --release --locked --quiet --bin pmacwd
 mkdir -p target/gui
 export PMACWD="${CARGO_TARGET_DIR:-$PWD/target}/release/pmacwd" SCREENSHOTS="$PWD/target/gui" EPICS_PMAC_SOURCE="$PWD/cli/tests/gui"
-venv_python="$PWD/$venv/bin/python"
 cd cli/tests/gui
 # -a: a free display number; the GUI gets its own X server for the run and nothing else.
 xvfb-run -a -s "-screen 0 1280x1024x24" "$venv_python" -m unittest -v test_dls_pmaccontrol test_epics_poll
