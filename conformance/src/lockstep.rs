@@ -29,6 +29,12 @@ impl fmt::Display for Disagreement {
 /// implementation Y`: every field, the motors included (an implementation that reports no
 /// motors differs from the model, which always does).
 pub fn differences(model: &Observation, subject: &Observation) -> Vec<String> {
+    // The common case, and the only one lockstep meets at every step of a long run: nothing
+    // differs, and nothing needs formatting (formatting every field of every step was 90% of
+    // the scenario library's 27 s on the core once the motors were compared).
+    if model == subject {
+        return Vec::new();
+    }
     // Destructured without `..`: a new observation is a compile error here until it is compared.
     let Observation {
         reply,
