@@ -54,19 +54,13 @@ pub fn control(a: ControlArgs) -> ExitCode {
     };
     let outcome = if commands.is_empty() { from_stdin(&mut session) } else { from_args(&mut session, &commands) };
     match outcome {
-        Ok(Tally { errors: 0, .. }) => ExitCode::SUCCESS,
+        Ok(0) => ExitCode::SUCCESS,
         Ok(_) => ExitCode::from(1),
         Err(e) => {
             eprintln!("pmacwd: control port {address}: {e}");
             ExitCode::from(2)
         }
     }
-}
-
-/// How the commands went.
-#[derive(Default)]
-struct Tally {
-    errors: usize,
 }
 
 /// One connection to a control port.
@@ -98,27 +92,27 @@ impl Session {
     }
 }
 
-/// Prints one reply, and counts it when it is an error.
-fn report(tally: &mut Tally, reply: &str) -> io::Result<()> {
-    if reply.starts_with("error") {
-        tally.errors += 1;
-    }
-    writeln!(io::stdout(), "{reply}")
+/// Prints one reply; `true` when it is an error.
+fn report(reply: &str) -> io::Result<bool> {
+    writeln!(io::stdout(), "{reply}")?;
+    Ok(reply.starts_with("error"))
 }
 
-fn from_args(session: &mut Session, commands: &[String]) -> io::Result<Tally> {
-    let mut tally = Tally::default();
+/// The commands of the arguments; returns how many were answered with an error.
+fn from_args(session: &mut Session, commands: &[String]) -> io::Result<usize> {
+    let mut errors = 0;
     for command in commands {
         let reply = session.ask(command.trim())?;
-        report(&mut tally, &reply)?;
+        errors += usize::from(report(&reply)?);
     }
-    Ok(tally)
+    Ok(errors)
 }
 
 /// Commands from standard input, one per line; on a terminal with a prompt. Blank lines and
-/// `#` comments are skipped, so a file of commands can be annotated.
-fn from_stdin(session: &mut Session) -> io::Result<Tally> {
-    let mut tally = Tally::default();
+/// `#` comments are skipped, so a file of commands can be annotated. Returns how many were
+/// answered with an error.
+fn from_stdin(session: &mut Session) -> io::Result<usize> {
+    let mut errors = 0;
     let stdin = io::stdin();
     let prompt = stdin.is_terminal();
     let mut input = stdin.lock();
@@ -130,16 +124,16 @@ fn from_stdin(session: &mut Session) -> io::Result<Tally> {
         }
         line.clear();
         if input.read_line(&mut line)? == 0 {
-            return Ok(tally);
+            return Ok(errors);
         }
         let command = line.trim();
         if command.is_empty() || command.starts_with('#') {
             continue;
         }
         if matches!(command, "quit" | "exit") && prompt {
-            return Ok(tally);
+            return Ok(errors);
         }
         let reply = session.ask(command)?;
-        report(&mut tally, &reply)?;
+        errors += usize::from(report(&reply)?);
     }
 }

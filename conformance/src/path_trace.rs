@@ -10,7 +10,7 @@
 //! every observation the checker saw.
 
 use crate::runner::{self, Failure};
-use pmacwd_model::checker::{PropertyResult, RunReport, TraceStep};
+use pmacwd_model::checker::{PropertyResult, RunReport, TraceStep, WatchdogModel};
 use pmacwd_model::properties::Expectation;
 use pmacwd_specs::check::ProfileSelection;
 use pmacwd_specs::cite::{Cite, Cites};
@@ -196,34 +196,34 @@ pub fn paths_to_save(
                 Ok(_) => Outcome::Saved { steps: trace.steps.len(), trace },
                 Err(first) => {
                     let again = longest.get_or_insert_with(|| {
-                        pmacwd_model::checker::WatchdogModel {
-                            longest_decelerations_only: true,
-                            ..pmacwd_model::checker::WatchdogModel::new(cfg.clone())
-                        }
-                        .check(threads)
+                        WatchdogModel { longest_decelerations_only: true, ..WatchdogModel::new(cfg.clone()) }
+                            .check(threads)
                     });
-                    let alternative = again.properties.iter().find(|q| q.name == p.name);
-                    match alternative.and_then(|q| path_trace(spec, again, q)) {
-                        Some(mut t) => match reproduces(spec, &t) {
-                            Ok(_) => {
-                                t.description.push_str(
-                                    " The checker's shortest path stops a motor faster than a trace's run does (it decelerates for the longest); this is the shortest path with the longest decelerations.",
-                                );
-                                Outcome::SavedLongestDecelerations { steps: t.steps.len(), trace: t }
-                            }
-                            Err(e) => Outcome::NotReproducible(failure_text(&e)),
-                        },
-                        None => Outcome::NotReproducible(format!(
-                            "only a deceleration shorter than a trace's run takes reaches it ({})",
-                            failure_text(&first)
-                        )),
-                    }
+                    with_longest_decelerations(spec, again, p.name, &first)
                 }
             }
         };
         out.push(SavedPath { file_name: file_name(report, p), property: p.name, outcome });
     }
     out
+}
+
+/// The outcome for property `name` from `again`, the run checked with the longest
+/// decelerations only, after its shortest path failed `run` with `first`.
+fn with_longest_decelerations(spec: &Spec, again: &RunReport, name: &str, first: &Failure) -> Outcome {
+    let Some(mut t) = again.properties.iter().find(|q| q.name == name).and_then(|q| path_trace(spec, again, q)) else {
+        return Outcome::NotReproducible(format!(
+            "only a deceleration shorter than a trace's run takes reaches it ({})",
+            failure_text(first)
+        ));
+    };
+    if let Err(e) = reproduces(spec, &t) {
+        return Outcome::NotReproducible(failure_text(&e));
+    }
+    t.description.push_str(
+        " The checker's shortest path stops a motor faster than a trace's run does (it decelerates for the longest); this is the shortest path with the longest decelerations.",
+    );
+    Outcome::SavedLongestDecelerations { steps: t.steps.len(), trace: t }
 }
 
 fn failure_text(f: &Failure) -> String {

@@ -29,6 +29,14 @@ pub struct Header {
     pub profiles: ProfileSelection,
 }
 
+impl Header {
+    /// The trace this header begins, with `steps`, and the `card:` it carries beside the trace.
+    fn into_trace(self, steps: Vec<Step>) -> (Trace, Option<CardConfig>) {
+        let Header { format: _, version, description, cite, configuration, card, profiles } = self;
+        (Trace { version, description, cite, configuration, profiles, steps }, card)
+    }
+}
+
 /// Reads steps one line at a time; each line at most [`pmacwd_specs::input::LINE_BYTES_MAX`]
 /// bytes, so memory stays bounded whatever the file holds.
 pub struct StepReader<R: BufRead> {
@@ -127,17 +135,9 @@ pub fn load_text(file: &Path, text: &str) -> Result<crate::LoadedTrace, SpecErro
         positions.push((format!("steps.{}", steps.len()), Position { line, column: 1 }));
         steps.push(step);
     }
-    let h = reader.header;
-    let trace = Trace {
-        version: h.version,
-        description: h.description,
-        cite: h.cite,
-        configuration: h.configuration,
-        profiles: h.profiles,
-        steps,
-    };
+    let (trace, card) = reader.header.into_trace(steps);
     let map = pmacwd_specs::yaml::SourceMap::from_positions(file, positions);
-    Ok(crate::LoadedTrace { trace, map, card: h.card })
+    Ok(crate::LoadedTrace { trace, map, card })
 }
 
 /// Reads a whole JSON Lines trace into memory (for short traces and tests).
@@ -147,15 +147,7 @@ pub fn read_all(file: &Path, input: impl BufRead) -> Result<Trace, SpecError> {
     while let Some((_, step)) = reader.next_step()? {
         steps.push(step);
     }
-    let h = reader.header;
-    Ok(Trace {
-        version: h.version,
-        description: h.description,
-        cite: h.cite,
-        configuration: h.configuration,
-        profiles: h.profiles,
-        steps,
-    })
+    Ok(reader.header.into_trace(steps).0)
 }
 
 /// The header line of `trace`.
