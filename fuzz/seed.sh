@@ -100,6 +100,22 @@ done
   printf '%s' "$c" | seed host_command "$(hashname "$c")"
 done
 
+# card_grammar: the same host commands, and the run-together lines real clients send:
+# dls-pmaccontrol 3.2.3's poll line (emulator/benches/serve.rs) and the EPICS pmac driver's
+# fast poll list (cli/tests/gui/test_epics_poll.py), plus ranges, downloads and addressing.
+mkdir -p "$corpus/card_grammar"
+cp "$corpus"/host_command/seed-* "$corpus/card_grammar/"
+gui=$(printf 'i65???&1??%%'; for m in 1 2 3 4 5 6 7 8; do printf '#%d?PVF m%d90 p99' $m $m; done)
+printf '%s' "$gui" | seed card_grammar gui-poll-line
+epics=$(printf ' ??? M70 M71 M72 M73 M4039 M4040 M4038'; for a in 1 2 3 4 5 6 7 8; do printf ' #%dP #%dF i%d24 #%d?' $a $a $a $a; done)
+printf '%s' "$epics" | seed card_grammar epics-fast-poll
+printf '%s\n' 'i20..23' '#1J+#2J-&1B1R' '&1Q&2H&3A' 'open prog 1 clear x10 close' 'MS0,I910' \
+  'ENABLE PLC 1' 'DISABLE PLC 1' 'SAVE' '$$$' 'I5=2 I3=2 I6=1' 'DEFINE GATHER' '#3K' '%50' \
+  | while IFS= read -r c; do
+  printf '%s' "$c" | seed card_grammar "$(hashname "$c")"
+done
+printf '\001\004\013\021' | seed card_grammar control-characters
+
 # ethernet_header: the headers dls-pmaclib sends (emulator/src/protocol.rs), and a refused one.
 printf '\x40\xbf\x00\x00\x00\x00\x00\x0d' | seed ethernet_header getresponse
 printf '\xc0\xc5\x00\x00\x00\x00\x08\x00' | seed ethernet_header getbuffer

@@ -9,7 +9,7 @@
 //!     # or, for a page read beyond the seed excerpts, the statement in this project's words:
 //!     # summary: Y:$25 is reloaded at the end of every background cycle ...
 //!     encoded_by:                                  # what encodes it, what checks it
-//!       - spec: watchdog.yaml#rules.counter_reset  # a key of a spec file; list items by id
+//!       - spec: watchdog.yaml#rules.counter_reset  # a key of a spec file; list items by id, name, command or number
 //!       - property: a background cycle reloads the counter from I40   # model property or monitor
 //!       - scenario: a-reset-starts-x25-over-at-the-reset-value       # file stem in scenarios/
 //!       - test: model/tests/semantics.rs::with_i40_zero_each_profile_reloads_its_own_reset_value

@@ -285,8 +285,9 @@ pub fn has_path(text: &str, path: &str) -> bool {
                 m.iter().any(|(k, child)| scalar(k).as_deref() == Some(key.as_str()) && walk(child, &parts[j..]))
             }),
             serde_yaml::Value::Sequence(items) => items.iter().enumerate().any(|(i, item)| {
-                let named =
-                    ["id", "name", "command"].iter().any(|f| item.get(f).and_then(scalar).as_deref() == Some(parts[0]));
+                let named = ["id", "name", "command", "number"]
+                    .iter()
+                    .any(|f| item.get(f).and_then(scalar).as_deref() == Some(parts[0]));
                 (named || i.to_string() == parts[0]) && walk(item, &parts[1..])
             }),
             _ => false,
