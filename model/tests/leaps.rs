@@ -2,8 +2,10 @@
 //! configurations small enough to explore one servo cycle at a time, the model that leaps to
 //! the next change (or just before it) and the model that ticks give the same verdict on every
 //! property; everything the leaping model shows (counting the states a leap passes through)
-//! the ticking one shows too; and what only ticking shows is a bounded set: the environment
-//! acting in the middle of a quiet stretch, which leaps do not offer.
+//! the ticking one shows too; and what only ticking shows is the environment acting in the
+//! middle of a quiet stretch, which leaps do not offer: each such observation is one the
+//! leaping model shows, with the counter at another point of the same quiet stretch (same sign,
+//! same distance from its lowest value).
 
 use pmacwd_model::checker::{Action, State, WatchdogModel};
 use pmacwd_specs::config::ModelConfig;
@@ -96,13 +98,23 @@ fn sizes() -> Vec<(&'static str, u16, u32)> {
     }
 }
 
-/// Observations the leaping model misses at most, in every size compared: those where the
-/// environment acts in the middle of a quiet stretch (an I40 write, a load change, a supply
-/// dip at a counter value no leap stops at); docs/model.md. More would be a new gap.
-const MISSED_MAX: usize = 192;
+/// An observation with the counter left out but what the environment can react to in it kept:
+/// the counter's sign (the leaps stop where it changes, [`pmacwd_model::checker::signature`])
+/// and its distance above the lowest value since reset (X:$25 follows the counter down in a
+/// first descent, and stays put in a later one).
+type Twin = (bool, bool, bool, i32, (u32, u32), u8, u16, u8, bool, bool, String);
+
+fn twin(o: &Seen) -> Twin {
+    let (tripped, counter, counter_min, words, i8, i40, i41, supply_low, bootstrap, load) = o.clone();
+    (tripped, counter > 0, counter >= 0, counter - counter_min, words, i8, i40, i41, supply_low, bootstrap, load)
+}
 
 #[test]
 fn leaping_never_sees_what_ticking_cannot_gives_the_same_verdicts_and_misses_only_mid_stretch_events() {
+    // What only ticking reaches is an I40 write, a load change or a supply dip taken at a
+    // counter value no leap stops at. Each is checked to be, counter aside, an observation the
+    // leaping model makes at another point of the same quiet stretch: the leaps lose where in
+    // a stretch the environment acted, nothing else.
     for (profile, i40, delay) in sizes() {
         {
             let tick = WatchdogModel::new(timing(i40, delay, true, profile));
@@ -110,11 +122,12 @@ fn leaping_never_sees_what_ticking_cannot_gives_the_same_verdicts_and_misses_onl
             let (tick_states, tick_seen) = explore(&tick, 3_000_000).expect("tick model within bounds");
             let (leap_states, leap_seen) = explore(&leap, 3_000_000).expect("leap model within bounds");
             let missing: Vec<_> = tick_seen.difference(&leap_seen).collect();
+            let leap_twins: HashSet<Twin> = leap_seen.iter().map(twin).collect();
+            let unexplained: Vec<_> = missing.iter().filter(|o| !leap_twins.contains(&twin(o))).take(3).collect();
             assert!(
-                missing.len() <= MISSED_MAX,
-                "{profile}, I40 = {i40}, delay {delay}: leaping misses {} observations ticking reaches, e.g. {:?}",
-                missing.len(),
-                missing.first()
+                unexplained.is_empty(),
+                "{profile}, I40 = {i40}, delay {delay}: leaping misses observations ticking reaches that are not \
+                 a leaping observation at another point of a quiet stretch: {unexplained:?}"
             );
             let extra: Vec<_> = leap_seen.difference(&tick_seen).take(3).collect();
             assert!(
