@@ -241,10 +241,18 @@ impl Card {
     /// The card `pmacwd serve` emulates by default: the embedded spec's `i40-zero`
     /// configuration under its default profile, with the default saved I-variables.
     pub fn default_card(clock: Clock) -> Card {
-        let spec = pmacwd_specs::Spec::embedded().expect("the embedded spec is checked by its own tests");
-        let model = pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile())
-            .expect("i40-zero is a configuration of the embedded spec");
-        Card::power_on(pmacwd_bridge::core_config(&model), &SAVED_DEFAULT, clock, Identity::default())
+        // Reading the embedded spec parses every spec file twice: done once per process, since
+        // tests and the card_grammar fuzz target make a fresh card per case (under the fuzzer's
+        // sanitizers the parse took seconds, and the target ran 119 cases in 10 minutes).
+        static DEFAULTS: std::sync::OnceLock<(core::Config, HostDefaults)> = std::sync::OnceLock::new();
+        let (cfg, defaults) = DEFAULTS.get_or_init(|| {
+            let spec = pmacwd_specs::Spec::embedded().expect("the embedded spec is checked by its own tests");
+            let model =
+                pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile())
+                    .expect("i40-zero is a configuration of the embedded spec");
+            (pmacwd_bridge::core_config(&model), HostDefaults::from_spec(&spec.variables))
+        });
+        Card::power_on_with(*cfg, defaults, &SAVED_DEFAULT, clock, Identity::default())
     }
 
     /// How time passes for this card.

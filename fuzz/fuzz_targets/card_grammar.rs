@@ -7,13 +7,14 @@
 //! - only the last element may be an error: the line stops at the first command it cannot read;
 //! - the addressing stays a real motor (1..=32) and C.S. (1..=16);
 //! - the card answers every line it is not tripped for, and its reply reads back under its
-//!   framing (`parse_reply`), acknowledged exactly when no command failed.
+//!   framing (`parse_reply`), acknowledged exactly when no command failed (commands after an
+//!   OPEN on the same line are program text, which the card stores).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use pmacwd_emulator::card::{Card, Clock};
 use pmacwd_emulator::framing::parse_reply;
-use pmacwd_emulator::grammar::{parse_line, Addressing};
+use pmacwd_emulator::grammar::{parse_line, Addressing, Command};
 
 fuzz_target!(|data: &[u8]| {
     let mut a = Addressing::default();
@@ -29,7 +30,11 @@ fuzz_target!(|data: &[u8]| {
         let mut card = Card::default_card(Clock::Virtual);
         if let Some(reply) = card.line(data) {
             let parsed = parse_reply(&reply).expect("the card's reply reads back under its framing");
-            let failed = commands.iter().any(Result::is_err) || data.iter().any(|b| *b > 127);
+            // After an OPEN the rest of the line is program text for the buffer (UM p.46), which
+            // the card stores and acknowledges even where it is no on-line command (`X10`):
+            // only what comes before the first OPEN is read as on-line commands.
+            let mut online = commands.iter().take_while(|c| !matches!(c, Ok(Command::OpenPlc(_) | Command::OpenProgram(_))));
+            let failed = online.any(Result::is_err) || data.iter().any(|b| *b > 127);
             if !failed && parsed.acknowledged {
                 return;
             }
