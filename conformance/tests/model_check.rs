@@ -17,6 +17,11 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("timing", "um-215-50hz", 57_536),
     ("timing", "um-215-literal-plc", 57_536),
     ("timing", "um-215-m83", 57_536),
+    // The wider bound that reaches every observation class (model/tests/leaps.rs).
+    ("timing-wide", "um-215", 193_480),
+    ("timing-wide", "srm-57", 385_736),
+    ("timing-wide", "um-215-4095", 193_480),
+    ("timing-wide", "um-215-50hz", 193_480),
     ("status", "um-215", 26_019),
     ("status", "srm-57", 31_731),
     ("status", "srm-57-sticky-bit9", 31_731),

@@ -152,3 +152,77 @@ fn leaping_never_sees_what_ticking_cannot_gives_the_same_verdicts_and_misses_onl
         }
     }
 }
+
+/// Where a counter value stands against the reload value `r` (I40, or 4096 for I40 = 0 as the
+/// `um-215` profile reads it): at the reload, strictly between 1 and it, at 1, at 0, below 0,
+/// or above the reload (a lowered I40). The rules compare the counter with 0 and the reload
+/// and count it down by one (UM p.215, SRM p.57); no rule tells 4 from 4,000 in between.
+fn level(c: i32, r: i32) -> u8 {
+    match c {
+        _ if c == r => 0,
+        _ if c > r => 1,
+        2.. => 2,
+        1 => 3,
+        0 => 4,
+        _ => 5,
+    }
+}
+
+/// An observation's class: the observation with the counter and X:$25 as their levels, whether
+/// they are equal (a first descent), and I40 as "the configured value" or the value written.
+type Class = (bool, u8, u8, bool, (u32, u32), u8, bool, u16, u8, bool, bool, String);
+
+fn class(o: &Seen, configured_i40: u16) -> Class {
+    let (tripped, counter, counter_min, words, i8, i40, i41, supply_low, bootstrap, load) = o.clone();
+    let reload = if i40 == 0 { 4096 } else { i32::from(i40) };
+    let i40_written = if i40 == configured_i40 { 0 } else { i40 };
+    let configured = i40 == configured_i40;
+    (
+        tripped,
+        level(counter, reload),
+        level(counter_min, reload),
+        counter == counter_min,
+        words,
+        i8,
+        configured,
+        i40_written,
+        i41,
+        supply_low,
+        bootstrap,
+        load,
+    )
+}
+
+fn classes(i40: u16, delay: u32) -> HashSet<Class> {
+    let leap = WatchdogModel::new(timing(i40, delay, false, "um-215"));
+    let (_, seen) = explore(&leap, 3_000_000).expect("leap model within bounds");
+    seen.iter().map(|o| class(o, i40)).collect()
+}
+
+/// The bound that shows every behaviour, checked: from I40 = 6 and a hardware delay of 3
+/// servo cycles the leaping `timing` model reaches the same observation classes as at I40 = 9,
+/// delay 4 (and, with `PMACWD_LEAPS_FULL=1`, at I40 = 16, delay 5); at the `timing`
+/// configuration's own I40 = 3, delay 2 it reaches fewer, which is why check.yaml also checks
+/// `timing-wide` at I40 = 6, delay 3 (docs/model.md, "Leaps checked against ticks").
+#[test]
+fn from_i40_6_and_delay_3_the_model_reaches_every_observation_class_of_larger_sizes() {
+    let small = classes(3, 2);
+    let wide = classes(6, 3);
+    let mut larger = vec![(9, 4)];
+    if std::env::var_os("PMACWD_LEAPS_FULL").is_some() {
+        larger.push((16, 5));
+    }
+    for (i40, delay) in larger {
+        let big = classes(i40, delay);
+        let only_big: Vec<_> = big.difference(&wide).take(3).collect();
+        let only_wide: Vec<_> = wide.difference(&big).take(3).collect();
+        assert!(
+            only_big.is_empty() && only_wide.is_empty(),
+            "I40 = 6, delay 3 and I40 = {i40}, delay {delay} reach different classes: only the larger {only_big:?}, \
+             only the smaller {only_wide:?}"
+        );
+        eprintln!("I40 = {i40}, delay {delay}: {} classes, as at I40 = 6, delay 3", big.len());
+    }
+    assert!(small.is_subset(&wide), "I40 = 3, delay 2 reaches a class the wider bound does not");
+    eprintln!("I40 = 3, delay 2: {} classes of {}", small.len(), wide.len());
+}
