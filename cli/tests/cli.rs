@@ -505,6 +505,33 @@ fn progress_into_a_log_is_whole_periodic_lines_without_carriage_returns() {
 }
 
 #[test]
+fn run_and_replay_of_long_steps_report_progress_instead_of_running_silently() {
+    // Issue 15: a step of millions of servo cycles is simulated cycle by cycle under every
+    // profile; 20 steps of the largest one a step may take ran for a minute with nothing on
+    // standard error, and replay of one such step for minutes. Both now say, every interval
+    // (0.1 s here), which trace and profile or which capture line is under way.
+    let dir = TempDir::new("long-steps");
+    let trace = dir.join("long.jsonl");
+    let header =
+        r#"{"format":"pmacwd-trace","version":1,"description":"t","configuration":"i40-zero","profiles":["um-215"]}"#;
+    std::fs::write(&trace, format!("{header}\n{{\"run\":16777216}}\n")).unwrap();
+    let out = pmacwd().arg("run").arg(&trace).env("PMACWD_PROGRESS_SECONDS", "0.1").output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("progress: run: 0 of 1 traces done ("), "{stderr}");
+    assert!(stderr.contains("long.jsonl [um-215]"), "{stderr}");
+    std::fs::write(&trace, format!("{header}\n{{\"run\":2000000}}\n")).unwrap();
+    let out = pmacwd().arg("replay").arg(&trace).env("PMACWD_PROGRESS_SECONDS", "0.1").output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("progress: replay: 0 of 1 captures done ("), "{stderr}");
+    assert!(stderr.contains("searching at line 2"), "{stderr}");
+    for line in stderr.lines() {
+        assert!(line.starts_with("progress: "), "only progress lines: {line}");
+    }
+}
+
+#[test]
 fn checker_threads_outside_one_to_the_cores_are_refused_before_any_work() {
     // `--threads 0` used to check 1 state and report every `sometimes` property as never
     // reached (a false verdict); `--threads 100000` panicked spawning threads.
