@@ -12,7 +12,8 @@ use std::time::Duration;
 #[derive(clap::Args, Debug)]
 pub struct RecordArgs {
     /// Address the host program connects to instead of the card, HOST:PORT (HOST an address
-    /// or a name).
+    /// or a name); at most 128 sessions are open at once, a newcomer closing the one idle
+    /// longest (16 on --control-listen).
     #[arg(long, value_name = "ADDR", value_parser = listen_address)]
     pub listen: SocketAddr,
     /// The card (or emulator): HOST:PORT.
