@@ -388,6 +388,44 @@ fn send_bad_headers(addr: std::net::SocketAddr, n: usize) {
 }
 
 #[test]
+fn serve_keeps_running_when_the_reader_of_its_console_goes_away() {
+    // A script reads the address line of `pmacwd serve | head -1` and closes the pipe. The
+    // card's next console line (a trip) used to end the emulator by SIGPIPE: hosts were then
+    // refused. The console now ignores a closed output and the card keeps answering.
+    use std::io::{BufRead, Read, Write};
+    let mut child = pmacwd()
+        .args(["serve", "--listen", "127.0.0.1:0", "--control", "127.0.0.1:0"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut first).unwrap();
+    // The reader is dropped here: the console's pipe is closed.
+    let host = first.split(" on ").nth(1).and_then(|r| r.split(' ').next()).expect("the address line");
+    let control = first.split("control on ").nth(1).and_then(|r| r.split(')').next()).expect("the control address");
+    let mut c = std::io::BufReader::new(std::net::TcpStream::connect(control).unwrap());
+    for command in ["supply 4500", "supply 5000", "init"] {
+        // A trip, then INIT/ and the recovery: each a console line into the closed pipe.
+        c.get_mut().write_all(format!("{command}\n").as_bytes()).unwrap();
+        let mut reply = String::new();
+        c.read_line(&mut reply).unwrap();
+        assert!(reply.starts_with("ok"), "{command}: {reply}");
+    }
+    let mut h = std::net::TcpStream::connect(host).unwrap();
+    h.set_read_timeout(Some(std::time::Duration::from_secs(5))).unwrap();
+    h.write_all(&[0x40, 0xBF, 0, 0, 0, 0, 0, 3]).unwrap();
+    h.write_all(b"???").unwrap();
+    let mut reply = [0u8; 32];
+    let n = h.read(&mut reply).expect("the emulator still answers");
+    assert!(reply[..n].ends_with(b"\r\x06"), "{:?}", &reply[..n]);
+    assert!(child.try_wait().unwrap().is_none(), "the emulator is still running");
+    child.kill().unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+}
+
+#[test]
 fn protocol_errors_are_summed_up_on_one_line_without_verbose_and_each_logged_with_it() {
     // Every protocol error used to be a line on standard error, verbose or not (53,595 lines
     // in 3 minutes from one misbehaving client). Without --verbose they are now counted and

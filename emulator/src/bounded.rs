@@ -94,6 +94,23 @@ impl Table {
     }
 }
 
+/// Writes `line` to standard error, ignoring a failure: a server's log is a side channel, and
+/// one whose reader has gone (`pmacwd serve 2>&1 | head -1`) must not end the server, as
+/// `eprintln!`'s panic (or SIGPIPE) would.
+pub fn to_stderr(line: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let mut err = io::stderr().lock();
+    let _ = err.write_fmt(line).and_then(|()| err.write_all(b"\n"));
+}
+
+/// Writes `line` to standard output and flushes it, ignoring a failure, as [`to_stderr`]: a
+/// script that reads the address line and closes the pipe leaves the server running.
+pub fn to_stdout(line: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let mut out = io::stdout().lock();
+    let _ = out.write_fmt(line).and_then(|()| out.write_all(b"\n")).and_then(|()| out.flush());
+}
+
 /// After an accept fails (mostly for want of a file descriptor, EMFILE), the accept loop
 /// waits this long before the next: retrying at once would spin a core for as long as the
 /// descriptors stay taken. 50 ms bounds that to 20 tries a second and delays a client by at
@@ -159,7 +176,7 @@ impl CountedLog {
         let mut w = self.window.lock().unwrap_or_else(|e| e.into_inner());
         w.total = w.total.saturating_add(1);
         if self.verbose {
-            eprintln!("{}: {reason}", self.program);
+            to_stderr(format_args!("{}: {reason}", self.program));
             return;
         }
         w.count = w.count.saturating_add(1);
@@ -192,14 +209,14 @@ impl CountedLog {
     }
 
     fn summarize(&self, w: &mut Window) {
-        eprintln!(
+        to_stderr(format_args!(
             "{}: {}: {} since the last summary, the last: {}; at most one such line every {} s, --verbose logs each",
             self.program,
             self.what,
             w.count,
             w.last,
             SUMMARY_INTERVAL.as_secs()
-        );
+        ));
         w.count = 0;
         w.summarized_at = Some(Instant::now());
     }

@@ -192,7 +192,9 @@ impl Shared {
         let mut r = self.recorder();
         if let Some(rec) = r.as_mut() {
             if let Err(e) = f(rec) {
-                eprintln!("pmacwd record: writing the capture failed: {e}; recording stopped");
+                crate::bounded::to_stderr(format_args!(
+                    "pmacwd record: writing the capture failed: {e}; recording stopped"
+                ));
                 *r = None;
             }
         }
@@ -202,7 +204,7 @@ impl Shared {
     }
     fn log(&self, msg: &str) {
         if self.options.verbose {
-            eprintln!("pmacwd record: {msg}");
+            crate::bounded::to_stderr(format_args!("pmacwd record: {msg}"));
         }
     }
 }

@@ -138,7 +138,7 @@ impl Shared {
     }
     fn log(&self, msg: &str) {
         if self.options.verbose {
-            eprintln!("pmacwd serve: {msg}");
+            crate::bounded::to_stderr(format_args!("pmacwd serve: {msg}"));
         }
     }
 }
