@@ -101,7 +101,9 @@ pub fn check(a: CheckArgs) -> ExitCode {
         println!(
             "total: {states} states in {seconds:.2} s ({:.0} states/s); {}",
             states as f64 / seconds.max(1e-9),
-            if failures == 0 {
+            if incomplete > 0 {
+                format!("{} stopped at the state bound, no verdict", plural(incomplete as u64, "run", "runs"))
+            } else if failures == 0 {
                 "every property holds".to_string()
             } else {
                 format!("{} with failing properties", plural(failures as u64, "run", "runs"))

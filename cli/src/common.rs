@@ -8,6 +8,20 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+/// For a server once it is up (`serve`, `record`): a write into a closed standard output or
+/// error (a script that read the address line and closed the pipe) returns an error, which the
+/// server's console ignores ([`pmacwd_emulator::bounded::to_stdout`]), instead of SIGPIPE
+/// ending the server: `main` restores SIGPIPE's default for the commands whose output is the
+/// point, and a server's console is not.
+pub fn console_may_close() {
+    // SAFETY: SIG_IGN is a valid disposition; changing it is async-signal-safe and affects
+    // only writes to pipes, which every writer of this process checks or ignores by design.
+    #[cfg(unix)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_IGN);
+    }
+}
+
 /// Prints the reason and gives exit code 2 (unusable input).
 pub fn unusable(msg: impl std::fmt::Display) -> ExitCode {
     eprintln!("pmacwd: {msg}");

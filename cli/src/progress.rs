@@ -114,12 +114,70 @@ impl Progress {
     }
 }
 
+/// A phase whose work gives no natural moment to report (one trace step of 16 million servo
+/// cycles, a capture of millions of lines): a thread asks `doing` every
+/// [`Ticker::POLL`] how far the work has come and shows it as [`Progress`] does, so that no
+/// run is silently minutes long.
+pub struct Ticker {
+    progress: std::sync::Arc<std::sync::Mutex<Progress>>,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Ticker {
+    /// How often `doing` is asked.
+    pub const POLL: Duration = Duration::from_millis(200);
+
+    /// Starts phase `phase` of `total` `unit`; `doing` returns how many are done and what is
+    /// under way. Without a thread (the system refuses one), there is no progress, and the
+    /// work goes on.
+    pub fn start(phase: &str, total: u64, unit: &str, doing: impl Fn() -> (u64, String) + Send + 'static) -> Ticker {
+        use std::sync::{atomic::AtomicBool, atomic::Ordering, Arc, Mutex};
+        let progress = Arc::new(Mutex::new(Progress::start(phase, total, unit)));
+        let stop = Arc::new(AtomicBool::new(false));
+        let (p, s) = (Arc::clone(&progress), Arc::clone(&stop));
+        let thread = std::thread::Builder::new()
+            .name("progress".into())
+            .spawn(move || {
+                while !s.load(Ordering::Relaxed) {
+                    std::thread::sleep(Ticker::POLL);
+                    let (done, what) = doing();
+                    if let Ok(mut p) = p.lock() {
+                        p.update(done, || what);
+                    }
+                }
+            })
+            .ok();
+        Ticker { progress, stop, thread }
+    }
+
+    /// [`Progress::println`].
+    pub fn println(&self, line: &str) {
+        if let Ok(p) = self.progress.lock() {
+            p.println(line);
+        }
+    }
+
+    /// Ends the phase ([`Progress::finish`]).
+    pub fn finish(mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+        if let Ok(p) = std::sync::Arc::try_unwrap(self.progress) {
+            if let Ok(p) = p.into_inner() {
+                p.finish();
+            }
+        }
+    }
+}
+
 /// Plain lines: `progress: model check: 12 of 25 runs done (10 s); timing / um-215: 57,536 states`.
 struct Plain {
     phase: String,
     total: u64,
     unit: String,
-    out: Box<dyn Write>,
+    out: Box<dyn Write + Send>,
     every: Duration,
     started: Instant,
     /// When the last line was written (at first, the start: no line before `every` has passed).
@@ -127,7 +185,7 @@ struct Plain {
 }
 
 impl Plain {
-    fn new(phase: &str, total: u64, unit: &str, out: Box<dyn Write>, every: Duration, now: Instant) -> Plain {
+    fn new(phase: &str, total: u64, unit: &str, out: Box<dyn Write + Send>, every: Duration, now: Instant) -> Plain {
         Plain { phase: phase.to_string(), total, unit: unit.to_string(), out, every, started: now, last: now }
     }
 

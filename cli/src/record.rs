@@ -1,8 +1,8 @@
 //! `pmacwd record`: a transparent proxy that writes host sessions as a capture.
 
 use crate::common::{create_capture, listen_address, model_config, unusable};
+use pmacwd_emulator::bounded::{to_stderr, to_stdout};
 use pmacwd_emulator::proxy::{Proxy, RecordOptions, Recorder};
-use std::io::Write;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -12,7 +12,8 @@ use std::time::Duration;
 #[derive(clap::Args, Debug)]
 pub struct RecordArgs {
     /// Address the host program connects to instead of the card, HOST:PORT (HOST an address
-    /// or a name).
+    /// or a name); at most 128 sessions are open at once, a newcomer closing the one idle
+    /// longest (16 on --control-listen).
     #[arg(long, value_name = "ADDR", value_parser = listen_address)]
     pub listen: SocketAddr,
     /// The card (or emulator): HOST:PORT.
@@ -89,7 +90,7 @@ pub fn record(a: RecordArgs) -> ExitCode {
         Ok(p) => p,
         Err(e) => return unusable(format!("cannot listen: {e}")),
     };
-    println!(
+    to_stdout(format_args!(
         "pmacwd record: {} -> {}{}, writing {}",
         proxy.local_addr,
         a.target,
@@ -98,19 +99,19 @@ pub fn record(a: RecordArgs) -> ExitCode {
             _ => String::new(),
         },
         a.out.display()
-    );
-    let _ = std::io::stdout().flush();
+    ));
+    crate::common::console_may_close();
     match proxy.wait() {
         Ok((exchanges, steps, notes)) => {
             for n in notes {
-                eprintln!("pmacwd record: left over at the end: {n}");
+                to_stderr(format_args!("pmacwd record: left over at the end: {n}"));
             }
-            println!(
+            to_stdout(format_args!(
                 "recorded {} as {} in {}",
                 crate::common::plural(exchanges, "exchange", "exchanges"),
                 crate::common::plural(steps, "step", "steps"),
                 a.out.display()
-            );
+            ));
             ExitCode::SUCCESS
         }
         Err(e) => unusable(format!("{}: {e}", a.out.display())),

@@ -22,7 +22,15 @@ pub fn replay_file(
         Err(code) => return code,
     };
     use pmacwd_conformance::explain::report;
-    match report::explain(&spec, file, configuration.as_deref()) {
+    // A capture of millions of lines, or one step of millions of servo cycles, takes minutes:
+    // say how far the search has come.
+    let ticker = crate::progress::Ticker::start("replay", 1, "captures", || {
+        let line = pmacwd_conformance::explain::search::LINE_REACHED.load(std::sync::atomic::Ordering::Relaxed);
+        (0, format!("searching at line {}", crate::progress::thousands(line as u64)))
+    });
+    let explained = report::explain(&spec, file, configuration.as_deref());
+    ticker.finish();
+    match explained {
         Ok(report) => {
             if let (Some(out), Some((readings, w))) = (&witness, &report.witness) {
                 let written = std::fs::File::create(out).and_then(|f| {

@@ -21,9 +21,16 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
         }
     };
     let text = matches!(format, Format::Text);
+    // One trace may take minutes (many steps of millions of servo cycles, each run per
+    // profile): say which run is under way.
+    let now = std::sync::Arc::new(std::sync::Mutex::new((0u64, String::new())));
+    let shown = std::sync::Arc::clone(&now);
+    let ticker = crate::progress::Ticker::start("run", files.len() as u64, "traces", move || {
+        shown.lock().map(|s| s.clone()).unwrap_or_default()
+    });
     let (mut passed, mut diverged) = (0usize, 0usize);
     let mut results: Vec<serde_json::Value> = Vec::new();
-    for file in &files {
+    for (done, file) in files.iter().enumerate() {
         let loaded = match file.load() {
             Ok(l) => l,
             Err(e) => {
@@ -50,15 +57,18 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
         };
         for p in profiles {
             let trace = file.display().to_string();
+            if let Ok(mut now) = now.lock() {
+                *now = (done as u64, format!("{trace} [{}]", p.name));
+            }
             match run_on_model(&spec, &loaded, &p) {
                 Ok(n) => {
                     passed += 1;
                     if text {
-                        println!(
+                        ticker.println(&format!(
                             "ok        {trace} [{}] ({})",
                             p.name,
                             plural(n as u64, "expectation", "expectations")
-                        );
+                        ));
                     }
                     results.push(serde_json::json!({
                         "trace": trace, "profile": p.name, "verdict": "ok", "expectations": n, "divergence": null,
@@ -71,7 +81,7 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
                 Err(Failure::Diverged(d)) => {
                     diverged += 1;
                     if text {
-                        println!("DIVERGED  {trace} [{}]\n  {d}", p.name);
+                        ticker.println(&format!("DIVERGED  {trace} [{}]\n  {d}", p.name));
                     }
                     results.push(serde_json::json!({
                         "trace": trace, "profile": p.name, "verdict": "diverged", "expectations": null,
@@ -81,6 +91,7 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
             }
         }
     }
+    ticker.finish();
     let code = if diverged == 0 { 0 } else { 1 };
     match format {
         Format::Text => println!("{passed} passed, {diverged} failed"),

@@ -4,7 +4,6 @@ use crate::common::{create_capture, listen_address, model_config, unusable};
 use pmacwd_bridge::core_config;
 use pmacwd_emulator::card::{servo_rate, Card, Clock, Identity, SAVED_DEFAULT};
 use pmacwd_emulator::server::{ServeOptions, Server, CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS};
-use std::io::Write;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -137,8 +136,7 @@ pub fn serve(a: ServeArgs) -> ExitCode {
     let mut card = Card::power_on(cfg, &saved, clock, identity);
     // The card's console: a trip, INIT/, power, `$$$` and the recovery, one line each.
     card.on_console(Box::new(|line| {
-        println!("pmacwd serve: {line}");
-        let _ = std::io::stdout().flush();
+        pmacwd_emulator::bounded::to_stdout(format_args!("pmacwd serve: {line}"));
     }));
     if let Some(path) = &a.record {
         let description = format!(
@@ -165,7 +163,7 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         Ok(s) => s,
         Err(e) => return unusable(format!("cannot listen: {e}")),
     };
-    println!(
+    pmacwd_emulator::bounded::to_stdout(format_args!(
         "pmacwd serve: Turbo PMAC emulator on {} ({}), configuration {}, profile {}, {}",
         server.local_addr,
         match server.control_addr {
@@ -175,11 +173,11 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         a.configuration,
         model.profile.name,
         if a.virtual_time { "virtual time".to_string() } else { format!("{servo_hz} Hz servo clock") }
-    );
+    ));
     if let Some(p) = &a.record {
-        println!("recording to {}", p.display());
+        pmacwd_emulator::bounded::to_stdout(format_args!("recording to {}", p.display()));
     }
-    let _ = std::io::stdout().flush();
+    crate::common::console_may_close();
     server.wait();
     ExitCode::SUCCESS
 }

@@ -388,6 +388,44 @@ fn send_bad_headers(addr: std::net::SocketAddr, n: usize) {
 }
 
 #[test]
+fn serve_keeps_running_when_the_reader_of_its_console_goes_away() {
+    // A script reads the address line of `pmacwd serve | head -1` and closes the pipe. The
+    // card's next console line (a trip) used to end the emulator by SIGPIPE: hosts were then
+    // refused. The console now ignores a closed output and the card keeps answering.
+    use std::io::{BufRead, Read, Write};
+    let mut child = pmacwd()
+        .args(["serve", "--listen", "127.0.0.1:0", "--control", "127.0.0.1:0"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap()).read_line(&mut first).unwrap();
+    // The reader is dropped here: the console's pipe is closed.
+    let host = first.split(" on ").nth(1).and_then(|r| r.split(' ').next()).expect("the address line");
+    let control = first.split("control on ").nth(1).and_then(|r| r.split(')').next()).expect("the control address");
+    let mut c = std::io::BufReader::new(std::net::TcpStream::connect(control).unwrap());
+    for command in ["supply 4500", "supply 5000", "init"] {
+        // A trip, then INIT/ and the recovery: each a console line into the closed pipe.
+        c.get_mut().write_all(format!("{command}\n").as_bytes()).unwrap();
+        let mut reply = String::new();
+        c.read_line(&mut reply).unwrap();
+        assert!(reply.starts_with("ok"), "{command}: {reply}");
+    }
+    let mut h = std::net::TcpStream::connect(host).unwrap();
+    h.set_read_timeout(Some(std::time::Duration::from_secs(5))).unwrap();
+    h.write_all(&[0x40, 0xBF, 0, 0, 0, 0, 0, 3]).unwrap();
+    h.write_all(b"???").unwrap();
+    let mut reply = [0u8; 32];
+    let n = h.read(&mut reply).expect("the emulator still answers");
+    assert!(reply[..n].ends_with(b"\r\x06"), "{:?}", &reply[..n]);
+    assert!(child.try_wait().unwrap().is_none(), "the emulator is still running");
+    child.kill().unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+}
+
+#[test]
 fn protocol_errors_are_summed_up_on_one_line_without_verbose_and_each_logged_with_it() {
     // Every protocol error used to be a line on standard error, verbose or not (53,595 lines
     // in 3 minutes from one misbehaving client). Without --verbose they are now counted and
@@ -501,6 +539,33 @@ fn progress_into_a_log_is_whole_periodic_lines_without_carriage_returns() {
         assert_eq!(out.status.code(), Some(2), "{bad}: {stderr}");
         assert!(stderr.contains(&format!("PMACWD_PROGRESS_SECONDS={bad}: give seconds")), "{stderr}");
         assert!(out.stdout.is_empty(), "{bad}: no work before the refusal");
+    }
+}
+
+#[test]
+fn run_and_replay_of_long_steps_report_progress_instead_of_running_silently() {
+    // Issue 15: a step of millions of servo cycles is simulated cycle by cycle under every
+    // profile; 20 steps of the largest one a step may take ran for a minute with nothing on
+    // standard error, and replay of one such step for minutes. Both now say, every interval
+    // (0.1 s here), which trace and profile or which capture line is under way.
+    let dir = TempDir::new("long-steps");
+    let trace = dir.join("long.jsonl");
+    let header =
+        r#"{"format":"pmacwd-trace","version":1,"description":"t","configuration":"i40-zero","profiles":["um-215"]}"#;
+    std::fs::write(&trace, format!("{header}\n{{\"run\":16777216}}\n")).unwrap();
+    let out = pmacwd().arg("run").arg(&trace).env("PMACWD_PROGRESS_SECONDS", "0.1").output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("progress: run: 0 of 1 traces done ("), "{stderr}");
+    assert!(stderr.contains("long.jsonl [um-215]"), "{stderr}");
+    std::fs::write(&trace, format!("{header}\n{{\"run\":2000000}}\n")).unwrap();
+    let out = pmacwd().arg("replay").arg(&trace).env("PMACWD_PROGRESS_SECONDS", "0.1").output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("progress: replay: 0 of 1 captures done ("), "{stderr}");
+    assert!(stderr.contains("searching at line 2"), "{stderr}");
+    for line in stderr.lines() {
+        assert!(line.starts_with("progress: "), "only progress lines: {line}");
     }
 }
 

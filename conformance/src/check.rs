@@ -98,7 +98,7 @@ pub fn format_report(r: &RunReport, default_profile: &str, witnesses: bool) -> S
     if !r.complete {
         let _ = writeln!(
             s,
-            "   INCOMPLETE: the checker stopped at {} states (its bound); no verdict below is earned. \
+            "   INCOMPLETE: the checker stopped after generating {} states (its bound); no verdict below is earned. \
              Make the configuration smaller (I40, hardware delay, single_servo_cycles) to check it exhaustively.",
             thousands(pmacwd_model::checker::STATES_MAX as u64)
         );

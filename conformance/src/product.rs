@@ -7,7 +7,7 @@
 use crate::lockstep::{differences, Disagreement};
 use pmacwd_bridge::{core_config, core_event, core_observation};
 use pmacwd_core as core;
-use pmacwd_model::checker::{join_observed, Explored, STATES_MAX};
+use pmacwd_model::checker::{explored_all, join_observed, Explored, STATES_MAX};
 use pmacwd_model::checker::{Action, State, WatchdogModel};
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::vocab::event::Event;
@@ -154,7 +154,7 @@ fn check_product_observed(product: ProductModel, threads: usize, progress: &mut 
     ProductReport {
         configuration,
         profile,
-        complete: checker.unique_state_count() < STATES_MAX,
+        complete: explored_all(&checker, STATES_MAX),
         states: checker.unique_state_count(),
         depth: checker.max_depth(),
         duration,

@@ -182,6 +182,23 @@ fn a_run_stopped_at_the_state_bound_is_marked_incomplete_and_earns_no_verdict() 
 }
 
 #[test]
+fn a_run_cut_by_the_bound_is_incomplete_even_when_it_found_fewer_distinct_states_than_the_bound() {
+    // Issue 15's input: `timing` with I40 = 65535 and a 65535-cycle hardware delay (both in
+    // range). Stateright stops once it has generated the bound's number of states, duplicates
+    // included; the report compared the distinct states with the bound, called the cut run
+    // complete and printed "the card can trip on a starved background" as NEVER reached.
+    let spec = Spec::embedded().unwrap();
+    let mut cfg = ModelConfig::from_spec(&spec, "timing", &spec.profiles.default_profile()).unwrap();
+    cfg.saved.i40 = 65535;
+    cfg.hardware_delay_cycles = 65535;
+    cfg.hardware_delay_band = (65535, 65535);
+    let bound = 100_000;
+    let cut = WatchdogModel::new(cfg).check_bounded(1, bound);
+    assert!(cut.states < bound, "the distinct states ({}) stay under the bound", cut.states);
+    assert!(!cut.complete, "a run the bound stopped is not complete ({} distinct states)", cut.states);
+}
+
+#[test]
 fn a_watched_run_reports_growing_counts_and_ends_with_the_same_report_as_an_unwatched_one() {
     // `check` shows progress while a run explores (join_observed); watching must not change
     // what the run finds, every count it reports is one the run passes through on its way to

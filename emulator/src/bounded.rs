@@ -8,8 +8,9 @@
 //! connection and keep accepting.
 
 use std::io;
-use std::net::TcpStream;
-use std::sync::Mutex;
+use std::net::{Shutdown, TcpStream};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::{Builder, JoinHandle};
 use std::time::{Duration, Instant};
 
@@ -26,6 +27,88 @@ pub fn spawn<T: Send + 'static>(
         builder = builder.stack_size(bytes);
     }
     builder.spawn(f)
+}
+
+pub(crate) struct Connection {
+    id: u64,
+    stream: TcpStream,
+    last_active_ms: Arc<AtomicU64>,
+}
+
+/// The open connections of one kind (hosts, or control clients), at most `max` of them: a
+/// newcomer to a full table closes the one idle longest, so that connections that went
+/// silent (a half-open socket, a client that never closes) can never lock a new client out.
+pub(crate) struct Table {
+    pub(crate) max: usize,
+    open: Mutex<Vec<Connection>>,
+    next_id: AtomicU64,
+}
+
+impl Table {
+    pub(crate) fn new(max: usize) -> Table {
+        Table { max: max.max(1), open: Mutex::new(Vec::new()), next_id: AtomicU64::new(0) }
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Vec<Connection>> {
+        self.open.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Enters `stream`, closing the connection idle longest if the table is full: its id and
+    /// the clock its thread keeps up to date, and the id of the connection closed, if any.
+    pub(crate) fn admit(&self, stream: &TcpStream, now_ms: u64) -> io::Result<(u64, Arc<AtomicU64>, Option<u64>)> {
+        let handle = stream.try_clone()?;
+        let id = self.next_id.fetch_add(1, Ordering::Relaxed) + 1;
+        let last_active_ms = Arc::new(AtomicU64::new(now_ms));
+        let mut open = self.lock();
+        let mut evicted = None;
+        if open.len() >= self.max {
+            let idlest =
+                open.iter().enumerate().min_by_key(|(_, c)| c.last_active_ms.load(Ordering::Relaxed)).map(|(i, _)| i);
+            if let Some(i) = idlest {
+                let old = open.swap_remove(i);
+                let _ = old.stream.shutdown(Shutdown::Both);
+                evicted = Some(old.id);
+            }
+        }
+        open.push(Connection { id, stream: handle, last_active_ms: last_active_ms.clone() });
+        Ok((id, last_active_ms, evicted))
+    }
+
+    /// The connection's thread ended: it leaves the table.
+    pub(crate) fn forget(&self, id: u64) {
+        self.lock().retain(|c| c.id != id);
+    }
+
+    /// Closes the connection and takes it out of the table.
+    pub(crate) fn close(&self, id: u64) {
+        let mut open = self.lock();
+        if let Some(i) = open.iter().position(|c| c.id == id) {
+            let _ = open.swap_remove(i).stream.shutdown(Shutdown::Both);
+        }
+    }
+
+    pub(crate) fn close_all(&self) {
+        for c in self.lock().iter() {
+            let _ = c.stream.shutdown(Shutdown::Both);
+        }
+    }
+}
+
+/// Writes `line` to standard error, ignoring a failure: a server's log is a side channel, and
+/// one whose reader has gone (`pmacwd serve 2>&1 | head -1`) must not end the server, as
+/// `eprintln!`'s panic (or SIGPIPE) would.
+pub fn to_stderr(line: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let mut err = io::stderr().lock();
+    let _ = err.write_fmt(line).and_then(|()| err.write_all(b"\n"));
+}
+
+/// Writes `line` to standard output and flushes it, ignoring a failure, as [`to_stderr`]: a
+/// script that reads the address line and closes the pipe leaves the server running.
+pub fn to_stdout(line: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let mut out = io::stdout().lock();
+    let _ = out.write_fmt(line).and_then(|()| out.write_all(b"\n")).and_then(|()| out.flush());
 }
 
 /// After an accept fails (mostly for want of a file descriptor, EMFILE), the accept loop
@@ -93,7 +176,7 @@ impl CountedLog {
         let mut w = self.window.lock().unwrap_or_else(|e| e.into_inner());
         w.total = w.total.saturating_add(1);
         if self.verbose {
-            eprintln!("{}: {reason}", self.program);
+            to_stderr(format_args!("{}: {reason}", self.program));
             return;
         }
         w.count = w.count.saturating_add(1);
@@ -126,14 +209,14 @@ impl CountedLog {
     }
 
     fn summarize(&self, w: &mut Window) {
-        eprintln!(
+        to_stderr(format_args!(
             "{}: {}: {} since the last summary, the last: {}; at most one such line every {} s, --verbose logs each",
             self.program,
             self.what,
             w.count,
             w.last,
             SUMMARY_INTERVAL.as_secs()
-        );
+        ));
         w.count = 0;
         w.summarized_at = Some(Instant::now());
     }

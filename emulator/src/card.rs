@@ -278,7 +278,7 @@ impl Card {
         if let Some(c) = &mut self.capture {
             if let Err(e) = write(c) {
                 // A full disk must not stop the emulator: say so once and stop recording.
-                eprintln!("pmacwd serve: recording stopped: {e}");
+                crate::bounded::to_stderr(format_args!("pmacwd serve: recording stopped: {e}"));
                 self.capture = None;
             }
         }

@@ -21,12 +21,13 @@
 //! commands seen on the proxied control interface of a `pmacwd serve --virtual-time`.
 //! Concurrent sessions share one timeline, in the order their exchanges complete.
 
-use crate::bounded::{accepted, spawn, CountedLog};
+use crate::bounded::{accepted, spawn, CountedLog, Table};
 use crate::capture::{CaptureWriter, Timing};
 use crate::control::{read_line_max, CONTROL_LINE_BYTES_MAX};
 use crate::framing::{ACK, BEL, CR};
 use crate::listen::bind;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
+use crate::server::CONTROL_CLIENTS_MAX;
 use pmacwd_trace::Step;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::io::{self, BufReader, Read, Write};
@@ -35,6 +36,12 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread;
 use std::time::{Duration, Instant};
+
+/// Host sessions open at once (as `pmacwd serve --clients-max`'s default): a newcomer when
+/// this many are open closes the one idle longest, so the proxy's threads and sockets stay
+/// bounded (two threads a session; 2,000 idle sessions held 4,000 threads before) and sessions
+/// gone silent never lock a new one out. Control sessions: `CONTROL_CLIENTS_MAX`, the same way.
+pub const SESSIONS_MAX: usize = 128;
 
 /// A reply line from the proxied control interface is at most this long, its newline
 /// included; a longer one ends that control session with an error line. The emulator's
@@ -171,6 +178,10 @@ struct Shared {
     unreachable: CountedLog,
     /// Accepts that failed (no file descriptor left, mostly).
     accept_errors: CountedLog,
+    /// Open host sessions, at most [`SESSIONS_MAX`], and control sessions.
+    hosts: Table,
+    controls: Table,
+    started: Instant,
 }
 
 impl Shared {
@@ -181,14 +192,19 @@ impl Shared {
         let mut r = self.recorder();
         if let Some(rec) = r.as_mut() {
             if let Err(e) = f(rec) {
-                eprintln!("pmacwd record: writing the capture failed: {e}; recording stopped");
+                crate::bounded::to_stderr(format_args!(
+                    "pmacwd record: writing the capture failed: {e}; recording stopped"
+                ));
                 *r = None;
             }
         }
     }
+    fn now_ms(&self) -> u64 {
+        u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX)
+    }
     fn log(&self, msg: &str) {
         if self.options.verbose {
-            eprintln!("pmacwd record: {msg}");
+            crate::bounded::to_stderr(format_args!("pmacwd record: {msg}"));
         }
     }
 }
@@ -455,6 +471,9 @@ impl Proxy {
             spawn_failures: CountedLog::new("pmacwd record", "sessions closed for want of a thread", verbose),
             unreachable: CountedLog::new("pmacwd record", "sessions closed: the card could not be reached", verbose),
             accept_errors: CountedLog::new("pmacwd record", "failed accepts", verbose),
+            hosts: Table::new(SESSIONS_MAX),
+            controls: Table::new(CONTROL_CLIENTS_MAX),
+            started: Instant::now(),
         });
         let mut accept = Vec::new();
         let s = shared.clone();
@@ -520,14 +539,21 @@ fn summaries(shared: &Shared) {
 }
 
 fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
-    let mut next = 0u64;
     for client in listener.incoming() {
         if shared.stopping.load(Ordering::SeqCst) {
             return;
         }
         let Some(client) = accepted(client, &shared.accept_errors) else { continue };
-        next += 1;
-        let id = next;
+        let (id, last_active_ms, evicted) = match shared.hosts.admit(&client, shared.now_ms()) {
+            Ok(admitted) => admitted,
+            Err(e) => {
+                shared.accept_errors.report(&format!("cannot keep a host connection: {e}"));
+                continue;
+            }
+        };
+        if let Some(old) = evicted {
+            shared.log(&format!("{SESSIONS_MAX} sessions open: closed session {old}, idle longest"));
+        }
         let s = shared.clone();
         // The card is reached from the session's own thread: a card slow to answer the
         // connection holds up that session only, never the accepting of others.
@@ -536,11 +562,13 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
                 Ok(c) => c,
                 Err(e) => {
                     s.unreachable.report(&format!("session {id}: cannot reach the card at {}: {e}", s.options.target));
+                    s.hosts.forget(id);
                     return;
                 }
             };
             s.log(&format!("session {id} opened"));
-            host_session(client, card, &s, id);
+            host_session(client, card, &s, id, &last_active_ms);
+            s.hosts.forget(id);
             s.log(&format!("session {id} ended"));
             let ended = s.sessions_ended.fetch_add(1, Ordering::SeqCst) + 1;
             if s.options.sessions.is_some_and(|n| ended >= n) {
@@ -550,13 +578,14 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
             }
         });
         if let Err(e) = started {
-            // The client's socket went with the closure: that connection is closed.
+            // The closure and its socket are gone; the table's handle is the last: close it.
+            shared.hosts.close(id);
             shared.spawn_failures.report(&format!("session {id}: cannot start its thread: {e}"));
         }
     }
 }
 
-fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>, id: u64) {
+fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>, id: u64, last_active_ms: &AtomicU64) {
     let session = Arc::new(Mutex::new(Session::new()));
     let (Ok(client_w), Ok(card_r), Ok(card_w)) = (client.try_clone(), card.try_clone(), card.try_clone()) else {
         return;
@@ -580,7 +609,7 @@ fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>, id: u6
             return;
         }
     };
-    requests_to_card(client, card_w, shared, &session);
+    requests_to_card(client, card_w, shared, &session, last_active_ms);
     let _ = card.shutdown(Shutdown::Write);
     let _ = replies.join();
     lock(&session).finish(shared);
@@ -590,7 +619,13 @@ fn lock(session: &Mutex<Session>) -> MutexGuard<'_, Session> {
     session.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-fn requests_to_card(client: TcpStream, mut card: TcpStream, shared: &Shared, session: &Mutex<Session>) {
+fn requests_to_card(
+    client: TcpStream,
+    mut card: TcpStream,
+    shared: &Shared,
+    session: &Mutex<Session>,
+    last_active_ms: &AtomicU64,
+) {
     let mut reader = BufReader::new(client);
     let mut header = [0u8; HEADER_BYTES];
     let mut data = Vec::new();
@@ -599,6 +634,7 @@ fn requests_to_card(client: TcpStream, mut card: TcpStream, shared: &Shared, ses
             Ok(true) => {}
             _ => return,
         }
+        last_active_ms.store(shared.now_ms(), Ordering::Relaxed);
         let h = Header::parse(&header);
         let request = h.request();
         let data_bytes = match request {
@@ -706,6 +742,16 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
             return;
         }
         let Some(client) = accepted(client, &shared.accept_errors) else { continue };
+        let (id, last_active_ms, evicted) = match shared.controls.admit(&client, shared.now_ms()) {
+            Ok(admitted) => admitted,
+            Err(e) => {
+                shared.accept_errors.report(&format!("cannot keep a control connection: {e}"));
+                continue;
+            }
+        };
+        if let Some(old) = evicted {
+            shared.log(&format!("{CONTROL_CLIENTS_MAX} control sessions open: closed c{old}, idle longest"));
+        }
         let s = shared.clone();
         let target = target.clone();
         let started = spawn("record: control".into(), shared.options.thread_stack_bytes, move || {
@@ -713,21 +759,24 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
                 Ok(c) => c,
                 Err(e) => {
                     s.unreachable.report(&format!("cannot reach the control interface at {target}: {e}"));
+                    s.controls.forget(id);
                     return;
                 }
             };
-            if let Err(e) = control_session(client, card, &s) {
+            if let Err(e) = control_session(client, card, &s, &last_active_ms) {
                 s.log(&format!("control session: {e}"));
             }
+            s.controls.forget(id);
         });
         if let Err(e) = started {
+            shared.controls.close(id);
             shared.spawn_failures.report(&format!("control session: cannot start its thread: {e}"));
         }
     }
 }
 
 /// Forwards control lines and their replies; an `ok {step}` reply is an event of the card.
-fn control_session(client: TcpStream, card: TcpStream, shared: &Shared) -> io::Result<()> {
+fn control_session(client: TcpStream, card: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) -> io::Result<()> {
     let mut to_client = client.try_clone()?;
     let mut to_card = card.try_clone()?;
     let mut from_client = BufReader::new(client);
@@ -735,7 +784,7 @@ fn control_session(client: TcpStream, card: TcpStream, shared: &Shared) -> io::R
     let (mut line, mut reply) = (Vec::new(), Vec::new());
     loop {
         match read_line_max(&mut from_client, &mut line, CONTROL_LINE_BYTES_MAX) {
-            Ok(true) => {}
+            Ok(true) => last_active_ms.store(shared.now_ms(), Ordering::Relaxed),
             Ok(false) => return Ok(()),
             Err(e) if e.kind() == io::ErrorKind::InvalidData => {
                 // As the emulator's own control port answers: an error line, then the end.

@@ -10,7 +10,7 @@
 //! a new one (half-open connections are never the ones in use). The card's lock is held for
 //! at most [`CYCLES_PER_HOLD_MAX`] servo cycles at a time.
 
-use crate::bounded::{accepted, spawn, CountedLog};
+use crate::bounded::{accepted, spawn, CountedLog, Table};
 use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
 use crate::control::{read_line_max, Control, CONTROL_LINE_BYTES_MAX};
 use crate::framing::BEL;
@@ -18,7 +18,7 @@ use crate::grammar::Addressing;
 use crate::listen::bind;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
 use std::io::{self, BufReader, Write};
-use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
+use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread;
@@ -97,71 +97,6 @@ pub struct Stats {
     pub errors_slowed: AtomicU64,
 }
 
-struct Connection {
-    id: u64,
-    stream: TcpStream,
-    last_active_ms: Arc<AtomicU64>,
-}
-
-/// The open connections of one kind (hosts, or control clients), at most `max` of them: a
-/// newcomer to a full table closes the one idle longest, so that connections that went
-/// silent (a half-open socket, a client that never closes) can never lock a new client out.
-struct Table {
-    max: usize,
-    open: Mutex<Vec<Connection>>,
-    next_id: AtomicU64,
-}
-
-impl Table {
-    fn new(max: usize) -> Table {
-        Table { max: max.max(1), open: Mutex::new(Vec::new()), next_id: AtomicU64::new(0) }
-    }
-
-    fn lock(&self) -> MutexGuard<'_, Vec<Connection>> {
-        self.open.lock().unwrap_or_else(|e| e.into_inner())
-    }
-
-    /// Enters `stream`, closing the connection idle longest if the table is full: its id and
-    /// the clock its thread keeps up to date, and the id of the connection closed, if any.
-    fn admit(&self, stream: &TcpStream, now_ms: u64) -> io::Result<(u64, Arc<AtomicU64>, Option<u64>)> {
-        let handle = stream.try_clone()?;
-        let id = self.next_id.fetch_add(1, Ordering::Relaxed) + 1;
-        let last_active_ms = Arc::new(AtomicU64::new(now_ms));
-        let mut open = self.lock();
-        let mut evicted = None;
-        if open.len() >= self.max {
-            let idlest =
-                open.iter().enumerate().min_by_key(|(_, c)| c.last_active_ms.load(Ordering::Relaxed)).map(|(i, _)| i);
-            if let Some(i) = idlest {
-                let old = open.swap_remove(i);
-                let _ = old.stream.shutdown(Shutdown::Both);
-                evicted = Some(old.id);
-            }
-        }
-        open.push(Connection { id, stream: handle, last_active_ms: last_active_ms.clone() });
-        Ok((id, last_active_ms, evicted))
-    }
-
-    /// The connection's thread ended: it leaves the table.
-    fn forget(&self, id: u64) {
-        self.lock().retain(|c| c.id != id);
-    }
-
-    /// Closes the connection and takes it out of the table.
-    fn close(&self, id: u64) {
-        let mut open = self.lock();
-        if let Some(i) = open.iter().position(|c| c.id == id) {
-            let _ = open.swap_remove(i).stream.shutdown(Shutdown::Both);
-        }
-    }
-
-    fn close_all(&self) {
-        for c in self.lock().iter() {
-            let _ = c.stream.shutdown(Shutdown::Both);
-        }
-    }
-}
-
 struct Shared {
     card: Mutex<Card>,
     started: Instant,
@@ -203,7 +138,7 @@ impl Shared {
     }
     fn log(&self, msg: &str) {
         if self.options.verbose {
-            eprintln!("pmacwd serve: {msg}");
+            crate::bounded::to_stderr(format_args!("pmacwd serve: {msg}"));
         }
     }
 }

@@ -387,3 +387,42 @@ fn addressing_is_kept_per_connection() {
     assert_eq!(ask(&mut a, "#"), b"#3\r\x06");
     assert_eq!(ask(&mut b, "#"), b"#1\r\x06");
 }
+
+#[test]
+fn the_recording_proxy_keeps_at_most_its_sessions_open_and_a_newcomer_closes_the_idlest() {
+    // `pmacwd record` started two threads and a card connection for every host connection,
+    // with no bound and no timeout: 2,000 idle connections held 4,000 threads. Now at most
+    // SESSIONS_MAX are open; a newcomer to a full table closes the one idle longest (as `serve`
+    // does), so silent sessions never lock a new one out.
+    use pmacwd_emulator::capture::{CaptureWriter, Timing};
+    use pmacwd_emulator::proxy::{Proxy, RecordOptions, Recorder, SESSIONS_MAX};
+    let s = server(Clock::Virtual, SESSIONS_MAX + 8, None);
+    let capture =
+        CaptureWriter::new(Box::new(std::io::sink()) as Box<dyn Write + Send>, "t", "i40-zero", Timing::Exact).unwrap();
+    let options = RecordOptions {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        target: s.local_addr.to_string(),
+        control: None,
+        servo_hz: 2250,
+        virtual_time: true,
+        silence: Duration::from_secs(1),
+        sessions: None,
+        verbose: false,
+        thread_stack_bytes: None,
+    };
+    let proxy = Proxy::start(Recorder::new(capture, 2250, true), options).unwrap();
+    let open = |_| {
+        let mut c = TcpStream::connect(proxy.local_addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        // Answered: admitted, and this is its last activity.
+        assert_eq!(ask(&mut c, "???").last(), Some(&0x06));
+        std::thread::sleep(Duration::from_millis(2));
+        c
+    };
+    let mut sessions: Vec<TcpStream> = (0..SESSIONS_MAX).map(open).collect();
+    let mut newcomer = open(0);
+    assert_eq!(ask(&mut newcomer, "???").last(), Some(&0x06), "the newcomer is answered");
+    assert!(closed(&mut sessions[0]), "the session idle longest was closed");
+    assert_eq!(ask(&mut sessions[1], "???").last(), Some(&0x06), "the others stay");
+    s.stop();
+}

@@ -620,6 +620,10 @@ impl Lane {
     }
 }
 
+/// The line of the capture the search last reached (any thread, any pass): what `pmacwd
+/// replay` shows as progress while a long capture, or one long step, is searched.
+pub static LINE_REACHED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
 /// Searches `path` on `lanes`, each under the card's stated tolerances first and, if those do
 /// not explain the capture, under every other card the bands admit (in passes over the
 /// capture, one per variant, with the lanes still unexplained). A lane no card explains keeps
@@ -685,6 +689,7 @@ pub fn search_once(
     let mut reader = Reader::new(source);
     let mut levels = std::collections::BTreeSet::new();
     while let Some((line, step)) = reader.next_step()? {
+        LINE_REACHED.store(line, std::sync::atomic::Ordering::Relaxed);
         let event_no = reader.events;
         if let TraceEvent::Model(Event::Supply { millivolts }) = step.event {
             levels.insert(millivolts);
