@@ -45,7 +45,9 @@ pub fn all_configs(spec: &Spec) -> Result<Vec<ModelConfig>, SpecError> {
 
 /// Host command lines the generator draws from: reads and writes in and out of every lockout
 /// range, I41 values that lock some ranges and an out-of-range one, I40 and I8 near their
-/// edges, the watchdog and checksum registers, buffers, `$$$` and an unknown command.
+/// edges, the watchdog and checksum registers, buffers, `$$$` and an unknown command; memory
+/// writes past I41 into a locked range, I40 and I41 (SRM p.57), `$$$***` (UM p.243) and
+/// `CHECKSUM` (UM p.217).
 pub const COMMANDS: &[&str] = &[
     "???",
     "I130",
@@ -81,6 +83,11 @@ pub const COMMANDS: &[&str] = &[
     "OPEN PROG 1",
     "CLOSE",
     "$$$",
+    "$$$***",
+    "CHECKSUM",
+    "<MEMORY-WRITE I130=9>",
+    "<MEMORY-WRITE I40=2>",
+    "<MEMORY-WRITE I41=3>",
     "HELLO",
 ];
 
