@@ -10,7 +10,7 @@
 
 use pmacwd_core as core;
 use pmacwd_core::motion as cm;
-use pmacwd_specs::check::{ChecksumTarget, MotionSetup, ResetKind, MOTORS_MAX};
+use pmacwd_specs::check::{ChecksumTarget, MotionSetup, Processor, ResetKind, MOTORS_MAX};
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::{Bit12Meaning, EncoderLossClear, RtiWarningLatch, StrobeStop, Strober};
 use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand};
@@ -51,6 +51,17 @@ pub fn core_config(cfg: &ModelConfig) -> core::Config {
         servo_counter_mask: cfg.servo_counter_mask,
         load: core_load(&cfg.loads[0]),
         motion: core_motion_config(&cfg.motion),
+        processor: core_processor(cfg.processor),
+    }
+}
+
+/// The core's CPU option for the configuration's (SRM p.289).
+pub fn core_processor(p: Processor) -> core::Processor {
+    match p {
+        Processor::Dsp56303 => core::Processor::Dsp56303,
+        Processor::Dsp56309 => core::Processor::Dsp56309,
+        Processor::Dsp56311 => core::Processor::Dsp56311,
+        Processor::Dsp56321 => core::Processor::Dsp56321,
     }
 }
 
@@ -130,6 +141,9 @@ pub fn core_command(c: &HostCommand) -> core::Command {
         HostCommand::Open(Buffer::Program(_)) => core::Command::OpenProgram,
         HostCommand::Close => core::Command::Close,
         HostCommand::Motion(m) => core::Command::Motion(core_motion(m)),
+        HostCommand::Reinitialize => core::Command::Reinitialize,
+        HostCommand::Checksum => core::Command::Checksum,
+        HostCommand::WriteIMemory(n, v) => core::Command::WriteIMemory(*n, *v),
         HostCommand::Unrecognized(_) => core::Command::Unrecognized,
     }
 }

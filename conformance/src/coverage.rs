@@ -28,6 +28,9 @@ pub const EVENT_KINDS: &[&str] = &[
     "OPEN PLC",
     "OPEN PROG",
     "CLOSE",
+    "$$$*** (re-initialize)",
+    "CHECKSUM",
+    "memory write to an I-variable",
     "unrecognized command",
     "supply below minimum",
     "supply at or above minimum",
@@ -62,6 +65,9 @@ fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
             HostCommand::Close => "CLOSE",
             HostCommand::Motion(m) if m.stop_table_name().is_some() => "stop command (UM p.217)",
             HostCommand::Motion(_) => "motion command that starts motion",
+            HostCommand::Reinitialize => "$$$*** (re-initialize)",
+            HostCommand::Checksum => "CHECKSUM",
+            HostCommand::WriteIMemory(..) => "memory write to an I-variable",
             HostCommand::Unrecognized(_) => "unrecognized command",
         }],
         Event::Supply { millivolts } if *millivolts < cfg.supply_min_millivolts => vec!["supply below minimum"],
@@ -94,6 +100,8 @@ fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
 #[derive(Default)]
 pub struct Coverage {
     pub events: BTreeMap<&'static str, u64>,
+    /// Stop command (UM p.217's name) -> times it met an executing program.
+    pub stops_meeting_program: BTreeMap<&'static str, u64>,
     /// (word, bit) -> times seen set after an event.
     pub bits_set: BTreeMap<(char, u8), u64>,
     /// Property name -> states on which a `sometimes` property held.
@@ -111,6 +119,9 @@ impl Coverage {
     pub fn record(&mut self, cfg: &ModelConfig, event: &Event, model: &ModelSubject) {
         for k in kind(cfg, event) {
             *self.events.entry(k).or_default() += 1;
+        }
+        if let Some(stop) = model.stop_met_program() {
+            *self.stops_meeting_program.entry(stop).or_default() += 1;
         }
         let card = model.controller();
         let (x, y) = card.status_words(cfg);
@@ -167,6 +178,12 @@ impl Coverage {
         };
         serde_json::json!({
             "events": events,
+            "stops_meeting_program": spec
+                .stop_commands
+                .rows
+                .iter()
+                .map(|r| (r.command.clone(), self.stops_meeting_program.get(r.command.as_str()).copied().unwrap_or(0).into()))
+                .collect::<serde_json::Map<String, serde_json::Value>>(),
             "status_bits": bits,
             "driven_bits": StatusLayout::of(spec).map_or(0, |l| l.driven().len()),
             "sometimes_reached": count(&self.reached, Expectation::Sometimes),
@@ -183,6 +200,13 @@ impl Coverage {
         let _ = writeln!(s, "model events applied: {seen} of {} kinds", EVENT_KINDS.len());
         for k in EVENT_KINDS {
             let _ = writeln!(s, "  {:>10}  {k}", self.events.get(k).copied().unwrap_or(0));
+        }
+        // UM p.217's program cases: each row of the table sent while a program it stops was
+        // executing (begin immediately or not, stop at a program point or on the path).
+        let _ = writeln!(s, "stop commands meeting an executing program (UM p.217):");
+        for row in &spec.stop_commands.rows {
+            let n = self.stops_meeting_program.get(row.command.as_str()).copied().unwrap_or(0);
+            let _ = writeln!(s, "  {n:>10}  {}", row.command);
         }
         let mut bits = Vec::new();
         for (word, w) in [('X', &spec.status.words.x), ('Y', &spec.status.words.y)] {

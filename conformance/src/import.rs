@@ -171,8 +171,15 @@ pub struct Exchange {
 /// (writes, `$$$`, `OPEN`, `CLOSE`), or is not known to the model (either).
 fn answers(c: &HostCommand) -> Option<bool> {
     match c {
-        HostCommand::GlobalStatus | HostCommand::ReadI(_) | HostCommand::ReadHex(_) => Some(true),
-        HostCommand::WriteI(..) | HostCommand::Reset | HostCommand::Open(_) | HostCommand::Close => Some(false),
+        HostCommand::GlobalStatus | HostCommand::ReadI(_) | HostCommand::ReadHex(_) | HostCommand::Checksum => {
+            Some(true)
+        }
+        HostCommand::WriteI(..)
+        | HostCommand::WriteIMemory(..)
+        | HostCommand::Reset
+        | HostCommand::Reinitialize
+        | HostCommand::Open(_)
+        | HostCommand::Close => Some(false),
         // A motion command answers nothing, except an error (`#1K` during a program, UM p.319).
         HostCommand::Motion(_) => Some(false),
         HostCommand::Unrecognized(_) => None,

@@ -11,6 +11,7 @@ use pmacwd_bridge::{core_config, core_event, core_observation};
 use pmacwd_core as core;
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::vocab::command::{HostCommand, Motion};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::vocab::Observation;
 
@@ -32,12 +33,31 @@ pub trait Subject {
 pub struct ModelSubject {
     cfg: ModelConfig,
     card: Controller,
+    /// The last event's stop command (its UM p.217 name) when it met an executing program.
+    stop_met_program: Option<&'static str>,
 }
 
 impl ModelSubject {
     /// The reference controller as it stands (for coverage and property checks).
     pub fn controller(&self) -> &Controller {
         &self.card
+    }
+
+    /// The stop command of the last event, as UM p.217's first column names it, when the card
+    /// ran it while a program it stops was executing (its C.S.'s, or any for a global one):
+    /// the table's program cases, for the coverage report.
+    pub fn stop_met_program(&self) -> Option<&'static str> {
+        self.stop_met_program
+    }
+
+    fn meets_program(&self, m: Motion) -> bool {
+        let programs = self.card.axes.programs();
+        let executing = |cs: u8| programs.get(usize::from(cs).wrapping_sub(1)).is_some_and(|p| p.executing());
+        match m {
+            Motion::Motor(n, _) => n <= self.cfg.motion.motors && executing(self.cfg.motion.coordinate_system(n)),
+            Motion::CoordinateSystem(cs, _) => executing(cs),
+            Motion::Global(_) => programs.iter().any(|p| p.executing()),
+        }
     }
 }
 
@@ -46,12 +66,18 @@ impl Subject for ModelSubject {
         "reference model"
     }
     fn power_on(cfg: &ModelConfig) -> Self {
-        ModelSubject { cfg: cfg.clone(), card: Controller::power_on(cfg) }
+        ModelSubject { cfg: cfg.clone(), card: Controller::power_on(cfg), stop_met_program: None }
     }
     fn background_possible(&self) -> bool {
         self.card.background_possible()
     }
     fn apply(&mut self, event: &Event) -> Observation {
+        self.stop_met_program = match event {
+            Event::Command(HostCommand::Motion(m)) if !self.card.tripped() && !self.card.bootstrap => {
+                m.stop_table_name().filter(|_| self.meets_program(*m))
+            }
+            _ => None,
+        };
         let reply = self.card.apply(&self.cfg, event);
         pmacwd_model::observe::of(&self.card, &self.cfg, reply)
     }

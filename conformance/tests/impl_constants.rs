@@ -2,8 +2,10 @@
 //! every comparison); this checks each against `specs/`.
 
 use pmacwd_core::{
-    bits, motion, Command, MotionCommand, Profile, StrobeStop, I40_MAX, I41_MAX, I8_MAX, I_VARIABLE_MAX, LOCKOUT,
+    bits, motion, Command, MotionCommand, Processor, Profile, StrobeStop, I40_DEFAULT, I40_MAX, I41_DEFAULT, I41_MAX,
+    I8_DEFAULT, I8_MAX, I_VARIABLE_MAX, LOCKOUT,
 };
+use pmacwd_specs::check::Processor as SpecProcessor;
 use pmacwd_specs::facts::StopScope;
 use pmacwd_specs::profiles::{EncoderLossClear, ResetValueWhenI40Zero, StrobeStop as SpecStop, Strober};
 use pmacwd_specs::status::WordId;
@@ -23,6 +25,8 @@ fn the_core_status_bits_sit_where_status_yaml_puts_them() {
         ("rti_warning", WordId::X, bits::RTI_WARNING),
         ("motion_buffer_open", WordId::Y, bits::MOTION_BUFFER_OPEN),
         ("plc_buffer_open", WordId::Y, bits::PLC_BUFFER_OPEN),
+        ("cpu_type_bit1", WordId::X, bits::CPU_TYPE_1),
+        ("cpu_type_bit0", WordId::Y, bits::CPU_TYPE_0),
     ] {
         let (w, b) = spec.status.bit(name).unwrap_or_else(|| panic!("status.yaml has no `{name}`"));
         assert_eq!((w, 1u32 << b), (word, mask), "{name}");
@@ -42,6 +46,26 @@ fn the_core_lockout_table_and_i_variable_ranges_match_variables_yaml() {
     assert_eq!(I8_MAX, v.i_variables.i8.range.max);
     assert_eq!(I40_MAX, v.i_variables.i40.range.max);
     assert_eq!(I41_MAX, v.i_variables.i41.range.max);
+    // What `$$$***` puts in active memory (UM p.243).
+    assert_eq!(i64::from(I8_DEFAULT), v.i_variables.i8.default);
+    assert_eq!(i64::from(I40_DEFAULT), v.i_variables.i40.default);
+    assert_eq!(i64::from(I41_DEFAULT), v.i_variables.i41.default);
+}
+
+#[test]
+fn the_core_cpu_type_bits_of_each_processor_match_the_specs_table() {
+    // SRM p.289: the core's own table of the four options against the spec's, bit by bit.
+    for (spec, core) in SpecProcessor::ALL.into_iter().zip([
+        Processor::Dsp56303,
+        Processor::Dsp56309,
+        Processor::Dsp56311,
+        Processor::Dsp56321,
+    ]) {
+        assert_eq!(pmacwd_bridge::core_processor(spec), core, "{}", spec.name());
+        let (x, y) = core.type_words();
+        assert_eq!((x == bits::CPU_TYPE_1, y == bits::CPU_TYPE_0), spec.type_bits(), "{}", spec.name());
+        assert!(x & !bits::CPU_TYPE_1 == 0 && y & !bits::CPU_TYPE_0 == 0, "{}: only bit 21 of each word", spec.name());
+    }
 }
 
 #[test]

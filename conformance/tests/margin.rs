@@ -119,3 +119,36 @@ fn y25_below_x25_is_impossible_and_above_it_dates_the_last_background_cycle() {
     };
     assert_eq!(since_last_background_cycles, Some(6), "4096 down to 4090");
 }
+
+/// UM p.236: a PLC 0 that grows too long makes communications and background PLCs sluggish
+/// first, and only in the worst case trips the watchdog. In the model the background cycle is
+/// where a host command is answered and a background PLC scans (UM p.236), so sluggishness is
+/// the interval between background cycles: it grows with PLC 0 while the card still runs, and
+/// only past the last load that leaves the background any time does the card trip. (MODEL: the
+/// model answers a command at once, with no latency of its own; docs/model.md.)
+#[test]
+fn a_longer_plc0_first_spaces_the_background_cycles_out_and_only_then_starves_them() {
+    let cfg = config("um-215");
+    let mut last = 0;
+    let mut running_loads = 0;
+    let mut tripped_at = None;
+    // Up to 276 units, which fill every RTI period of i40-zero (8 motors leave 92 units a cycle,
+    // RTI every 3 cycles). Beyond that PLC 0 overruns its period, is not restarted at the next
+    // RTI (UM p.236) and so leaves the background some time again: a different story.
+    for plc0_units in (0..=260).step_by(20).chain([270, 276]) {
+        let m = margin::measure(&cfg, Load { plc0_units, ..cfg.loads[0] });
+        match m.longest_interval_cycles {
+            Some(interval) => {
+                assert!(tripped_at.is_none(), "PLC 0 {plc0_units}: the background came back after starving");
+                assert!(interval >= last, "PLC 0 {plc0_units}: the interval shrank ({last} -> {interval})");
+                assert!(!m.tripped, "{m:?}");
+                last = interval;
+                running_loads += 1;
+            }
+            None => tripped_at = tripped_at.or(Some(plc0_units)),
+        }
+    }
+    // Sluggish before starved: several loads run with ever longer intervals, then one trips.
+    assert!(running_loads >= 3 && last > 3, "intervals up to {last} over {running_loads} loads");
+    assert_eq!(tripped_at, Some(276), "the PLC 0 that fills every RTI period starves the background");
+}

@@ -43,7 +43,6 @@ const PAGES_NOT_YET_IN_THE_MATRIX: &[(&str, &str)] = &[
     ("SRM p.286", "emulator: coordinate system status words (continued)"),
     ("SRM p.287", "emulator: coordinate system status words (continued)"),
     ("UM p.46", "emulator: commands stored in an open buffer instead of run"),
-    ("UM p.243", "emulator: I-variable assignment, SAVE and defaults"),
 ];
 
 fn workspace_root() -> PathBuf {

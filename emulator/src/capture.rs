@@ -170,7 +170,9 @@ impl<W: Write> CaptureWriter<W> {
         }
         notes.append(after);
         step.note = notes.into_note();
-        if let TraceEvent::Model(Event::Reset(_) | Event::Command(HostCommand::Reset)) = step.event {
+        if let TraceEvent::Model(Event::Reset(_) | Event::Command(HostCommand::Reset | HostCommand::Reinitialize)) =
+            step.event
+        {
             self.written.fill(false);
         }
         self.write_line(step)
@@ -280,7 +282,13 @@ impl<W: Write> CaptureWriter<W> {
             let parsed = HostCommand::parse(text);
             let identity = IDENTITY_COMMANDS.iter().any(|i| text.eq_ignore_ascii_case(i));
             let reports = identity
-                || matches!(parsed, Ok(HostCommand::GlobalStatus | HostCommand::ReadI(_) | HostCommand::ReadHex(_)));
+                || matches!(
+                    parsed,
+                    Ok(HostCommand::GlobalStatus
+                        | HostCommand::ReadI(_)
+                        | HostCommand::ReadHex(_)
+                        | HostCommand::Checksum)
+                );
             let unknown = !identity && matches!(parsed, Ok(HostCommand::Unrecognized(_)) | Err(_));
             let answer = if reports || unknown { answers.next() } else { None };
             let error = match &answer {
@@ -313,11 +321,11 @@ impl<W: Write> CaptureWriter<W> {
                 }
             } else if let Some(ReadAnswer::Data(data)) = answer {
                 (expect.reply, note) = self.expect_data(&command, identity, data.trim());
-            } else if command == HostCommand::Reset {
-                note = Some("$$$ resets the card: its acknowledgement is the link's, not compared".to_string());
+            } else if matches!(command, HostCommand::Reset | HostCommand::Reinitialize) {
+                note = Some(format!("{command} resets the card: its acknowledgement is the link's, not compared"));
             } else {
                 expect.reply = Some("(ack)".into());
-                if let HostCommand::WriteI(n, _) = command {
+                if let HostCommand::WriteI(n, _) | HostCommand::WriteIMemory(n, _) = command {
                     self.written[usize::from(n)] = true;
                 }
             }
@@ -341,6 +349,9 @@ impl<W: Write> CaptureWriter<W> {
                 note("the card's saved value; the model starts every I-variable but I8, I40, I41 at 0")
             }
             HostCommand::ReadHex(Register::ServoCycles) => note("X:$0 counts from wherever the card started"),
+            HostCommand::Checksum => {
+                note("a card's firmware reference checksum; the model's is a token (MODEL: it sums no memory)")
+            }
             HostCommand::ReadHex(Register::WatchdogCounter | Register::WatchdogMinimum) if !exact => {
                 note("timing from the host's clock is not exact to a servo cycle")
             }

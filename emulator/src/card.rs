@@ -82,20 +82,26 @@ pub enum Clock {
     Virtual,
 }
 
-/// I0..I8191 and the values saved in flash that a reset restores (the core holds I8, I40,
-/// I41 itself).
+/// I0..I8191, the values saved in flash that a reset restores, and the firmware's defaults
+/// that `$$$***` restores (the core holds I8, I40, I41 itself).
 pub struct FlashIVariables {
     values: Box<core::AllIVariables>,
     saved: Box<core::AllIVariables>,
+    factory: Box<core::AllIVariables>,
 }
 
 impl FlashIVariables {
-    pub fn new(saved: &[(u16, i64)]) -> FlashIVariables {
-        let mut flash = Box::<core::AllIVariables>::default();
-        for &(n, v) in saved {
-            flash.write(n, v);
-        }
-        FlashIVariables { values: flash.clone(), saved: flash }
+    /// `saved`: what flash holds; `factory`: the firmware's defaults.
+    pub fn new(saved: &[(u16, i64)], factory: &[(u16, i64)]) -> FlashIVariables {
+        let table = |values: &[(u16, i64)]| {
+            let mut t = Box::<core::AllIVariables>::default();
+            for &(n, v) in values {
+                t.write(n, v);
+            }
+            t
+        };
+        let flash = table(saved);
+        FlashIVariables { values: flash.clone(), saved: flash, factory: table(factory) }
     }
 }
 
@@ -116,7 +122,18 @@ impl IVariableStore for FlashIVariables {
     fn restore(&mut self) {
         self.values.0 = self.saved.0;
     }
+    /// `$$$***`: the firmware's defaults in use; what was saved stays in flash, unused, until
+    /// the next reset (UM p.243).
+    fn factory(&mut self) {
+        self.values.0 = self.factory.0;
+    }
 }
+
+/// What `$$$***` sets besides `variables.yaml`'s host defaults: the factory framing, I3 = 1
+/// (SRM p.37), so that the host that re-initialized the card still gets its lines
+/// acknowledged (LF-framed). I6 has no documented Turbo default in the pages this project has
+/// and reads 0 like any other I-variable (MODEL).
+pub const FACTORY_FRAMING: [(u16, i64); 1] = [(3, 1)];
 
 /// The values saved in flash unless told otherwise: I3 = 2 and I6 = 1, the framing host
 /// drivers expect (`DATA CR ... ACK`, `BEL ERRnnn CR`). A factory-new card has I3 = 1
@@ -166,10 +183,12 @@ impl Card {
         // the last saved values are copied into active memory at power-up).
         let mut flash = defaults.i_defaults.clone();
         flash.extend_from_slice(saved);
+        let mut factory = defaults.i_defaults.clone();
+        factory.extend_from_slice(&FACTORY_FRAMING);
         Card {
             core: core::Core::power_on(&cfg),
             cfg,
-            store: FlashIVariables::new(&flash),
+            store: FlashIVariables::new(&flash, &factory),
             clock,
             cycles: 0,
             identity,
@@ -462,6 +481,9 @@ impl Card {
                 _ => out.push(Answer::Error(3)),
             },
             Command::Reset => out.push(self.core_answer(&HostCommand::Reset)),
+            Command::Reinitialize => out.push(self.core_answer(&HostCommand::Reinitialize)),
+            Command::Checksum => out.push(self.core_answer(&HostCommand::Checksum)),
+            Command::WriteIMemory(n, v) => out.push(self.core_answer(&HostCommand::WriteIMemory(n, v))),
             Command::Close => out.push(self.core_answer(&HostCommand::Close)),
             Command::OpenPlc(n) => out.push(self.core_answer(&HostCommand::Open(Buffer::Plc(n)))),
             Command::OpenProgram(n) => out.push(self.core_answer(&HostCommand::Open(Buffer::Program(n)))),
@@ -554,15 +576,20 @@ impl Card {
     fn core_answer(&mut self, command: &HostCommand) -> Answer {
         // I3 and I6 range 0..3; a write outside it is refused and changes nothing (MODEL,
         // `framing::FRAMING_VALUE_MAX`). Neither lies in a range I41 locks (SRM p.57).
-        if let HostCommand::WriteI(n, v) = command {
+        if let HostCommand::WriteI(n, v) | HostCommand::WriteIMemory(n, v) = command {
             if framing_write_out_of_range(*n, *v) {
                 return Answer::Error(3);
             }
         }
         let reply = self.core.command(&self.cfg, core_command(command), &mut self.store);
-        if matches!(command, HostCommand::Reset) && reply != core::Reply::Silence {
+        if matches!(command, HostCommand::Reset | HostCommand::Reinitialize) && reply != core::Reply::Silence {
             self.memory.reset();
-            let line = format!("$$$ from a host at {}: the card resets", self.moment());
+            let line = match command {
+                HostCommand::Reinitialize => {
+                    format!("$$$*** from a host at {}: the card resets to its factory defaults", self.moment())
+                }
+                _ => format!("$$$ from a host at {}: the card resets", self.moment()),
+            };
             self.say(&line);
         }
         reply_answer(reply)
@@ -886,6 +913,32 @@ mod tests {
         c.line(b"I130=5");
         c.line(b"$$$");
         assert_eq!(values(&c.line(b"I124 I130").unwrap()), ["$20001", "1000"], "the saved values");
+    }
+
+    #[test]
+    fn dollar_star_star_star_puts_the_factory_defaults_in_use_and_dollar_brings_the_saved_ones_back() {
+        // UM p.243: re-initialization copies the firmware defaults into active memory; what
+        // SAVE stored stays in flash, unused, until the next reset.
+        let mut c = card();
+        c.line(b"I130=1000 I40=7 SAVE");
+        c.line(b"$$$***");
+        // I3 = 1 (SRM p.37, the factory framing): each answer LF DATA CR, the line ends in LF.
+        assert_eq!(c.line(b"I130 I40 I3 I10").unwrap(), b"\n0\r\n0\r\n1\r\n3713707\r\n");
+        c.line(b"I3=2");
+        c.line(b"$$$");
+        assert_eq!(values(&c.line(b"I130 I3").unwrap()), ["1000", "2"], "the saved values, again");
+    }
+
+    #[test]
+    fn a_memory_write_changes_an_i_variable_i41_locks_and_checksum_answers_the_reference() {
+        // SRM p.57: I41 locks the {I-variable}={value} command, not a memory write.
+        let mut c = card();
+        c.line(b"I41=1 I130=5");
+        assert_eq!(values(&c.line(b"I130").unwrap()), ["0"], "locked");
+        assert_eq!(c.line(b"<MEMORY-WRITE I130=5>").unwrap(), b"\x06");
+        assert_eq!(values(&c.line(b"I130").unwrap()), ["5"], "written past I41");
+        // UM p.217, SRM p.295: CHECKSUM and CHKS answer the reference (the model's token).
+        assert_eq!(values(&c.line(b"CHECKSUM CHKS").unwrap()), ["000000", "000000"]);
     }
 
     #[test]

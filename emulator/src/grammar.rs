@@ -134,6 +134,13 @@ pub enum Command {
     PlcSwitch,
     /// `$$$`
     Reset,
+    /// `$$$***`: re-initialize to the factory defaults (UM p.243).
+    Reinitialize,
+    /// `CHECKSUM` / `CHKS`: the firmware's reference checksum (SRM p.295).
+    Checksum,
+    /// `<MEMORY-WRITE In=v>`: the vocabulary's pseudo-command for an M-variable assignment or a
+    /// direct memory write into I-variable n's storage, which I41 does not lock (SRM p.57).
+    WriteIMemory(u16, i64),
     /// `SAVE`
     Save,
     Version,
@@ -181,8 +188,9 @@ struct Parser<'a, 'b> {
 /// Multi-letter keywords, longest first where one is a prefix of another, each with what it
 /// starts. Single letters (`P`, `V`, `K`, `A`, ...) are tried only when none of these matches,
 /// so that `SAVE` is not `S` (step) and `HM` is not `H` (hold).
-const KEYWORDS: [&str; 22] = [
+const KEYWORDS: [&str; 24] = [
     "ENDGATHER",
+    "CHECKSUM",
     "ENDG",
     "DEFINE",
     "DELETE",
@@ -202,6 +210,7 @@ const KEYWORDS: [&str; 22] = [
     "ENA",
     "GAT",
     "LIS",
+    "CHKS",
     "HM",
     "MS",
 ];
@@ -326,10 +335,12 @@ impl Parser<'_, '_> {
             b'$' if self.starts_with("$$$") => {
                 self.i += 3;
                 if self.starts_with("***") {
-                    return Err(self.error(start, "$$$*** (re-initialise to factory defaults) is not emulated"));
+                    self.i += 3;
+                    return Ok(Command::Reinitialize);
                 }
                 Ok(Command::Reset)
             }
+            b'<' if self.starts_with("<MEMORY-WRITE") => self.memory_write(start),
             b'/' => {
                 self.i += 1;
                 Ok(self.cs_command(CsCommand::EndOfMove))
@@ -376,6 +387,22 @@ impl Parser<'_, '_> {
                 Ok(true)
             }
             _ => Err(self.error(start, if motor { "motors are #1..#32" } else { "coordinate systems are &1..&16" })),
+        }
+    }
+
+    /// `<MEMORY-WRITE In=v>` up to its `>`: read by the vocabulary's own parser, so the
+    /// emulator and a trace read it alike.
+    fn memory_write(&mut self, start: usize) -> Result<Command, Unreadable> {
+        let Some(len) = self.s[self.i..].iter().position(|&c| c == b'>') else {
+            return Err(self.error(start, "<MEMORY-WRITE ...> ends with `>`"));
+        };
+        let text = String::from_utf8_lossy(&self.s[self.i..=self.i + len]).into_owned();
+        match pmacwd_specs::vocab::HostCommand::parse(&text) {
+            Ok(pmacwd_specs::vocab::HostCommand::WriteIMemory(n, v)) => {
+                self.i += len + 1;
+                Ok(Command::WriteIMemory(n, v))
+            }
+            _ => Err(self.error(start, "a memory write is <MEMORY-WRITE In=v>, n in 0..8191")),
         }
     }
 
@@ -510,6 +537,7 @@ impl Parser<'_, '_> {
             "VER" => Command::Version,
             "CID" => Command::CardId,
             "SAVE" => Command::Save,
+            "CHECKSUM" | "CHKS" => Command::Checksum,
             "CLOSE" => Command::Close,
             "HM" | "HOME" => Command::Home(self.addressing.motor),
             "GATHER" | "GAT" => Command::Gather(Gather::Start),
@@ -734,6 +762,20 @@ mod tests {
             [Command::Motion(Motion::CoordinateSystem(1, CsCommand::Feedrate(50))), Command::FeedRead(1)]
         );
         assert_eq!(ok("RHX:$25"), [Command::ReadHex("RHX:$25".into())]);
+        // UM p.243, SRM p.295, SRM p.57 (the memory write is the vocabulary's pseudo-command).
+        assert_eq!(
+            ok("$$$***CHKS checksum <memory-write i130=$10>I130"),
+            [
+                Command::Reinitialize,
+                Command::Checksum,
+                Command::Checksum,
+                Command::WriteIMemory(130, 16),
+                Command::Read { kind: VarKind::I, first: 130, last: 130, cs: 1 },
+            ]
+        );
+        assert_eq!(ok("$$$ $$$***"), [Command::Reset, Command::Reinitialize]);
+        assert!(parse("<MEMORY-WRITE I130>")[0].is_err(), "a memory write needs its value");
+        assert!(parse("<MEMORY-WRITE I130=1")[0].is_err(), "and its closing `>`");
     }
 
     #[test]
@@ -749,6 +791,6 @@ mod tests {
         assert_eq!(r[1].clone().unwrap_err().at, "OO");
         assert!(parse("#33K").last().unwrap().is_err(), "motors are #1..#32");
         assert!(parse("&17A").last().unwrap().is_err());
-        assert!(parse("$$$***").last().unwrap().is_err());
+        assert!(parse("$$$**").last().unwrap().is_err(), "`$$$` then `**`, which starts nothing");
     }
 }

@@ -43,6 +43,10 @@ pub mod bits {
     pub const MOTION_BUFFER_OPEN: u32 = 1 << 19;
     /// Y bit 17: PLC buffer open.
     pub const PLC_BUFFER_OPEN: u32 = 1 << 17;
+    /// X bit 21: CPU type bit 1 (SRM p.289).
+    pub const CPU_TYPE_1: u32 = 1 << 21;
+    /// Y bit 21: CPU type bit 0 (SRM p.289).
+    pub const CPU_TYPE_0: u32 = 1 << 21;
 }
 
 /// I41 lockout ranges by I41 bit (SRM p.57): motor, coordinate system, MACRO/Servo IC,
@@ -54,6 +58,11 @@ pub const I_VARIABLE_MAX: u16 = 8191;
 pub const I8_MAX: i64 = 255;
 pub const I40_MAX: i64 = 65_535;
 pub const I41_MAX: i64 = 15;
+/// The factory defaults of I8, I40, I41, which `$$$***` puts in active memory (SRM p.42,
+/// SRM p.57; UM p.243).
+pub const I8_DEFAULT: u8 = 2;
+pub const I40_DEFAULT: u16 = 0;
+pub const I41_DEFAULT: u8 = 0;
 
 /// Where the I-variables other than I8, I40 and I41 live. The watchdog core reads none of them,
 /// so their storage is the embedding's choice and stays out of [`Core`], which keeps the core a
@@ -66,6 +75,9 @@ pub trait IVariableStore {
     fn write(&mut self, n: u16, v: i64) -> bool;
     /// Back to the values saved in flash: all zero in this core's configuration.
     fn restore(&mut self);
+    /// The firmware's factory defaults in active memory, the saved values kept but unused
+    /// (`$$$***`, UM p.243): all zero in this core's configuration.
+    fn factory(&mut self);
 }
 
 /// Every I-variable I0..I8191, 64 KiB: what an emulator embeds.
@@ -93,6 +105,9 @@ impl IVariableStore for AllIVariables {
     }
     fn restore(&mut self) {
         self.0 = [0; I_VARIABLE_MAX as usize + 1];
+    }
+    fn factory(&mut self) {
+        self.restore();
     }
 }
 
@@ -130,6 +145,9 @@ impl<const N: usize> IVariableStore for FewIVariables<N> {
             None => return false,
         }
         true
+    }
+    fn factory(&mut self) {
+        self.restore();
     }
     fn restore(&mut self) {
         self.len = 0;
@@ -174,6 +192,32 @@ impl Profile {
     };
 }
 
+/// The four DSP56300-family CPU options (SRM p.289), which `???` reports in bits X21 and Y21.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Processor {
+    /// Option 5Cx.
+    Dsp56303,
+    /// Option 5Dx.
+    Dsp56309,
+    /// Option 5Ex.
+    Dsp56311,
+    /// Option 5Fx.
+    Dsp56321,
+}
+
+impl Processor {
+    /// X:$000006 and Y:$000006 with the CPU type bits set: bit 1 (X21) for the 56311 and
+    /// 56321, bit 0 (Y21) telling each pair apart (SRM p.289).
+    pub const fn type_words(self) -> (u32, u32) {
+        match self {
+            Processor::Dsp56303 => (0, 0),
+            Processor::Dsp56309 => (0, bits::CPU_TYPE_0),
+            Processor::Dsp56311 => (bits::CPU_TYPE_1, 0),
+            Processor::Dsp56321 => (bits::CPU_TYPE_1, bits::CPU_TYPE_0),
+        }
+    }
+}
+
 /// Everything fixed for a run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Config {
@@ -196,6 +240,8 @@ pub struct Config {
     pub load: Load,
     /// The motors, their coordinate systems, and how long a deceleration takes.
     pub motion: MotionConfig,
+    /// The CPU option fitted (SRM p.289).
+    pub processor: Processor,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -249,6 +295,12 @@ pub enum Command {
     Close,
     /// A command that starts or stops motion (UM p.217, UM p.319; `motion.rs`).
     Motion(MotionCommand),
+    /// `$$$***`: reset with the factory-default I-variables (UM p.243).
+    Reinitialize,
+    /// `CHECKSUM`: the firmware's reference checksum (UM p.217).
+    Checksum,
+    /// An M-variable assignment or memory write into I-variable `n` (SRM p.57: past I41).
+    WriteIMemory(u16, i64),
     Unrecognized,
 }
 
@@ -434,7 +486,9 @@ impl Core {
         if bit12 {
             x |= bits::PROM_CHECKSUM_ACTIVE;
         }
-        (x, self.status_y)
+        // SRM p.289: bits X21 and Y21 are the CPU option fitted.
+        let (cpu_x, cpu_y) = cfg.processor.type_words();
+        (x | cpu_x, self.status_y | cpu_y)
     }
 
     pub fn observe(&self, cfg: &Config, reply: Reply) -> Observation {
@@ -515,11 +569,15 @@ impl Core {
     }
 
     fn restart(&mut self, cfg: &Config, r: Reset) {
+        self.restart_with(cfg, r, (cfg.saved_i8, cfg.saved_i40, cfg.saved_i41));
+    }
+
+    /// [`Self::restart`] with I8, I40, I41 = `i_variables`: the saved values, or the factory
+    /// defaults after `$$$***` (UM p.243).
+    fn restart_with(&mut self, cfg: &Config, r: Reset, i_variables: (u8, u16, u8)) {
         let supply_low = self.flags & SUPPLY_LOW;
         self.flags = supply_low | if r.bootstrap { BOOTSTRAP } else { 0 };
-        self.i8 = cfg.saved_i8;
-        self.i40 = cfg.saved_i40;
-        self.i41 = cfg.saved_i41;
+        (self.i8, self.i40, self.i41) = i_variables;
         self.counter = counter::reset_value(self.i40, cfg.profile.reset_value_i40_zero);
         self.counter_min = self.counter;
         self.cycles_since_strobe = 0;
@@ -830,6 +888,21 @@ impl Core {
                 motion::Outcome::Accepted => Reply::Ack,
                 motion::Outcome::RefusedDuringProgram => Reply::Error(1),
             },
+            Command::Reinitialize => {
+                // UM p.243: the factory defaults in active memory, the saved values unused.
+                self.restart_with(
+                    cfg,
+                    Reset { kind: ResetKind::Init, dpram_fault: false, flash_fault: false, bootstrap: false },
+                    (I8_DEFAULT, I40_DEFAULT, I41_DEFAULT),
+                );
+                store.factory();
+                Reply::None
+            }
+            // UM p.217: the reference register, preloaded at the factory (token 0, MODEL as
+            // the reference model: no memory is summed).
+            Command::Checksum => Reply::Hex(u32::from(self.tokens >> 1 & 1)),
+            // SRM p.57: I41 does not stop an M-variable assignment or a memory write.
+            Command::WriteIMemory(n, v) => self.store_i(n, v, store),
             Command::Unrecognized => Reply::Error(3),
         }
     }
@@ -852,6 +925,11 @@ impl Core {
                 return Reply::Ack;
             }
         }
+        self.store_i(n, v, store)
+    }
+
+    /// I`n` = `v` whatever I41 holds (past the lockout, or by a memory write, SRM p.57).
+    fn store_i<S: IVariableStore + ?Sized>(&mut self, n: u16, v: i64, store: &mut S) -> Reply {
         match n {
             8 if (0..=I8_MAX).contains(&v) => self.i8 = v as u8,
             40 if (0..=I40_MAX).contains(&v) => self.i40 = v as u16,

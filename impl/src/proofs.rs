@@ -191,6 +191,7 @@ mod kani_proofs {
                 background_units: wide(kani::any()),
             },
             motion: MotionConfig::all_in_cs1(2, kani::any::<u8>() % 4),
+            processor: crate::Processor::Dsp56321,
         }
     }
 

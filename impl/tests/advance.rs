@@ -6,8 +6,8 @@ mod common;
 use pmacwd_core::motion::{CsCommand, GlobalCommand, MotorCommand, MOTORS_MAX};
 use pmacwd_core::proofs::{check_advance_any_n, check_advance_equals_single_steps};
 use pmacwd_core::{
-    Area, Command, Config, Core, Event, FewIVariables, Load, MotionCommand, MotionConfig, Profile, Reset, ResetKind,
-    StrobeStop,
+    Area, Command, Config, Core, Event, FewIVariables, Load, MotionCommand, MotionConfig, Processor, Profile, Reset,
+    ResetKind, StrobeStop,
 };
 use proptest::prelude::*;
 
@@ -49,6 +49,7 @@ fn config() -> impl Strategy<Value = Config> {
                     servo_counter_mask: 0xFF_FFFF,
                     load: Load { motors, plc0_units: plc0, background_units: bg },
                     motion: MotionConfig { motors: count, coordinate_systems: cs, decel_cycles: decel },
+                    processor: Processor::Dsp56311,
                 }
             },
         )
@@ -61,6 +62,10 @@ fn event() -> impl Strategy<Value = Event> {
         1 => (0u8..=12, 0u16..=600, 0u16..=400).prop_map(|(m, p, b)| Event::Load(Load { motors: m, plc0_units: p, background_units: b })),
         1 => (0u16..=8).prop_map(|v| Event::Command(Command::WriteI(8, i64::from(v)))),
         1 => (0u16..=50).prop_map(|v| Event::Command(Command::WriteI(40, i64::from(v)))),
+        // I40 changed by a memory write (SRM p.57), and the re-initialization to factory
+        // defaults (I8 = 2, I40 = 0: UM p.243), both of which change what `advance` computes.
+        1 => (0u16..=50).prop_map(|v| Event::Command(Command::WriteIMemory(40, i64::from(v)))),
+        1 => Just(Event::Command(Command::Reinitialize)),
         1 => Just(Event::Reset(Reset { kind: ResetKind::Init, dpram_fault: false, flash_fault: false, bootstrap: false })),
         1 => Just(Event::ChecksumFault(Area::Firmware)),
         1 => Just(Event::ClearRtiReentry),

@@ -8,7 +8,7 @@
 
 use crate::motion::Axes;
 use pmacwd_specs::check::{ChecksumTarget, Load, ResetEvent, ResetKind};
-use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::config::{ModelConfig, SavedIVariables};
 use pmacwd_specs::profiles::{Bit12Meaning, RtiWarningLatch, StrobeStop, Strober};
 use pmacwd_specs::status::WordId;
 use pmacwd_specs::vocab::command::{Buffer, HostCommand, Register};
@@ -67,7 +67,9 @@ pub struct ChecksumEngine {
 }
 
 impl ChecksumEngine {
-    fn fresh() -> Self {
+    /// The engine after a reset: at the start of a firmware pass, no error, every area's
+    /// contents equal to its reference.
+    pub fn fresh() -> Self {
         ChecksumEngine {
             area: ChecksumTarget::Firmware,
             position: 0,
@@ -466,6 +468,27 @@ impl Controller {
             }
             // UM p.217, UM p.319: the stop commands and those that start motion (motion.rs).
             HostCommand::Motion(m) => self.axes.command(cfg, *m, decel),
+            HostCommand::Reinitialize => {
+                // UM p.243 (summary): re-initialization by `$$$***` puts the firmware's default
+                // I-variable values in active memory; the values last saved stay in flash,
+                // unused, so a later reset (`$$$`, INIT/, power) brings them back. Otherwise a
+                // reset like `$$$`.
+                self.restart_with(
+                    cfg,
+                    ResetEvent { kind: ResetKind::Init, dpram_fault: false, flash_fault: false, bootstrap: false },
+                    cfg.factory,
+                );
+                Reply::None
+            }
+            // UM p.217: the reference register is "obtainable with the CHECKSUM command"; SRM
+            // p.295: CHECKSUM reports the firmware's reference checksum in hex. MODEL: the model
+            // sums no memory (see `ChecksumEngine`), so it reports its reference token; what it
+            // keeps of the manual is that the reference, preloaded at the factory, does not
+            // change when the firmware is corrupted or a checksum error is found.
+            HostCommand::Checksum => Reply::Hex(u32::from(self.checksum.firmware_reference)),
+            // SRM p.57: "I41 does not prevent changes to an I-variable by means of an M-variable
+            // assignment or a direct memory write command".
+            HostCommand::WriteIMemory(n, v) => self.store_i_variable(cfg, *n, *v),
             // Facts s.3: ERR003, "data error or unrecognized command".
             HostCommand::Unrecognized(_) => Reply::Error(3),
         }
@@ -488,6 +511,13 @@ impl Controller {
                 return Reply::Ack;
             }
         }
+        self.store_i_variable(cfg, n, v)
+    }
+
+    /// I`n` = `v` in the I-variable's storage, whatever I41 holds: what an I-variable write
+    /// does once past the lockout, and what an M-variable assignment or a memory write does
+    /// (SRM p.57).
+    fn store_i_variable(&mut self, cfg: &ModelConfig, n: u16, v: i64) -> Reply {
         let in_range = |r: (i64, i64)| r.0 <= v && v <= r.1;
         match n {
             // MODEL: a value outside the variable's documented range is refused with ERR003
@@ -535,7 +565,12 @@ impl Controller {
             rti_warning,
             motion_buffer_open,
             plc_buffer_open,
+            cpu_type_bit1,
+            cpu_type_bit0,
         } = cfg.layout;
+        // SRM p.289: bits X21 and Y21 say which of the four DSP56300-family CPU options the
+        // card has: the configuration's processor, not a rule's.
+        let (cpu1, cpu0) = cfg.processor.type_bits();
         let engine = &self.checksum;
         // SRM p.289 / UM p.217: bit 13 is any checksum error.
         let checksum_error = engine.error.is_some();
@@ -561,6 +596,8 @@ impl Controller {
             (s.rti_warning, rti_warning),
             (s.motion_buffer_open, motion_buffer_open),
             (s.plc_buffer_open, plc_buffer_open),
+            (cpu1, cpu_type_bit1),
+            (cpu0, cpu_type_bit0),
         ] {
             if on {
                 words[match word {
@@ -614,13 +651,19 @@ impl Controller {
 
     /// Re-initialisation from saved settings, common to power-up, INIT/ and `$$$`.
     fn restart(&mut self, cfg: &ModelConfig, reset: ResetEvent) {
+        // MODEL: a reset reloads the saved I-variables; unsaved writes are lost.
+        self.restart_with(cfg, reset, cfg.saved);
+    }
+
+    /// [`Self::restart`] with the I-variables `i_variables` in active memory: the saved ones,
+    /// or the factory defaults after `$$$***` (UM p.243).
+    fn restart_with(&mut self, cfg: &ModelConfig, reset: ResetEvent, i_variables: SavedIVariables) {
         let recovered_by = self.ghost.recovered_by;
         self.trip = None;
         self.bootstrap = reset.bootstrap;
-        // MODEL: a reset reloads the saved I-variables; unsaved writes are lost.
-        self.i8 = cfg.saved.i8;
-        self.i40 = cfg.saved.i40;
-        self.i41 = cfg.saved.i41;
+        self.i8 = i_variables.i8;
+        self.i40 = i_variables.i40;
+        self.i41 = i_variables.i41;
         self.other_i_variables.clear();
         self.counter = cfg.reset_value(self.i40);
         // SRM p.57: X:$25 is the lowest value "since the last power-on/reset".

@@ -32,7 +32,7 @@ pub enum Check {
 }
 
 fn is_reset(event: &Event) -> bool {
-    matches!(event, Event::Reset(_) | Event::Command(HostCommand::Reset))
+    matches!(event, Event::Reset(_) | Event::Command(HostCommand::Reset | HostCommand::Reinitialize))
 }
 
 fn locked(cfg: &ModelConfig, c: &Controller, n: u16) -> bool {
@@ -163,6 +163,38 @@ pub const MONITORS: &[Monitor] = &[
         sentence: "each bit independently controls access to a set of I-variables.",
         check: Check::Event(|cfg, prev, ev, reply, next| match ev {
             Event::Command(HostCommand::WriteI(n, v)) if running(prev) && !locked(cfg, prev, *n) && reply == Reply::Ack => next.i_variable(*n) == *v,
+            _ => true,
+        }),
+    },
+    Monitor {
+        name: "an M-variable assignment or a memory write changes an I-variable whatever I41 holds",
+        cite: "SRM p.57",
+        sentence: "I41 does not prevent changes to an I-variable by means of an M-variable assignment or a direct memory write command.",
+        check: Check::Event(|_, prev, ev, reply, next| match ev {
+            Event::Command(HostCommand::WriteIMemory(n, v)) if running(prev) && reply == Reply::Ack => next.i_variable(*n) == *v,
+            _ => true,
+        }),
+    },
+    Monitor {
+        name: "after $$$*** the I-variables are the factory defaults",
+        cite: "UM p.243",
+        sentence: "(summary) $$$*** re-initializes the card: active memory takes the firmware's default I-variable values, and what was last saved stays in flash without being used.",
+        check: Check::Event(|cfg, prev, ev, _, next| match ev {
+            Event::Command(HostCommand::Reinitialize) if running(prev) => {
+                (next.i8, next.i40, next.i41) == (cfg.factory.i8, cfg.factory.i40, cfg.factory.i41)
+                    && next.other_i_variables.is_empty()
+            }
+            _ => true,
+        }),
+    },
+    Monitor {
+        name: "CHECKSUM reports the factory reference, whatever faults and checksum errors came since",
+        cite: "UM p.217",
+        sentence: "a reference register in memory (obtainable with the CHECKSUM command) ... Turbo PMACs shipped from the factory are preloaded with the correct reference value.",
+        check: Check::Event(|_, prev, ev, reply, _| match ev {
+            Event::Command(HostCommand::Checksum) if running(prev) => {
+                reply == Reply::Hex(u32::from(crate::controller::ChecksumEngine::fresh().firmware_reference))
+            }
             _ => true,
         }),
     },

@@ -288,6 +288,18 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         sentence: "Bit 13 Any Memory Checksum Error: This bit is 1 if a checksum error has been detected for either the Turbo PMAC firmware or the user program buffer space.",
         holds: |cfg, s| x_bit(cfg, s, cfg.layout.checksum_error) == s.controller.checksum.error.is_some(),
     },
+    StateProperty {
+        name: "bits X21 and Y21 of ??? report the configured processor",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "SRM p.289",
+        sentence: "Bit 21 CPU Type Bit 1: This bit is 1 if the Turbo PMAC has an Option 5Ex DSP56311 or an Option 5Fx DSP56321 processor ... bit 21 in the second word returned (Y:$000006) distinguishes between processor types.",
+        holds: |cfg, s| {
+            let (bit1, bit0) = cfg.processor.type_bits();
+            x_bit(cfg, s, cfg.layout.cpu_type_bit1) == bit1 && x_bit(cfg, s, cfg.layout.cpu_type_bit0) == bit0
+        },
+    },
     // ------------------------------------------------------------ reachability
     StateProperty {
         name: "bit 22 (RTI re-entry) can be set",

@@ -65,6 +65,10 @@ pub struct Configuration {
     /// from the checked state, since no rule reads it).
     pub servo_counter_bits: u8,
     pub cpu: Cpu,
+    /// The processor fitted, which bits X21 and Y21 of `???` report (SRM p.289: the CPU
+    /// options are the card's, not the firmware's); absent: DSP56303 (see [`Processor`]).
+    #[serde(default)]
+    pub processor: Processor,
     /// Loads the environment may switch between; the first is the load at power-up.
     pub loads: Vec<Load>,
     /// Supply voltages the environment may apply, in millivolts.
@@ -163,6 +167,65 @@ pub struct Cpu {
     pub servo_units_per_motor: u16,
     /// Move-planning cost added to every RTI task set.
     pub move_planning_units: u16,
+}
+
+/// The four DSP56300-family CPU options of a Turbo PMAC (SRM p.289), by their processor.
+/// CPU type bit 1 (X:$000006 bit 21) is 1 for the DSP56311 and DSP56321; bit 0 (Y:$000006
+/// bit 21) tells the two of each pair apart (56303 = 0,0; 56309 = 0,1; 56311 = 1,0;
+/// 56321 = 1,1; `status.yaml`).
+///
+/// MODEL: a configuration that names no processor has the DSP56303 (Option 5Cx), whose bits
+/// are both 0: what `???` reported before the bits came from the configuration. The manuals
+/// give no default; a card has whichever option was ordered.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Processor {
+    /// Option 5Cx.
+    #[default]
+    #[serde(rename = "DSP56303")]
+    Dsp56303,
+    /// Option 5Dx.
+    #[serde(rename = "DSP56309")]
+    Dsp56309,
+    /// Option 5Ex.
+    #[serde(rename = "DSP56311")]
+    Dsp56311,
+    /// Option 5Fx.
+    #[serde(rename = "DSP56321")]
+    Dsp56321,
+}
+
+impl Processor {
+    pub const ALL: [Processor; 4] =
+        [Processor::Dsp56303, Processor::Dsp56309, Processor::Dsp56311, Processor::Dsp56321];
+
+    /// CPU type bits 1 and 0 (X:$000006 bit 21, Y:$000006 bit 21), SRM p.289.
+    pub fn type_bits(self) -> (bool, bool) {
+        match self {
+            Processor::Dsp56303 => (false, false),
+            Processor::Dsp56309 => (false, true),
+            Processor::Dsp56311 => (true, false),
+            Processor::Dsp56321 => (true, true),
+        }
+    }
+
+    /// The name as `check.yaml` writes it (`DSP56321`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Processor::Dsp56303 => "DSP56303",
+            Processor::Dsp56309 => "DSP56309",
+            Processor::Dsp56311 => "DSP56311",
+            Processor::Dsp56321 => "DSP56321",
+        }
+    }
+
+    /// A processor by its name (case-insensitive, with or without `DSP`), or why not.
+    pub fn parse(text: &str) -> Result<Processor, String> {
+        let t = text.trim().to_ascii_uppercase();
+        let t = t.strip_prefix("DSP").unwrap_or(&t);
+        Processor::ALL.into_iter().find(|p| &p.name()[3..] == t).ok_or_else(|| {
+            format!("`{text}` is not a Turbo PMAC CPU option: the processor is one of DSP56303, DSP56309, DSP56311, DSP56321 (SRM p.289)")
+        })
+    }
 }
 
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Hash, PartialOrd, Ord)]

@@ -4,7 +4,7 @@
 //! Everything here comes from `specs/`: status bit positions by name (`status.yaml`), lockout
 //! ranges (`variables.yaml`), the supply minimum and strobe rule (`watchdog.yaml`).
 
-use crate::check::{ChecksumTarget, Configuration, Cpu, Delay, Load, PassCycles, ResetEvent};
+use crate::check::{ChecksumTarget, Configuration, Cpu, Delay, Load, PassCycles, Processor, ResetEvent};
 use crate::profiles::{Profile, ResetValueWhenI40Zero};
 use crate::status::WordId;
 use crate::vocab::command::HostCommand;
@@ -22,6 +22,9 @@ pub struct StatusLayout {
     pub rti_warning: (WordId, u8),
     pub motion_buffer_open: (WordId, u8),
     pub plc_buffer_open: (WordId, u8),
+    /// X bit 21 and Y bit 21: the CPU option (SRM p.289), from the configuration.
+    pub cpu_type_bit1: (WordId, u8),
+    pub cpu_type_bit0: (WordId, u8),
 }
 
 impl StatusLayout {
@@ -46,12 +49,14 @@ impl StatusLayout {
             rti_warning: bit("rti_warning")?,
             motion_buffer_open: bit("motion_buffer_open")?,
             plc_buffer_open: bit("plc_buffer_open")?,
+            cpu_type_bit1: bit("cpu_type_bit1")?,
+            cpu_type_bit0: bit("cpu_type_bit0")?,
         })
     }
 
     /// Every bit the model drives. Destructured without `..`: a new driven bit is a compile
     /// error here, so counts derived from this list stay true.
-    pub fn driven(&self) -> [(WordId, u8); 9] {
+    pub fn driven(&self) -> [(WordId, u8); 11] {
         let StatusLayout {
             rti_reentry,
             servo_error,
@@ -62,6 +67,8 @@ impl StatusLayout {
             rti_warning,
             motion_buffer_open,
             plc_buffer_open,
+            cpu_type_bit1,
+            cpu_type_bit0,
         } = *self;
         [
             rti_reentry,
@@ -73,6 +80,8 @@ impl StatusLayout {
             rti_warning,
             motion_buffer_open,
             plc_buffer_open,
+            cpu_type_bit1,
+            cpu_type_bit0,
         ]
     }
 }
@@ -91,6 +100,11 @@ pub struct ModelConfig {
     pub profile: Profile,
     pub servo_hz: u32,
     pub saved: SavedIVariables,
+    /// The I-variables' factory defaults (`variables.yaml`), which `$$$***` puts in active
+    /// memory (UM p.243).
+    pub factory: SavedIVariables,
+    /// The CPU option fitted (SRM p.289: `???` bits X21 and Y21).
+    pub processor: Processor,
     pub hardware_delay_cycles: u32,
     /// The hardware delays a card may have, `(min, max)` cycles: the strobe minimum is only
     /// "approximately" known (UM p.215; `watchdog.yaml`, `strobe_hz_min.interval`). Replay
@@ -175,11 +189,36 @@ impl ModelConfig {
             .interval
             .as_ref()
             .map_or((supply_min_millivolts, supply_min_millivolts), |b| (millivolts(b.min), millivolts(b.max)));
+        // variables.yaml's loader keeps each default within its range; the ranges fit the
+        // model's types, which a wrong range would break here with a message, not a panic.
+        let variables_file = spec.dir.join("variables.yaml");
+        let factory_default = |v: i64, range: (i64, i64)| {
+            u16::try_from(v).map_err(|_| {
+                SpecError::whole_file(
+                    &variables_file,
+                    format!(
+                        "the factory default {v} does not fit the model's variable (range {}..={})",
+                        range.0, range.1
+                    ),
+                )
+            })
+        };
+        let narrow = |v: u16| {
+            u8::try_from(v).map_err(|_| {
+                SpecError::whole_file(&variables_file, format!("the factory default {v} of I8 or I41 is above 255"))
+            })
+        };
         Ok(ModelConfig {
             configuration: name.to_string(),
             profile: profile.clone(),
             servo_hz: c.servo_hz,
             saved: SavedIVariables { i8: c.i8, i40: c.i40, i41: c.i41 },
+            factory: SavedIVariables {
+                i8: narrow(factory_default(vars.i_variables.i8.default, i8_range)?)?,
+                i40: factory_default(vars.i_variables.i40.default, i40_range)?,
+                i41: narrow(factory_default(vars.i_variables.i41.default, i41_range)?)?,
+            },
+            processor: c.processor,
             hardware_delay_cycles,
             hardware_delay_band,
             single_servo_cycles: c.single_servo_cycles,

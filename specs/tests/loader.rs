@@ -344,3 +344,24 @@ fn a_requirement_gives_either_the_quote_or_a_summary() {
     });
     expect_error(r, line_of(&text, "id: um240_data_gathering_times_background"), "give the `quote`");
 }
+
+#[test]
+fn a_processor_that_is_not_a_turbo_pmac_cpu_option_is_refused_at_its_line_naming_the_four() {
+    // SRM p.289: the CPU type bits of ??? tell four DSP56300-family options apart; a
+    // configuration names one of them, and a misspelt one is an error, not DSP56303.
+    let (result, edited) =
+        load_edited("processor", "check.yaml", |t| t.replacen("processor: DSP56321", "processor: DSP56300", 1));
+    let err = expect_error(result, line_of(&edited, "processor: DSP56300"), "DSP56300");
+    for option in ["DSP56303", "DSP56309", "DSP56311", "DSP56321"] {
+        assert!(err.message.contains(option), "{err}");
+    }
+}
+
+#[test]
+fn a_processor_name_is_read_with_or_without_its_dsp_prefix_and_anything_else_says_the_four() {
+    use pmacwd_specs::check::Processor;
+    assert_eq!(Processor::parse("dsp56321"), Ok(Processor::Dsp56321));
+    assert_eq!(Processor::parse("56309"), Ok(Processor::Dsp56309));
+    let err = Processor::parse("56000").unwrap_err();
+    assert!(err.contains("DSP56303, DSP56309, DSP56311, DSP56321 (SRM p.289)"), "{err}");
+}

@@ -458,8 +458,8 @@ pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> 
 
 /// Writes a witness as a JSON Lines trace: the capture's configuration, the named profiles of
 /// its readings (or `all`, with the readings in the description), and every step. The CPU
-/// type bits are taken out of the `???` replies it expects, since the model does not hold the
-/// CPU type (SRM p.289; the description says which type the capture showed), so that
+/// type bits of the `???` replies it expects are those of the configuration's processor, which
+/// the model reports (SRM p.289; the description says which type the capture showed), so that
 /// `pmacwd run` reproduces it on the model as it stands.
 /// What a written witness says about itself: the capture's configuration and card, the
 /// readings it was found under and the named profiles choosing them.
@@ -487,13 +487,17 @@ pub fn write_trace(
     }
     let card = (!own.is_empty()).then_some(&own);
     use pmacwd_specs::vocab::reply_text::{self, StatusReply};
-    let mask = super::observe::with_cpu(spec, 3, (0, 0));
+    // The CPU type the configuration's processor gives (X21 is bit 1, Y21 bit 0).
+    let configured_cpu = spec.check.configurations.get(configuration).map_or(0, |c| {
+        let (bit1, bit0) = c.processor.type_bits();
+        (u8::from(bit1) << 1) | u8::from(bit0)
+    });
     let trace = pmacwd_trace::Trace {
         version: pmacwd_trace::FORMAT_VERSION,
         description: format!(
             "Witness found by pmacwd replay under the readings {readings}: the capture's steps with every \
-             unseen gap replaced by events of the model. CPU type {} (bits 21 of ??? taken out of the \
-             expected replies).",
+             unseen gap replaced by events of the model. CPU type {} (bits 21 of ??? in the expected \
+             replies are the configuration's processor's).",
             w.cpu
         ),
         cite: None,
@@ -515,7 +519,8 @@ pub fn write_trace(
         if let Some(r) = &step.expect.reply {
             if let Ok(StatusReply::Words { x, y }) = reply_text::decode(r) {
                 if r.len() == 12 {
-                    step.expect.reply = Some(reply_text::encode(StatusReply::Words { x: x & !mask.0, y: y & !mask.1 }));
+                    let (x, y) = super::observe::with_cpu(spec, configured_cpu, (x, y));
+                    step.expect.reply = Some(reply_text::encode(StatusReply::Words { x, y }));
                 }
             }
         }

@@ -2,7 +2,7 @@
 //! operating point (I40 = 0, I8 = 2, eight motors, hardware delay 45 servo cycles: 2.25 kHz
 //! servo against the 25 Hz strobe minimum), eight motors in &1 decelerating for 20 servo cycles.
 
-use pmacwd_core::{Config, Load, MotionConfig, Profile};
+use pmacwd_core::{Config, Load, MotionConfig, Processor, Profile};
 
 pub fn realistic_config() -> Config {
     Config {
@@ -20,5 +20,6 @@ pub fn realistic_config() -> Config {
         servo_counter_mask: 0xFF_FFFF,
         load: Load { motors: 8, plc0_units: 30, background_units: 250 },
         motion: MotionConfig::all_in_cs1(8, 20),
+        processor: Processor::Dsp56303,
     }
 }

@@ -8,11 +8,20 @@
 //! | `I40=100` | [`HostCommand::WriteI`] | nothing (ignored silently when locked by I41, SRM p.57) |
 //! | `RHX:$25`, `RHY:$000025` | [`HostCommand::ReadHex`] | the 24-bit word in hex |
 //! | `$$$` | [`HostCommand::Reset`] | nothing; the card resets |
+//! | `$$$***` | [`HostCommand::Reinitialize`] | nothing; the card resets with the factory-default I-variables (UM p.243) |
+//! | `CHECKSUM`, `CHKS` | [`HostCommand::Checksum`] | the firmware's reference checksum in hex (UM p.217, SRM p.295) |
+//! | `<MEMORY-WRITE I130=7>` | [`HostCommand::WriteIMemory`] | nothing; the I-variable's storage is written past I41 (SRM p.57) |
 //! | `OPEN PLC 1`, `OPEN PROG 1` | [`HostCommand::Open`] | nothing |
 //! | `CLOSE` | [`HostCommand::Close`] | nothing; X:$1090 takes the program checksum (UM p.217) |
 //! | `#1J+`, `#1J-`, `#1J/`, `#1J=`, `#1K` | [`HostCommand::Motion`], motor scope | nothing; `#1K` while motor 1's C.S. runs a program: ERR001 (UM p.319) |
 //! | `&1A`, `&1Q`, `&1/`, `&1H`, `&1\`, `&1R`, `&1S`, `&1B`, `&1%0` | [`HostCommand::Motion`], C.S. scope | nothing |
 //! | `<CTRL-A>`, `<CTRL-Q>`, `<CTRL-O>`, `<CTRL-K>` | [`HostCommand::Motion`], global | nothing |
+//!
+//! `<MEMORY-WRITE In=v>` is not text a card reads: it stands for an M-variable assignment or a
+//! direct memory write command aimed at I-variable n's storage, which I41 does not lock (SRM
+//! p.57). MODEL: the manual pages this project has do not give the address of any I-variable's
+//! storage, so the command names its target I-variable instead of an address (a pseudo-target,
+//! written like the control characters, in angle brackets).
 //!
 //! Motion commands carry their motor (`#n`, 1..=32) or coordinate system (`&n`, 1..=16): the
 //! model does not track which motor or C.S. the host last addressed, so a bare `K` or `A` stays
@@ -284,6 +293,14 @@ pub enum HostCommand {
     Close,
     /// A command that starts or stops motion (UM p.217).
     Motion(Motion),
+    /// `$$$***`: reset and re-initialize: the factory-default I-variables are copied into
+    /// active memory; the values last saved are kept in flash, not used (UM p.243).
+    Reinitialize,
+    /// `CHECKSUM` (`CHKS`): report the firmware's reference checksum (UM p.217, SRM p.295).
+    Checksum,
+    /// An M-variable assignment or a direct memory write into I-variable `n`'s storage, which
+    /// I41 does not prevent (SRM p.57). Written `<MEMORY-WRITE In=v>` (see the module text).
+    WriteIMemory(u16, i64),
     /// Anything else: answered with ERR003.
     Unrecognized(String),
 }
@@ -314,6 +331,20 @@ impl HostCommand {
         }
         if compact == "$$$" {
             return Ok(HostCommand::Reset);
+        }
+        if compact == "$$$***" {
+            return Ok(HostCommand::Reinitialize);
+        }
+        if compact == "CHECKSUM" || compact == "CHKS" {
+            return Ok(HostCommand::Checksum);
+        }
+        if let Some(inner) = compact.strip_prefix("<MEMORY-WRITE ").and_then(|r| r.strip_suffix('>')) {
+            return match HostCommand::parse(inner)? {
+                HostCommand::WriteI(n, v) => Ok(HostCommand::WriteIMemory(n, v)),
+                _ => Err(CommandError(format!(
+                    "`{t}`: a memory write names an I-variable and its value, e.g. `<MEMORY-WRITE I130=7>`"
+                ))),
+            };
         }
         if compact == "CLOSE" {
             return Ok(HostCommand::Close);
@@ -421,6 +452,9 @@ impl fmt::Display for HostCommand {
             HostCommand::Open(Buffer::Program(n)) => write!(f, "OPEN PROG {n}"),
             HostCommand::Close => f.write_str("CLOSE"),
             HostCommand::Motion(m) => write!(f, "{m}"),
+            HostCommand::Reinitialize => f.write_str("$$$***"),
+            HostCommand::Checksum => f.write_str("CHECKSUM"),
+            HostCommand::WriteIMemory(n, v) => write!(f, "<MEMORY-WRITE I{n}={v}>"),
             HostCommand::Unrecognized(t) => f.write_str(t),
         }
     }
@@ -453,6 +487,9 @@ mod tests {
             ("&1%0", "&1%0"),
             ("<ctrl-k>", "<CTRL-K>"),
             ("<CTRL-O>", "<CTRL-O>"),
+            ("$$$***", "$$$***"),
+            ("chks", "CHECKSUM"),
+            ("<memory-write i130 = $10>", "<MEMORY-WRITE I130=16>"),
         ] {
             assert_eq!(HostCommand::parse(text).unwrap().to_string(), canonical, "{text}");
         }
@@ -473,6 +510,10 @@ mod tests {
     fn commands_the_model_cannot_represent_are_errors_not_guesses() {
         assert!(HostCommand::parse("RHX:$1234").unwrap_err().0.contains("no register"));
         assert!(HostCommand::parse("I9000=1").unwrap_err().0.contains("I0..I8191"));
+        // A memory write names an I-variable the card has and a value; anything else is not a
+        // memory write the model can make.
+        assert!(HostCommand::parse("<MEMORY-WRITE I130>").unwrap_err().0.contains("e.g. `<MEMORY-WRITE I130=7>`"));
+        assert!(HostCommand::parse("<MEMORY-WRITE I9000=1>").unwrap_err().0.contains("I0..I8191"));
     }
 
     #[test]
