@@ -42,6 +42,10 @@ pub struct ServeArgs {
     /// (repeatable; defaults I3=2 and I6=1, the framing host drivers expect).
     #[arg(long = "saved", value_name = "IN=V")]
     pub saved: Vec<String>,
+    /// The CPU option `???` reports in its bits 21 (SRM p.289): DSP56303, DSP56309, DSP56311
+    /// or DSP56321 (default: the configuration's `processor`, DSP56303 when it names none).
+    #[arg(long, value_name = "CPU")]
+    pub processor: Option<String>,
     /// What `ver` answers.
     #[arg(long, value_name = "TEXT", default_value = "1.947")]
     pub version_text: String,
@@ -123,6 +127,12 @@ pub fn serve(a: ServeArgs) -> ExitCode {
     let mut cfg = core_config(&model);
     // The card's X:$0 counts 24 bits (the model keeps it only where a configuration asks).
     cfg.servo_counter_mask = 0xFF_FFFF;
+    if let Some(p) = &a.processor {
+        match pmacwd_specs::check::Processor::parse(p) {
+            Ok(p) => cfg.processor = pmacwd_bridge::core_processor(p),
+            Err(e) => return unusable(format!("--processor {e}")),
+        }
+    }
     let saved = match saved_values(&a.saved, &mut cfg) {
         Ok(s) => s,
         Err(e) => return unusable(e),

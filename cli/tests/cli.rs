@@ -251,6 +251,7 @@ fn serve_refuses_arguments_it_cannot_honour_with_exit_2_and_the_reason() {
         (&["--configuration", "nope"][..], "no configuration named `nope`"),
         (&["--profile", "nope"][..], "no profile named `nope`"),
         (&["--servo-hz", "0"][..], "at least 1"),
+        (&["--processor", "68000"][..], "one of DSP56303, DSP56309, DSP56311, DSP56321 (SRM p.289)"),
     ] {
         let out = pmacwd().arg("serve").args(args).output().unwrap();
         let stderr = String::from_utf8_lossy(&out.stderr);

@@ -276,6 +276,10 @@ const SERVE_AND_RECORD: &[Case] = &[
     case("serve_with_a_saved_i_variable_beyond_i8191_exits_2", &["serve", "--saved", "I9999=1"]),
     case("serve_with_i40_out_of_range_exits_2", &["serve", "--saved", "I40=70000"]),
     case("serve_with_a_zero_servo_rate_exits_2", &["serve", "--servo-hz", "0"]),
+    case(
+        "serve_with_a_processor_that_is_no_turbo_pmac_cpu_option_exits_2_naming_the_four",
+        &["serve", "--processor", "DSP56000"],
+    ),
     case("serve_with_an_unparsable_listen_address_is_a_usage_error", &["serve", "--listen", "notanaddr"]),
     case("serve_with_an_unknown_flag_is_a_usage_error", &["serve", "--frob"]),
     case("record_without_arguments_is_a_usage_error_naming_the_required_flags", &["record"]),

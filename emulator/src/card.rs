@@ -930,6 +930,20 @@ mod tests {
     }
 
     #[test]
+    fn the_cpu_type_bits_of_global_status_are_the_configured_processor() {
+        // SRM p.289: X21 and Y21 say which of the four CPU options the card has; `pmacwd serve
+        // --processor` sets it in the core's configuration.
+        let mut cfg = Card::default_card(Clock::Virtual).cfg;
+        assert_eq!(
+            values(&Card::power_on(cfg, &SAVED_DEFAULT, Clock::Virtual, Identity::default()).line(b"???").unwrap()),
+            ["001000000000"]
+        );
+        cfg.processor = core::Processor::Dsp56321;
+        let mut c = Card::power_on(cfg, &SAVED_DEFAULT, Clock::Virtual, Identity::default());
+        assert_eq!(values(&c.line(b"???").unwrap()), ["201000200000"]);
+    }
+
+    #[test]
     fn a_memory_write_changes_an_i_variable_i41_locks_and_checksum_answers_the_reference() {
         // SRM p.57: I41 locks the {I-variable}={value} command, not a memory write.
         let mut c = card();
