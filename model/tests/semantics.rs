@@ -303,3 +303,22 @@ fn a_stop_command_without_its_address_is_answered_err003() {
     assert_eq!(cmd(&mut card, &cfg, "K"), Reply::Error(3));
     assert_eq!(cmd(&mut card, &cfg, "A"), Reply::Error(3));
 }
+
+/// UM p.217: the card "continually computes the checksum of its firmware as a background task"
+/// and X:$001080 is the running checksum register that an error leaves "frozen". So, before any
+/// error, X:$1080 moves with every background cycle; a register that never moved would make
+/// the freeze unobservable (found by cargo-mutants: `running_value` returning a constant).
+#[test]
+fn the_running_checksum_in_x1080_moves_with_every_background_cycle_while_no_error_is_found() {
+    // UM p.217
+    let cfg = config("status", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    let mut seen = vec![cmd(&mut card, &cfg, "RHX:$1080")];
+    for _ in 0..3 {
+        servo(&mut card, &cfg, 1);
+        card.apply(&cfg, &Event::Background);
+        let now = cmd(&mut card, &cfg, "RHX:$1080");
+        assert_ne!(Some(&now), seen.last(), "X:$1080 keeps running while no checksum error is found");
+        seen.push(now);
+    }
+}
