@@ -322,3 +322,31 @@ fn the_running_checksum_in_x1080_moves_with_every_background_cycle_while_no_erro
         seen.push(now);
     }
 }
+
+/// SRM p.289: X:$000006 bit 20, "Turbo PMAC could not properly complete its servo routines";
+/// UM p.236: the servo update costs about 1% of the CPU per motor. So bit 20 is set exactly when
+/// the motors' servo work (motors times the cost of one) needs more than the servo cycle has; a
+/// load that just fills the cycle completes. The configurations of `check.yaml` all cost one unit
+/// per motor, so the cost of one motor is raised here as well (found by cargo-mutants: `>` ->
+/// `>=` and `*` -> `/` in the servo load survived).
+#[test]
+fn bit_20_is_set_exactly_when_the_motors_servo_work_needs_more_than_the_servo_cycle_has() {
+    // SRM p.289, UM p.236
+    let base = config("status", "um-215");
+    let (word, bit) = base.layout.servo_error;
+    assert_eq!((word, bit), (pmacwd_specs::status::WordId::X, 20));
+    for (units_per_motor, motors, expected) in [(1, 4, false), (1, 5, true), (2, 2, false), (2, 3, true)] {
+        let mut cfg = base.clone();
+        cfg.cpu.servo_units_per_motor = units_per_motor;
+        assert_eq!(cfg.cpu.cycle_units, 4);
+        let mut card = Controller::power_on(&cfg);
+        card.apply(&cfg, &Event::Load(Load { motors, plc0_units: 0, background_units: 1 }));
+        servo(&mut card, &cfg, 1);
+        let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!("??? answers") };
+        assert_eq!(
+            x & (1 << 20) != 0,
+            expected,
+            "{motors} motors at {units_per_motor} units each against a cycle of 4 units: X:$000006 = {x:06X}"
+        );
+    }
+}
