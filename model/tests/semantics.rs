@@ -371,3 +371,23 @@ fn move_planning_adds_to_plc0_in_the_rti_and_can_make_it_overrun_its_period() {
         assert_eq!(x & (1 << 22) != 0, overrun, "PLC 0 = 4 units, planning = {planning}: X:$000006 = {x:06X}");
     }
 }
+
+/// SRM p.42 (I9): the card reports an I-variable "as the value alone", so `I8`, `I40` and `I41`
+/// answer with the value each holds: the saved one after power-on, the new one after a write
+/// (SRM p.57: I41 itself is always writable). Found by cargo-mutants: the model's read of I8
+/// could fall through to the table of other I-variables (reading 0) and nothing noticed, since
+/// no scenario or configuration reads I8 back.
+#[test]
+fn i8_i40_and_i41_read_back_the_saved_value_after_power_on_and_the_written_value_after_a_write() {
+    // SRM p.42, SRM p.57
+    let cfg = config("status", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    let saved = [("I8", i64::from(cfg.saved.i8)), ("I40", i64::from(cfg.saved.i40)), ("I41", i64::from(cfg.saved.i41))];
+    for (name, value) in saved {
+        assert_eq!(cmd(&mut card, &cfg, name), Reply::Value(value), "{name} after power-on");
+    }
+    for (name, value) in [("I8", 7), ("I40", 1000), ("I41", 2)] {
+        assert_eq!(cmd(&mut card, &cfg, &format!("{name}={value}")), Reply::Ack);
+        assert_eq!(cmd(&mut card, &cfg, name), Reply::Value(value), "{name} after {name}={value}");
+    }
+}
