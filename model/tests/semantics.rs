@@ -391,3 +391,21 @@ fn i8_i40_and_i41_read_back_the_saved_value_after_power_on_and_the_written_value
         assert_eq!(cmd(&mut card, &cfg, name), Reply::Value(value), "{name} after {name}={value}");
     }
 }
+
+/// SRM p.42 gives I8 the range 0 to 255 and SRM p.57 gives I40 "Range: 0 65,535". MODEL (the
+/// manuals do not say what the firmware does with a value outside): the write is refused with
+/// ERR003 and the variable keeps its value, rather than the value being truncated to the
+/// variable's width (I8=256 would become 0, an RTI every servo cycle). Found by cargo-mutants:
+/// the range guard of I8 could be dropped and nothing noticed; I41's has a scenario.
+#[test]
+fn an_i8_or_i40_beyond_its_documented_range_is_refused_with_err003_and_keeps_its_value() {
+    // SRM p.42, SRM p.57
+    let cfg = config("status", "um-215");
+    assert_eq!((cfg.i8_range, cfg.i40_range), ((0, 255), (0, 65_535)));
+    let mut card = Controller::power_on(&cfg);
+    for (name, beyond) in [("I8", 256), ("I8", -1), ("I40", 65_536), ("I40", -1)] {
+        let before = cmd(&mut card, &cfg, name);
+        assert_eq!(cmd(&mut card, &cfg, &format!("{name}={beyond}")), Reply::Error(3), "{name}={beyond}");
+        assert_eq!(cmd(&mut card, &cfg, name), before, "{name} keeps its value after {name}={beyond}");
+    }
+}
