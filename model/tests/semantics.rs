@@ -409,3 +409,19 @@ fn an_i8_or_i40_beyond_its_documented_range_is_refused_with_err003_and_keeps_its
         assert_eq!(cmd(&mut card, &cfg, name), before, "{name} keeps its value after {name}={beyond}");
     }
 }
+
+/// UM p.215: "If the supply voltage is below this value, the circuit's relay will trip and the
+/// card will shut down." Below, not at: a supply exactly at the threshold keeps the card running,
+/// one millivolt less trips it. Found by cargo-mutants: `<` -> `<=` in the supply check survived,
+/// since the configurations only offer supplies well above or well below the threshold.
+#[test]
+fn a_supply_exactly_at_the_threshold_keeps_the_card_running_and_one_millivolt_below_trips_it() {
+    // UM p.215
+    let cfg = config("timing", "um-215");
+    let threshold = cfg.supply_min_millivolts;
+    let mut card = Controller::power_on(&cfg);
+    card.apply(&cfg, &Event::Supply { millivolts: threshold });
+    assert!(!card.tripped(), "{threshold} mV is not below {threshold} mV");
+    card.apply(&cfg, &Event::Supply { millivolts: threshold - 1 });
+    assert_eq!(card.trip, Some(TripCause::Undervoltage));
+}
