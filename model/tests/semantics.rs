@@ -425,3 +425,32 @@ fn a_supply_exactly_at_the_threshold_keeps_the_card_running_and_one_millivolt_be
     card.apply(&cfg, &Event::Supply { millivolts: threshold - 1 });
     assert_eq!(card.trip, Some(TripCause::Undervoltage));
 }
+
+/// UM p.217: the checksum computed in the background is compared with the reference, and only
+/// a mismatch sets bits 12 and 13. MODEL (shared with the core): an injected fault flips one bit
+/// of the area's memory, so a second fault on the same area before the pass reaches it restores
+/// the memory and the comparison finds nothing, while one fault is found. Found by
+/// cargo-mutants: the firmware fault as a stuck bit (`^=` -> `|=`) survived; the user-program
+/// fault's was caught only by a pinned state count.
+#[test]
+fn two_faults_on_the_same_area_restore_its_memory_and_the_checksum_pass_finds_no_error() {
+    // UM p.217
+    let cfg = config("status", "um-215");
+    for (area, faults, error) in [
+        (ChecksumTarget::Firmware, 1, true),
+        (ChecksumTarget::Firmware, 2, false),
+        (ChecksumTarget::UserProgram, 1, true),
+        (ChecksumTarget::UserProgram, 2, false),
+    ] {
+        let mut card = Controller::power_on(&cfg);
+        for _ in 0..faults {
+            card.apply(&cfg, &Event::ChecksumFault(area));
+        }
+        for _ in 0..2 {
+            servo(&mut card, &cfg, 1);
+            card.apply(&cfg, &Event::Background); // both passes (one cycle each) end
+        }
+        let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!("??? answers") };
+        assert_eq!(x & (1 << 13) != 0, error, "{faults} fault(s) on {area:?}: X:$000006 = {x:06X}");
+    }
+}
