@@ -454,3 +454,25 @@ fn two_faults_on_the_same_area_restore_its_memory_and_the_checksum_pass_finds_no
         assert_eq!(x & (1 << 13) != 0, error, "{faults} fault(s) on {area:?}: X:$000006 = {x:06X}");
     }
 }
+
+/// UM p.217's table of stop commands, as the model looks a row up: each stop command finds its
+/// own row (`stop_rules_match_the_table` checks the rows against `specs/stop_commands.yaml`),
+/// and a command that starts motion finds none. Found by cargo-mutants: `motion::rule`, which
+/// no rule of the model calls, could return `None` or the wrong row and nothing noticed.
+#[test]
+fn every_stop_command_of_the_um_217_table_finds_its_own_row_and_a_jog_finds_none() {
+    // UM p.217
+    for (text, row) in [
+        ("#1K", Some("K")),
+        ("#1J/", Some("J/")),
+        ("&1A", Some("A")),
+        ("&1Q", Some("Q")),
+        ("&1H", Some("H")),
+        ("#1J+", None),
+    ] {
+        let HostCommand::Motion(m) = HostCommand::parse(text).expect("command parses") else {
+            panic!("{text} is a motion command")
+        };
+        assert_eq!(pmacwd_model::motion::rule(m).map(|r| r.command), row, "{text}");
+    }
+}
