@@ -476,3 +476,22 @@ fn every_stop_command_of_the_um_217_table_finds_its_own_row_and_a_jog_finds_none
         assert_eq!(pmacwd_model::motion::rule(m).map(|r| r.command), row, "{text}");
     }
 }
+
+/// MODEL (model/src/motion.rs, `Axes::command`): a motor the configuration does not have is not
+/// set up (Ixx00 = 0, motor not activated), so a command to it is acknowledged and does nothing:
+/// the motors the card has keep their state and the card keeps running. Found by cargo-mutants:
+/// the bound `k < motors` as `k <= motors` survived (the motor just past the last one would be
+/// indexed), since no configuration addresses a motor it does not have.
+#[test]
+fn a_command_to_the_motor_just_past_the_last_one_is_acknowledged_and_changes_nothing() {
+    let cfg = config("motion", "um-215");
+    assert_eq!(cfg.motion.motors, 2);
+    let mut card = Controller::power_on(&cfg);
+    assert_eq!(cmd(&mut card, &cfg, "#1J/"), Reply::Ack);
+    let before = card.axes.view();
+    for text in ["#3J+", "#3J/", "#3K"] {
+        assert_eq!(cmd(&mut card, &cfg, text), Reply::Ack, "{text}");
+        assert_eq!(card.axes.view(), before, "{text} changes no motor");
+    }
+    assert!(!card.tripped());
+}
