@@ -495,3 +495,67 @@ fn a_command_to_the_motor_just_past_the_last_one_is_acknowledged_and_changes_not
     }
     assert!(!card.tripped());
 }
+
+/// One servo cycle of a healthy card: the servo interrupt, then a background cycle if one can
+/// complete (keeps the watchdog of the small configurations satisfied).
+fn healthy_cycle(c: &mut Controller, cfg: &ModelConfig) {
+    servo(c, cfg, 1);
+    if c.background_possible() {
+        c.apply(cfg, &Event::Background);
+    }
+}
+
+/// What a coordinate system's program and its motor 1 stand at (UM p.217, p.319).
+fn cs1(c: &Controller) -> (pmacwd_model::motion::Program, pmacwd_specs::vocab::observation::MotorState) {
+    (c.axes.programs()[0], c.axes.motors()[0].state)
+}
+
+/// MODEL (model/src/motion.rs, `cs_command`; UM p.319: a program "could be resumed with an R or
+/// S command"): a program starts only when one is pointed at (B) and every motor of the
+/// coordinate system is closed-loop at rest, and a non-zero `%` resumes only a program held by H
+/// or `%0`: it does not start a program standing at a point. Found by cargo-mutants: the
+/// at-rest condition joined with `||`, and `%n` falling through to R's rule, survived.
+#[test]
+fn r_starts_a_program_only_with_every_motor_closed_loop_at_rest_and_a_feedrate_only_resumes_a_held_one() {
+    // UM p.319, UM p.217
+    use pmacwd_model::motion::Program;
+    use pmacwd_specs::vocab::observation::MotorState;
+    let cfg = config("motion", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    assert_eq!(cmd(&mut card, &cfg, "&1B"), Reply::Ack);
+    assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Killed));
+    cmd(&mut card, &cfg, "&1R");
+    assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Killed), "R with motor 1 killed starts nothing");
+    cmd(&mut card, &cfg, "#1J/");
+    assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Closed));
+    cmd(&mut card, &cfg, "&1%100");
+    assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Closed), "%100 does not start a program at a point");
+    cmd(&mut card, &cfg, "&1R");
+    assert_eq!(cs1(&card), (Program::Running, MotorState::Program), "R does");
+}
+
+/// UM p.217: Q "finishes calculated moves" and stops at a program point: the calculated moves
+/// are what they were, so a second Q while they finish neither restarts nor postpones the stop.
+/// With decelerations of 2 servo cycles the program stands at its point 2 cycles after the
+/// first Q, whatever Q follows. Found by cargo-mutants: `m.state == Program && m.stop.is_none()`
+/// as `||` (a second Q restarting the countdown) survived.
+#[test]
+fn a_second_q_while_the_calculated_moves_finish_does_not_postpone_the_stop() {
+    // UM p.217
+    use pmacwd_model::motion::Program;
+    use pmacwd_specs::vocab::observation::MotorState;
+    let cfg = config("motion", "um-215");
+    assert_eq!(cfg.motion.decel_cycles_max, 2);
+    let mut card = Controller::power_on(&cfg);
+    for text in ["#1J/", "&1B", "&1R"] {
+        assert_eq!(cmd(&mut card, &cfg, text), Reply::Ack, "{text}");
+    }
+    assert_eq!(cs1(&card), (Program::Running, MotorState::Program));
+    cmd(&mut card, &cfg, "&1Q");
+    healthy_cycle(&mut card, &cfg);
+    cmd(&mut card, &cfg, "&1Q");
+    assert_eq!(cs1(&card), (Program::Running, MotorState::Program), "one cycle after the first Q");
+    healthy_cycle(&mut card, &cfg);
+    assert!(!card.tripped());
+    assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Closed), "two cycles after the first Q");
+}
