@@ -513,8 +513,8 @@ fn cs1(c: &Controller) -> (pmacwd_model::motion::Program, pmacwd_specs::vocab::o
 /// MODEL (model/src/motion.rs, `cs_command`; UM p.319: a program "could be resumed with an R or
 /// S command"): a program starts only when one is pointed at (B) and every motor of the
 /// coordinate system is closed-loop at rest, and a non-zero `%` resumes only a program held by H
-/// or `%0`: it does not start a program standing at a point. Found by cargo-mutants: the
-/// at-rest condition joined with `||`, and `%n` falling through to R's rule, survived.
+/// or `%0`: it does not start a program standing at a point. Found by cargo-mutants: R's
+/// "pointed at and not running" joined with `||`, and `%n` falling through to R's rule, survived.
 #[test]
 fn r_starts_a_program_only_with_every_motor_closed_loop_at_rest_and_a_feedrate_only_resumes_a_held_one() {
     // UM p.319, UM p.217
@@ -522,6 +522,10 @@ fn r_starts_a_program_only_with_every_motor_closed_loop_at_rest_and_a_feedrate_o
     use pmacwd_specs::vocab::observation::MotorState;
     let cfg = config("motion", "um-215");
     let mut card = Controller::power_on(&cfg);
+    cmd(&mut card, &cfg, "#1J/");
+    cmd(&mut card, &cfg, "&1R");
+    assert_eq!(cs1(&card), (Program::None, MotorState::Closed), "R with no program pointed at starts nothing");
+    cmd(&mut card, &cfg, "#1K");
     assert_eq!(cmd(&mut card, &cfg, "&1B"), Reply::Ack);
     assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Killed));
     cmd(&mut card, &cfg, "&1R");
