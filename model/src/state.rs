@@ -224,6 +224,10 @@ mod tests {
             ("outputs.forced_off", |s| s.controller.outputs.forced_off = true),
             ("motor.state", |s| s.controller.axes.motor_slots[0].state = pmacwd_specs::vocab::MotorState::Jogging),
             ("motor.stop", |s| s.controller.axes.motor_slots[0].stop = Some(crate::motion::Stop::Hold)),
+            // The first stop must not hash as no stop (found by cargo-mutants: `s as u64 + 1`
+            // as `s as u64 * 1`); the checker keeps one state per hash, so a collision would
+            // merge two states and lose one.
+            ("motor.stop = Jog", |s| s.controller.axes.motor_slots[0].stop = Some(crate::motion::Stop::Jog)),
             ("motor.stop_cycles", |s| s.controller.axes.motor_slots[0].stop_cycles = 2),
             ("motor.amplifier_enabled", |s| s.controller.axes.motor_slots[0].amplifier_enabled = true),
             ("motor.output_zero", |s| s.controller.axes.motor_slots[0].output_zero = false),

@@ -303,3 +303,263 @@ fn a_stop_command_without_its_address_is_answered_err003() {
     assert_eq!(cmd(&mut card, &cfg, "K"), Reply::Error(3));
     assert_eq!(cmd(&mut card, &cfg, "A"), Reply::Error(3));
 }
+
+/// UM p.217: the card "continually computes the checksum of its firmware as a background task"
+/// and X:$001080 is the running checksum register that an error leaves "frozen". So, before any
+/// error, X:$1080 moves with every background cycle; a register that never moved would make
+/// the freeze unobservable (found by cargo-mutants: `running_value` returning a constant).
+#[test]
+fn the_running_checksum_in_x1080_moves_with_every_background_cycle_while_no_error_is_found() {
+    // UM p.217
+    let cfg = config("status", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    let mut seen = vec![cmd(&mut card, &cfg, "RHX:$1080")];
+    for _ in 0..3 {
+        servo(&mut card, &cfg, 1);
+        card.apply(&cfg, &Event::Background);
+        let now = cmd(&mut card, &cfg, "RHX:$1080");
+        assert_ne!(Some(&now), seen.last(), "X:$1080 keeps running while no checksum error is found");
+        seen.push(now);
+    }
+}
+
+/// SRM p.289: X:$000006 bit 20, "Turbo PMAC could not properly complete its servo routines";
+/// UM p.236: the servo update costs about 1% of the CPU per motor. So bit 20 is set exactly when
+/// the motors' servo work (motors times the cost of one) needs more than the servo cycle has; a
+/// load that just fills the cycle completes. The configurations of `check.yaml` all cost one unit
+/// per motor, so the cost of one motor is raised here as well (found by cargo-mutants: `>` ->
+/// `>=` and `*` -> `/` in the servo load survived).
+#[test]
+fn bit_20_is_set_exactly_when_the_motors_servo_work_needs_more_than_the_servo_cycle_has() {
+    // SRM p.289, UM p.236
+    let base = config("status", "um-215");
+    let (word, bit) = base.layout.servo_error;
+    assert_eq!((word, bit), (pmacwd_specs::status::WordId::X, 20));
+    for (units_per_motor, motors, expected) in [(1, 4, false), (1, 5, true), (2, 2, false), (2, 3, true)] {
+        let mut cfg = base.clone();
+        cfg.cpu.servo_units_per_motor = units_per_motor;
+        assert_eq!(cfg.cpu.cycle_units, 4);
+        let mut card = Controller::power_on(&cfg);
+        card.apply(&cfg, &Event::Load(Load { motors, plc0_units: 0, background_units: 1 }));
+        servo(&mut card, &cfg, 1);
+        let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!("??? answers") };
+        assert_eq!(
+            x & (1 << 20) != 0,
+            expected,
+            "{motors} motors at {units_per_motor} units each against a cycle of 4 units: X:$000006 = {x:06X}"
+        );
+    }
+}
+
+/// UM p.236: move planning "occurs at the next RTI", alongside PLC 0, so the RTI's task set is
+/// PLC 0 plus the planning (the model's fixed planning cost). With I8 = 1 an RTI period has 6
+/// free units: PLC 0 alone at 4 units finishes in time, PLC 0 with 3 units of planning does not,
+/// and the next RTI finds it still executing (SRM p.289, bit 22). The configurations of
+/// `check.yaml` all plan at no cost, so the cost is set here (found by cargo-mutants: `+` -> `-`
+/// in the RTI task set survived).
+#[test]
+fn move_planning_adds_to_plc0_in_the_rti_and_can_make_it_overrun_its_period() {
+    // UM p.236, SRM p.289
+    let base = config("timing", "um-215");
+    for (planning, overrun) in [(0, false), (3, true)] {
+        let mut cfg = base.clone();
+        cfg.cpu.move_planning_units = planning;
+        let mut card = Controller::power_on(&cfg);
+        card.apply(&cfg, &Event::Load(Load { motors: 1, plc0_units: 4, background_units: 3 }));
+        servo(&mut card, &cfg, 4);
+        let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!("??? answers") };
+        assert_eq!(x & (1 << 22) != 0, overrun, "PLC 0 = 4 units, planning = {planning}: X:$000006 = {x:06X}");
+    }
+}
+
+/// SRM p.42 (I9): the card reports an I-variable "as the value alone", so `I8`, `I40` and `I41`
+/// answer with the value each holds: the saved one after power-on, the new one after a write
+/// (SRM p.57: I41 itself is always writable). Found by cargo-mutants: the model's read of I8
+/// could fall through to the table of other I-variables (reading 0) and nothing noticed, since
+/// no scenario or configuration reads I8 back.
+#[test]
+fn i8_i40_and_i41_read_back_the_saved_value_after_power_on_and_the_written_value_after_a_write() {
+    // SRM p.42, SRM p.57
+    let cfg = config("status", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    let saved = [("I8", i64::from(cfg.saved.i8)), ("I40", i64::from(cfg.saved.i40)), ("I41", i64::from(cfg.saved.i41))];
+    for (name, value) in saved {
+        assert_eq!(cmd(&mut card, &cfg, name), Reply::Value(value), "{name} after power-on");
+    }
+    for (name, value) in [("I8", 7), ("I40", 1000), ("I41", 2)] {
+        assert_eq!(cmd(&mut card, &cfg, &format!("{name}={value}")), Reply::Ack);
+        assert_eq!(cmd(&mut card, &cfg, name), Reply::Value(value), "{name} after {name}={value}");
+    }
+}
+
+/// SRM p.42 gives I8 the range 0 to 255 and SRM p.57 gives I40 "Range: 0 65,535". MODEL (the
+/// manuals do not say what the firmware does with a value outside): the write is refused with
+/// ERR003 and the variable keeps its value, rather than the value being truncated to the
+/// variable's width (I8=256 would become 0, an RTI every servo cycle). Found by cargo-mutants:
+/// the range guard of I8 could be dropped and nothing noticed; I41's has a scenario.
+#[test]
+fn an_i8_or_i40_beyond_its_documented_range_is_refused_with_err003_and_keeps_its_value() {
+    // SRM p.42, SRM p.57
+    let cfg = config("status", "um-215");
+    assert_eq!((cfg.i8_range, cfg.i40_range), ((0, 255), (0, 65_535)));
+    let mut card = Controller::power_on(&cfg);
+    for (name, beyond) in [("I8", 256), ("I8", -1), ("I40", 65_536), ("I40", -1)] {
+        let before = cmd(&mut card, &cfg, name);
+        assert_eq!(cmd(&mut card, &cfg, &format!("{name}={beyond}")), Reply::Error(3), "{name}={beyond}");
+        assert_eq!(cmd(&mut card, &cfg, name), before, "{name} keeps its value after {name}={beyond}");
+    }
+}
+
+/// UM p.215: "If the supply voltage is below this value, the circuit's relay will trip and the
+/// card will shut down." Below, not at: a supply exactly at the threshold keeps the card running,
+/// one millivolt less trips it. Found by cargo-mutants: `<` -> `<=` in the supply check survived,
+/// since the configurations only offer supplies well above or well below the threshold.
+#[test]
+fn a_supply_exactly_at_the_threshold_keeps_the_card_running_and_one_millivolt_below_trips_it() {
+    // UM p.215
+    let cfg = config("timing", "um-215");
+    let threshold = cfg.supply_min_millivolts;
+    let mut card = Controller::power_on(&cfg);
+    card.apply(&cfg, &Event::Supply { millivolts: threshold });
+    assert!(!card.tripped(), "{threshold} mV is not below {threshold} mV");
+    card.apply(&cfg, &Event::Supply { millivolts: threshold - 1 });
+    assert_eq!(card.trip, Some(TripCause::Undervoltage));
+}
+
+/// UM p.217: the checksum computed in the background is compared with the reference, and only
+/// a mismatch sets bits 12 and 13. MODEL (shared with the core): an injected fault flips one bit
+/// of the area's memory, so a second fault on the same area before the pass reaches it restores
+/// the memory and the comparison finds nothing, while one fault is found. Found by
+/// cargo-mutants: the firmware fault as a stuck bit (`^=` -> `|=`) survived; the user-program
+/// fault's was caught only by a pinned state count.
+#[test]
+fn two_faults_on_the_same_area_restore_its_memory_and_the_checksum_pass_finds_no_error() {
+    // UM p.217
+    let cfg = config("status", "um-215");
+    for (area, faults, error) in [
+        (ChecksumTarget::Firmware, 1, true),
+        (ChecksumTarget::Firmware, 2, false),
+        (ChecksumTarget::UserProgram, 1, true),
+        (ChecksumTarget::UserProgram, 2, false),
+    ] {
+        let mut card = Controller::power_on(&cfg);
+        for _ in 0..faults {
+            card.apply(&cfg, &Event::ChecksumFault(area));
+        }
+        for _ in 0..2 {
+            servo(&mut card, &cfg, 1);
+            card.apply(&cfg, &Event::Background); // both passes (one cycle each) end
+        }
+        let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!("??? answers") };
+        assert_eq!(x & (1 << 13) != 0, error, "{faults} fault(s) on {area:?}: X:$000006 = {x:06X}");
+    }
+}
+
+/// UM p.217's table of stop commands, as the model looks a row up: each stop command finds its
+/// own row (`stop_rules_match_the_table` checks the rows against `specs/stop_commands.yaml`),
+/// and a command that starts motion finds none. Found by cargo-mutants: `motion::rule`, which
+/// no rule of the model calls, could return `None` or the wrong row and nothing noticed.
+#[test]
+fn every_stop_command_of_the_um_217_table_finds_its_own_row_and_a_jog_finds_none() {
+    // UM p.217
+    for (text, row) in [
+        ("#1K", Some("K")),
+        ("#1J/", Some("J/")),
+        ("&1A", Some("A")),
+        ("&1Q", Some("Q")),
+        ("&1H", Some("H")),
+        ("#1J+", None),
+    ] {
+        let HostCommand::Motion(m) = HostCommand::parse(text).expect("command parses") else {
+            panic!("{text} is a motion command")
+        };
+        assert_eq!(pmacwd_model::motion::rule(m).map(|r| r.command), row, "{text}");
+    }
+}
+
+/// MODEL (model/src/motion.rs, `Axes::command`): a motor the configuration does not have is not
+/// set up (Ixx00 = 0, motor not activated), so a command to it is acknowledged and does nothing:
+/// the motors the card has keep their state and the card keeps running. Found by cargo-mutants:
+/// the bound `k < motors` as `k <= motors` survived (the motor just past the last one would be
+/// indexed), since no configuration addresses a motor it does not have.
+#[test]
+fn a_command_to_the_motor_just_past_the_last_one_is_acknowledged_and_changes_nothing() {
+    let cfg = config("motion", "um-215");
+    assert_eq!(cfg.motion.motors, 2);
+    let mut card = Controller::power_on(&cfg);
+    assert_eq!(cmd(&mut card, &cfg, "#1J/"), Reply::Ack);
+    let before = card.axes.view();
+    for text in ["#3J+", "#3J/", "#3K"] {
+        assert_eq!(cmd(&mut card, &cfg, text), Reply::Ack, "{text}");
+        assert_eq!(card.axes.view(), before, "{text} changes no motor");
+    }
+    assert!(!card.tripped());
+}
+
+/// One servo cycle of a healthy card: the servo interrupt, then a background cycle if one can
+/// complete (keeps the watchdog of the small configurations satisfied).
+fn healthy_cycle(c: &mut Controller, cfg: &ModelConfig) {
+    servo(c, cfg, 1);
+    if c.background_possible() {
+        c.apply(cfg, &Event::Background);
+    }
+}
+
+/// What a coordinate system's program and its motor 1 stand at (UM p.217, p.319).
+fn cs1(c: &Controller) -> (pmacwd_model::motion::Program, pmacwd_specs::vocab::observation::MotorState) {
+    (c.axes.programs()[0], c.axes.motors()[0].state)
+}
+
+/// MODEL (model/src/motion.rs, `cs_command`; UM p.319: a program "could be resumed with an R or
+/// S command"): a program starts only when one is pointed at (B) and every motor of the
+/// coordinate system is closed-loop at rest, and a non-zero `%` resumes only a program held by H
+/// or `%0`: it does not start a program standing at a point. Found by cargo-mutants: R's
+/// "pointed at and not running" joined with `||`, and `%n` falling through to R's rule, survived.
+#[test]
+fn r_starts_a_program_only_with_every_motor_closed_loop_at_rest_and_a_feedrate_only_resumes_a_held_one() {
+    // UM p.319, UM p.217
+    use pmacwd_model::motion::Program;
+    use pmacwd_specs::vocab::observation::MotorState;
+    let cfg = config("motion", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    cmd(&mut card, &cfg, "#1J/");
+    cmd(&mut card, &cfg, "&1R");
+    assert_eq!(cs1(&card), (Program::None, MotorState::Closed), "R with no program pointed at starts nothing");
+    cmd(&mut card, &cfg, "#1K");
+    assert_eq!(cmd(&mut card, &cfg, "&1B"), Reply::Ack);
+    assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Killed));
+    cmd(&mut card, &cfg, "&1R");
+    assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Killed), "R with motor 1 killed starts nothing");
+    cmd(&mut card, &cfg, "#1J/");
+    assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Closed));
+    cmd(&mut card, &cfg, "&1%100");
+    assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Closed), "%100 does not start a program at a point");
+    cmd(&mut card, &cfg, "&1R");
+    assert_eq!(cs1(&card), (Program::Running, MotorState::Program), "R does");
+}
+
+/// UM p.217: Q "finishes calculated moves" and stops at a program point: the calculated moves
+/// are what they were, so a second Q while they finish neither restarts nor postpones the stop.
+/// With decelerations of 2 servo cycles the program stands at its point 2 cycles after the
+/// first Q, whatever Q follows. Found by cargo-mutants: `m.state == Program && m.stop.is_none()`
+/// as `||` (a second Q restarting the countdown) survived.
+#[test]
+fn a_second_q_while_the_calculated_moves_finish_does_not_postpone_the_stop() {
+    // UM p.217
+    use pmacwd_model::motion::Program;
+    use pmacwd_specs::vocab::observation::MotorState;
+    let cfg = config("motion", "um-215");
+    assert_eq!(cfg.motion.decel_cycles_max, 2);
+    let mut card = Controller::power_on(&cfg);
+    for text in ["#1J/", "&1B", "&1R"] {
+        assert_eq!(cmd(&mut card, &cfg, text), Reply::Ack, "{text}");
+    }
+    assert_eq!(cs1(&card), (Program::Running, MotorState::Program));
+    cmd(&mut card, &cfg, "&1Q");
+    healthy_cycle(&mut card, &cfg);
+    cmd(&mut card, &cfg, "&1Q");
+    assert_eq!(cs1(&card), (Program::Running, MotorState::Program), "one cycle after the first Q");
+    healthy_cycle(&mut card, &cfg);
+    assert!(!card.tripped());
+    assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Closed), "two cycles after the first Q");
+}
