@@ -504,3 +504,47 @@ pub const MONITORS: &[Monitor] = &[
         }),
     },
 ];
+
+#[cfg(test)]
+mod tests {
+    //! The monitors' helpers read what the sentences they serve say. A helper answering `true`
+    //! or every motor would only make monitors lenient, which no property run can notice (a
+    //! monitor that holds more often still holds): cargo-mutants found those survivors.
+    use super::*;
+    use pmacwd_specs::config::ModelConfig;
+    use pmacwd_specs::Spec;
+
+    fn motion_config() -> ModelConfig {
+        let spec = Spec::embedded().unwrap();
+        ModelConfig::from_spec(&spec, "motion", &spec.profiles.default_profile()).unwrap()
+    }
+
+    #[test]
+    fn bit_reads_one_bit_of_a_status_word_and_no_other() {
+        // SRM p.289: the `???` words are read bit by bit.
+        assert!(bit(1 << 22, 22));
+        assert!(!bit(1 << 22, 9));
+        assert!(!bit(0, 0));
+        assert!(!bit(!(1 << 5), 5), "a word with every other bit set");
+    }
+
+    #[test]
+    fn a_host_s_dollar_dollar_dollar_and_reinitialization_are_resets_and_ordinary_events_are_not() {
+        // SRM p.289 / UM p.243: $$$ and $$$*** reset the card, as INIT/ and a power cycle do.
+        assert!(is_reset(&Event::Command(HostCommand::Reset)));
+        assert!(is_reset(&Event::Command(HostCommand::Reinitialize)));
+        for e in [Event::Servo { cycles: 1 }, Event::Background, Event::Command(HostCommand::GlobalStatus)] {
+            assert!(!is_reset(&e), "{e:?} is no reset");
+        }
+    }
+
+    #[test]
+    fn the_members_of_a_coordinate_system_are_its_motors_only() {
+        // UM p.217: a coordinate-system command acts on the motors of that system. `motion`
+        // has motor 1 in C.S. 1 and motor 2 in C.S. 2.
+        let cfg = motion_config();
+        assert_eq!(members(&cfg, 1).collect::<Vec<_>>(), [0]);
+        assert_eq!(members(&cfg, 2).collect::<Vec<_>>(), [1]);
+        assert_eq!(members(&cfg, 3).count(), 0, "no motor in a system the configuration leaves empty");
+    }
+}
