@@ -547,4 +547,16 @@ mod tests {
         assert_eq!(members(&cfg, 2).collect::<Vec<_>>(), [1]);
         assert_eq!(members(&cfg, 3).count(), 0, "no motor in a system the configuration leaves empty");
     }
+
+    #[test]
+    fn only_a_status_reply_can_be_twelve_hex_characters_of_its_words() {
+        // SRM p.289: `???` answers 12 hex characters, first word first. Any other reply, and a
+        // bootstrap card's `BOOTSTRAP PROM`, is not such a text; asked twice, the same answer
+        // (the second from the per-thread memory).
+        for _ in 0..2 {
+            assert!(status_text_is_the_words(Reply::Status { x: 0x00_1000, y: 0x80_0400 }));
+            assert!(!status_text_is_the_words(Reply::Ack));
+            assert!(!status_text_is_the_words(Reply::Bootstrap));
+        }
+    }
 }
