@@ -4,33 +4,10 @@
 //! Run: `cargo bench -p pmacwd-core --bench core`.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-#[path = "../tests/common/mod.rs"]
-mod common;
+mod shared;
 
-use common::realistic_config as config;
-use pmacwd_core::motion::MotorCommand;
-use pmacwd_core::{Command, Config, Core, Event, FewIVariables, MotionCommand, MotionConfig, Reply};
-
-/// A running card whose eight motors are closed-loop and jogging, `stopping` of them
-/// decelerating from a J/ for 255 servo cycles (longer than a batch, so every cycle of the
-/// batch has them under way). Jogging motors cost a servo cycle nothing (the core represents
-/// no trajectory); a stop under way is what a cycle has to count down.
-fn moving(stopping: u8) -> (Config, Core) {
-    let cfg = Config { motion: MotionConfig::all_in_cs1(8, 255), ..config() };
-    let mut core = Core::power_on(&cfg);
-    let mut store = FewIVariables::<4>::default();
-    let mut send = |core: &mut Core, n: u8, c: MotorCommand| {
-        core.apply(&cfg, Event::Command(Command::Motion(MotionCommand::Motor(n, c))), &mut store)
-    };
-    for n in 1..=8 {
-        send(&mut core, n, MotorCommand::JogStop);
-        send(&mut core, n, MotorCommand::Jog);
-    }
-    for n in 1..=stopping {
-        send(&mut core, n, MotorCommand::JogStop);
-    }
-    (cfg, core)
-}
+use pmacwd_core::{Command, Core, Event, FewIVariables, Reply};
+use shared::{moving, realistic_config as config};
 
 fn core_benchmarks(c: &mut Criterion) {
     let cfg = config();

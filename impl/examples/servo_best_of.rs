@@ -5,30 +5,12 @@
 //!
 //! Run: `cargo run --release -p pmacwd-core --example servo_best_of`.
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+#[path = "../benches/shared/mod.rs"]
+mod shared;
 
-use pmacwd_core::motion::MotorCommand;
-use pmacwd_core::{Command, Config, Core, Event, FewIVariables, MotionCommand, MotionConfig};
+use pmacwd_core::{Config, Core};
+use shared::{moving, realistic_config};
 use std::hint::black_box;
-
-/// Eight motors jogging, `stopping` of them decelerating from a J/ for 255 servo cycles.
-fn moving(stopping: u8) -> (Config, Core) {
-    let cfg = Config { motion: MotionConfig::all_in_cs1(8, 255), ..common::realistic_config() };
-    let mut core = Core::power_on(&cfg);
-    let mut store = FewIVariables::<4>::default();
-    let mut send = |core: &mut Core, n: u8, c: MotorCommand| {
-        core.apply(&cfg, Event::Command(Command::Motion(MotionCommand::Motor(n, c))), &mut store)
-    };
-    for n in 1..=8 {
-        send(&mut core, n, MotorCommand::JogStop);
-        send(&mut core, n, MotorCommand::Jog);
-    }
-    for n in 1..=stopping {
-        send(&mut core, n, MotorCommand::JogStop);
-    }
-    (cfg, core)
-}
 
 /// Nanoseconds per servo cycle, the best of 50 runs of 10^7 cycles in batches of `batch`
 /// from `start` (batches of 200 stay within the 255-cycle stops).
@@ -49,7 +31,7 @@ fn best(cfg: &Config, start: Core, batch: u32) -> f64 {
 }
 
 fn main() {
-    let cfg = common::realistic_config();
+    let cfg = realistic_config();
     println!("motors idle (killed), batches of 1,000: {:.2} ns", best(&cfg, Core::power_on(&cfg), 1_000));
     for stopping in [0u8, 1, 2, 4, 8] {
         let (cfg, start) = moving(stopping);
