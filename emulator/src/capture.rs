@@ -104,6 +104,11 @@ pub struct CaptureWriter<W: Write> {
     pending_cycles: u64,
     /// I-variables written since the last reset: the model knows their values.
     written: Vec<bool>,
+    /// Whether an M-variable assignment or a direct memory write went by since the last reset:
+    /// it may have changed any I-variable past I41 (SRM p.57), and the capture cannot tell which
+    /// (the address of I-variable storage is the emulator's, not every card's), so I-variable
+    /// reads are notes from then on.
+    memory_written: bool,
     pending_notes: Notes,
     pub steps: u64,
 }
@@ -134,6 +139,7 @@ impl<W: Write> CaptureWriter<W> {
             timing,
             pending_cycles: 0,
             written: vec![false; usize::from(pmacwd_core::I_VARIABLE_MAX) + 1],
+            memory_written: false,
             pending_notes: Notes::default(),
             steps: 0,
         })
@@ -174,6 +180,7 @@ impl<W: Write> CaptureWriter<W> {
             step.event
         {
             self.written.fill(false);
+            self.memory_written = false;
         }
         self.write_line(step)
     }
@@ -233,6 +240,9 @@ impl<W: Write> CaptureWriter<W> {
 
     fn match_line(&mut self, line: &str, reply: Option<&[u8]>) -> Vec<Matched> {
         let commands = framing::split_commands(line);
+        if commands.iter().any(|c| memory_access(c) == Some(MemoryAccess::Write)) {
+            self.memory_written = true;
+        }
         let command_step = |c: HostCommand, expect: Expect, note: Option<String>| {
             Matched::Step(Step { event: TraceEvent::Model(Event::Command(c)), expect, note })
         };
@@ -271,12 +281,27 @@ impl<W: Write> CaptureWriter<W> {
             Ok(p) => p,
             Err(e) => return unmatched(format!("reply `{shown}` to `{line}` not compared: {e}")),
         };
-        let mut answers = parsed.answers.into_iter();
+        let mut answers = parsed.answers.into_iter().peekable();
         let mut out = Vec::new();
         let mut stopped = false;
         for text in &commands {
             if stopped {
                 out.push(Matched::Note(format!("`{text}` not executed: it follows an error in the line")));
+                continue;
+            }
+            // An M-variable definition or assignment, or a direct memory write: answered with
+            // nothing, or an error that ends the line; outside the model's vocabulary.
+            if memory_access(text).is_some() {
+                if let Some(ReadAnswer::Error(code)) = answers.peek() {
+                    let code = code.map_or("an error".to_string(), |n| format!("ERR{n:03}"));
+                    answers.next();
+                    stopped = true;
+                    out.push(Matched::Note(format!("`{text}` answered {code}: outside the model's vocabulary")));
+                } else {
+                    out.push(Matched::Note(format!(
+                        "`{text}` kept as a note: M-variable definitions, assignments and memory writes are outside the model's vocabulary"
+                    )));
+                }
                 continue;
             }
             let parsed = HostCommand::parse(text);
@@ -345,6 +370,9 @@ impl<W: Write> CaptureWriter<W> {
             return note("outside the model's vocabulary");
         }
         match command {
+            HostCommand::ReadI(_) if self.memory_written => note(
+                "an M-variable assignment or memory write since the last reset may have changed it (SRM p.57: past I41), and the capture cannot tell which I-variable it reached",
+            ),
             HostCommand::ReadI(n) if !matches!(n, 8 | 40 | 41) && !self.written[usize::from(*n)] => {
                 note("the card's saved value; the model starts every I-variable but I8, I40, I41 at 0")
             }
@@ -358,6 +386,33 @@ impl<W: Write> CaptureWriter<W> {
             _ => (Some(data.to_ascii_uppercase()), None),
         }
     }
+}
+
+/// What a command does to memory beyond the model's vocabulary, read from its text.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum MemoryAccess {
+    /// `M100->X:$25,0,24,S`, `M1..8->*`: a definition (answers nothing).
+    Define,
+    /// `M100=5`, `M1..8=0`, `WX:$2082,7`: a write that may reach an I-variable (SRM p.57).
+    Write,
+}
+
+fn memory_access(text: &str) -> Option<MemoryAccess> {
+    let t = text.trim().to_ascii_uppercase();
+    let b = t.as_bytes();
+    if b.len() > 2 && b[0] == b'W' && matches!(b[1], b'X' | b'Y' | b'D' | b'L') && t.contains(',') {
+        return Some(MemoryAccess::Write);
+    }
+    let rest = t.strip_prefix('M')?;
+    let digits = rest.trim_start_matches(|c: char| c.is_ascii_digit() || c == '.');
+    if digits.len() == rest.len() || !rest.starts_with(|c: char| c.is_ascii_digit()) {
+        return None;
+    }
+    if let Some(def) = digits.strip_prefix("->") {
+        // `M100->` alone reports the definition: an answer, not a definition.
+        return (!def.is_empty()).then_some(MemoryAccess::Define);
+    }
+    digits.starts_with('=').then_some(MemoryAccess::Write)
 }
 
 #[cfg(test)]
@@ -385,6 +440,42 @@ mod tests {
                 _ => None,
             })
             .collect()
+    }
+
+    #[test]
+    fn after_a_memory_write_i_variable_reads_are_notes_until_a_reset() {
+        // SRM p.57: an M-variable assignment or a direct memory write changes an I-variable past
+        // I41. The capture cannot tell which one (the storage address is not every card's), so
+        // a read the model would otherwise be held to becomes a note, and a replay of a correct
+        // card cannot diverge on it.
+        let t = capture(
+            Timing::Exact,
+            &[
+                ("I130=5 M100->D:$2082 I130", Some(b"5\r\x06")),
+                ("M100=9 I130 I40", Some(b"9\r0\r\x06")),
+                ("$$$", Some(b"\x06")),
+                ("I130=1 I130", Some(b"1\r\x06")),
+            ],
+        );
+        let r = replies(&t);
+        assert_eq!(r[0], ("I130=5".into(), Some("(ack)".into())));
+        assert_eq!(r[1], ("I130".into(), Some("5".into())), "the definition alone writes nothing");
+        assert_eq!(r[2], ("I130".into(), None), "after M100=9");
+        assert_eq!(r[3], ("I40".into(), None), "even I40: a memory write can reach it");
+        assert_eq!(r[6], ("I130".into(), Some("1".into())), "compared again after the reset");
+        let notes: Vec<_> = t.steps.iter().filter_map(|s| s.note.as_deref()).collect();
+        assert!(notes.iter().any(|n| n.contains("`M100=9` kept as a note")), "{notes:?}");
+    }
+
+    #[test]
+    fn a_refused_definition_ends_the_line_and_takes_its_error() {
+        // `M1->Z:0` is ERR003 and nothing after it runs: the next command must not be held to
+        // the error.
+        let t =
+            capture(Timing::Exact, &[("M1->Z:0 I130", Some(b"\x07ERR003\r")), ("???", Some(b"000000000000\r\x06"))]);
+        assert_eq!(replies(&t), [("???".to_string(), Some("000000000000".to_string()))], "I130 did not run");
+        let notes: Vec<_> = t.steps.iter().filter_map(|s| s.note.as_deref()).collect();
+        assert!(notes.iter().any(|n| n.contains("`M1->Z:0` answered ERR003")), "{notes:?}");
     }
 
     #[test]

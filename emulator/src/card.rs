@@ -9,12 +9,13 @@ use crate::framing::{framing_write_out_of_range, Answer, Framing};
 use crate::grammar::{parse_commands, Addressing, Command, Gather, Jog, VarKind};
 use crate::memory::{format_value, HostDefaults, Memory};
 use crate::motor_status::{cs_words, hex_words, motor_words};
+use crate::mvar::{self, Definition, MemoryMap};
 use pmacwd_bridge::{core_command, core_event, spec_load};
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion, MotorCommand};
+use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion, MotorCommand, Register, Space};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::vocab::Buffer;
 use pmacwd_trace::jsonl::step_line;
@@ -156,6 +157,10 @@ pub struct Card {
     capture: Option<CaptureWriter<Box<dyn Write + Send>>>,
     /// P-, Q-, M-variables, feedrate overrides, I-variable formats.
     memory: Memory,
+    /// M-variable definitions and the memory words they point at.
+    mvars: MemoryMap,
+    /// Whether the console has said that writes to the core's registers are not applied.
+    register_write_said: bool,
     /// The addressing of callers that keep none of their own ([`Card::line`]); connections
     /// keep theirs ([`Card::line_addressed`]).
     addressing: Addressing,
@@ -194,6 +199,8 @@ impl Card {
             identity,
             capture: None,
             memory: Memory::new(defaults),
+            mvars: MemoryMap::new(defaults.i_storage_base),
+            register_write_said: false,
             addressing: Addressing::default(),
             console: None,
             tripped_seen: false,
@@ -528,6 +535,12 @@ impl Card {
                     }
                 }
             }
+            Command::Read { kind: VarKind::M, first, last, .. } => {
+                for n in first..=last {
+                    let value = self.m_value(n);
+                    out.push(data(format_value(value)));
+                }
+            }
             Command::Read { kind, first, last, .. } => {
                 for n in first..=last {
                     out.push(data(format_value(self.memory.read(kind, n))));
@@ -552,14 +565,53 @@ impl Card {
             Command::MacroStation { value, .. } => {
                 out.push(if value.is_some() { Answer::Nothing } else { data("0".into()) })
             }
-            // Definitions are acknowledged and not applied (MODEL: no memory map behind
-            // M-variables); a suggested definition's value stays the documented constant.
-            Command::MDefinition(_) => out.push(Answer::Nothing),
+            // MODEL: every M-variable of a range gets the same definition.
+            Command::MDefine { first, last, definition } => {
+                for n in first..=last {
+                    self.mvars.define(n, definition);
+                }
+                out.push(Answer::Nothing);
+            }
+            // PMAC-SRM p.253: the definition itself, or with I9 bit 0 the whole statement.
+            Command::MReport { first, last } => {
+                let whole_statement = self.core.read_i(9, &self.store) & 1 != 0;
+                for n in first..=last {
+                    let text = self.mvars.definition(n).report();
+                    out.push(data(if whole_statement { format!("M{n}->{text}") } else { text }));
+                }
+            }
+            Command::MWrite { first, last, value } => {
+                for n in first..=last {
+                    let answer = match self.mvars.definition(n) {
+                        Definition::SelfReferenced => {
+                            self.memory.write(VarKind::M, n, value);
+                            Answer::Nothing
+                        }
+                        d => self.write_through(d, value),
+                    };
+                    let failed = matches!(answer, Answer::Error(_));
+                    out.push(answer);
+                    if failed {
+                        break;
+                    }
+                }
+            }
+            Command::MemoryWrite { kind, values } => {
+                for (i, value) in values.into_iter().enumerate() {
+                    let answer = self.write_through(kind.at_offset(i as u32), value);
+                    let failed = matches!(answer, Answer::Error(_));
+                    out.push(answer);
+                    if failed {
+                        break;
+                    }
+                }
+            }
             // MODEL: user PLC programs are not run (their CPU load is the control port's
             // `plc0` and `background`); switching them is acknowledged.
             Command::PlcSwitch => out.push(Answer::Nothing),
             Command::Save => {
                 self.store.save();
+                self.mvars.save();
                 out.push(Answer::Nothing);
             }
             // Data gathering to the level dls-pmaccontrol uses it: the commands are accepted
@@ -584,6 +636,10 @@ impl Card {
         let reply = self.core.command(&self.cfg, core_command(command), &mut self.store);
         if matches!(command, HostCommand::Reset | HostCommand::Reinitialize) && reply != core::Reply::Silence {
             self.memory.reset();
+            match command {
+                HostCommand::Reinitialize => self.mvars.reinitialize(),
+                _ => self.mvars.reset(),
+            }
             let line = match command {
                 HostCommand::Reinitialize => {
                     format!("$$$*** from a host at {}: the card resets to its factory defaults", self.moment())
@@ -593,6 +649,103 @@ impl Card {
             self.say(&line);
         }
         reply_answer(reply)
+    }
+
+    /// M-variable `n`'s value: its own (`*`, or a documented constant), or what its
+    /// definition points at (module `mvar`).
+    fn m_value(&mut self, n: u16) -> f64 {
+        match self.mvars.definition(n) {
+            Definition::SelfReferenced => self.memory.read(VarKind::M, n),
+            Definition::Word { space, address, offset, width, format } => {
+                mvar::field_value(self.word_at(space, address), offset, width, format) as f64
+            }
+            Definition::Fixed { address, dual_ported } => {
+                if let Some(i) = self.mvars.i_variable_at(address) {
+                    return self.core.read_i(i, &self.store) as f64;
+                }
+                let (x, y) = (self.word_at(Space::X, address), self.word_at(Space::Y, address));
+                (if dual_ported { mvar::join32(x, y) } else { mvar::join48(x, y) }) as f64
+            }
+            Definition::Float { address, .. } => match self.mvars.i_variable_at(address) {
+                Some(i) => self.core.read_i(i, &self.store) as f64,
+                None if Register::at(Space::X, address).is_some() || Register::at(Space::Y, address).is_some() => {
+                    mvar::join48(self.word_at(Space::X, address), self.word_at(Space::Y, address)) as f64
+                }
+                None => self.mvars.float(address),
+            },
+        }
+    }
+
+    /// The 24-bit word at `space:address`: a core register read as `RH` reads it, half of an
+    /// I-variable's storage (X the high 24 bits, Y the low), or a word the emulator keeps.
+    fn word_at(&mut self, space: Space, address: u32) -> u32 {
+        if let Some(r) = Register::at(space, address) {
+            let read = core_command(&HostCommand::ReadHex(r));
+            return match self.core.command(&self.cfg, read, &mut self.store) {
+                core::Reply::Hex(v) => v & 0xFF_FFFF,
+                _ => 0,
+            };
+        }
+        if let Some(i) = self.mvars.i_variable_at(address) {
+            let (x, y) = mvar::split48(self.core.read_i(i, &self.store));
+            return if space == Space::X { x } else { y };
+        }
+        self.mvars.word(space, address)
+    }
+
+    /// Writes `value` where `d` points (an M-variable assignment or one value of a direct
+    /// memory write). A write into I-variable storage goes to the core past I41 (SRM p.57).
+    fn write_through(&mut self, d: Definition, value: f64) -> Answer {
+        let (address, spaces): (u32, &[Space]) = match d {
+            Definition::SelfReferenced => return Answer::Nothing,
+            Definition::Word { space: Space::X, address, .. } => (address, &[Space::X]),
+            Definition::Word { space: Space::Y, address, .. } => (address, &[Space::Y]),
+            Definition::Fixed { address, .. } | Definition::Float { address, .. } => (address, &[Space::X, Space::Y]),
+        };
+        if let Some(r) = spaces.iter().find_map(|s| Register::at(*s, address)) {
+            if !std::mem::replace(&mut self.register_write_said, true) {
+                let line = format!(
+                    "a host wrote to {r:?}'s register at {}: not applied, the firmware owns it (MODEL; said once)",
+                    self.moment()
+                );
+                self.say(&line);
+            }
+            return Answer::Nothing;
+        }
+        let i_variable = self.mvars.i_variable_at(address);
+        let stored = match d {
+            Definition::Word { space, address, offset, width, format } => {
+                let word = mvar::with_field(self.word_at(space, address), offset, width, format, mvar::whole(value));
+                match i_variable {
+                    Some(i) => {
+                        let (x, y) = mvar::split48(self.core.read_i(i, &self.store));
+                        let v = if space == Space::X { mvar::join48(word, y) } else { mvar::join48(x, word) };
+                        return self.core_answer(&HostCommand::WriteIMemory(i, v));
+                    }
+                    None => self.mvars.set_word(space, address, word),
+                }
+            }
+            Definition::Fixed { address, dual_ported } => {
+                let v = mvar::whole(value);
+                if let Some(i) = i_variable {
+                    return self.core_answer(&HostCommand::WriteIMemory(i, v));
+                }
+                let (x, y) = if dual_ported { mvar::split32(v) } else { mvar::split48(v) };
+                self.mvars.set_word(Space::X, address, x).and_then(|()| self.mvars.set_word(Space::Y, address, y))
+            }
+            Definition::Float { address, .. } => {
+                if let Some(i) = i_variable {
+                    return self.core_answer(&HostCommand::WriteIMemory(i, mvar::whole(value)));
+                }
+                self.mvars.set_float(address, value)
+            }
+            Definition::SelfReferenced => Ok(()),
+        };
+        match stored {
+            Ok(()) => Answer::Nothing,
+            // MODEL: the emulator's bound on kept words (mvar::WORDS_MAX); a card has the memory.
+            Err(_) => Answer::Error(3),
+        }
     }
 
     /// The answer to a control character sent on its own (VR_CTRL_RESPONSE): read as a line
@@ -953,6 +1106,87 @@ mod tests {
         assert_eq!(values(&c.line(b"I130").unwrap()), ["5"], "written past I41");
         // UM p.217, SRM p.295: CHECKSUM and CHKS answer the reference (the model's token).
         assert_eq!(values(&c.line(b"CHECKSUM CHKS").unwrap()), ["000000", "000000"]);
+    }
+
+    #[test]
+    fn an_m_variable_assignment_and_a_direct_memory_write_change_an_i_variable_i41_locks() {
+        // SRM p.57: "I41 does not prevent changes to an I-variable by means of an M-variable
+        // assignment or a direct memory write command", here in the syntax a host sends, with
+        // I130's storage at D:$002082 (variables.yaml, i_variable_storage: MODEL).
+        let mut c = card();
+        c.line(b"I41=1 I130=5");
+        assert_eq!(values(&c.line(b"I130").unwrap()), ["0"], "the on-line command is ignored");
+        assert_eq!(c.line(b"M100->D:$002082 M100=9").unwrap(), b"\x06");
+        assert_eq!(values(&c.line(b"I130 M100").unwrap()), ["9", "9"], "the M-variable reached I130");
+        assert_eq!(c.line(b"WD:$2082,11").unwrap(), b"\x06");
+        assert_eq!(values(&c.line(b"I130").unwrap()), ["11"], "and so did the direct memory write");
+        // Each half of the storage on its own: Y is the low 24 bits, X the high (MODEL).
+        c.line(b"M101->Y:$2082,0,24,S M102->X:$2082,0,24,S WY:$2082,-2");
+        assert_eq!(values(&c.line(b"I130 M101 M102").unwrap()), ["16777214", "-2", "0"]);
+        c.line(b"WX:$2082,$FFFFFF");
+        assert_eq!(values(&c.line(b"I130").unwrap()), ["-2"], "X holds the sign of the 48-bit value");
+        // A field of a word: bits 4..7 of I130's low word.
+        c.line(b"I41=0 I130=0 M103->Y:$2082,4,4 M103=19");
+        assert_eq!(values(&c.line(b"I130 M103").unwrap()), ["48", "3"], "19 rolled over to 4 bits is 3");
+    }
+
+    #[test]
+    fn m_variables_read_the_watchdog_registers_as_rh_reads_them_and_writes_there_are_not_applied() {
+        // UM p.246: an M-variable reads the register it points at. The firmware owns the
+        // watchdog's registers: a write is not applied (MODEL), and the console says so once.
+        let mut c = card();
+        let said = std::sync::Arc::new(std::sync::Mutex::new(Vec::<String>::new()));
+        let log = said.clone();
+        c.on_console(Box::new(move |l: &str| log.lock().unwrap().push(l.to_string())));
+        c.line(b"M125->X:$25,0,24,S M126->Y:$000025,24,24,S M127->Y:$25,0,24,U");
+        let rh = values(&c.line(b"RHX:$25 RHY:$25").unwrap());
+        let m = values(&c.line(b"M125 M126 M127").unwrap());
+        let signed = |h: &str| {
+            let v = i64::from_str_radix(h, 16).unwrap();
+            if v >= 1 << 23 {
+                v - (1 << 24)
+            } else {
+                v
+            }
+        };
+        assert_eq!(m[0], signed(&rh[0]).to_string());
+        assert_eq!(m[1], signed(&rh[1]).to_string());
+        assert_eq!(m[2], i64::from_str_radix(&rh[1], 16).unwrap().to_string(), "U reads the bits unsigned");
+        assert_eq!(c.line(b"M127=5 WX:$25,7").unwrap(), b"\x06");
+        assert_eq!(values(&c.line(b"RHX:$25").unwrap()), [rh[0].clone()], "X:$25 unchanged");
+        let lines = said.lock().unwrap().clone();
+        assert_eq!(lines.iter().filter(|l| l.contains("not applied")).count(), 1, "{lines:?}");
+    }
+
+    #[test]
+    fn definitions_report_back_survive_a_reset_once_saved_and_go_at_reinitialization() {
+        // PMAC-SRM p.253: `M{n}->` reports the definition, the whole statement when I9 bit 0
+        // is set; UM p.243: SAVE keeps what $$$ brings back, $$$*** puts the defaults in use.
+        let mut c = card();
+        c.line(b"M1..2->X:$10000,8,8,U M3->*");
+        assert_eq!(values(&c.line(b"M1..3->").unwrap()), ["X:$010000,8,8,U", "X:$010000,8,8,U", "*"]);
+        c.line(b"I9=1");
+        assert_eq!(values(&c.line(b"M1->").unwrap()), ["M1->X:$010000,8,8,U"]);
+        c.line(b"I9=0 WX:$10000,$1234 M4->X:$10000,0,24");
+        assert_eq!(values(&c.line(b"M1 M4").unwrap()), ["18", "4660"], "bits 8..15 of $001234");
+        c.line(b"SAVE M5->D:$10000");
+        c.line(b"$$$");
+        assert_eq!(values(&c.line(b"M1-> M5-> M4").unwrap()), ["X:$010000,8,8,U", "*", "0"], "words cleared");
+        c.line(b"$$$***");
+        c.line(b"I3=2 I6=1"); // the factory framing ends answers with LF, not ACK
+        assert_eq!(values(&c.line(b"M1->").unwrap()), ["*"]);
+        c.line(b"$$$");
+        assert_eq!(values(&c.line(b"M1->").unwrap()), ["X:$010000,8,8,U"], "flash kept it");
+    }
+
+    #[test]
+    fn unreadable_definitions_and_memory_writes_are_err003_and_run_nothing_after() {
+        let mut c = card();
+        for bad in ["M1->X:$25", "M1->TWD:4,0,8.3,U", "M1->X:$80000,0", "WX:$2082", "WX:$7FFFF,1,2", "M1->Z:0"] {
+            let line = format!("{bad} P1=7");
+            assert_eq!(c.line(line.as_bytes()).unwrap(), b"\x07ERR003\r", "{bad}");
+            assert_eq!(values(&c.line(b"P1").unwrap()), ["0"], "{bad}: P1=7 after it did not run");
+        }
     }
 
     #[test]

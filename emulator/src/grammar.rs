@@ -18,7 +18,10 @@
 //! The parser stops at the first command it cannot read: the card answers ERR003 there and
 //! runs nothing after it (`framing`'s module text says why).
 
-use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand, COORDINATE_SYSTEM_MAX, MOTOR_MAX};
+use crate::mvar::{parse_address, Definition, Format};
+use pmacwd_specs::vocab::command::{
+    CsCommand, GlobalCommand, Motion, MotorCommand, Space, COORDINATE_SYSTEM_MAX, MOTOR_MAX,
+};
 
 /// The motor and coordinate system a connection addresses. A card powers up addressing motor
 /// 1 and C.S. 1 (the SRM's examples send `J+` and `P1` without a `#` first, SRM p.259).
@@ -45,6 +48,12 @@ pub enum VarKind {
 
 /// The highest number of an I-, M-, P- or Q-variable (UM p.243).
 pub const VARIABLE_MAX: u16 = 8191;
+
+/// A character that would make a value the start of an expression (`I124=I124&$FDFFFF`),
+/// which the emulator does not evaluate.
+fn is_operator(c: u8) -> bool {
+    matches!(c, b'&' | b'|' | b'*' | b'+' | b'-' | b'/' | b'^')
+}
 
 /// The largest feedrate override `%` takes, in percent. MODEL: the override register holds
 /// I10-scaled time (PMAC-SRM p.29: delta-time is I10*(%value/100)) in a 24-bit word; this
@@ -110,8 +119,31 @@ pub enum Command {
         value: f64,
         cs: u8,
     },
-    /// `Mn->{definition}`: an M-variable definition (`M190->Y:$078F00,0,24,S`).
-    MDefinition(u16),
+    /// `Mn[..m]->{definition}`: M-variable definitions (`M190->Y:$078F00,0,24,S`, UM p.246).
+    MDefine {
+        first: u16,
+        last: u16,
+        definition: Definition,
+    },
+    /// `Mn[..m]->`: report the definitions (PMAC-SRM p.253).
+    MReport {
+        first: u16,
+        last: u16,
+    },
+    /// `Mn[..m]=v`: M-variable assignments (PMAC-SRM p.253: `M1..8=0`).
+    MWrite {
+        first: u16,
+        last: u16,
+        value: f64,
+    },
+    /// `W{X|Y|D|L}:{address},{value}[,{value}...]`: a direct memory write (SRM p.57), each value
+    /// to the next address, as through an M-variable of `kind` (a whole 24-bit word for X and
+    /// Y). MODEL: the pages at hand name the command, not its syntax; this is the PMAC family's
+    /// `W{address},{constant}[,{constant}...]` form.
+    MemoryWrite {
+        kind: Definition,
+        values: Vec<f64>,
+    },
     /// `MSn,Im` and `MSn,Im=v`: a MACRO station's I-variable.
     MacroStation {
         station: u8,
@@ -428,6 +460,13 @@ impl Parser<'_, '_> {
             }
             return Ok(Command::ReadHex(String::from_utf8_lossy(&self.s[from..self.i]).trim().to_string()));
         }
+        // `WX:$2082,7`: a direct memory write (SRM p.57).
+        if self.peek() == Some(b'W')
+            && matches!(self.s.get(self.i + 1).map(u8::to_ascii_uppercase), Some(b'X' | b'Y' | b'D' | b'L'))
+        {
+            self.i += 1;
+            return self.memory_write_command(start);
+        }
         let letter = self.peek().unwrap_or(b' ');
         self.i += 1;
         let followed_by_digit = self.peek().is_some_and(|c| c.is_ascii_digit());
@@ -495,6 +534,9 @@ impl Parser<'_, '_> {
             _ => return Err(self.error(start, too_high)),
         };
         let cs = self.addressing.cs;
+        if kind == VarKind::M {
+            return self.m_variable(first, start);
+        }
         self.skip_spaces();
         if self.starts_with("..") {
             self.i += 2;
@@ -504,32 +546,95 @@ impl Parser<'_, '_> {
             };
         }
         if self.starts_with("->") {
-            self.i += 2;
-            let from = self.i;
-            // The definition runs to the next space (`Y:$078F00,0,24,S`, `*`, `TWB:...`).
-            while self.s.get(self.i).is_some_and(|c| *c > b' ') {
-                self.i += 1;
-            }
-            return match kind {
-                VarKind::M if self.i > from => Ok(Command::MDefinition(first)),
-                VarKind::M => Err(self.error(start, "reporting an M-variable definition (`M1->`) is not emulated")),
-                _ => Err(self.error(start, "only M-variables are defined with ->")),
-            };
+            return Err(self.error(start, "only M-variables are defined with ->"));
         }
         if self.peek() == Some(b'=') {
             self.i += 1;
             return match self.value() {
                 // A value must end where the next command can start: `I124=I124&$FDFFFF`
                 // is an expression, which the emulator does not evaluate.
-                Some(value)
-                    if !self.peek().is_some_and(|c| matches!(c, b'&' | b'|' | b'*' | b'+' | b'-' | b'/' | b'^')) =>
-                {
+                Some(value) if !self.peek().is_some_and(is_operator) => {
                     Ok(Command::Write { kind, number: first, value, cs })
                 }
                 _ => Err(self.error(start, "the value is a constant (expressions are not evaluated)")),
             };
         }
         Ok(Command::Read { kind, first, last: first, cs })
+    }
+
+    /// `Mn`, `Mn..m`, `Mn->`, `Mn->{definition}`, `Mn=v`, each also over a range.
+    fn m_variable(&mut self, first: u16, start: usize) -> Result<Command, Unreadable> {
+        let mut last = first;
+        self.skip_spaces();
+        if self.starts_with("..") {
+            self.i += 2;
+            last = match self.number().and_then(|n| u16::try_from(n).ok()) {
+                Some(l) if l <= VARIABLE_MAX && l >= first => l,
+                _ => return Err(self.error(start, "a range runs from a lower to a higher number, at most 8191")),
+            };
+        }
+        if self.starts_with("->") {
+            self.i += 2;
+            let from = self.i;
+            // The definition runs to the next space (`Y:$078F00,0,24,S`, `*`).
+            while self.s.get(self.i).is_some_and(|c| *c > b' ') {
+                self.i += 1;
+            }
+            if self.i == from {
+                return Ok(Command::MReport { first, last });
+            }
+            let text = String::from_utf8_lossy(&self.s[from..self.i]).into_owned();
+            return match Definition::parse(&text) {
+                Ok(definition) => Ok(Command::MDefine { first, last, definition }),
+                Err(why) => Err(self.error(start, why)),
+            };
+        }
+        if self.peek() == Some(b'=') {
+            self.i += 1;
+            return match self.value() {
+                Some(value) if !self.peek().is_some_and(is_operator) => Ok(Command::MWrite { first, last, value }),
+                _ => Err(self.error(start, "the value is a constant (expressions are not evaluated)")),
+            };
+        }
+        Ok(Command::Read { kind: VarKind::M, first, last, cs: self.addressing.cs })
+    }
+
+    /// `WX:$2082,7`, `WY:$10000,1,2,3`, `WD:$2028,4096`, `WL:$1000,1.5`.
+    fn memory_write_command(&mut self, start: usize) -> Result<Command, Unreadable> {
+        let letter = self.peek();
+        self.i += 1;
+        if self.peek() == Some(b':') {
+            self.i += 1;
+        }
+        let from = self.i;
+        while self.peek().is_some_and(|c| c == b'$' || c.is_ascii_hexdigit()) {
+            self.i += 1;
+        }
+        let text = String::from_utf8_lossy(&self.s[from..self.i]).into_owned();
+        let address = parse_address(&text).map_err(|why| self.error(start, why))?;
+        let mut values = Vec::new();
+        while self.peek() == Some(b',') {
+            self.i += 1;
+            match self.value() {
+                Some(v) => values.push(v),
+                None => {
+                    return Err(self.error(start, "W{X|Y|D|L}:{address},{value}[,{value}...]: each value is a constant"))
+                }
+            }
+        }
+        if values.is_empty() {
+            return Err(self.error(start, "W{X|Y|D|L}:{address},{value}[,{value}...] writes at least one value"));
+        }
+        if u64::from(address) + values.len() as u64 - 1 > u64::from(crate::mvar::ADDRESS_MAX) {
+            return Err(self.error(start, "the values run past the last address, $7FFFF"));
+        }
+        let kind = match letter {
+            Some(b'X') => Definition::Word { space: Space::X, address, offset: 0, width: 24, format: Format::U },
+            Some(b'Y') => Definition::Word { space: Space::Y, address, offset: 0, width: 24, format: Format::U },
+            Some(b'D') => Definition::Fixed { address, dual_ported: false },
+            _ => Definition::Float { address, dual_ported: false },
+        };
+        Ok(Command::MemoryWrite { kind, values })
     }
 
     fn keyword(&mut self, k: &str, start: usize) -> Result<Command, Unreadable> {
@@ -732,8 +837,20 @@ mod tests {
         assert_eq!(ok("i6=1 i3=2 ver").len(), 3);
         assert!(parse("I8192").last().unwrap().is_err());
         assert!(parse("I124=I124&$FDFFFF").last().unwrap().is_err(), "expressions are refused, not half-run");
-        assert_eq!(ok("M190->Y:$078F00,0,24,S M191->*"), [Command::MDefinition(190), Command::MDefinition(191)]);
-        assert!(parse("M1->").last().unwrap().is_err());
+        let y = Definition::parse("Y:$078F00,0,24,S").unwrap();
+        assert_eq!(
+            ok("M190->Y:$078F00,0,24,S M191->* M0..8191->*"),
+            [
+                Command::MDefine { first: 190, last: 190, definition: y },
+                Command::MDefine { first: 191, last: 191, definition: Definition::SelfReferenced },
+                Command::MDefine { first: 0, last: 8191, definition: Definition::SelfReferenced },
+            ]
+        );
+        assert_eq!(ok("M1..3->"), [Command::MReport { first: 1, last: 3 }], "a report, not a definition");
+        assert_eq!(ok("M1..8=0"), [Command::MWrite { first: 1, last: 8, value: 0.0 }]);
+        let x = Definition::Word { space: Space::X, address: 0x2082, offset: 0, width: 24, format: Format::U };
+        assert_eq!(ok("WX:$2082,7,-1"), [Command::MemoryWrite { kind: x, values: vec![7.0, -1.0] }]);
+        assert!(parse("M1->X:$25").last().unwrap().is_err(), "an X definition gives its bit");
         assert!(parse("P1->X:$0").last().unwrap().is_err());
         assert!(parse("I23..20").last().unwrap().is_err());
     }

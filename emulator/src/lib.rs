@@ -11,6 +11,7 @@ pub mod grammar;
 pub mod listen;
 pub mod memory;
 pub mod motor_status;
+pub mod mvar;
 pub mod protocol;
 pub mod proxy;
 pub mod server;

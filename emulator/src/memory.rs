@@ -19,6 +19,9 @@ pub struct HostDefaults {
     pub i_hex: Vec<u16>,
     /// M-variables with a defined value (documented constants).
     pub m_constants: Vec<(u16, i64)>,
+    /// The address of I0's storage for M-variables and memory writes (`variables.yaml`,
+    /// `i_variable_storage`); `None` without a spec: then no address reaches an I-variable.
+    pub i_storage_base: Option<u32>,
 }
 
 impl HostDefaults {
@@ -33,6 +36,7 @@ impl HostDefaults {
                 }
             }
         }
+        d.i_storage_base = v.i_variable_storage.base_address();
         for h in &v.host_m_variables {
             for n in variable_numbers(&h.number, 'M').unwrap_or_default() {
                 d.m_constants.push((n, h.value));

@@ -25,6 +25,35 @@ pub struct Variables {
     /// The M-variables host programs read whose value the card defines.
     #[serde(default)]
     pub host_m_variables: Vec<HostMVariable>,
+    /// Where I-variable n's storage lies, for M-variable assignments and direct memory writes
+    /// (SRM p.57).
+    pub i_variable_storage: IVariableStorage,
+}
+
+/// Where the I-variables are stored in data memory: I-variable n at `base + n`, 48 bits across
+/// X and Y (`D:`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IVariableStorage {
+    /// `D:$002000`: the address of I0.
+    pub base: String,
+    pub meaning: String,
+    pub cite: Cites,
+}
+
+/// The highest address of a Turbo PMAC's data memory (SRM p.170: 19-bit addresses).
+pub const DATA_ADDRESS_MAX: u32 = 0x07_FFFF;
+
+impl IVariableStorage {
+    /// The address of I0, when `base` is `D:$hex` and all 8192 I-variables fit below
+    /// [`DATA_ADDRESS_MAX`].
+    pub fn base_address(&self) -> Option<u32> {
+        let hex = self.base.strip_prefix("D:$")?;
+        if hex.is_empty() || hex.len() > 6 || !hex.bytes().all(|c| c.is_ascii_hexdigit()) {
+            return None;
+        }
+        u32::from_str_radix(hex, 16).ok().filter(|a| a + 8191 <= DATA_ADDRESS_MAX)
+    }
 }
 
 /// An I-variable a host program reads: its default and how the card prints it.
@@ -212,6 +241,25 @@ impl Variables {
             return Err(map.error("lockout", "the lockout table must list all four bits of I41"));
         }
         unique_rule_ids(map, "lockout_rules", &self.lockout_rules)?;
+        let Some(base) = self.i_variable_storage.base_address() else {
+            return Err(map.error(
+                "i_variable_storage.base",
+                format!(
+                    "`{}` is not an address like `D:$002000` with room for I0..I8191 below $7FFFF",
+                    self.i_variable_storage.base
+                ),
+            ));
+        };
+        for addr in self.registers.keys() {
+            if let Some((_, a)) = parse_address(addr) {
+                if (base..=base + 8191).contains(&a) {
+                    return Err(map.error(
+                        "i_variable_storage.base",
+                        format!("I-variable storage D:${base:06X}.. overlaps the register {addr}"),
+                    ));
+                }
+            }
+        }
         for (addr, reg) in &self.registers {
             if parse_address(addr).is_none() {
                 return Err(

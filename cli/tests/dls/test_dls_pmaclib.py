@@ -114,6 +114,14 @@ class Session:
         self.pmac.setVar("I41", 1)
         t.assertEqual(self.ok("I130=99"), "\x06")
         t.assertEqual(self.ok("I130"), "1234\r\x06")
+        # SRM p.57: I41 does not stop an M-variable assignment. I130's storage is D:$002082 on
+        # the emulator (specs/variables.yaml, i_variable_storage: no page gives the address).
+        t.assertEqual(self.ok("M100->D:$002082"), "\x06")
+        t.assertEqual(self.ok("M100=77"), "\x06")
+        t.assertEqual(self.ok("I130 M100"), "77\r77\r\x06")
+        # An M-variable reads the watchdog's lowest counter value since reset, as RHX:$25 does.
+        lowest = int(self.ok("M125->X:$25,0,24,S M125")[:-2])
+        t.assertTrue(0 < lowest <= 4096, lowest)
         self.pmac.setVar("I41", 0)
         # An unknown command: BEL ERR003 CR under I6 = 1, still a successful exchange.
         t.assertEqual(self.ok("ZZZ"), "\x07ERR003\r")
