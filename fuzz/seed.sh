@@ -111,6 +111,8 @@ epics=$(printf ' ??? M70 M71 M72 M73 M4039 M4040 M4038'; for a in 1 2 3 4 5 6 7 
 printf '%s' "$epics" | seed card_grammar epics-fast-poll
 printf '%s\n' 'i20..23' '#1J+#2J-&1B1R' '&1Q&2H&3A' 'open prog 1 clear x10 close' 'MS0,I910' \
   'ENABLE PLC 1' 'DISABLE PLC 1' 'SAVE' '$$$' 'I5=2 I3=2 I6=1' 'DEFINE GATHER' '#3K' '%50' \
+  'M100->D:$002082 M100=9 I130' 'M1..8->X:$25,0,24,S M1..8 M1..3->' 'WX:$2082,7,-1 WY:$10000,$FFFFFF' \
+  'M5->Y:$10000,4,4,D M5=98 M6->F:$0607FF M6=1.5 M6' 'M0..8191->*' \
   | while IFS= read -r c; do
   printf '%s' "$c" | seed card_grammar "$(hashname "$c")"
 done
