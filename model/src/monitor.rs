@@ -511,12 +511,282 @@ mod tests {
     //! or every motor would only make monitors lenient, which no property run can notice (a
     //! monitor that holds more often still holds): cargo-mutants found those survivors.
     use super::*;
+    use crate::controller::TripCause;
     use pmacwd_specs::config::ModelConfig;
     use pmacwd_specs::Spec;
 
-    fn motion_config() -> ModelConfig {
+    fn config(name: &str) -> ModelConfig {
         let spec = Spec::embedded().unwrap();
-        ModelConfig::from_spec(&spec, "motion", &spec.profiles.default_profile()).unwrap()
+        ModelConfig::from_spec(&spec, name, &spec.profiles.default_profile()).unwrap()
+    }
+
+    fn motion_config() -> ModelConfig {
+        config("motion")
+    }
+
+    /// The event check of the monitor named `name`.
+    fn event_check(name: &str) -> fn(&ModelConfig, &Controller, &Event, Reply, &Controller) -> bool {
+        match MONITORS.iter().find(|m| m.name == name).map(|m| &m.check) {
+            Some(Check::Event(f)) => *f,
+            _ => panic!("no event monitor named {name:?}"),
+        }
+    }
+
+    /// The cycle check of the monitor named `name`.
+    fn cycle_check(name: &str) -> fn(&ModelConfig, &Controller, CycleReport, &Controller) -> bool {
+        match MONITORS.iter().find(|m| m.name == name).map(|m| &m.check) {
+            Some(Check::Cycle(f)) => *f,
+            _ => panic!("no cycle monitor named {name:?}"),
+        }
+    }
+
+    /// `prev` after `ev` as the model takes it: the state after and the reply.
+    fn step(cfg: &ModelConfig, prev: &Controller, ev: &Event) -> (Controller, Reply) {
+        let mut next = prev.clone();
+        let reply = next.apply(cfg, ev);
+        (next, reply)
+    }
+
+    fn command(text: &str) -> Event {
+        Event::Command(HostCommand::parse(text).expect("command parses"))
+    }
+
+    /// `lockout` (I130 and I5100 written under I41 = 0, 1 and 3, SRM p.57) after power-on,
+    /// running, with I41 = `i41`.
+    fn lockout_card(cfg: &ModelConfig, i41: u8) -> Controller {
+        let mut c = Controller::power_on(cfg);
+        assert!(running(&c), "the card runs after power-on");
+        c.i41 = i41;
+        c
+    }
+
+    // The monitors below are each handed the model's own transition, which must hold, and the
+    // same transition with the reply or the state after changed the way the sentence forbids,
+    // which must fire. A monitor whose guard is weakened until it checks nothing still holds on
+    // every transition of a correct model, so only such a hand-made violation shows it
+    // (cargo-mutants: the survivors of monitor.rs shards 2/8 and 3/8).
+
+    #[test]
+    fn sentence_srm_57_a_locked_i_variable_write_is_acknowledged_not_refused_with_an_error() {
+        // SRM p.57: with the controlling I41 bit set, "the command is ignored (no error is
+        // generated)". I41 = 1 locks I100-I4899.
+        let cfg = config("lockout");
+        let check = event_check("a locked I-variable write is ignored without an error");
+        let prev = lockout_card(&cfg, 1);
+        let ev = command("I130=1");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_eq!(reply, Reply::Ack);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's locked write holds");
+        assert!(!check(&cfg, &prev, &ev, Reply::Error(3), &next), "a locked write answered ERR003 fires");
+        // An unlocked write refused for its value is no locked write: not this monitor's business.
+        let refused = command("I41=16");
+        let (next, reply) = step(&cfg, &prev, &refused);
+        assert_eq!(reply, Reply::Error(3));
+        assert!(check(&cfg, &prev, &refused, reply, &next));
+    }
+
+    #[test]
+    fn sentence_srm_57_i41_itself_in_no_locked_set_takes_every_value_of_its_range() {
+        // SRM p.57: the table of the sets each bit of I41 controls has no I41 in it, so I41 =
+        // 3 takes effect even with every bit set; I41 = 16, outside its range (0-15), is refused
+        // and changes nothing.
+        let cfg = config("lockout");
+        assert_eq!(cfg.i41_range, (0, 15));
+        let check = event_check("I41 itself is never locked out");
+        let prev = lockout_card(&cfg, 15);
+        for text in ["I41=3", "I41=0", "I41=15"] {
+            let ev = command(text);
+            let (next, reply) = step(&cfg, &prev, &ev);
+            assert_eq!(reply, Reply::Ack, "{text}");
+            assert!(check(&cfg, &prev, &ev, reply, &next), "{text}: the model's write holds");
+            let mut ignored = next.clone();
+            ignored.i41 = if text == "I41=0" { 1 } else { 0 };
+            assert!(!check(&cfg, &prev, &ev, reply, &ignored), "{text} ignored fires");
+        }
+        let ev = command("I41=16");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_eq!((reply, next.i41), (Reply::Error(3), 15));
+        assert!(check(&cfg, &prev, &ev, reply, &next), "an out-of-range I41 refused holds");
+    }
+
+    #[test]
+    fn sentence_srm_57_a_write_outside_every_locked_set_takes_effect() {
+        // SRM p.57: "each bit independently controls access to a set of I-variables": with I41
+        // = 1 (I100-I4899 locked), I5100 (bit 1's set) is written.
+        let cfg = config("lockout");
+        let check = event_check("an I-variable write outside every locked range takes effect");
+        let prev = lockout_card(&cfg, 1);
+        let ev = command("I5100=1");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_eq!((reply, next.i_variable(5100)), (Reply::Ack, 1));
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's write holds");
+        let mut ignored = next.clone();
+        ignored.other_i_variables.remove(&5100);
+        assert!(!check(&cfg, &prev, &ev, reply, &ignored), "an unlocked write ignored fires");
+        // The locked write that changes nothing is the lockout's, not a violation of this one.
+        let locked = command("I130=1");
+        let (next, reply) = step(&cfg, &prev, &locked);
+        assert_eq!(next.i_variable(130), 0);
+        assert!(check(&cfg, &prev, &locked, reply, &next));
+    }
+
+    #[test]
+    fn sentence_srm_57_a_memory_write_changes_a_locked_i_variable_and_a_refused_one_changes_nothing() {
+        // SRM p.57: "I41 does not prevent changes to an I-variable by means of an M-variable
+        // assignment or a direct memory write command." The check is of an acknowledged write;
+        // a memory write refused for its value (I41 = 16, MODEL: ERR003) and one sent to a
+        // tripped card (UM p.215: no answer) leave the value as it was, and hold.
+        let cfg = config("lockout");
+        let check = event_check("an M-variable assignment or a memory write changes an I-variable whatever I41 holds");
+        let prev = lockout_card(&cfg, 1);
+        let ev = command("<MEMORY-WRITE I130=2>");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_eq!((reply, next.i_variable(130)), (Reply::Ack, 2));
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's memory write holds");
+        assert!(!check(&cfg, &prev, &ev, reply, &prev), "a memory write stopped by I41 fires");
+        let refused = command("<MEMORY-WRITE I41=16>");
+        let (next, reply) = step(&cfg, &prev, &refused);
+        assert_eq!((reply, next.i41), (Reply::Error(3), 1));
+        assert!(check(&cfg, &prev, &refused, reply, &next), "a refused memory write holds");
+        let mut tripped = prev.clone();
+        tripped.trip = Some(TripCause::StrobeTimeout);
+        let (next, reply) = step(&cfg, &tripped, &ev);
+        assert_eq!((reply, next.i_variable(130)), (Reply::Silence, 0));
+        assert!(check(&cfg, &tripped, &ev, reply, &next), "a tripped card's silence holds");
+    }
+
+    #[test]
+    fn sentence_um_243_dollar_dollar_dollar_stars_leaves_every_i_variable_at_its_factory_default() {
+        // UM p.243 (summary): re-initialization puts the firmware's default I-variable values
+        // in active memory. `lockout` saves I8 = 1 and I40 = 3, the factories are 2 and 0.
+        let cfg = config("lockout");
+        assert_ne!((cfg.saved.i8, cfg.saved.i40), (cfg.factory.i8, cfg.factory.i40));
+        let check = event_check("after $$$*** the I-variables are the factory defaults");
+        let mut prev = lockout_card(&cfg, 3);
+        prev.other_i_variables.insert(5100, 1);
+        let ev = command("$$$***");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's re-initialization holds");
+        let mut kept_i40 = next.clone();
+        kept_i40.i40 = cfg.saved.i40;
+        assert!(!check(&cfg, &prev, &ev, reply, &kept_i40), "I40 left at its saved value fires");
+        let mut kept_other = next.clone();
+        kept_other.other_i_variables.insert(5100, 1);
+        assert!(!check(&cfg, &prev, &ev, reply, &kept_other), "I5100 left as written fires");
+        // A tripped card does nothing with the command (UM p.215), and keeps its values.
+        let mut tripped = prev.clone();
+        tripped.trip = Some(TripCause::StrobeTimeout);
+        let (next, reply) = step(&cfg, &tripped, &ev);
+        assert_eq!((reply, next.i41), (Reply::Silence, 3));
+        assert!(check(&cfg, &tripped, &ev, reply, &next), "a tripped card's silence holds");
+    }
+
+    #[test]
+    fn sentence_um_217_checksum_reports_the_factory_reference_after_a_firmware_fault() {
+        // UM p.217: the reference register is "obtainable with the CHECKSUM command"; "Turbo
+        // PMACs shipped from the factory are preloaded with the correct reference value". A
+        // corrupted firmware changes what is summed, not the reference.
+        let cfg = config("lockout");
+        let check =
+            event_check("CHECKSUM reports the factory reference, whatever faults and checksum errors came since");
+        let mut prev = lockout_card(&cfg, 0);
+        prev.apply(&cfg, &Event::ChecksumFault(ChecksumTarget::Firmware));
+        let ev = command("CHECKSUM");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        let reference = u32::from(crate::controller::ChecksumEngine::fresh().firmware_reference);
+        assert_eq!(reply, Reply::Hex(reference));
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's reply holds");
+        let corrupted = Reply::Hex(u32::from(prev.checksum.firmware));
+        assert_ne!(corrupted, reply);
+        assert!(!check(&cfg, &prev, &ev, corrupted, &next), "the corrupted firmware's sum as the reply fires");
+    }
+
+    #[test]
+    fn sentence_srm_289_an_rti_overrun_sets_both_bit_22_and_bit_9() {
+        // SRM p.289-290: bit 22, the RTI still executing when the next one came; bit 9, the RTI
+        // took more than one period. An overrun sets both, not just one of them.
+        let cfg = config("lockout");
+        let check = cycle_check("an RTI overrun sets bits 22 and 9");
+        let prev = lockout_card(&cfg, 0);
+        let overrun = CycleReport { rti_started: false, rti_overrun: true, strobed: false };
+        let with = |reentry: bool, warning: bool| {
+            let mut next = prev.clone();
+            next.status.rti_reentry = reentry;
+            next.status.rti_warning = warning;
+            next
+        };
+        assert!(check(&cfg, &prev, overrun, &with(true, true)));
+        assert!(!check(&cfg, &prev, overrun, &with(true, false)), "bit 22 without bit 9 fires");
+        assert!(!check(&cfg, &prev, overrun, &with(false, true)), "bit 9 without bit 22 fires");
+        assert!(check(&cfg, &prev, CycleReport::default(), &with(false, false)), "no overrun, no bits");
+    }
+
+    #[test]
+    fn sentence_um_215_a_background_cycle_that_runs_reloads_the_counter_from_i40() {
+        // UM p.215: "At the end of each background cycle, the CPU resets the counter value to
+        // a maximum value set by variable I40". `lockout` has I40 = 3 and a background cycle
+        // costing 3 units; with none of them had yet, no background cycle ends.
+        let cfg = config("lockout");
+        let check = event_check("a background cycle reloads the counter from I40");
+        let mut prev = lockout_card(&cfg, 0);
+        prev.counter = 1;
+        prev.background_credit = u32::from(prev.load.background_units);
+        assert!(prev.background_possible());
+        let ev = Event::Background;
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_eq!(next.counter, 3);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's reload holds");
+        assert!(!check(&cfg, &prev, &ev, reply, &prev), "a background cycle that leaves the counter fires");
+        let mut starved = prev.clone();
+        starved.background_credit = 0;
+        let (next, reply) = step(&cfg, &starved, &ev);
+        assert_eq!(next.counter, 1);
+        assert!(check(&cfg, &starved, &ev, reply, &next), "no background cycle possible, no reload: holds");
+    }
+
+    #[test]
+    fn sentence_um_217_after_a_checksum_error_neither_checksum_moves_on() {
+        // UM p.217: after a checksum error the card "stops performing any program or firmware
+        // checksum operations": the area under check and the error stay as they are until a
+        // reset.
+        let cfg = config("lockout");
+        let check = event_check("a checksum error stops both checksums");
+        let mut prev = lockout_card(&cfg, 0);
+        prev.checksum.error = Some(ChecksumTarget::Firmware);
+        prev.background_credit = u32::from(prev.load.background_units);
+        let ev = Event::Background;
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's background cycle holds");
+        let mut moved_on = next.clone();
+        moved_on.checksum.area = match next.checksum.area {
+            ChecksumTarget::Firmware => ChecksumTarget::UserProgram,
+            ChecksumTarget::UserProgram => ChecksumTarget::Firmware,
+        };
+        assert_eq!(moved_on.checksum.error, prev.checksum.error);
+        assert!(!check(&cfg, &prev, &ev, reply, &moved_on), "the other area checked after the error fires");
+        let mut cleared = next.clone();
+        cleared.checksum.error = None;
+        assert!(!check(&cfg, &prev, &ev, reply, &cleared), "the error forgotten without a reset fires");
+    }
+
+    #[test]
+    fn sentence_srm_289_the_status_reply_is_the_words_of_the_state_after() {
+        // SRM p.289: "Turbo PMAC returns twelve characters, representing two status words":
+        // the words of X:$000006 and Y:$000006, not any other two.
+        let cfg = config("lockout");
+        let check = event_check("the ??? reply is twelve hex characters, first word first");
+        let prev = lockout_card(&cfg, 0);
+        let ev = command("???");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        let Reply::Status { x, y } = reply else { panic!("??? answers the status words, not {reply:?}") };
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's reply holds");
+        for wrong in
+            [Reply::Status { x: x ^ (1 << 22), y }, Reply::Status { x, y: y ^ 1 }, Reply::Status { x: y, y: x }]
+        {
+            if wrong != reply {
+                assert!(!check(&cfg, &prev, &ev, wrong, &next), "{wrong:?} for the words ({x:06X}, {y:06X}) fires");
+            }
+        }
     }
 
     #[test]
