@@ -9,19 +9,21 @@ use crate::framing::{framing_write_out_of_range, Answer, Framing};
 use crate::grammar::{parse_commands, Addressing, Command, Gather, Jog, VarKind};
 use crate::memory::{format_value, HostDefaults, Memory};
 use crate::motor_status::{cs_words, hex_words, motor_words};
-use crate::mvar::{self, Definition, MemoryMap};
+use crate::mvar::MemoryMap;
 use pmacwd_bridge::{core_command, core_event, spec_load};
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion, MotorCommand, Register, Space};
+use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion, MotorCommand};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::vocab::Buffer;
 use pmacwd_trace::jsonl::step_line;
 use pmacwd_trace::{Expect, Step, TraceEvent};
 use std::io::Write;
 use std::time::Instant;
+
+mod memory_access;
 
 /// What `ver` and `cid` answer: a firmware version (dls-pmaclib checks `^\d+\.\d+`) and a card
 /// ID (603382 is the Geo Brick, one of the three dls-pmaclib knows).
@@ -535,12 +537,7 @@ impl Card {
                     }
                 }
             }
-            Command::Read { kind: VarKind::M, first, last, .. } => {
-                for n in first..=last {
-                    let value = self.m_value(n);
-                    out.push(data(format_value(value)));
-                }
-            }
+            Command::Read { kind: VarKind::M, first, last, .. } => self.read_m(first, last, out),
             Command::Read { kind, first, last, .. } => {
                 for n in first..=last {
                     out.push(data(format_value(self.memory.read(kind, n))));
@@ -565,47 +562,11 @@ impl Card {
             Command::MacroStation { value, .. } => {
                 out.push(if value.is_some() { Answer::Nothing } else { data("0".into()) })
             }
-            // MODEL: every M-variable of a range gets the same definition.
-            Command::MDefine { first, last, definition } => {
-                for n in first..=last {
-                    self.mvars.define(n, definition);
-                }
-                out.push(Answer::Nothing);
-            }
-            // PMAC-SRM p.253: the definition itself, or with I9 bit 0 the whole statement.
-            Command::MReport { first, last } => {
-                let whole_statement = self.core.read_i(9, &self.store) & 1 != 0;
-                for n in first..=last {
-                    let text = self.mvars.definition(n).report();
-                    out.push(data(if whole_statement { format!("M{n}->{text}") } else { text }));
-                }
-            }
-            Command::MWrite { first, last, value } => {
-                for n in first..=last {
-                    let answer = match self.mvars.definition(n) {
-                        Definition::SelfReferenced => {
-                            self.memory.write(VarKind::M, n, value);
-                            Answer::Nothing
-                        }
-                        d => self.write_through(d, value),
-                    };
-                    let failed = matches!(answer, Answer::Error(_));
-                    out.push(answer);
-                    if failed {
-                        break;
-                    }
-                }
-            }
-            Command::MemoryWrite { kind, values } => {
-                for (i, value) in values.into_iter().enumerate() {
-                    let answer = self.write_through(kind.at_offset(i as u32), value);
-                    let failed = matches!(answer, Answer::Error(_));
-                    out.push(answer);
-                    if failed {
-                        break;
-                    }
-                }
-            }
+            // M-variables as pointers into memory, and the direct memory write (`card/memory_access.rs`).
+            Command::MDefine { first, last, definition } => self.define_m(first, last, definition, out),
+            Command::MReport { first, last } => self.report_m(first, last, out),
+            Command::MWrite { first, last, value } => self.write_m(first, last, value, out),
+            Command::MemoryWrite { kind, values } => self.write_memory(kind, values, out),
             // MODEL: user PLC programs are not run (their CPU load is the control port's
             // `plc0` and `background`); switching them is acknowledged.
             Command::PlcSwitch => out.push(Answer::Nothing),
@@ -649,103 +610,6 @@ impl Card {
             self.say(&line);
         }
         reply_answer(reply)
-    }
-
-    /// M-variable `n`'s value: its own (`*`, or a documented constant), or what its
-    /// definition points at (module `mvar`).
-    fn m_value(&mut self, n: u16) -> f64 {
-        match self.mvars.definition(n) {
-            Definition::SelfReferenced => self.memory.read(VarKind::M, n),
-            Definition::Word { space, address, offset, width, format } => {
-                mvar::field_value(self.word_at(space, address), offset, width, format) as f64
-            }
-            Definition::Fixed { address, dual_ported } => {
-                if let Some(i) = self.mvars.i_variable_at(address) {
-                    return self.core.read_i(i, &self.store) as f64;
-                }
-                let (x, y) = (self.word_at(Space::X, address), self.word_at(Space::Y, address));
-                (if dual_ported { mvar::join32(x, y) } else { mvar::join48(x, y) }) as f64
-            }
-            Definition::Float { address, .. } => match self.mvars.i_variable_at(address) {
-                Some(i) => self.core.read_i(i, &self.store) as f64,
-                None if Register::at(Space::X, address).is_some() || Register::at(Space::Y, address).is_some() => {
-                    mvar::join48(self.word_at(Space::X, address), self.word_at(Space::Y, address)) as f64
-                }
-                None => self.mvars.float(address),
-            },
-        }
-    }
-
-    /// The 24-bit word at `space:address`: a core register read as `RH` reads it, half of an
-    /// I-variable's storage (X the high 24 bits, Y the low), or a word the emulator keeps.
-    fn word_at(&mut self, space: Space, address: u32) -> u32 {
-        if let Some(r) = Register::at(space, address) {
-            let read = core_command(&HostCommand::ReadHex(r));
-            return match self.core.command(&self.cfg, read, &mut self.store) {
-                core::Reply::Hex(v) => v & 0xFF_FFFF,
-                _ => 0,
-            };
-        }
-        if let Some(i) = self.mvars.i_variable_at(address) {
-            let (x, y) = mvar::split48(self.core.read_i(i, &self.store));
-            return if space == Space::X { x } else { y };
-        }
-        self.mvars.word(space, address)
-    }
-
-    /// Writes `value` where `d` points (an M-variable assignment or one value of a direct
-    /// memory write). A write into I-variable storage goes to the core past I41 (SRM p.57).
-    fn write_through(&mut self, d: Definition, value: f64) -> Answer {
-        let (address, spaces): (u32, &[Space]) = match d {
-            Definition::SelfReferenced => return Answer::Nothing,
-            Definition::Word { space: Space::X, address, .. } => (address, &[Space::X]),
-            Definition::Word { space: Space::Y, address, .. } => (address, &[Space::Y]),
-            Definition::Fixed { address, .. } | Definition::Float { address, .. } => (address, &[Space::X, Space::Y]),
-        };
-        if let Some(r) = spaces.iter().find_map(|s| Register::at(*s, address)) {
-            if !std::mem::replace(&mut self.register_write_said, true) {
-                let line = format!(
-                    "a host wrote to {r:?}'s register at {}: not applied, the firmware owns it (MODEL; said once)",
-                    self.moment()
-                );
-                self.say(&line);
-            }
-            return Answer::Nothing;
-        }
-        let i_variable = self.mvars.i_variable_at(address);
-        let stored = match d {
-            Definition::Word { space, address, offset, width, format } => {
-                let word = mvar::with_field(self.word_at(space, address), offset, width, format, mvar::whole(value));
-                match i_variable {
-                    Some(i) => {
-                        let (x, y) = mvar::split48(self.core.read_i(i, &self.store));
-                        let v = if space == Space::X { mvar::join48(word, y) } else { mvar::join48(x, word) };
-                        return self.core_answer(&HostCommand::WriteIMemory(i, v));
-                    }
-                    None => self.mvars.set_word(space, address, word),
-                }
-            }
-            Definition::Fixed { address, dual_ported } => {
-                let v = mvar::whole(value);
-                if let Some(i) = i_variable {
-                    return self.core_answer(&HostCommand::WriteIMemory(i, v));
-                }
-                let (x, y) = if dual_ported { mvar::split32(v) } else { mvar::split48(v) };
-                self.mvars.set_word(Space::X, address, x).and_then(|()| self.mvars.set_word(Space::Y, address, y))
-            }
-            Definition::Float { address, .. } => {
-                if let Some(i) = i_variable {
-                    return self.core_answer(&HostCommand::WriteIMemory(i, mvar::whole(value)));
-                }
-                self.mvars.set_float(address, value)
-            }
-            Definition::SelfReferenced => Ok(()),
-        };
-        match stored {
-            Ok(()) => Answer::Nothing,
-            // MODEL: the emulator's bound on kept words (mvar::WORDS_MAX); a card has the memory.
-            Err(_) => Answer::Error(3),
-        }
     }
 
     /// The answer to a control character sent on its own (VR_CTRL_RESPONSE): read as a line
