@@ -526,8 +526,13 @@ fn progress_into_a_log_is_whole_periodic_lines_without_carriage_returns() {
     assert!(stderr.contains("progress: model check: "), "{stderr}");
     assert!(stderr.contains(" of 4 runs done ("), "{stderr}");
     assert!(stderr.contains("progress: exhaustive lockstep: "), "{stderr}");
-    // Without the variable, a phase shorter than 5 s prints no progress at all.
-    let out = pmacwd().args(["check", "--configuration", "lockout", "--profile", "um-215"]).output().unwrap();
+    // A phase shorter than the interval prints no progress at all. (The default interval is
+    // 5 s; an hour here, so that a loaded machine cannot stretch the phase past it.)
+    let out = pmacwd()
+        .args(["check", "--configuration", "lockout", "--profile", "um-215"])
+        .env("PMACWD_PROGRESS_SECONDS", "3600")
+        .output()
+        .unwrap();
     assert_eq!(String::from_utf8_lossy(&out.stderr), "");
     // A value that is not seconds is refused before any work, not taken as the default.
     for bad in ["0", "abc", "-1"] {
