@@ -84,3 +84,54 @@ pub fn whole_periods(remaining: u64, periods: u64, period: u64, free: u64, task:
     }
     Periods { remaining, share, any_overrun, last }
 }
+
+#[cfg(test)]
+// The reference below is plain arithmetic on values below 10: nothing can overflow.
+#[allow(clippy::arithmetic_side_effects)]
+mod tests {
+    use super::*;
+
+    /// The same periods one servo cycle at a time, as `Core::rti_cycle` runs them: at each tick
+    /// a set still running overruns (SRM p.289-290: bits 22 and 9, UM p.236: nothing restarted)
+    /// and otherwise a new set of `task` units starts; every cycle the RTI takes what it can of
+    /// the `free` units and leaves the rest to the background.
+    fn stepped(mut remaining: u64, periods: u64, period: u64, free: u64, task: u64) -> Periods {
+        let (mut share, mut any_overrun, mut last) = (0, false, Tick::None);
+        for _ in 0..periods {
+            if remaining > 0 {
+                any_overrun = true;
+                last = Tick::Overrun;
+            } else {
+                remaining = task;
+                last = Tick::Started;
+            }
+            for _ in 0..period {
+                let work = free.min(remaining);
+                remaining -= work;
+                share += free - work;
+            }
+        }
+        Periods { remaining, share, any_overrun, last }
+    }
+
+    #[test]
+    fn whole_periods_in_closed_form_equal_the_periods_stepped_cycle_by_cycle() {
+        // Exhaustive over small values, including no CPU left for the RTI (free = 0), where a
+        // single period that starts a set must report the start, not an overrun.
+        for remaining in 0..7 {
+            for periods in 0..6 {
+                for period in 1..5 {
+                    for free in 0..4 {
+                        for task in 0..8 {
+                            assert_eq!(
+                                whole_periods(remaining, periods, period, free, task),
+                                stepped(remaining, periods, period, free, task),
+                                "remaining {remaining}, periods {periods}, period {period}, free {free}, task {task}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
