@@ -376,14 +376,14 @@ pub const MONITORS: &[Monitor] = &[
         cite: "UM p.217",
         sentence: "A: Stop at Prog Pt? No, No easy restart (UM p.319: segments already in the lookahead buffer are discarded; they cannot be recovered).",
         check: Check::Event(|cfg, prev, ev, _, next| {
-            let aborted: Vec<u8> = match motion(prev, ev) {
-                Some(Motion::CoordinateSystem(cs, CsCommand::Abort)) => vec![cs],
-                Some(Motion::Global(GlobalCommand::AbortAll)) => (1..=prev.axes.programs().len() as u8).collect(),
+            let aborted = match motion(prev, ev) {
+                Some(Motion::CoordinateSystem(cs, CsCommand::Abort)) => cs..=cs,
+                Some(Motion::Global(GlobalCommand::AbortAll)) => 1..=prev.axes.programs().len() as u8,
                 _ => return true,
             };
-            aborted.iter().all(|cs| {
-                implies(program(prev, *cs).executing(), program(next, *cs) == Program::Lost)
-                    && members(cfg, *cs).all(|k| next.axes.motors()[k].stop != Some(Stop::Quit))
+            aborted.into_iter().all(|cs| {
+                implies(program(prev, cs).executing(), program(next, cs) == Program::Lost)
+                    && members(cfg, cs).all(|k| next.axes.motors()[k].stop != Some(Stop::Quit))
             })
         }),
     },
@@ -392,15 +392,15 @@ pub const MONITORS: &[Monitor] = &[
         cite: "UM p.217",
         sentence: "Q: Begin Immed? No, Stop on Path? Yes, Finishes calculated moves.",
         check: Check::Event(|cfg, prev, ev, _, next| {
-            let quit: Vec<u8> = match motion(prev, ev) {
-                Some(Motion::CoordinateSystem(cs, CsCommand::Quit | CsCommand::EndOfMove)) => vec![cs],
-                Some(Motion::Global(GlobalCommand::QuitAll)) => (1..=prev.axes.programs().len() as u8).collect(),
+            let quit = match motion(prev, ev) {
+                Some(Motion::CoordinateSystem(cs, CsCommand::Quit | CsCommand::EndOfMove)) => cs..=cs,
+                Some(Motion::Global(GlobalCommand::QuitAll)) => 1..=prev.axes.programs().len() as u8,
                 _ => return true,
             };
-            quit.iter().all(|cs| {
-                members(cfg, *cs).all(|k| {
+            quit.into_iter().all(|cs| {
+                members(cfg, cs).all(|k| {
                     implies(prev.axes.motors()[k].state == MotorState::Program, next.axes.motors()[k].state == MotorState::Program)
-                }) && implies(program(prev, *cs) == Program::Running, program(next, *cs) == Program::Running)
+                }) && implies(program(prev, cs) == Program::Running, program(next, cs) == Program::Running)
             })
         }),
     },
