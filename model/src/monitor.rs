@@ -118,7 +118,9 @@ pub const MONITORS: &[Monitor] = &[
         cite: "UM p.215",
         sentence: "the system is latched into a reset state ... The processor stops operating.",
         check: Check::Event(|_, prev, ev, _, next| {
-            if !prev.tripped() || matches!(ev, Event::Reset(_)) {
+            // `next == prev` first: most events leave a tripped card as it was, and then it needs
+            // no copy (this runs on every transition from a tripped state).
+            if !prev.tripped() || matches!(ev, Event::Reset(_)) || next == prev {
                 return true;
             }
             // The supply and the encoder-loss inputs are hardware inputs, not the card's state.
