@@ -200,16 +200,19 @@ where
 
         let mut current_max_depth = global_max_depth.load(Ordering::Relaxed);
         let mut actions = Vec::new();
+        // PATCH (pmacwd): the states generated in this block are counted here and added to the
+        // shared count once, when the block ends, instead of by an atomic add per transition.
+        let mut generated_here = 0;
         loop {
             // Done if reached max count.
             if max_count == 0 {
-                return;
+                break;
             }
             max_count -= 1;
 
             // Done if none pending.
             let (state, state_fp, mut ebits, max_depth) = match pending.pop_back() {
-                None => return,
+                None => break,
                 Some(pair) => pair,
             };
 
@@ -286,7 +289,7 @@ where
                 }
             }
             if !is_awaiting_discoveries {
-                return;
+                break;
             }
 
             // Otherwise enqueue newly generated states (with related metadata).
@@ -305,7 +308,7 @@ where
                 if !model.within_boundary(next) {
                     continue;
                 }
-                state_count.fetch_add(1, Ordering::Relaxed);
+                generated_here += 1;
 
                 // Skip if already generated.
                 //
@@ -350,6 +353,7 @@ where
                 }
             }
         }
+        state_count.fetch_add(generated_here, Ordering::Relaxed);
     }
 }
 
