@@ -15,7 +15,7 @@
 
 use crate::controller::{Controller, CycleReport};
 use crate::monitor::{Check, MONITORS};
-use crate::properties::{Expectation, STATE_PROPERTIES};
+use crate::properties::{Expectation, StateProperty, STATE_PROPERTIES};
 pub use crate::state::State;
 use pmacwd_specs::check::ChecksumTarget;
 use pmacwd_specs::config::ModelConfig;
@@ -413,13 +413,9 @@ impl Model for WatchdogModel {
     }
 
     fn next_state(&self, state: &State, action: Action) -> Option<State> {
-        // Built where it is returned: the checker makes about eight successors per state, and
-        // moving a state is a copy of some 180 bytes.
-        let mut next = Some(state.clone());
-        if let Some(n) = next.as_mut() {
-            self.take_action(state, n, &action);
-        }
-        next
+        let mut next = state.clone();
+        self.take_action(state, &mut next, &action);
+        Some(next)
     }
 
     fn format_action(&self, action: &Action) -> String {
@@ -436,21 +432,30 @@ impl Model for WatchdogModel {
     /// `detailed`, the `always` properties as two conjunctions (every monitor, every state
     /// property): 19 lookups per state instead of 51. [`WatchdogModel::check`] re-runs in detail
     /// when a conjunction fails, so each property still gets its own verdict and counterexample.
+    ///
+    /// A `sometimes` property that does not apply to the configuration (it lacks the events the
+    /// property needs, see [`crate::properties::StateProperty::applies`]) is not given to
+    /// stateright: its verdict is "n/a" whatever the search finds, and stateright would evaluate
+    /// it on every state, since it is never reached (13 of them at `timing`).
     fn properties(&self) -> Vec<Property<Self>> {
+        let applies = |p: &StateProperty| p.expectation == Expectation::Always || (p.applies)(&self.cfg);
         if !self.detailed {
             let mut v: Vec<Property<Self>> = vec![
                 Property::always(PROPERTY_IDS[0], |_, s: &State| s.violations == 0),
                 Property::always(PROPERTY_IDS[1], |m, s: &State| every_always_holds(&m.cfg, s)),
             ];
-            for (k, _) in STATE_PROPERTIES.iter().enumerate().filter(|(_, p)| p.expectation == Expectation::Sometimes) {
-                v.push(Property::sometimes(PROPERTY_IDS[v.len()], STATE_HOLDS[k]));
+            for (k, p) in STATE_PROPERTIES.iter().enumerate() {
+                if p.expectation == Expectation::Sometimes && applies(p) {
+                    v.push(Property::sometimes(PROPERTY_IDS[v.len()], STATE_HOLDS[k]));
+                }
             }
             return v;
         }
+        // Each property by its position in `property_table`, which is its id.
         let mut v: Vec<Property<Self>> =
             MONITORS.iter().enumerate().map(|(k, _)| Property::always(PROPERTY_IDS[k], MONITOR_HOLDS[k])).collect();
-        for (k, p) in STATE_PROPERTIES.iter().enumerate() {
-            let id = PROPERTY_IDS[v.len()];
+        for (k, p) in STATE_PROPERTIES.iter().enumerate().filter(|(_, p)| applies(p)) {
+            let id = PROPERTY_IDS[MONITORS.len() + k];
             v.push(match p.expectation {
                 Expectation::Always => Property::always(id, STATE_HOLDS[k]),
                 Expectation::Sometimes => Property::sometimes(id, STATE_HOLDS[k]),
@@ -758,10 +763,12 @@ impl WatchdogModel {
                 let (holds, path) = match info.expectation {
                     // Both conjunctions held in every reachable state.
                     Expectation::Always => (true, None),
+                    // Not searched (see `properties`): n/a, which counts as holding.
+                    Expectation::Sometimes if !applicable => (true, None),
                     Expectation::Sometimes => {
                         let found = discoveries.get(PROPERTY_IDS[2 + sometimes_seen]);
                         sometimes_seen += 1;
-                        (found.is_some() || !applicable, found.map(|p| model.replay(&p.clone().into_actions())))
+                        (found.is_some(), found.map(|p| model.replay(&p.clone().into_actions())))
                     }
                 };
                 info.result(holds, applicable, path)

@@ -586,26 +586,27 @@ impl Controller {
         };
         let s = &self.status;
         let mut words = [0u32; 2];
-        for (on, (word, bit)) in [
-            (s.rti_reentry, rti_reentry),
-            (s.servo_error, servo_error),
-            (checksum_error, checksum_error_bit),
-            (bit12, prom_checksum_active),
-            (s.dpram_error, dpram_error),
-            (s.flash_error, flash_error),
-            (s.rti_warning, rti_warning),
-            (s.motion_buffer_open, motion_buffer_open),
-            (s.plc_buffer_open, plc_buffer_open),
-            (cpu1, cpu_type_bit1),
-            (cpu0, cpu_type_bit0),
-        ] {
+        // One call per bit rather than a loop over a table of them: the checker's properties
+        // and monitors read the words several times per state.
+        let mut set = |on: bool, (word, bit): (WordId, u8)| {
             if on {
                 words[match word {
                     WordId::X => 0,
                     WordId::Y => 1,
                 }] |= 1 << bit;
             }
-        }
+        };
+        set(s.rti_reentry, rti_reentry);
+        set(s.servo_error, servo_error);
+        set(checksum_error, checksum_error_bit);
+        set(bit12, prom_checksum_active);
+        set(s.dpram_error, dpram_error);
+        set(s.flash_error, flash_error);
+        set(s.rti_warning, rti_warning);
+        set(s.motion_buffer_open, motion_buffer_open);
+        set(s.plc_buffer_open, plc_buffer_open);
+        set(cpu1, cpu_type_bit1);
+        set(cpu0, cpu_type_bit0);
         (words[0], words[1])
     }
 

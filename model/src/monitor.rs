@@ -118,7 +118,9 @@ pub const MONITORS: &[Monitor] = &[
         cite: "UM p.215",
         sentence: "the system is latched into a reset state ... The processor stops operating.",
         check: Check::Event(|_, prev, ev, _, next| {
-            if !prev.tripped() || matches!(ev, Event::Reset(_)) {
+            // `next == prev` first: most events leave a tripped card as it was, and then it needs
+            // no copy (this runs on every transition from a tripped state).
+            if !prev.tripped() || matches!(ev, Event::Reset(_)) || next == prev {
                 return true;
             }
             // The supply and the encoder-loss inputs are hardware inputs, not the card's state.
@@ -376,14 +378,14 @@ pub const MONITORS: &[Monitor] = &[
         cite: "UM p.217",
         sentence: "A: Stop at Prog Pt? No, No easy restart (UM p.319: segments already in the lookahead buffer are discarded; they cannot be recovered).",
         check: Check::Event(|cfg, prev, ev, _, next| {
-            let aborted: Vec<u8> = match motion(prev, ev) {
-                Some(Motion::CoordinateSystem(cs, CsCommand::Abort)) => vec![cs],
-                Some(Motion::Global(GlobalCommand::AbortAll)) => (1..=prev.axes.programs().len() as u8).collect(),
+            let aborted = match motion(prev, ev) {
+                Some(Motion::CoordinateSystem(cs, CsCommand::Abort)) => cs..=cs,
+                Some(Motion::Global(GlobalCommand::AbortAll)) => 1..=prev.axes.programs().len() as u8,
                 _ => return true,
             };
-            aborted.iter().all(|cs| {
-                implies(program(prev, *cs).executing(), program(next, *cs) == Program::Lost)
-                    && members(cfg, *cs).all(|k| next.axes.motors()[k].stop != Some(Stop::Quit))
+            aborted.into_iter().all(|cs| {
+                implies(program(prev, cs).executing(), program(next, cs) == Program::Lost)
+                    && members(cfg, cs).all(|k| next.axes.motors()[k].stop != Some(Stop::Quit))
             })
         }),
     },
@@ -392,15 +394,15 @@ pub const MONITORS: &[Monitor] = &[
         cite: "UM p.217",
         sentence: "Q: Begin Immed? No, Stop on Path? Yes, Finishes calculated moves.",
         check: Check::Event(|cfg, prev, ev, _, next| {
-            let quit: Vec<u8> = match motion(prev, ev) {
-                Some(Motion::CoordinateSystem(cs, CsCommand::Quit | CsCommand::EndOfMove)) => vec![cs],
-                Some(Motion::Global(GlobalCommand::QuitAll)) => (1..=prev.axes.programs().len() as u8).collect(),
+            let quit = match motion(prev, ev) {
+                Some(Motion::CoordinateSystem(cs, CsCommand::Quit | CsCommand::EndOfMove)) => cs..=cs,
+                Some(Motion::Global(GlobalCommand::QuitAll)) => 1..=prev.axes.programs().len() as u8,
                 _ => return true,
             };
-            quit.iter().all(|cs| {
-                members(cfg, *cs).all(|k| {
+            quit.into_iter().all(|cs| {
+                members(cfg, cs).all(|k| {
                     implies(prev.axes.motors()[k].state == MotorState::Program, next.axes.motors()[k].state == MotorState::Program)
-                }) && implies(program(prev, *cs) == Program::Running, program(next, *cs) == Program::Running)
+                }) && implies(program(prev, cs) == Program::Running, program(next, cs) == Program::Running)
             })
         }),
     },

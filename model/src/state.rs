@@ -122,8 +122,11 @@ impl std::hash::Hash for State {
                 | u64::from(*loss_status);
             motors[k / 2] |= packed << (32 * (k % 2));
         }
-        // Three bits per coordinate system's program.
-        let programs = program_slots.iter().rev().fold(0u64, |acc, p| acc << 3 | *p as u64);
+        // Three bits per coordinate system's program, of those that exist: the slots past
+        // `program_count` never change (every rule reaches a program through `programs_mut`),
+        // so they tell no two states apart.
+        let programs =
+            program_slots[..usize::from(*program_count)].iter().rev().fold(0u64, |acc, p| acc << 3 | *p as u64);
         let words: [u64; 14] = [
             (*counter as u32 as u64) << 32 | *counter_min as u32 as u64,
             u64::from(*cycles_since_strobe) << 32 | u64::from(*rti_phase) << 16 | u64::from(*i40),

@@ -200,16 +200,19 @@ where
 
         let mut current_max_depth = global_max_depth.load(Ordering::Relaxed);
         let mut actions = Vec::new();
+        // PATCH (pmacwd): the states generated in this block are counted here and added to the
+        // shared count once, when the block ends, instead of by an atomic add per transition.
+        let mut generated_here = 0;
         loop {
             // Done if reached max count.
             if max_count == 0 {
-                return;
+                break;
             }
             max_count -= 1;
 
             // Done if none pending.
             let (state, state_fp, mut ebits, max_depth) = match pending.pop_back() {
-                None => return,
+                None => break,
                 Some(pair) => pair,
             };
 
@@ -286,19 +289,26 @@ where
                 }
             }
             if !is_awaiting_discoveries {
-                return;
+                break;
             }
 
             // Otherwise enqueue newly generated states (with related metadata).
             let mut is_terminal = true;
             model.actions(&state, &mut actions);
-            let next_states = actions.drain(..).flat_map(|a| model.next_state(&state, a));
-            for next_state in next_states {
+            // PATCH (pmacwd): a plain loop over the actions instead of `flat_map`, whose
+            // iterator held each successor in its own slot, and the successor left in the
+            // `Option` that `next_state` returned until it is queued: each was one more copy of
+            // the state per transition.
+            for action in actions.drain(..) {
+                let next_state = model.next_state(&state, action);
+                let Some(next) = &next_state else {
+                    continue;
+                };
                 // Skip if outside boundary.
-                if !model.within_boundary(&next_state) {
+                if !model.within_boundary(next) {
                     continue;
                 }
-                state_count.fetch_add(1, Ordering::Relaxed);
+                generated_here += 1;
 
                 // Skip if already generated.
                 //
@@ -308,7 +318,7 @@ where
                 // property held on the path leading to the first visit as meaning
                 // that it holds in the path leading to the second visit -- another
                 // possible false-negative.
-                let next_fingerprint = fingerprint(&next_state);
+                let next_fingerprint = fingerprint(next);
                 if let Entry::Vacant(next_entry) = generated.entry(next_fingerprint) {
                     next_entry.insert(Some(state_fp));
                 } else {
@@ -327,7 +337,7 @@ where
                 // Otherwise further checking is applicable.
                 is_terminal = false;
                 pending.push_front((
-                    next_state,
+                    next_state.expect("a successor (checked above)"),
                     next_fingerprint,
                     ebits.clone(),
                     NonZeroUsize::new(max_depth.get() + 1).unwrap(),
@@ -343,6 +353,7 @@ where
                 }
             }
         }
+        state_count.fetch_add(generated_here, Ordering::Relaxed);
     }
 }
 
