@@ -51,6 +51,33 @@ fn a_reset_command_restores_the_stored_i_variables() {
     assert_eq!(core.apply(&cfg, Event::Command(Command::ReadI(8191)), &mut *store), Reply::Value(0));
 }
 
+/// `$$$***` puts the factory defaults in use (UM p.243): in both stores every I-variable the
+/// core does not keep itself reads its default, 0, afterwards. (The small store was once left
+/// holding its values; only this test notices.)
+#[test]
+fn reinitialization_puts_the_factory_defaults_in_use_in_either_store() {
+    let cfg = config();
+    let mut core = Core::power_on(&cfg);
+    let mut few = FewIVariables::<2>::default();
+    let mut all = Box::<AllIVariables>::default();
+    for (c, expected) in [
+        (Command::WriteI(130, 5), Reply::Ack),
+        (Command::ReadI(130), Reply::Value(5)),
+        (Command::Reinitialize, Reply::None),
+        (Command::ReadI(130), Reply::Value(0)),
+    ] {
+        assert_eq!(core.apply(&cfg, Event::Command(c), &mut few), expected, "small store: {c:?}");
+    }
+    let mut core = Core::power_on(&cfg);
+    for (c, expected) in [
+        (Command::WriteI(130, 5), Reply::Ack),
+        (Command::Reinitialize, Reply::None),
+        (Command::ReadI(130), Reply::Value(0)),
+    ] {
+        assert_eq!(core.apply(&cfg, Event::Command(c), &mut *all), expected, "full store: {c:?}");
+    }
+}
+
 /// Writing 0 to a variable the small store does not hold stores nothing (0 is what it reads
 /// anyway), so such writes never use up the room other variables need.
 #[test]
