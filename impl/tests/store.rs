@@ -3,7 +3,7 @@
 mod common;
 
 use common::realistic_config as config;
-use pmacwd_core::{AllIVariables, Command, Core, Event, FewIVariables, Reply};
+use pmacwd_core::{AllIVariables, Command, Core, Event, FewIVariables, Load, Reply};
 
 /// The design asks for the state "packed into a few machine words": the I-variable store is
 /// outside the core, so copying a core (as `advance` benchmarks and checkers do) stays cheap.
@@ -98,4 +98,23 @@ fn the_status_reply_text_puts_x_first_most_significant_nibble_first() {
     assert_eq!(&Reply::status_text(1 << 22, 0), b"400000000000");
     assert_eq!(&Reply::status_text(0x123456, 0x789ABC), b"123456789ABC");
     assert_eq!(&Reply::status_text(0, 1 << 17), b"000000020000");
+}
+
+/// The CPU a servo cycle leaves to the RTI and the background is the cycle's units less the
+/// servo update's, about 1% of the CPU a motor (UM p.236), and none when the servo update does
+/// not fit (SRM p.289 bit 20). The emulator's `starve` fills exactly this with PLC 0.
+#[test]
+fn the_spare_units_are_the_cycle_less_the_servo_update_of_every_motor() {
+    let cfg = config();
+    let mut core = Core::power_on(&cfg);
+    let mut store = FewIVariables::<2>::default();
+    let expected = |motors: u8| {
+        u32::from(cfg.cycle_units).saturating_sub(u32::from(motors) * u32::from(cfg.servo_units_per_motor))
+    };
+    for motors in [0u8, 1, 8, 255] {
+        let load = Load { motors, ..cfg.load };
+        core.apply(&cfg, Event::Load(load), &mut store);
+        assert_eq!(core.spare_units(), expected(motors), "{motors} motors");
+    }
+    assert!(expected(1) > 1 && expected(8) < expected(1), "the configuration tells the values apart");
 }
