@@ -955,6 +955,12 @@ mod tests {
         let (next, reply) = step(&cfg, &running, &ev);
         assert_eq!((reply, next.axes.motors()[0].state), (Reply::Error(1), MotorState::Program));
         assert!(check(&cfg, &running, &ev, reply, &next), "a refused K holds");
+        // K to a motor the card does not have (MODEL: Ixx00 = 0) is acknowledged and does
+        // nothing; the monitor does not look for a motor 3.
+        let ev3 = command("#3K");
+        let (next, reply) = step(&cfg, &prev, &ev3);
+        assert_eq!((reply, &next), (Reply::Ack, &prev));
+        assert!(check(&cfg, &prev, &ev3, reply, &next), "K to a motor not configured holds");
     }
 
     #[test]
@@ -978,6 +984,12 @@ mod tests {
         let (next, reply) = step(&cfg, &prev, &ev2);
         assert_eq!((reply, next.axes.motors()[1].state), (Reply::Ack, MotorState::Killed));
         assert!(check(&cfg, &prev, &ev2, reply, &next), "K outside a program holds");
+        // A motor the card does not have (MODEL: Ixx00 = 0) is in no running program: K is
+        // acknowledged and does nothing, and that holds.
+        let ev3 = command("#3K");
+        let (next, reply) = step(&cfg, &prev, &ev3);
+        assert_eq!((reply, &next), (Reply::Ack, &prev));
+        assert!(check(&cfg, &prev, &ev3, reply, &next), "K to a motor not configured holds");
     }
 
     #[test]
