@@ -523,3 +523,225 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         holds: |_, s| running(s) && s.controller.counter_min == 0 && s.controller.counter > 0,
     },
 ];
+
+#[cfg(test)]
+mod tests {
+    //! Each `always` property handed a state its sentence forbids (it must fail) and states it
+    //! allows (it must hold). A property weakened until it holds everywhere still holds on every
+    //! state a correct model reaches, so no checker run can notice; only such a hand-made state
+    //! shows it (cargo-mutants: the survivors of properties.rs).
+    use super::*;
+    use crate::controller::Controller;
+    use pmacwd_specs::vocab::event::Event;
+    use pmacwd_specs::vocab::HostCommand;
+    use pmacwd_specs::Spec;
+
+    fn config(name: &str, profile: &str) -> ModelConfig {
+        let spec = Spec::embedded().unwrap();
+        ModelConfig::from_spec(&spec, name, &spec.profiles.get(profile).unwrap()).unwrap()
+    }
+
+    /// The `holds` of the property named `name`, with its expectation checked.
+    fn holds(name: &str, expectation: Expectation) -> fn(&ModelConfig, &State) -> bool {
+        let p = STATE_PROPERTIES.iter().find(|p| p.name == name).unwrap_or_else(|| panic!("no property {name:?}"));
+        assert_eq!(p.expectation, expectation, "{name}");
+        p.holds
+    }
+
+    fn state(c: Controller) -> State {
+        State { controller: c, violations: 0 }
+    }
+
+    /// `motion` after power-on and `commands` (motor 1 in &1, motor 2 in &2).
+    fn motion_card(commands: &[&str]) -> (ModelConfig, Controller) {
+        let cfg = config("motion", "um-215");
+        let mut c = Controller::power_on(&cfg);
+        for text in commands {
+            c.apply(&cfg, &Event::Command(HostCommand::parse(text).unwrap()));
+        }
+        (cfg, c)
+    }
+
+    /// `c` after a supply sag below the minimum: tripped as the model trips.
+    fn tripped(cfg: &ModelConfig, c: &Controller) -> Controller {
+        let mut t = c.clone();
+        t.apply(cfg, &Event::Supply { millivolts: cfg.supply_min_millivolts - 1 });
+        assert!(t.tripped());
+        t
+    }
+
+    #[test]
+    fn sentence_um_215_a_tripped_card_shows_every_trip_output_and_a_running_one_none() {
+        // UM p.215: a trip forces the ICs' outputs off, lights the red LED, turns FEFCO/ on
+        // and changes the PMAC2 relay over; FEFCO/ is on "when the timer trips" (and not
+        // otherwise). Each of the five properties fails when one output disagrees.
+        let (cfg, c) = motion_card(&["#1J/", "#1J+"]);
+        let t = tripped(&cfg, &c);
+        type Output = fn(&mut crate::controller::Outputs) -> &mut bool;
+        let outputs: [(&str, Output); 4] = [
+            ("a tripped card forces discrete outputs off and proportional outputs to zero", |o| &mut o.forced_off),
+            ("a tripped card lights the red watchdog LED", |o| &mut o.led_red),
+            ("a tripped Turbo PMAC turns FEFCO/ on", |o| &mut o.fefco_on),
+            ("a tripped Turbo PMAC2 changes its watchdog relay over", |o| &mut o.relay_tripped),
+        ];
+        let quiet = holds("a running card shows no trip on its LED, FEFCO/, relay or outputs", Always);
+        for (name, output) in outputs {
+            let p = holds(name, Always);
+            assert!(p(&cfg, &state(t.clone())) && p(&cfg, &state(c.clone())), "{name}: the model's states hold");
+            let mut off = t.clone();
+            *output(&mut off.outputs) = false;
+            assert!(!p(&cfg, &state(off)), "{name}: a tripped card without it fails");
+            assert!(quiet(&cfg, &state(t.clone())), "a tripped card showing it is no running card's business");
+            let mut on = c.clone();
+            *output(&mut on.outputs) = true;
+            assert!(!quiet(&cfg, &state(on)), "{name}: a running card showing it fails");
+        }
+        assert!(quiet(&cfg, &state(c)), "a running card showing nothing holds");
+    }
+
+    #[test]
+    fn sentence_um_215_after_a_trip_no_amplifier_is_enabled_no_output_live_and_no_motor_moves() {
+        // UM p.215: "All Servo, MACRO, and I/O ICs are forced into their reset states, which
+        // force discrete outputs off, and proportional outputs (DAC, PWM, PFM) to zero-level."
+        let p = holds("after a trip every amplifier is disabled, every output zero and no motor moves", Always);
+        let (cfg, c) = motion_card(&["#1J/", "#2J/", "#2J+"]);
+        assert!(p(&cfg, &state(c.clone())), "a running card with a jogging motor holds");
+        let t = tripped(&cfg, &c);
+        assert!(p(&cfg, &state(t.clone())), "the model's trip holds");
+        for k in 0..2 {
+            let mut on = t.clone();
+            on.axes.motors_mut()[k].amplifier_enabled = true;
+            assert!(!p(&cfg, &state(on)), "motor {}'s amplifier enabled after the trip fails", k + 1);
+            let mut live = t.clone();
+            live.axes.motors_mut()[k].output_zero = false;
+            assert!(!p(&cfg, &state(live)), "motor {}'s output live after the trip fails", k + 1);
+            let mut moving = t.clone();
+            moving.axes.motors_mut()[k].state = MotorState::Jogging;
+            assert!(!p(&cfg, &state(moving)), "motor {} jogging after the trip fails", k + 1);
+        }
+    }
+
+    #[test]
+    fn sentence_srm_281_the_amplifier_is_enabled_and_the_output_live_exactly_when_the_motor_is_not_killed() {
+        // SRM p.281: Amplifier Enabled "is 1 when the outputs for this motor's amplifier are
+        // enabled ... It is 0 when the outputs are disabled (killed)".
+        let p = holds("a motor's amplifier is enabled and its output live exactly when it is not killed", Always);
+        let (cfg, c) = motion_card(&["#2J/"]);
+        assert_eq!((c.axes.motors()[0].state, c.axes.motors()[1].state), (MotorState::Killed, MotorState::Closed));
+        assert!(p(&cfg, &state(c.clone())), "the model's killed and enabled motors hold");
+        for (k, what) in [(0, "killed"), (1, "enabled")] {
+            let mut amp = c.clone();
+            amp.axes.motors_mut()[k].amplifier_enabled ^= true;
+            assert!(!p(&cfg, &state(amp)), "an {what} motor with its amplifier flipped fails");
+            let mut out = c.clone();
+            out.axes.motors_mut()[k].output_zero ^= true;
+            assert!(!p(&cfg, &state(out)), "an {what} motor with its output flipped fails");
+        }
+    }
+
+    #[test]
+    fn sentence_um_319_on_a_running_card_no_motor_of_an_executing_program_is_killed() {
+        // UM p.319: K "is not permitted when the motor is in a coordinate system that is
+        // executing a motion program". Motor 2 is in &2, which runs nothing.
+        let p = holds("on a running card an executing program has no killed motor", Always);
+        let (cfg, c) = motion_card(&["#1J/", "&1B", "&1R"]);
+        assert_eq!(c.axes.programs()[0], Program::Running);
+        assert_eq!(c.axes.motors()[1].state, MotorState::Killed);
+        assert!(p(&cfg, &state(c.clone())), "the model's state (motor 2 killed, &2 idle) holds");
+        let mut killed = c.clone();
+        killed.axes.motors_mut()[0].state = MotorState::Killed;
+        assert!(!p(&cfg, &state(killed.clone())), "motor 1 killed while &1 runs fails");
+        let mut t = killed.clone();
+        t.trip = Some(TripCause::StrobeTimeout);
+        assert!(p(&cfg, &state(t)), "a tripped card is not running: holds");
+        let mut lost = killed;
+        lost.axes.programs_mut()[0] = Program::Lost;
+        assert!(p(&cfg, &state(lost)), "a killed motor of an aborted program holds");
+    }
+
+    #[test]
+    fn sentence_um_217_a_stop_under_way_lasts_one_to_decel_cycles_max_servo_cycles() {
+        // UM p.217: each stop decelerates at its rate (MODEL: 1 to decel_cycles_max cycles);
+        // a stop under way has cycles left, and no cycles are left without one.
+        let p = holds("a stop under way ends within the longest deceleration", Always);
+        let (cfg, c) = motion_card(&["#1J/", "#1J+"]);
+        let max = cfg.motion.decel_cycles_max;
+        let with = |stop: Option<Stop>, cycles: u8| {
+            let mut s = c.clone();
+            s.axes.motors_mut()[0].stop = stop;
+            s.axes.motors_mut()[0].stop_cycles = cycles;
+            state(s)
+        };
+        assert!(p(&cfg, &with(None, 0)));
+        assert!(p(&cfg, &with(Some(Stop::Jog), 1)));
+        assert!(p(&cfg, &with(Some(Stop::Jog), max)), "the longest deceleration holds");
+        assert!(!p(&cfg, &with(Some(Stop::Jog), max + 1)), "one cycle longer fails");
+        assert!(!p(&cfg, &with(Some(Stop::Jog), 0)), "a stop with no cycles left fails");
+        assert!(!p(&cfg, &with(None, 1)), "cycles left without a stop fail");
+    }
+
+    #[test]
+    fn sentence_um_215_a_low_supply_and_a_long_strobe_gap_each_mean_tripped() {
+        // UM p.215: the timer must see more than about 4.75 V and a strobe faster than about
+        // 25 Hz; a gap longer than the hardware delay, or a low supply, on a running card fails.
+        let cfg = config("lockout", "um-215");
+        let running = Controller::power_on(&cfg);
+        let supply = holds("a supply below the minimum means tripped", Always);
+        let strobe = holds("a strobe gap longer than the hardware delay means tripped", Always);
+        let mut low = running.clone();
+        low.supply_low = true;
+        assert!(!supply(&cfg, &state(low.clone())), "running on a low supply fails");
+        low.trip = Some(TripCause::Undervoltage);
+        assert!(supply(&cfg, &state(low)) && supply(&cfg, &state(running.clone())));
+        let mut gap = running.clone();
+        gap.cycles_since_strobe = cfg.hardware_delay_cycles;
+        assert!(strobe(&cfg, &state(gap.clone())), "a gap of exactly the delay holds");
+        gap.cycles_since_strobe += 1;
+        assert!(!strobe(&cfg, &state(gap.clone())), "one cycle longer, running, fails");
+        gap.trip = Some(TripCause::StrobeTimeout);
+        assert!(strobe(&cfg, &state(gap)), "one cycle longer, tripped, holds");
+    }
+
+    #[test]
+    fn sentence_srm_57_a_background_starved_past_the_reset_value_plus_the_delay_means_tripped() {
+        // SRM p.57: "one background cycle must execute every I40 servo cycles, or the board
+        // will shut down" (plus the hardware delay, UM p.215).
+        let p =
+            holds("a background starved for longer than the reset value plus the hardware delay means tripped", Always);
+        let cfg = config("lockout", "um-215");
+        let mut c = Controller::power_on(&cfg);
+        c.ghost.last_reload = 3;
+        c.ghost.cycles_since_background = 3 + cfg.hardware_delay_cycles;
+        assert!(p(&cfg, &state(c.clone())), "exactly the reset value plus the delay holds");
+        c.ghost.cycles_since_background += 1;
+        assert!(!p(&cfg, &state(c.clone())), "one cycle more, running, fails");
+        c.trip = Some(TripCause::StrobeTimeout);
+        assert!(p(&cfg, &state(c)), "one cycle more, tripped, holds");
+    }
+
+    #[test]
+    fn sentence_srm_57_and_um_215_x25_at_most_y25_and_y25_at_most_its_last_reload() {
+        // SRM p.57: X:$25 is "the lowest value that the counter has reached"; UM p.215: the
+        // counter is reset "to a maximum value set by variable I40"; UM p.215 (at zero): the
+        // counter is decremented "as long as the counter is greater than zero".
+        let cfg = config("lockout", "um-215");
+        let min = holds("X:$25 is never above the watchdog counter Y:$25", Always);
+        let max = holds("the counter never exceeds the value it was last loaded with", Always);
+        let zero = holds("under the at-zero reading the counter never goes below zero", Always);
+        let mut c = Controller::power_on(&cfg);
+        (c.counter, c.counter_min, c.ghost.last_reload) = (2, 2, 2);
+        assert!(min(&cfg, &state(c.clone())) && max(&cfg, &state(c.clone())), "all equal holds");
+        let mut above = c.clone();
+        above.counter_min = 3;
+        assert!(!min(&cfg, &state(above)), "X:$25 above Y:$25 fails");
+        let mut over = c.clone();
+        over.counter = 3;
+        assert!(!max(&cfg, &state(over)), "Y:$25 above its last reload fails");
+        c.counter = 0;
+        assert!(zero(&cfg, &state(c.clone())), "zero holds");
+        c.counter = -1;
+        assert!(!zero(&cfg, &state(c.clone())), "below zero under the at-zero reading fails");
+        let srm = config("lockout", "srm-57");
+        assert!(zero(&srm, &state(c)), "below zero under the below-zero reading holds");
+    }
+}
