@@ -744,4 +744,186 @@ mod tests {
         let srm = config("lockout", "srm-57");
         assert!(zero(&srm, &state(c)), "below zero under the below-zero reading holds");
     }
+
+    /// Whether the `sometimes` property named `name` counts `c` as its witness.
+    fn witness(cfg: &ModelConfig, name: &str, c: &Controller) -> bool {
+        holds(name, Sometimes)(cfg, &state(c.clone()))
+    }
+
+    #[test]
+    fn a_witness_of_a_status_bit_is_a_running_card_showing_that_bit() {
+        // SRM p.289-290: bits 22, 9, 20, 11, 10 and (GlobalStatus.py) second-word bits 19 and
+        // 17 "can be set": a witness must be a running card whose ??? would show the bit; a
+        // tripped card answers nothing (UM p.215).
+        let cfg = config("motion", "um-215");
+        let running = Controller::power_on(&cfg);
+        type Flag = fn(&mut crate::controller::StatusFlags);
+        let bits: [(&str, Flag); 7] = [
+            ("bit 22 (RTI re-entry) can be set", |f| f.rti_reentry = true),
+            ("bit 9 (RTI warning) can be set", |f| f.rti_warning = true),
+            ("bit 20 (servo error) can be set", |f| f.servo_error = true),
+            ("bit 11 (DPRAM error) can be set", |f| f.dpram_error = true),
+            ("bit 10 (flash error) can be set", |f| f.flash_error = true),
+            ("second-word bit 19 (motion buffer open) can be set", |f| f.motion_buffer_open = true),
+            ("second-word bit 17 (PLC buffer open) can be set", |f| f.plc_buffer_open = true),
+        ];
+        for (name, set) in bits {
+            assert!(!witness(&cfg, name, &running), "{name}: a card without the bit is no witness");
+            let mut on = running.clone();
+            set(&mut on.status);
+            assert!(witness(&cfg, name, &on), "{name}: a running card with the bit is one");
+            let t = tripped(&cfg, &on);
+            assert!(!witness(&cfg, name, &t), "{name}: a tripped card is no witness");
+        }
+    }
+
+    #[test]
+    fn a_witness_of_a_checksum_error_or_pass_is_a_running_card_in_that_error_or_pass() {
+        // UM p.217: a firmware or a user-program checksum error "can be found"; SRM p.289: bit
+        // 12 is 1 while the firmware is evaluated (bit 13 = 0) and 0 while the user program is.
+        let cfg = config("motion", "um-215");
+        let m83 = config("motion", "um-215-m83");
+        let fresh = Controller::power_on(&cfg);
+        assert_eq!((fresh.checksum.area, fresh.checksum.error), (ChecksumTarget::Firmware, None));
+        let with = |area: ChecksumTarget, error: Option<ChecksumTarget>| {
+            let mut c = fresh.clone();
+            (c.checksum.area, c.checksum.error) = (area, error);
+            c
+        };
+        let (fw, up) = (ChecksumTarget::Firmware, ChecksumTarget::UserProgram);
+        let firmware = "a firmware checksum error can be found";
+        let user = "a user-program checksum error can be found";
+        let fw_pass = "bit 12 can show a firmware pass in progress (prom_checksum_active reading)";
+        let up_pass = "bit 12 can show a user-program pass in progress";
+        for (c, expect) in [
+            (with(fw, None), [false, false, true, false]),
+            (with(up, None), [false, false, false, true]),
+            (with(fw, Some(fw)), [true, false, false, false]),
+            (with(up, Some(up)), [false, true, false, false]),
+        ] {
+            let seen = [firmware, user, fw_pass, up_pass].map(|name| witness(&cfg, name, &c));
+            assert_eq!(seen, expect, "area {:?}, error {:?}", c.checksum.area, c.checksum.error);
+            let t = tripped(&cfg, &c);
+            assert_eq!([firmware, user, fw_pass, up_pass].map(|name| witness(&cfg, name, &t)), [false; 4], "tripped");
+        }
+        // Under the M83 reading bit 12 is the firmware error bit: the firmware-pass witness is
+        // not sought (holds anywhere), the user-program pass is still seen by its words.
+        assert!(witness(&m83, fw_pass, &tripped(&m83, &fresh)));
+        assert!(witness(&m83, up_pass, &with(up, None)) && !witness(&m83, up_pass, &with(fw, None)));
+    }
+
+    #[test]
+    fn a_witness_of_a_trip_a_recovery_or_bootstrap_is_exactly_that_card() {
+        // UM p.215: the card trips on a low supply or a starved background, and INIT/ or a
+        // power cycle restores it; SRM p.289: the card can start in bootstrap mode.
+        let cfg = config("motion", "um-215");
+        let running = Controller::power_on(&cfg);
+        let low = "the card can trip on low supply voltage";
+        let starved = "the card can trip on a starved background";
+        let init = "a tripped card can be recovered by INIT/";
+        let power = "a tripped card can be recovered by a power cycle";
+        let boot = "the card can start in bootstrap mode";
+        let names = [low, starved, init, power, boot];
+        let seen = |c: &Controller| names.map(|name| witness(&cfg, name, c));
+        assert_eq!(seen(&running), [false; 5]);
+        let mut c = running.clone();
+        c.trip = Some(TripCause::Undervoltage);
+        assert_eq!(seen(&c), [true, false, false, false, false]);
+        c.trip = Some(TripCause::StrobeTimeout);
+        assert_eq!(seen(&c), [false, true, false, false, false]);
+        let mut c = running.clone();
+        c.ghost.recovered_by = Some(ResetKind::Init);
+        assert_eq!(seen(&c), [false, false, true, false, false]);
+        c.trip = Some(TripCause::StrobeTimeout);
+        assert_eq!(seen(&c), [false, true, false, false, false], "tripped again: no recovery");
+        let mut c = running.clone();
+        c.ghost.recovered_by = Some(ResetKind::Power);
+        assert_eq!(seen(&c), [false, false, false, true, false]);
+        let mut c = running.clone();
+        c.bootstrap = true;
+        assert_eq!(seen(&c), [false, false, false, false, true]);
+        c.trip = Some(TripCause::StrobeTimeout);
+        assert_eq!(seen(&c), [false, true, false, false, false], "a tripped bootstrap card");
+    }
+
+    #[test]
+    fn a_witness_of_a_stop_behaviour_is_a_running_card_with_the_motor_and_program_it_names() {
+        // UM p.217, p.319: a motor jogs; Q lets a program motor finish its calculated moves; H
+        // holds a program on its path with its motors at rest; A loses the lookahead while the
+        // motors decelerate.
+        let (cfg, running) = motion_card(&["#1J/", "&1B", "&1R"]);
+        let jog = "a motor can jog";
+        let quit = "a program can finish its calculated moves after Q";
+        let hold = "a program can be held on its path, its motors at rest";
+        let abort = "an aborted program can lose its lookahead while its motors decelerate";
+        let names = [jog, quit, hold, abort];
+        let seen = |c: &Controller| names.map(|name| witness(&cfg, name, c));
+        assert_eq!(seen(&running), [false; 4], "a program running, nothing stopping");
+        let motor = |state: MotorState, stop: Option<Stop>, program: Program| {
+            let mut c = running.clone();
+            let m = &mut c.axes.motors_mut()[1];
+            (m.state, m.stop, m.stop_cycles) = (state, stop, u8::from(stop.is_some()));
+            c.axes.programs_mut()[0] = program;
+            c
+        };
+        let cases = [
+            (motor(MotorState::Jogging, None, Program::Running), [true, false, false, false]),
+            (motor(MotorState::Program, Some(Stop::Quit), Program::Running), [false, true, false, false]),
+            (motor(MotorState::Program, Some(Stop::EndOfMove), Program::Running), [false; 4]),
+            (motor(MotorState::Decelerating, Some(Stop::Quit), Program::Running), [false; 4]),
+            (motor(MotorState::Holding, None, Program::Held), [false, false, true, false]),
+            (motor(MotorState::Holding, None, Program::Running), [false; 4]),
+            (motor(MotorState::Closed, None, Program::Held), [false; 4]),
+            (motor(MotorState::Decelerating, Some(Stop::Abort), Program::Lost), [false, false, false, true]),
+            (motor(MotorState::Decelerating, Some(Stop::Abort), Program::AtPoint), [false; 4]),
+            (motor(MotorState::Decelerating, Some(Stop::Jog), Program::Lost), [false; 4]),
+        ];
+        for (c, expect) in cases {
+            assert_eq!(
+                seen(&c),
+                expect,
+                "motor 2 {:?} {:?}, &1 {:?}",
+                c.axes.motors()[1].state,
+                c.axes.motors()[1].stop,
+                c.axes.programs()[0]
+            );
+            let mut t = c.clone();
+            t.trip = Some(TripCause::StrobeTimeout);
+            assert_eq!(seen(&t), [false; 4], "tripped");
+        }
+    }
+
+    #[test]
+    fn a_witness_of_the_encoder_loss_plc_and_of_a_near_miss_is_a_running_card_showing_it() {
+        // UM p.214-215: the PLC kills a motor and latches the loss; as printed it leaves a
+        // healthy motor's latched loss (ghost bit 1), as intended it clears it (bit 0). UM
+        // p.240: X:$25 near 0 "means the card nearly tripped".
+        let (cfg, running) = motion_card(&["#1J/"]);
+        let literal = config("motion", "um-215-literal-plc");
+        let kill = "the encoder-loss PLC can kill a motor and latch the loss";
+        let clear = "the encoder-loss PLC can find a re-enabled motor with its encoder OK and a latched loss, and clear it as its reading says";
+        let near = "a near miss leaves X:$25 at the last strobing value on a running card";
+        let mut c = running.clone();
+        assert!(!witness(&cfg, kill, &c));
+        c.axes.motors_mut()[0].loss_status = true;
+        assert!(!witness(&cfg, kill, &c), "a latched loss on a motor still enabled");
+        c.axes.motors_mut()[0].state = MotorState::Killed;
+        assert!(witness(&cfg, kill, &c));
+        assert!(!witness(&cfg, kill, &tripped(&cfg, &c)));
+        let mut c = running.clone();
+        for (ghost, intent, printed) in [(0, false, false), (1, true, false), (2, false, true), (3, false, false)] {
+            c.axes.ghost_healthy_latched_scans = ghost;
+            assert_eq!((witness(&cfg, clear, &c), witness(&literal, clear, &c)), (intent, printed), "ghost {ghost}");
+        }
+        c.axes.ghost_healthy_latched_scans = 1;
+        assert!(!witness(&cfg, clear, &tripped(&cfg, &c)));
+        let mut c = running;
+        for (min, counter, seen) in [(0, 1, true), (0, 0, false), (1, 2, false), (-1, 1, false)] {
+            (c.counter_min, c.counter) = (min, counter);
+            assert_eq!(witness(&cfg, near, &c), seen, "X:$25 = {min}, Y:$25 = {counter}");
+        }
+        (c.counter_min, c.counter) = (0, 1);
+        c.trip = Some(TripCause::StrobeTimeout);
+        assert!(!witness(&cfg, near, &c), "tripped");
+    }
 }
