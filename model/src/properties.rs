@@ -926,4 +926,59 @@ mod tests {
         c.trip = Some(TripCause::StrobeTimeout);
         assert!(!witness(&cfg, near, &c), "tripped");
     }
+
+    /// `timing` with one load and the CPU and I8 given: 10 units a servo cycle, 2 a motor,
+    /// 1 of move planning a RTI, I8 = 2 (an RTI every 3 servo cycles).
+    fn cpu_config(motors: u8, plc0_units: u16) -> ModelConfig {
+        let mut cfg = config("timing", "um-215");
+        cfg.cpu = pmacwd_specs::check::Cpu { cycle_units: 10, servo_units_per_motor: 2, move_planning_units: 1 };
+        cfg.saved.i8 = 2;
+        cfg.loads = vec![pmacwd_specs::check::Load { motors, plc0_units, background_units: 1 }];
+        cfg
+    }
+
+    #[test]
+    fn sentence_um_236_an_rti_can_overrun_only_when_its_tasks_outlast_the_period_the_servo_work_leaves() {
+        // UM p.236: PLC 0 "will execute every real-time interrupt as long as the tasks from the
+        // previous RTI have been completed"; the RTI tasks (PLC 0 and move planning) get what
+        // the servo work leaves of the I8+1 servo cycles of an RTI period. With 3 motors at 2
+        // units of 10, 4 units a cycle are left, 12 a period: 11 units of PLC 0 plus 1 of
+        // planning exactly fill it, 12 plus 1 outlast it. The bits 22 and 9 witnesses are
+        // sought only when some load can overrun.
+        assert!(!can_overrun(&cpu_config(3, 11)), "exactly the period: no overrun");
+        assert!(can_overrun(&cpu_config(3, 12)), "one unit more: an overrun");
+        for name in ["bit 22 (RTI re-entry) can be set", "bit 9 (RTI warning) can be set"] {
+            let p = STATE_PROPERTIES.iter().find(|p| p.name == name).unwrap();
+            assert!(!(p.applies)(&cpu_config(3, 11)) && (p.applies)(&cpu_config(3, 12)), "{name}");
+        }
+    }
+
+    #[test]
+    fn sentence_srm_289_servo_work_overloads_only_when_the_motors_need_more_than_a_cycle() {
+        // SRM p.289 bit 20: set "if Turbo PMAC could not properly complete its servo routines";
+        // UM p.236: each motor costs its share of the servo cycle. 5 motors at 2 units fill the
+        // 10 units of a cycle exactly; 6 need more.
+        assert!(!can_overload_servo(&cpu_config(5, 0)), "exactly a cycle: no overload");
+        assert!(can_overload_servo(&cpu_config(6, 0)), "one motor more: an overload");
+        let p = STATE_PROPERTIES.iter().find(|p| p.name == "bit 20 (servo error) can be set").unwrap();
+        assert!(!(p.applies)(&cpu_config(5, 0)) && (p.applies)(&cpu_config(6, 0)));
+    }
+
+    #[test]
+    fn a_witness_that_needs_a_command_is_sought_only_where_the_configuration_offers_it() {
+        // The `sometimes` properties are reachability checks of what a configuration offers:
+        // OPEN PROG for bit 19, OPEN PLC for bit 17, J+ for a jog (GlobalStatus.py, UM p.217).
+        // `status` offers OPEN PLC and OPEN PROG and no motion; `motion` offers J+ and no OPEN.
+        let status = config("status", "um-215");
+        let motion = config("motion", "um-215");
+        let applies =
+            |name: &str, cfg: &ModelConfig| (STATE_PROPERTIES.iter().find(|p| p.name == name).unwrap().applies)(cfg);
+        for name in
+            ["second-word bit 19 (motion buffer open) can be set", "second-word bit 17 (PLC buffer open) can be set"]
+        {
+            assert!(applies(name, &status) && !applies(name, &motion), "{name}");
+        }
+        assert!(applies("a motor can jog", &motion) && !applies("a motor can jog", &status));
+        assert!(applies("the card can trip on a starved background", &status), "`any` applies everywhere");
+    }
 }
