@@ -981,4 +981,39 @@ mod tests {
         assert!(applies("a motor can jog", &motion) && !applies("a motor can jog", &status));
         assert!(applies("the card can trip on a starved background", &status), "`any` applies everywhere");
     }
+
+    #[test]
+    fn a_witness_of_a_low_supply_trip_a_recovery_or_the_plc_s_clear_is_sought_only_where_the_configuration_can_show_it()
+    {
+        // UM p.215: "If the supply voltage is below this value ... the card will shut down": a
+        // supply exactly at the minimum trips nothing, so no low-supply trip is sought there.
+        // INIT/ and a power cycle recover a card only where the configuration offers them; the
+        // PLC's clear (UM p.215) needs encoder inputs and a J/ to re-enable the motor.
+        let applies =
+            |name: &str, cfg: &ModelConfig| (STATE_PROPERTIES.iter().find(|p| p.name == name).unwrap().applies)(cfg);
+        let low = "the card can trip on low supply voltage";
+        let mut cfg = config("status", "um-215");
+        let min = cfg.supply_min_millivolts;
+        cfg.supply_millivolts = vec![5000, min];
+        assert!(!applies(low, &cfg), "a supply exactly at the minimum");
+        cfg.supply_millivolts = vec![5000, min - 1];
+        assert!(applies(low, &cfg), "a supply one millivolt below it");
+        let (init, power) =
+            ("a tripped card can be recovered by INIT/", "a tripped card can be recovered by a power cycle");
+        for (kind, expect) in [(ResetKind::Init, [true, false]), (ResetKind::Power, [false, true])] {
+            cfg.resets = vec![pmacwd_specs::check::ResetEvent {
+                kind,
+                dpram_fault: false,
+                flash_fault: false,
+                bootstrap: false,
+            }];
+            assert_eq!([applies(init, &cfg), applies(power, &cfg)], expect, "{kind:?}");
+        }
+        let clear = "the encoder-loss PLC can find a re-enabled motor with its encoder OK and a latched loss, and clear it as its reading says";
+        let mut encoder = config("encoder-loss", "um-215");
+        assert!(applies(clear, &encoder), "encoder inputs and J/");
+        assert!(!applies(clear, &config("motion", "um-215")), "J/ without encoder inputs");
+        encoder.commands.retain(|c| !matches!(c, HostCommand::Motion(Motion::Motor(_, MotorCommand::JogStop))));
+        assert!(!applies(clear, &encoder), "encoder inputs without J/");
+    }
 }
