@@ -228,7 +228,7 @@ fn from_i40_6_and_delay_3_the_model_reaches_every_observation_class_of_larger_si
 }
 
 #[test]
-fn a_violation_seen_before_a_leap_is_still_recorded_after_it() {
+fn a_violation_seen_before_a_leap_or_a_step_is_still_recorded_after_it() {
     // model/src/monitor.rs: a monitor's failure is "a sticky bit in the next state", which the
     // matching `always` property requires to stay clear. A leap runs the cycle monitors on
     // every cycle it passes and must add their bits to those already set, never drop them: a
@@ -240,5 +240,11 @@ fn a_violation_seen_before_a_leap_is_still_recorded_after_it() {
     for just_before in [false, true] {
         let (cycles, next) = model.advance_to_change(&state, just_before);
         assert_eq!(next.violations & (1 << 5), 1 << 5, "after a leap of {cycles} cycles (just before: {just_before})");
+    }
+    // So must a single step: servo cycles one at a time (the cycle monitors), and any other
+    // event (the event monitors).
+    for event in [Event::Servo { cycles: 1 }, Event::Servo { cycles: 2 }, Event::Background] {
+        let (_, next) = model.step(&state, &event);
+        assert_eq!(next.violations & (1 << 5), 1 << 5, "after {event:?}");
     }
 }
