@@ -791,6 +791,559 @@ mod tests {
         }
     }
 
+    /// `cfg`'s card after power-on and `commands`, each acknowledged.
+    fn card_after(cfg: &ModelConfig, commands: &[&str]) -> Controller {
+        let mut c = Controller::power_on(cfg);
+        for text in commands {
+            assert_eq!(c.apply(cfg, &command(text)), Reply::Ack, "{text}");
+        }
+        c
+    }
+
+    /// `prev` after one servo cycle as the model takes it: the report and the state after.
+    fn cycle(cfg: &ModelConfig, prev: &Controller) -> (CycleReport, Controller) {
+        let mut next = prev.clone();
+        let report = next.servo_cycle(cfg);
+        (report, next)
+    }
+
+    /// `c` tripped, its motor 1 killed (UM p.215: the Servo ICs held in reset).
+    fn tripped_killing_motor_1(c: &Controller) -> Controller {
+        let mut t = c.clone();
+        t.trip = Some(TripCause::StrobeTimeout);
+        let m = &mut t.axes.motors_mut()[0];
+        (m.state, m.stop, m.stop_cycles, m.amplifier_enabled, m.output_zero) =
+            (MotorState::Killed, None, 0, false, true);
+        t
+    }
+
+    /// `motion` with motor 1 running &1's program (B, R) and motor 2 jogging, both enabled (J/).
+    fn moving_card(cfg: &ModelConfig) -> Controller {
+        let c = card_after(cfg, &["#1J/", "#2J/", "&1B", "&1R", "#2J+"]);
+        assert_eq!((c.axes.motors()[0].state, c.axes.motors()[1].state), (MotorState::Program, MotorState::Jogging));
+        assert_eq!(program(&c, 1), Program::Running);
+        c
+    }
+
+    #[test]
+    fn sentence_srm_289_a_running_card_in_bootstrap_mode_answers_bootstrap_prom() {
+        // SRM p.289: "If the Turbo PMAC is in bootstrap mode ... its response to this command
+        // will simply be BOOTSTRAP PROM", not the status words; a tripped card answers nothing.
+        let cfg = config("lockout");
+        let check = event_check("a card in bootstrap mode answers ??? with BOOTSTRAP PROM");
+        let mut prev = lockout_card(&cfg, 0);
+        prev.bootstrap = true;
+        let ev = command("???");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_eq!(reply, Reply::Bootstrap);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's reply holds");
+        let (x, y) = prev.status_words(&cfg);
+        assert!(!check(&cfg, &prev, &ev, Reply::Status { x, y }, &next), "the status words from a bootstrap card fire");
+        let mut tripped = prev.clone();
+        tripped.trip = Some(TripCause::StrobeTimeout);
+        let (next, reply) = step(&cfg, &tripped, &ev);
+        assert_eq!(reply, Reply::Silence);
+        assert!(check(&cfg, &tripped, &ev, reply, &next), "a tripped card's silence holds");
+    }
+
+    #[test]
+    fn sentence_srm_289_the_dpram_and_flash_bits_each_change_only_at_a_reset() {
+        // SRM p.289: bit 11 reports the DPRAM check "at power-up/reset", bit 10 the flash read
+        // "on board reset": between resets neither moves, whatever the other does.
+        let cfg = config("lockout");
+        let check = event_check("the DPRAM and flash error bits change only at a reset");
+        let prev = lockout_card(&cfg, 0);
+        let ev = command("???");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's ??? holds");
+        let mut flash = next.clone();
+        flash.status.flash_error = true;
+        assert!(!check(&cfg, &prev, &ev, reply, &flash), "bit 10 set by ??? fires");
+        let mut dpram = next.clone();
+        dpram.status.dpram_error = true;
+        assert!(!check(&cfg, &prev, &ev, reply, &dpram), "bit 11 set by ??? fires");
+        let reset = Event::Reset(pmacwd_specs::check::ResetEvent {
+            kind: pmacwd_specs::check::ResetKind::Init,
+            dpram_fault: false,
+            flash_fault: true,
+            bootstrap: false,
+        });
+        let (next, reply) = step(&cfg, &prev, &reset);
+        assert!(next.status.flash_error);
+        assert!(check(&cfg, &prev, &reset, reply, &next), "a reset that finds a flash error holds");
+    }
+
+    #[test]
+    fn sentence_um_215_a_supply_below_the_minimum_trips_and_one_at_or_above_it_does_not() {
+        // UM p.215: "If the supply voltage is below this value, the circuit's relay will trip
+        // and the card will shut down." Below, not at: a supply exactly at the minimum, and a
+        // good one, leave the card running, and the monitor must accept that.
+        let cfg = config("lockout");
+        let check = event_check("a supply below the minimum trips the card at once");
+        let prev = lockout_card(&cfg, 0);
+        let min = cfg.supply_min_millivolts;
+        let low = Event::Supply { millivolts: min - 1 };
+        let (next, reply) = step(&cfg, &prev, &low);
+        assert!(next.tripped());
+        assert!(check(&cfg, &prev, &low, reply, &next), "the model's trip holds");
+        assert!(!check(&cfg, &prev, &low, reply, &prev), "a card running on below the minimum fires");
+        for mv in [min, min + 1, 5000] {
+            let ev = Event::Supply { millivolts: mv };
+            let (next, reply) = step(&cfg, &prev, &ev);
+            assert!(!next.tripped(), "{mv} mV");
+            assert!(check(&cfg, &prev, &ev, reply, &next), "{mv} mV, running on: holds");
+        }
+    }
+
+    #[test]
+    fn sentence_um_217_a_firmware_checksum_error_shows_bits_12_and_13_of_x6() {
+        // UM p.217: on a firmware checksum error "it sets global status bits (bits 12 and 13
+        // of X:$000006 ...)". The model builds the words from `status.yaml`'s positions; a
+        // layout that moved either bit out of X:$000006 (a wrong `status.yaml`) must fire, as
+        // must one that moved both.
+        use pmacwd_specs::status::WordId;
+        let cfg = config("lockout");
+        let check = event_check("a firmware checksum error sets bits 12 and 13");
+        let mut prev = lockout_card(&cfg, 0);
+        prev.apply(&cfg, &Event::ChecksumFault(ChecksumTarget::Firmware));
+        prev.background_credit = u32::from(prev.load.background_units);
+        let ev = Event::Background;
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_eq!(next.checksum.error, Some(ChecksumTarget::Firmware), "a pass of one background cycle finds it");
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's words hold");
+        let moved = |bit13: bool, bit12: bool| {
+            let mut wrong = cfg.clone();
+            if bit13 {
+                wrong.layout.checksum_error.0 = WordId::Y;
+            }
+            if bit12 {
+                wrong.layout.prom_checksum_active.0 = WordId::Y;
+            }
+            wrong
+        };
+        for (bit13, bit12) in [(true, false), (false, true), (true, true)] {
+            let wrong = moved(bit13, bit12);
+            assert!(!check(&wrong, &prev, &ev, reply, &next), "bit 13 moved {bit13}, bit 12 moved {bit12}: fires");
+        }
+    }
+
+    #[test]
+    fn sentence_um_319_after_k_the_motor_is_killed_and_no_other_motor_is_looked_at() {
+        // UM p.319: K disables the motor "by opening the servo loops, forcing zero-value
+        // command outputs, and disabling the amplifiers", at once (UM p.217: K begins
+        // immediately). `motion`: motor 2 keeps jogging, it is not the one killed.
+        let cfg = config("motion");
+        let check =
+            event_check("after K the motor's amplifier is disabled and its output zero in the same servo cycle");
+        let prev = card_after(&cfg, &["#1J/", "#2J/", "#2J+"]);
+        let ev = command("#1K");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_eq!((reply, next.axes.motors()[1].state), (Reply::Ack, MotorState::Jogging));
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's kill holds");
+        let half = |f: fn(&mut crate::motion::Motor)| {
+            let mut n = next.clone();
+            f(&mut n.axes.motors_mut()[0]);
+            n
+        };
+        for (what, n) in [
+            ("still closed loop", half(|m| m.state = MotorState::Closed)),
+            ("amplifier on", half(|m| m.amplifier_enabled = true)),
+            ("output not zero", half(|m| m.output_zero = false)),
+        ] {
+            assert!(!check(&cfg, &prev, &ev, reply, &n), "K leaving motor 1 {what} fires");
+        }
+        // K refused while &1 runs its program (UM p.319) leaves the motor: holds here.
+        let running = moving_card(&cfg);
+        let (next, reply) = step(&cfg, &running, &ev);
+        assert_eq!((reply, next.axes.motors()[0].state), (Reply::Error(1), MotorState::Program));
+        assert!(check(&cfg, &running, &ev, reply, &next), "a refused K holds");
+        // K to a motor the card does not have (MODEL: Ixx00 = 0) is acknowledged and does
+        // nothing; the monitor does not look for a motor 3.
+        let ev3 = command("#3K");
+        let (next, reply) = step(&cfg, &prev, &ev3);
+        assert_eq!((reply, &next), (Reply::Ack, &prev));
+        assert!(check(&cfg, &prev, &ev3, reply, &next), "K to a motor not configured holds");
+    }
+
+    #[test]
+    fn sentence_um_319_k_is_refused_while_the_program_of_its_coordinate_system_executes() {
+        // UM p.319: "the motor-specific K kill command is not permitted when the motor is in a
+        // coordinate system that is executing a motion program": ERR001, nothing changed.
+        let cfg = config("motion");
+        let check = event_check("K is refused while the motor's coordinate system executes a program");
+        let prev = moving_card(&cfg);
+        let ev = command("#1K");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_eq!(reply, Reply::Error(1));
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's refusal holds");
+        let mut killed = next.clone();
+        killed.axes.motors_mut()[0].state = MotorState::Killed;
+        assert!(!check(&cfg, &prev, &ev, Reply::Ack, &killed), "K obeyed fires");
+        assert!(!check(&cfg, &prev, &ev, Reply::Error(1), &killed), "K refused but obeyed fires");
+        assert!(!check(&cfg, &prev, &ev, Reply::Ack, &next), "K acknowledged, nothing done, fires");
+        // Outside a program, K is allowed: motor 2 (in &2, no program) is killed.
+        let ev2 = command("#2K");
+        let (next, reply) = step(&cfg, &prev, &ev2);
+        assert_eq!((reply, next.axes.motors()[1].state), (Reply::Ack, MotorState::Killed));
+        assert!(check(&cfg, &prev, &ev2, reply, &next), "K outside a program holds");
+        // A motor the card does not have (MODEL: Ixx00 = 0) is in no running program: K is
+        // acknowledged and does nothing, and that holds.
+        let ev3 = command("#3K");
+        let (next, reply) = step(&cfg, &prev, &ev3);
+        assert_eq!((reply, &next), (Reply::Ack, &prev));
+        assert!(check(&cfg, &prev, &ev3, reply, &next), "K to a motor not configured holds");
+    }
+
+    #[test]
+    fn sentence_um_319_ctrl_k_kills_every_motor() {
+        // UM p.319: "The <CTRL-K> kill-all command breaks into the executing trajectory
+        // immediately, and disables all motors."
+        let cfg = config("motion");
+        let check = event_check("after <CTRL-K> every motor is killed at once");
+        let prev = moving_card(&cfg);
+        let ev = command("<CTRL-K>");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's kill-all holds");
+        for k in 0..2 {
+            let mut n = next.clone();
+            n.axes.motors_mut()[k].state = MotorState::Closed;
+            assert!(!check(&cfg, &prev, &ev, reply, &n), "motor {} left closed loop fires", k + 1);
+            let mut n = next.clone();
+            n.axes.motors_mut()[k].amplifier_enabled = true;
+            assert!(!check(&cfg, &prev, &ev, reply, &n), "motor {}'s amplifier left on fires", k + 1);
+            let mut n = next.clone();
+            n.axes.motors_mut()[k].output_zero = false;
+            assert!(!check(&cfg, &prev, &ev, reply, &n), "motor {}'s output left driven fires", k + 1);
+        }
+    }
+
+    #[test]
+    fn sentence_um_319_a_killed_motor_moves_again_only_through_its_own_j_slash() {
+        // UM p.319: killed motors coast; the program "could be resumed after re-enabling the
+        // servo loops" (MODEL: J/ re-enables a motor, to closed loop at rest). A killed motor
+        // leaves Killed only by its own J/, and then only to closed loop at rest.
+        let cfg = config("motion");
+        let check = event_check("a killed motor does not move until it is re-enabled");
+        let prev = Controller::power_on(&cfg);
+        assert!(prev.axes.motors().iter().all(|m| m.state == MotorState::Killed));
+        let j1 = command("#1J/");
+        let (next, reply) = step(&cfg, &prev, &j1);
+        assert_eq!(next.axes.motors()[0].state, MotorState::Closed);
+        assert!(check(&cfg, &prev, &j1, reply, &next), "the model's J/ holds");
+        let mut jogging = next.clone();
+        jogging.axes.motors_mut()[0].state = MotorState::Jogging;
+        assert!(!check(&cfg, &prev, &j1, reply, &jogging), "J/ leaving motor 1 jogging fires");
+        let j2 = command("#2J/");
+        assert!(!check(&cfg, &prev, &j2, reply, &next), "motor 1 re-enabled by motor 2's J/ fires");
+        let jog = command("#1J+");
+        let (stays, reply) = step(&cfg, &prev, &jog);
+        assert_eq!(stays.axes.motors()[0].state, MotorState::Killed);
+        assert!(check(&cfg, &prev, &jog, reply, &stays), "a jog of a killed motor that stays killed holds");
+        assert!(!check(&cfg, &prev, &jog, reply, &jogging), "a killed motor jogged by J+ fires");
+        // A closed-loop motor that starts to jog was never killed: holds.
+        let enabled = next;
+        let (jogs, reply) = step(&cfg, &enabled, &jog);
+        assert_eq!(jogs.axes.motors()[0].state, MotorState::Jogging);
+        assert!(check(&cfg, &enabled, &jog, reply, &jogs), "J+ of an enabled motor holds");
+    }
+
+    #[test]
+    fn sentence_um_217_a_begins_immediately_so_no_motor_of_the_system_goes_on() {
+        // UM p.217: A, "Begin Immed? Yes" (UM p.319: A "breaks into the executing trajectory
+        // immediately"); <CTRL-A> is A for every coordinate system. Decelerating is allowed.
+        let cfg = config("motion");
+        let check =
+            event_check("A begins immediately: no motor of the coordinate system runs its program or jogs after it");
+        let prev = moving_card(&cfg);
+        let a1 = command("&1A");
+        let (next, reply) = step(&cfg, &prev, &a1);
+        assert_eq!(next.axes.motors()[0].state, MotorState::Decelerating);
+        assert!(check(&cfg, &prev, &a1, reply, &next), "the model's A holds");
+        for state in [MotorState::Program, MotorState::Jogging, MotorState::Holding] {
+            let mut n = next.clone();
+            n.axes.motors_mut()[0].state = state;
+            assert!(!check(&cfg, &prev, &a1, reply, &n), "motor 1 {state:?} after &1A fires");
+        }
+        let all = command("<CTRL-A>");
+        let (next, reply) = step(&cfg, &prev, &all);
+        assert!(next.axes.motors().iter().all(|m| m.state == MotorState::Decelerating));
+        assert!(check(&cfg, &prev, &all, reply, &next), "the model's <CTRL-A> holds");
+        for state in [MotorState::Program, MotorState::Jogging, MotorState::Holding] {
+            let mut n = next.clone();
+            n.axes.motors_mut()[1].state = state;
+            assert!(!check(&cfg, &prev, &all, reply, &n), "motor 2 {state:?} after <CTRL-A> fires");
+        }
+    }
+
+    #[test]
+    fn sentence_um_217_a_discards_the_lookahead_of_an_executing_program() {
+        // UM p.217: A, "Stop at Prog Pt? No, No easy restart" (UM p.319: the lookahead is
+        // discarded): the program is lost and no motor of the system finishes a move as Q would.
+        let cfg = config("motion");
+        let check = event_check("A does not finish calculated moves: an executing program loses its lookahead");
+        let prev = moving_card(&cfg);
+        for text in ["&1A", "<CTRL-A>"] {
+            let ev = command(text);
+            let (next, reply) = step(&cfg, &prev, &ev);
+            assert_eq!(program(&next, 1), Program::Lost, "{text}");
+            assert!(check(&cfg, &prev, &ev, reply, &next), "the model's {text} holds");
+            for kept in [Program::AtPoint, Program::Running, Program::Held] {
+                let mut n = next.clone();
+                n.axes.programs_mut()[0] = kept;
+                assert!(!check(&cfg, &prev, &ev, reply, &n), "{text} leaving &1's program {kept:?} fires");
+            }
+            let mut finishing = next.clone();
+            finishing.axes.motors_mut()[0].stop = Some(Stop::Quit);
+            assert!(!check(&cfg, &prev, &ev, reply, &finishing), "{text} finishing motor 1's move as Q does fires");
+        }
+        // A with no program executing: nothing is lost, and that holds.
+        let idle = card_after(&cfg, &["#1J/", "&1B"]);
+        let ev = command("&1A");
+        let (next, reply) = step(&cfg, &idle, &ev);
+        assert_eq!(program(&next, 1), Program::AtPoint);
+        assert!(check(&cfg, &idle, &ev, reply, &next), "A on a program at a point holds");
+    }
+
+    #[test]
+    fn sentence_um_217_q_and_slash_let_the_program_s_motors_finish_their_moves() {
+        // UM p.217: Q, "Begin Immed? No ... Finishes calculated moves"; / ends at the "End of
+        // currently executing move": the motors stay in the program, the program runs on.
+        let cfg = config("motion");
+        let check = event_check("Q does not begin immediately: the program's motors go on with their calculated moves");
+        let prev = moving_card(&cfg);
+        for text in ["&1Q", "&1/", "<CTRL-Q>"] {
+            let ev = command(text);
+            let (next, reply) = step(&cfg, &prev, &ev);
+            assert_eq!(next.axes.motors()[0].state, MotorState::Program, "{text}");
+            assert!(check(&cfg, &prev, &ev, reply, &next), "the model's {text} holds");
+            let mut stopped = next.clone();
+            stopped.axes.motors_mut()[0].state = MotorState::Decelerating;
+            assert!(!check(&cfg, &prev, &ev, reply, &stopped), "{text} stopping motor 1 at once fires");
+            let mut ended = next.clone();
+            ended.axes.programs_mut()[0] = Program::AtPoint;
+            assert!(!check(&cfg, &prev, &ev, reply, &ended), "{text} ending the program at once fires");
+        }
+        // Q on a system with no running program (&2: motor 2 jogs, no program): holds.
+        let ev = command("&2Q");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "Q with no program running holds");
+    }
+
+    #[test]
+    fn sentence_um_217_q_and_slash_end_at_a_program_point_with_the_motors_at_rest() {
+        // UM p.217: Q and / "Stop at Prog Pt? Yes": when the last calculated move is done the
+        // motor is closed loop at rest and the program stands at a point, ready for R.
+        let cfg = config("motion");
+        let check = cycle_check("Q and / stop at a program point");
+        let mut prev = moving_card(&cfg);
+        prev.apply_with_decel(&cfg, &command("&1Q"), 1);
+        assert_eq!(prev.axes.motors()[0].stop, Some(Stop::Quit));
+        let (report, next) = cycle(&cfg, &prev);
+        assert_eq!((next.axes.motors()[0].state, program(&next, 1)), (MotorState::Closed, Program::AtPoint));
+        assert!(check(&cfg, &prev, report, &next), "the model's end of Q holds");
+        let mut held = next.clone();
+        held.axes.motors_mut()[0].state = MotorState::Holding;
+        assert!(!check(&cfg, &prev, report, &held), "Q ending in a hold fires");
+        for wrong in [Program::Held, Program::Lost] {
+            let mut n = next.clone();
+            n.axes.programs_mut()[0] = wrong;
+            assert!(!check(&cfg, &prev, report, &n), "Q ending with the program {wrong:?} fires");
+        }
+        // A cycle in which the program runs on and motor 2 jogs, without a stop: holds.
+        let running = moving_card(&cfg);
+        let (report, next) = cycle(&cfg, &running);
+        assert_eq!(program(&next, 1), Program::Running);
+        assert!(check(&cfg, &running, report, &next), "a running program's cycle holds");
+        // A cycle that trips the card with the Q under way kills the motor: no program point
+        // is reached, and that holds.
+        let after = tripped_killing_motor_1(&prev);
+        assert!(check(&cfg, &prev, report, &after), "a trip during the Q holds");
+    }
+
+    #[test]
+    fn sentence_um_217_h_ends_with_its_motors_holding_and_the_program_held() {
+        // UM p.217: H, "Stop on Path? Yes, Stop at Prog Pt? No" (SRM p.260: "can be started up
+        // again with an R"): the motors end holding on the path, the program held.
+        let cfg = config("motion");
+        let check = cycle_check("H stops on the path: its motors end holding, and R can resume the program");
+        let mut prev = moving_card(&cfg);
+        prev.apply_with_decel(&cfg, &command("&1H"), 1);
+        assert_eq!(prev.axes.motors()[0].stop, Some(Stop::Hold));
+        let (report, next) = cycle(&cfg, &prev);
+        assert_eq!((next.axes.motors()[0].state, program(&next, 1)), (MotorState::Holding, Program::Held));
+        assert!(check(&cfg, &prev, report, &next), "the model's end of H holds");
+        let mut closed = next.clone();
+        closed.axes.motors_mut()[0].state = MotorState::Closed;
+        assert!(!check(&cfg, &prev, report, &closed), "H ending closed loop off the path fires");
+        let mut at_point = next.clone();
+        at_point.axes.programs_mut()[0] = Program::AtPoint;
+        assert!(!check(&cfg, &prev, report, &at_point), "H ending at a program point fires");
+        // The card trips while the hold decelerates: the motor is killed, no hold: holds.
+        let after = tripped_killing_motor_1(&prev);
+        assert!(check(&cfg, &prev, report, &after), "a trip during the hold holds");
+    }
+
+    #[test]
+    fn sentence_um_217_a_coordinate_system_command_leaves_the_other_systems_motors() {
+        // UM p.217: Scope "C.S." for A, Q, /, H and \: &1A stops motor 1 (in &1), motor 2 (in
+        // &2) jogs on untouched.
+        let cfg = config("motion");
+        let check = event_check("a coordinate-system command acts only on the motors of its coordinate system");
+        let prev = moving_card(&cfg);
+        let ev = command("&1A");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_ne!(next.axes.motors()[0], prev.axes.motors()[0], "&1A changes motor 1");
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's &1A holds");
+        let mut reached = next.clone();
+        reached.axes.motors_mut()[1].state = MotorState::Decelerating;
+        assert!(!check(&cfg, &prev, &ev, reply, &reached), "&1A stopping motor 2 fires");
+    }
+
+    #[test]
+    fn sentence_srm_260_ctrl_o_holds_every_program_and_ctrl_q_quits_every_program_motor() {
+        // SRM p.260: <CTRL-O> "is equivalent to issuing the H command to each coordinate
+        // system"; <CTRL-Q> is Q for each (UM p.217): every program motor finishing its move.
+        let cfg = config("motion");
+        let check = event_check("<CTRL-O> holds every running program and <CTRL-Q> quits each");
+        let prev = moving_card(&cfg);
+        let hold = command("<CTRL-O>");
+        let (next, reply) = step(&cfg, &prev, &hold);
+        assert_eq!(program(&next, 1), Program::Held);
+        assert!(check(&cfg, &prev, &hold, reply, &next), "the model's <CTRL-O> holds");
+        let mut running = next.clone();
+        running.axes.programs_mut()[0] = Program::Running;
+        assert!(!check(&cfg, &prev, &hold, reply, &running), "<CTRL-O> leaving &1 running fires");
+        let quit = command("<CTRL-Q>");
+        let (next, reply) = step(&cfg, &prev, &quit);
+        assert_eq!(next.axes.motors()[0].stop, Some(Stop::Quit));
+        assert!(check(&cfg, &prev, &quit, reply, &next), "the model's <CTRL-Q> holds (motor 2 jogs on, no program)");
+        let mut unstopped = next.clone();
+        unstopped.axes.motors_mut()[0].stop = None;
+        assert!(!check(&cfg, &prev, &quit, reply, &unstopped), "<CTRL-Q> leaving motor 1's program unstopped fires");
+    }
+
+    /// `encoder-loss` (one motor, the PLC of UM p.214-215) under `profile`, motor 1 enabled,
+    /// a background cycle possible.
+    fn encoder_card(profile: &str) -> (ModelConfig, Controller) {
+        let spec = Spec::embedded().unwrap();
+        let cfg = ModelConfig::from_spec(&spec, "encoder-loss", &spec.profiles.get(profile).unwrap()).unwrap();
+        let mut c = card_after(&cfg, &["#1J/"]);
+        c.background_credit = u32::from(c.load.background_units);
+        assert!(c.background_possible());
+        (cfg, c)
+    }
+
+    #[test]
+    fn sentence_um_214_the_plc_kills_a_closed_loop_motor_whose_encoder_is_lost_and_latches_the_loss() {
+        // UM p.214-215: the encoder-loss PLC, scanning once per background cycle, kills a
+        // closed-loop motor whose encoder-loss input reports loss and latches the loss.
+        let (cfg, mut prev) = encoder_card("um-215");
+        let check = event_check(
+            "a closed-loop motor whose encoder is lost is killed at the next background cycle, its loss latched",
+        );
+        prev.axes.motors_mut()[0].encoder_lost = true;
+        let ev = Event::Background;
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert!(next.axes.motors()[0].state == MotorState::Killed && next.axes.motors()[0].loss_status);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's scan holds");
+        let mut running = next.clone();
+        running.axes.motors_mut()[0].state = MotorState::Closed;
+        assert!(!check(&cfg, &prev, &ev, reply, &running), "the motor left closed loop fires");
+        let mut unlatched = next.clone();
+        unlatched.axes.motors_mut()[0].loss_status = false;
+        assert!(!check(&cfg, &prev, &ev, reply, &unlatched), "the loss not latched fires");
+        // No scan without a background cycle: a servo cycle, or a background not yet due.
+        let servo = Event::Servo { cycles: 1 };
+        let (next, reply) = step(&cfg, &prev, &servo);
+        assert_eq!(next.axes.motors()[0].state, MotorState::Closed);
+        assert!(check(&cfg, &prev, &servo, reply, &next), "a servo cycle holds");
+        let mut busy = prev.clone();
+        busy.background_credit = 0;
+        let (next, reply) = step(&cfg, &busy, &ev);
+        assert_eq!(next.axes.motors()[0].state, MotorState::Closed);
+        assert!(check(&cfg, &busy, &ev, reply, &next), "no background cycle possible holds");
+        // A healthy motor is not killed, and that holds.
+        prev.axes.motors_mut()[0].encoder_lost = false;
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_eq!(next.axes.motors()[0].state, MotorState::Closed);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "a healthy motor's scan holds");
+    }
+
+    #[test]
+    fn sentence_um_215_the_loss_is_latched_only_by_the_plc_s_scan() {
+        // UM p.215: the PLC "scans ... once per background cycle": outside one, no status goes
+        // from clear to latched; a status already latched may stay.
+        let (cfg, prev) = encoder_card("um-215");
+        let check = event_check("the encoder-loss status is latched only by the PLC's scan in a background cycle");
+        let servo = Event::Servo { cycles: 1 };
+        let (next, reply) = step(&cfg, &prev, &servo);
+        assert!(check(&cfg, &prev, &servo, reply, &next), "a servo cycle holds");
+        let mut latched = next.clone();
+        latched.axes.motors_mut()[0].loss_status = true;
+        assert!(!check(&cfg, &prev, &servo, reply, &latched), "a servo cycle latching the loss fires");
+        assert!(check(&cfg, &prev, &Event::Background, reply, &latched), "a background cycle latching it holds");
+        let mut was = prev.clone();
+        was.axes.motors_mut()[0].loss_status = true;
+        assert!(check(&cfg, &was, &servo, reply, &latched), "a latched loss staying latched holds");
+    }
+
+    #[test]
+    fn sentence_um_215_read_as_intended_the_plc_clears_a_latched_loss_of_a_healthy_closed_loop_motor() {
+        // UM p.215, "Logic to clear fault status", read as intended (facts s.6): a closed-loop
+        // motor with its encoder OK has its latched loss cleared at the next scan. A killed
+        // motor keeps it; under the literal reading nothing clears it.
+        let (cfg, mut prev) = encoder_card("um-215");
+        let check = event_check("under the intended reading the PLC clears a latched loss once the motor is closed-loop with its encoder OK");
+        prev.axes.motors_mut()[0].loss_status = true;
+        let ev = Event::Background;
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert!(!next.axes.motors()[0].loss_status);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's clear holds");
+        assert!(!check(&cfg, &prev, &ev, reply, &prev), "the loss left latched fires");
+        let servo = Event::Servo { cycles: 1 };
+        assert!(check(&cfg, &prev, &servo, reply, &prev), "no scan outside a background cycle holds");
+        let mut busy = prev.clone();
+        busy.background_credit = 0;
+        assert!(check(&cfg, &busy, &ev, reply, &busy), "no background cycle possible holds");
+        let mut lost = prev.clone();
+        lost.axes.motors_mut()[0].encoder_lost = true;
+        let mut kept = lost.clone();
+        kept.axes.motors_mut()[0].state = MotorState::Killed;
+        assert!(check(&cfg, &lost, &ev, reply, &kept), "a lost encoder keeps the loss: holds");
+        let mut killed = prev.clone();
+        killed.axes.motors_mut()[0].state = MotorState::Killed;
+        let (next, reply) = step(&cfg, &killed, &ev);
+        assert!(next.axes.motors()[0].loss_status);
+        assert!(check(&cfg, &killed, &ev, reply, &next), "a killed motor keeps the loss: holds");
+        let (literal, mut lprev) = encoder_card("um-215-literal-plc");
+        lprev.axes.motors_mut()[0].loss_status = true;
+        assert!(check(&literal, &lprev, &ev, reply, &lprev), "under the literal reading the loss stays: holds");
+    }
+
+    #[test]
+    fn sentence_um_215_read_literally_a_latched_loss_stays_until_a_reset() {
+        // UM p.215 as printed: "IF (Mtr1OpenLoop=0 AND Enc1LossIn=OK AND Mtr1EncLossStatus=0)
+        // Mtr1EncLossStatus=0" never clears a latched status; only a reset does.
+        let (cfg, mut prev) = encoder_card("um-215-literal-plc");
+        let check = event_check("under the literal reading a latched encoder loss stays latched until a reset");
+        prev.axes.motors_mut()[0].loss_status = true;
+        let ev = Event::Background;
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert!(next.axes.motors()[0].loss_status);
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's scan holds");
+        let mut cleared = next.clone();
+        cleared.axes.motors_mut()[0].loss_status = false;
+        assert!(!check(&cfg, &prev, &ev, reply, &cleared), "a scan clearing the loss fires");
+        let reset = command("$$$");
+        let (next, reply) = step(&cfg, &prev, &reset);
+        assert!(!next.axes.motors()[0].loss_status);
+        assert!(check(&cfg, &prev, &reset, reply, &next), "a reset clearing it holds");
+        let (intent, iprev) = encoder_card("um-215");
+        let mut iprev = iprev;
+        iprev.axes.motors_mut()[0].loss_status = true;
+        assert!(check(&intent, &iprev, &ev, reply, &cleared), "under the intended reading the clear holds");
+    }
+
     #[test]
     fn bit_reads_one_bit_of_a_status_word_and_no_other() {
         // SRM p.289: the `???` words are read bit by bit.

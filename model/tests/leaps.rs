@@ -226,3 +226,28 @@ fn from_i40_6_and_delay_3_the_model_reaches_every_observation_class_of_larger_si
     assert!(small.is_subset(&wide), "I40 = 3, delay 2 reaches a class the wider bound does not");
     eprintln!("I40 = 3, delay 2: {} classes of {}", small.len(), wide.len());
 }
+
+#[test]
+fn a_violation_seen_before_a_leap_or_a_step_is_still_recorded_after_it() {
+    // model/src/monitor.rs: a monitor's failure is "a sticky bit in the next state", which the
+    // matching `always` property requires to stay clear. A leap runs the cycle monitors on
+    // every cycle it passes and must add their bits to those already set, never drop them: a
+    // leap that forgot an earlier violation would let a failing run pass.
+    let cfg = timing(3, 2, false, "um-215");
+    let model = WatchdogModel::new(cfg);
+    let mut state = model.init_states().into_iter().next().expect("an initial state");
+    state.violations = 1 << 5;
+    for just_before in [false, true] {
+        let (cycles, next) = model.advance_to_change(&state, just_before);
+        assert_eq!(next.violations & (1 << 5), 1 << 5, "after a leap of {cycles} cycles (just before: {just_before})");
+    }
+    // So must a single step: servo cycles one at a time (the cycle monitors), and any other
+    // event (the event monitors). A correct model adds no bit of its own: in particular the
+    // cycle monitors of a two-cycle event (as replays take them) compare each cycle with the
+    // one before it, not with the start ("the watchdog counter drops by at most one per servo
+    // cycle", SRM p.57).
+    for event in [Event::Servo { cycles: 1 }, Event::Servo { cycles: 2 }, Event::Background] {
+        let (_, next) = model.step(&state, &event);
+        assert_eq!(next.violations, 1 << 5, "after {event:?}");
+    }
+}
