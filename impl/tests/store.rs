@@ -118,3 +118,20 @@ fn the_spare_units_are_the_cycle_less_the_servo_update_of_every_motor() {
     }
     assert!(expected(1) > 1 && expected(8) < expected(1), "the configuration tells the values apart");
 }
+
+/// SRM p.289 bit 20: the servo update could not complete. A servo load that fills the cycle
+/// exactly still completes (no bit, nothing spare); one unit more does not.
+#[test]
+fn bit_20_is_set_only_when_the_servo_update_needs_more_than_the_cycle() {
+    let mut cfg = config();
+    cfg.cycle_units = 80;
+    cfg.servo_units_per_motor = 10;
+    let mut store = FewIVariables::<2>::default();
+    for (motors, error) in [(7u8, false), (8, false), (9, true)] {
+        let mut core = Core::power_on(&cfg);
+        core.apply(&cfg, Event::Load(Load { motors, ..cfg.load }), &mut store);
+        core.servo_cycle(&cfg);
+        let (x, _) = core.status_words(&cfg);
+        assert_eq!(x & pmacwd_core::bits::SERVO_ERROR != 0, error, "{motors} motors of 10 units in a cycle of 80");
+    }
+}
