@@ -668,6 +668,10 @@ impl Card {
         }
         let cause = match &event {
             Event::Reset(r) => {
+                // A power cycle or INIT/ restarts the card as `$$$` does: active memory is
+                // volatile and the saved values come back (UM p.243).
+                self.memory.reset();
+                self.mvars.reset();
                 let faults: Vec<&str> =
                     [(r.dpram_fault, "DPRAM fault"), (r.flash_fault, "flash fault"), (r.bootstrap, "bootstrap mode")]
                         .into_iter()
@@ -1060,6 +1064,15 @@ mod tests {
         assert_eq!(values(&c.line(b"P1 P2 P1..2").unwrap()), ["-2.5", "16", "-2.5", "16"]);
         c.line(b"$$$");
         assert_eq!(values(&c.line(b"P1").unwrap()), ["0"]);
+        // So do INIT/ and a power cycle (UM p.243: active memory is volatile), M-variable
+        // definitions included, back to the saved ones.
+        c.line(b"P1=3 M1->X:$10000,0,24 WX:$10000,7");
+        assert_eq!(values(&c.line(b"P1 M1").unwrap()), ["3", "7"]);
+        for kind in [ResetKind::Init, ResetKind::Power] {
+            c.control(Control::Reset(ResetEvent { kind, dpram_fault: false, flash_fault: false, bootstrap: false }));
+            assert_eq!(values(&c.line(b"P1 M1-> M1").unwrap()), ["0", "*", "0"], "{kind:?}");
+            c.line(b"P1=3 M1->X:$10000,0,24 WX:$10000,7");
+        }
     }
 
     #[test]
