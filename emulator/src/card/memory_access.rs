@@ -47,9 +47,7 @@ impl Card {
                 }
                 d => self.write_through(d, value),
             };
-            let failed = matches!(answer, Answer::Error(_));
-            out.push(answer);
-            if failed {
+            if !push_unless_error(out, answer) {
                 break;
             }
         }
@@ -59,9 +57,7 @@ impl Card {
     pub(super) fn write_memory(&mut self, kind: Definition, values: Vec<f64>, out: &mut Vec<Answer>) {
         for (i, value) in values.into_iter().enumerate() {
             let answer = self.write_through(kind.at_offset(i as u32), value);
-            let failed = matches!(answer, Answer::Error(_));
-            out.push(answer);
-            if failed {
+            if !push_unless_error(out, answer) {
                 break;
             }
         }
@@ -163,4 +159,12 @@ impl Card {
             Err(_) => Answer::Error(3),
         }
     }
+}
+
+/// Pushes `answer`; false when it is an error, which ends the command (the card runs nothing
+/// after an error in a line).
+fn push_unless_error(out: &mut Vec<Answer>, answer: Answer) -> bool {
+    let ok = !matches!(answer, Answer::Error(_));
+    out.push(answer);
+    ok
 }
