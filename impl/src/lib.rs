@@ -705,13 +705,14 @@ impl Core {
         // Strobes may come only while the counter allows them: cycles 1..=allowed.
         let allowed = counter::strobing_cycles(self.counter);
         if cfg.profile.rti_strobes {
-            let (period, first) = self.rti_schedule();
+            // Only RTI ticks strobe (SRM p.57). A tick zeroes the phase and a strobe the gap, so
+            // the gap is never shorter than the phase, and a running card's gap is at most the
+            // delay. Hence a next tick inside the unstrobed window means a period of at most
+            // delay + 1 cycles: every tick the counter allows strobes in time, and the trip
+            // comes after the last of them (below). A tick beyond the window is never reached.
+            let (_, first) = self.rti_schedule();
             if u64::from(first) > unstrobed {
                 return unstrobed;
-            }
-            if first <= allowed && u64::from(period) > delay.saturating_add(1) {
-                // The gap between two ticks exceeds the delay: trip after the first strobe.
-                return trip_after(first);
             }
         }
         self.last_strobe_within(cfg, allowed).map_or(unstrobed, trip_after)

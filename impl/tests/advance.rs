@@ -145,3 +145,46 @@ fn a_billion_idle_cycles_trip_a_card_without_background() {
     // The trip came 4096 + 46 cycles in (UM p.215); the servo counter stopped there.
     assert_eq!(core.register(&cfg, pmacwd_core::Register::ServoCycles), 4142);
 }
+
+/// Every small configuration of the RTI-strobes reading (SRM p.57), stepped: advance(n) equals
+/// n single cycles for every hardware delay 1..=5, saved I8 0..=8, I40 1..=4 and both strobe
+/// stops, from every state k = 0..=8 servo cycles after power-on followed by a change of I8 to
+/// any of 0..=8, for n up to 30. These are the states where an RTI period (I8 + 1, UM p.236)
+/// longer than the delay meets a counter about to stop strobing. `trip_cycle` relies on the gap
+/// since the last strobe never being shorter than the RTI phase (no special case for a tick
+/// that would come inside the unstrobed window of a long period: such a state is unreachable);
+/// an I8 change is the one event that moves the period under a running phase, so it is here.
+#[test]
+fn advance_equals_single_cycles_when_the_counter_stops_strobing_before_the_next_rti_tick() {
+    let base = common::realistic_config();
+    let mut checked = 0u32;
+    for delay in 1..=5 {
+        for saved_i8 in 0..=8 {
+            for i40 in 1..=4 {
+                for strobe_stop in [StrobeStop::AtZero, StrobeStop::BelowZero] {
+                    let cfg = Config {
+                        profile: Profile { rti_strobes: true, strobe_stop, ..base.profile },
+                        hardware_delay_cycles: delay,
+                        saved_i8,
+                        saved_i40: i40,
+                        ..base.clone()
+                    };
+                    let mut core = Core::power_on(&cfg);
+                    for _ in 0..=8 {
+                        for new_i8 in 0..=8 {
+                            let mut changed = core.clone();
+                            let write = Event::Command(Command::WriteI(8, new_i8));
+                            changed.apply(&cfg, write, &mut FewIVariables::<4>::default());
+                            for n in 0..=30 {
+                                check_advance_equals_single_steps(&cfg, &changed, n);
+                                checked += 1;
+                            }
+                        }
+                        core.apply(&cfg, Event::Servo(1), &mut FewIVariables::<4>::default());
+                    }
+                }
+            }
+        }
+    }
+    assert_eq!(checked, 5 * 9 * 4 * 2 * 9 * 9 * 31);
+}
