@@ -13,7 +13,6 @@ use pmacwd_specs::profiles::{Bit12Meaning, RtiWarningLatch, StrobeStop, Strober}
 use pmacwd_specs::status::WordId;
 use pmacwd_specs::vocab::command::{Buffer, HostCommand, Register};
 use pmacwd_specs::vocab::event::{Event, Reply};
-use std::collections::BTreeMap;
 
 /// Why the hardware timer tripped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -141,7 +140,7 @@ pub struct Controller {
     pub i40: u16,
     pub i41: u8,
     /// Every other I-variable written since reset (all read 0 otherwise).
-    pub other_i_variables: BTreeMap<u16, i64>,
+    pub other_i_variables: crate::ivars::IVariables,
     pub status: StatusFlags,
     pub checksum: ChecksumEngine,
     /// X:$000000, masked to the configured width.
@@ -177,7 +176,7 @@ impl Controller {
             i8: cfg.saved.i8,
             i40: cfg.saved.i40,
             i41: cfg.saved.i41,
-            other_i_variables: BTreeMap::new(),
+            other_i_variables: crate::ivars::IVariables::new(),
             status: StatusFlags::default(),
             checksum: ChecksumEngine::fresh(),
             servo_cycles: 0,

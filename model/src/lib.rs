@@ -19,6 +19,7 @@
 
 pub mod checker;
 pub mod controller;
+pub mod ivars;
 pub mod monitor;
 pub mod motion;
 pub mod observe;
