@@ -7,6 +7,7 @@ mod conform;
 mod control;
 mod decode;
 mod import;
+mod interrupt;
 mod margin;
 mod progress;
 mod record;

@@ -101,8 +101,13 @@ pub fn record(a: RecordArgs) -> ExitCode {
         a.out.display()
     ));
     crate::common::console_may_close();
-    match proxy.wait() {
+    // Until --sessions host sessions have ended, or SIGINT or SIGTERM asks for a stop.
+    crate::interrupt::install();
+    match proxy.wait_unless(|| crate::interrupt::requested().is_some()) {
         Ok((exchanges, steps, notes)) => {
+            if let Some(signal) = crate::interrupt::requested() {
+                to_stdout(format_args!("pmacwd record: stopped by {signal}"));
+            }
             for n in notes {
                 to_stderr(format_args!("pmacwd record: left over at the end: {n}"));
             }

@@ -188,6 +188,26 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         pmacwd_emulator::bounded::to_stdout(format_args!("recording to {}", p.display()));
     }
     crate::common::console_may_close();
-    server.wait();
+    // Nothing else ends a server: it runs until SIGINT or SIGTERM, then stops in order.
+    crate::interrupt::install();
+    let signal = crate::interrupt::wait_for_stop(|| false).unwrap_or("a signal");
+    let connections = server.stats().connections.load(std::sync::atomic::Ordering::Relaxed);
+    let (steps, left_over) = server.stop_then(|card| card.finish_recording_counted());
+    for note in left_over {
+        pmacwd_emulator::bounded::to_stderr(format_args!(
+            "pmacwd serve: left over at the end of the recording: {note}"
+        ));
+    }
+    pmacwd_emulator::bounded::to_stdout(format_args!(
+        "pmacwd serve: stopped by {signal} after {}",
+        crate::common::plural(connections, "host connection", "host connections")
+    ));
+    if let Some(p) = &a.record {
+        pmacwd_emulator::bounded::to_stdout(format_args!(
+            "recorded {} in {}",
+            crate::common::plural(steps, "step", "steps"),
+            p.display()
+        ));
+    }
     ExitCode::SUCCESS
 }

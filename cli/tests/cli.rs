@@ -863,3 +863,93 @@ fn control_sends_commands_from_arguments_or_stdin_and_exits_by_the_replies() {
     assert_eq!(out.status.code(), Some(2), "nothing listens any more");
     assert!(String::from_utf8_lossy(&out.stderr).contains(&format!("control port {control}")));
 }
+
+/// Sends `line` to a host port as a GETRESPONSE request and returns the reply's bytes.
+fn ask_host(c: &mut std::net::TcpStream, line: &str) -> Vec<u8> {
+    use std::io::{Read, Write};
+    c.write_all(&[0x40, 0xBF, 0, 0, 0, 0, 0, line.len() as u8]).unwrap();
+    c.write_all(line.as_bytes()).unwrap();
+    let mut reply = vec![0u8; 256];
+    let n = c.read(&mut reply).unwrap();
+    reply.truncate(n);
+    reply
+}
+
+/// Waits at most 10 s for `child` to exit after a signal; kills it (and fails) otherwise.
+fn exit_after_signal(mut child: std::process::Child, signal: libc::c_int) -> std::process::Output {
+    // SAFETY: kill(2) on our own child's pid, with a signal it handles.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    while child.try_wait().unwrap().is_none() {
+        if std::time::Instant::now() > deadline {
+            child.kill().unwrap();
+            panic!("still running 10 s after the signal");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn ctrl_c_stops_serve_in_order_keeping_the_protocol_error_summary_and_the_recording() {
+    // Ctrl-C used to end `serve` where it stood: the protocol errors counted since the last
+    // summary (up to a minute of them) and the notes of a recording still waiting for a step
+    // were lost. Now SIGINT closes the connections, prints the summary, finishes the capture and
+    // says what it could not place, and exits 0; the capture replays as consistent.
+    let path = std::env::temp_dir().join(format!("pmacwd-ctrl-c-{}.jsonl", std::process::id()));
+    let (child, addr) = serve_on_a_free_port(&["--virtual-time", "--record", path.to_str().unwrap()]);
+    let mut host = std::net::TcpStream::connect(addr).unwrap();
+    host.set_read_timeout(Some(std::time::Duration::from_secs(5))).unwrap();
+    assert!(ask_host(&mut host, "???").ends_with(b"\r\x06"));
+    // An M-variable definition is no step of the model: a note that waits for the next step.
+    assert_eq!(ask_host(&mut host, "M100->X:$25,0,24,S"), b"\x06");
+    // Two protocol errors after the first one's summary line: only a stop prints their count.
+    send_bad_headers(addr, 3);
+    let out = exit_after_signal(child, libc::SIGINT);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}\n{stdout}\n{stderr}", out.status);
+    assert!(stdout.contains("stopped by SIGINT after 4 host connections"), "{stdout}");
+    assert!(stdout.contains("recorded 1 step in"), "{stdout}\n{stderr}\n{}", std::fs::read_to_string(&path).unwrap());
+    assert!(stderr.contains("left over at the end of the recording: `M100->X:$25,0,24,S`"), "{stderr}");
+    assert!(stderr.contains("protocol errors, each closing its connection: 2 since the last summary"), "{stderr}");
+    let replay = pmacwd().arg("replay").arg(&path).output().unwrap();
+    assert!(replay.status.success(), "{}", String::from_utf8_lossy(&replay.stdout));
+    let _ = std::fs::remove_file(&path);
+}
+
+#[test]
+fn sigterm_stops_record_in_order_closing_the_capture_and_saying_what_it_recorded() {
+    // Without --sessions, `record` runs until it is stopped; a signal used to end it without
+    // its closing notes or the line saying what it recorded. Now SIGTERM (as a service manager
+    // sends it) closes the capture as the end of the sessions does, and exits 0.
+    use std::io::BufRead;
+    let path = std::env::temp_dir().join(format!("pmacwd-sigterm-record-{}.jsonl", std::process::id()));
+    let (mut card, card_addr) = serve_on_a_free_port(&[]);
+    let mut record = pmacwd()
+        .args(["record", "--listen", "127.0.0.1:0", "--target", &card_addr.to_string(), "--out"])
+        .arg(&path)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufReader::new(record.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
+    // "pmacwd record: 127.0.0.1:PORT -> TARGET, writing FILE"
+    let proxy = first.split(": ").nth(1).and_then(|r| r.split(' ').next()).expect("the address line");
+    {
+        let mut host = std::net::TcpStream::connect(proxy).unwrap();
+        host.set_read_timeout(Some(std::time::Duration::from_secs(5))).unwrap();
+        assert!(ask_host(&mut host, "???").ends_with(b"\r\x06"));
+    }
+    let out = exit_after_signal(record, libc::SIGTERM);
+    card.kill().unwrap();
+    card.wait().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{:?}\n{stdout}\n{}", out.status, String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("pmacwd record: stopped by SIGTERM"), "{stdout}");
+    assert!(stdout.contains("recorded 1 exchange as "), "{stdout}");
+    let replay = pmacwd().arg("replay").arg(&path).output().unwrap();
+    assert!(replay.status.success(), "{}", String::from_utf8_lossy(&replay.stdout));
+    let _ = std::fs::remove_file(&path);
+}

@@ -295,10 +295,16 @@ impl Card {
 
     /// Ends the recording; returns notes that found no step (normally none).
     pub fn finish_recording(&mut self) -> Vec<String> {
-        match self.capture.take().map(CaptureWriter::finish) {
-            Some(Ok(notes)) => notes,
-            Some(Err(e)) => vec![format!("the capture could not be completed: {e}")],
-            None => Vec::new(),
+        self.finish_recording_counted().1
+    }
+
+    /// Ends the recording; returns the steps it wrote and the notes that found no step.
+    pub fn finish_recording_counted(&mut self) -> (u64, Vec<String>) {
+        let Some(capture) = self.capture.take() else { return (0, Vec::new()) };
+        let steps = capture.steps;
+        match capture.finish() {
+            Ok(notes) => (steps, notes),
+            Err(e) => (steps, vec![format!("the capture could not be completed: {e}")]),
         }
     }
 

@@ -502,9 +502,21 @@ impl Proxy {
 
     /// Waits until `--sessions` host sessions have ended (forever without it), then closes
     /// the capture: (exchanges, steps, notes left over).
-    pub fn wait(mut self) -> io::Result<(u64, u64, Vec<String>)> {
+    pub fn wait(self) -> io::Result<(u64, u64, Vec<String>)> {
+        self.wait_unless(|| false)
+    }
+
+    /// As [`Proxy::wait`], but also stops, and closes the capture the same way, as soon as
+    /// `stop` says so (`pmacwd record` asks whether SIGINT or SIGTERM came), looking every
+    /// tenth of a second.
+    pub fn wait_unless(mut self, mut stop: impl FnMut() -> bool) -> io::Result<(u64, u64, Vec<String>)> {
         if let Some(t) = self.accept.drain(..1).next() {
-            let _ = t.join();
+            while !t.is_finished() && !stop() {
+                thread::sleep(Duration::from_millis(100));
+            }
+            if t.is_finished() {
+                let _ = t.join();
+            }
         }
         self.close()
     }

@@ -217,7 +217,13 @@ impl Server {
     }
 
     /// Stops accepting and closes every connection.
-    pub fn stop(mut self) {
+    pub fn stop(self) {
+        self.stop_then(|_| ());
+    }
+
+    /// Stops as [`Server::stop`] does, then runs `f` on the card, which then holds everything
+    /// the hosts sent before the stop (`pmacwd serve` finishes its recording so).
+    pub fn stop_then<T>(mut self, f: impl FnOnce(&mut Card) -> T) -> T {
         self.shared.stopping.store(true, Ordering::SeqCst);
         // Wake the accept loops.
         let _ = TcpStream::connect(self.local_addr);
@@ -232,6 +238,7 @@ impl Server {
         self.shared.spawn_failures.flush();
         self.shared.protocol_errors.flush();
         self.shared.accept_errors.flush();
+        f(&mut self.shared.card())
     }
 }
 

@@ -98,7 +98,10 @@ mod tests {
                 ours.remove(&n);
                 map.remove(&n);
             }
-            assert_eq!(ours.iter().map(|(k, v)| (*k, *v)).collect::<Vec<_>>(), map.iter().map(|(k, v)| (*k, *v)).collect::<Vec<_>>());
+            assert_eq!(
+                ours.iter().map(|(k, v)| (*k, *v)).collect::<Vec<_>>(),
+                map.iter().map(|(k, v)| (*k, *v)).collect::<Vec<_>>()
+            );
             assert_eq!(ours.get(&n), map.get(&n));
             assert_eq!(ours.len(), map.len());
         }
