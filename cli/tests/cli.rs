@@ -358,17 +358,21 @@ fn serve_and_record_refuse_a_servo_clock_outside_1_to_the_maximum_naming_the_ran
 }
 
 /// A `pmacwd serve` on a free loopback port, and the address it printed.
-fn serve_on_a_free_port(extra: &[&str]) -> (std::process::Child, std::net::SocketAddr) {
+/// Starts a server subcommand (`serve`, `record`) with its outputs piped, and returns it with
+/// the first line it prints, which names the addresses it listens on.
+fn spawn_server(args: &[&std::ffi::OsStr]) -> (std::process::Child, String) {
     use std::io::BufRead;
-    let mut child = pmacwd()
-        .args(["serve", "--listen", "127.0.0.1:0", "--no-control"])
-        .args(extra)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child =
+        pmacwd().args(args).stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::piped()).spawn().unwrap();
     let mut first = String::new();
     std::io::BufReader::new(child.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
+    (child, first)
+}
+
+fn serve_on_a_free_port(extra: &[&str]) -> (std::process::Child, std::net::SocketAddr) {
+    let args: Vec<&std::ffi::OsStr> =
+        ["serve", "--listen", "127.0.0.1:0", "--no-control"].iter().chain(extra).map(std::ffi::OsStr::new).collect();
+    let (child, first) = spawn_server(&args);
     // "pmacwd serve: Turbo PMAC emulator on 127.0.0.1:PORT (no control interface), ..."
     let addr = first.split(" on ").nth(1).and_then(|r| r.split(' ').next()).expect("the address line");
     (child, addr.parse().unwrap())
@@ -923,18 +927,11 @@ fn sigterm_stops_record_in_order_closing_the_capture_and_saying_what_it_recorded
     // Without --sessions, `record` runs until it is stopped; a signal used to end it without
     // its closing notes or the line saying what it recorded. Now SIGTERM (as a service manager
     // sends it) closes the capture as the end of the sessions does, and exits 0.
-    use std::io::BufRead;
     let path = std::env::temp_dir().join(format!("pmacwd-sigterm-record-{}.jsonl", std::process::id()));
     let (mut card, card_addr) = serve_on_a_free_port(&[]);
-    let mut record = pmacwd()
-        .args(["record", "--listen", "127.0.0.1:0", "--target", &card_addr.to_string(), "--out"])
-        .arg(&path)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut first = String::new();
-    std::io::BufReader::new(record.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
+    let target = card_addr.to_string();
+    let args = ["record", "--listen", "127.0.0.1:0", "--target", &target, "--out"].map(std::ffi::OsStr::new);
+    let (record, first) = spawn_server(&[&args[..], &[path.as_os_str()]].concat());
     // "pmacwd record: 127.0.0.1:PORT -> TARGET, writing FILE"
     let proxy = first.split(": ").nth(1).and_then(|r| r.split(' ').next()).expect("the address line");
     {
