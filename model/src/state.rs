@@ -104,19 +104,21 @@ impl std::hash::Hash for State {
         ]
         .into_iter()
         .fold(0u64, |acc, b| acc << 1 | u64::from(b));
+        // Each `None` one past its variants, as for the stops (`stop_code`): plain loads.
         let trip = match trip {
-            None => 0u64,
-            Some(crate::controller::TripCause::Undervoltage) => 1,
-            Some(crate::controller::TripCause::StrobeTimeout) => 2,
+            Some(crate::controller::TripCause::Undervoltage) => 0u64,
+            Some(crate::controller::TripCause::StrobeTimeout) => 1,
+            None => 2,
         };
         let area_code = |a: &ChecksumTarget| match a {
-            ChecksumTarget::Firmware => 1u64,
-            ChecksumTarget::UserProgram => 2,
+            ChecksumTarget::Firmware => 0u64,
+            ChecksumTarget::UserProgram => 1,
         };
+        let error_code = error.as_ref().map_or(2, area_code);
         let recovered = match recovered_by {
-            None => 0u64,
-            Some(pmacwd_specs::check::ResetKind::Init) => 1,
-            Some(pmacwd_specs::check::ResetKind::Power) => 2,
+            Some(pmacwd_specs::check::ResetKind::Init) => 0u64,
+            Some(pmacwd_specs::check::ResetKind::Power) => 1,
+            None => 2,
         };
         // Motor k in bits 32 (k % 2) and up of word k / 2: state, stop, stop cycles, four flags.
         let mut motors = [0u64; 4];
@@ -156,7 +158,7 @@ impl std::hash::Hash for State {
                 | u64::from(*program_count),
             u64::from(*i8) << 56 | u64::from(*i41) << 48 | flags << 16 | trip << 8 | recovered,
             area_code(area) << 60
-                | error.as_ref().map_or(0, area_code) << 56
+                | error_code << 56
                 | u64::from(*position) << 48
                 | u64::from(*firmware) << 24
                 | u64::from(*firmware_reference) << 16
