@@ -193,8 +193,10 @@ impl Program {
     }
 }
 
-/// One motor.
+/// One motor. `#[repr(C)]`: its fields stay in this order in memory, one byte each, which the
+/// state's hash (`state.rs`) reads as they lie.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[repr(C)]
 pub struct Motor {
     pub state: MotorState,
     /// The stop being carried out (`Decelerating`, or `Program` finishing its calculated moves).
