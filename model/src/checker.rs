@@ -831,3 +831,57 @@ impl WatchdogModel {
         steps
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pmacwd_specs::vocab::command::HostCommand;
+    use pmacwd_specs::Spec;
+
+    fn config(name: &str) -> ModelConfig {
+        let spec = Spec::embedded().unwrap();
+        ModelConfig::from_spec(&spec, name, &spec.profiles.default_profile()).unwrap()
+    }
+
+    fn monitor_index(name: &str) -> usize {
+        crate::monitor::MONITORS.iter().position(|m| m.name == name).unwrap_or_else(|| panic!("no monitor {name:?}"))
+    }
+
+    /// The cycle monitors reach the violation bits: a servo cycle that drops the counter by
+    /// three (SRM p.57: "Each servo interrupt cycle, Turbo PMAC decrements this counter by 1")
+    /// and reports an RTI overrun without bits 22 and 9 (SRM p.289-290) sets exactly those two
+    /// monitors' bits, and the model's own cycle sets none. On a correct model no cycle monitor
+    /// ever fires, so only a hand-made violation shows that the dispatch still passes each
+    /// monitor's verdict on, at its own bit (cargo-mutants: `cycle_bit` and `cycle_violations`
+    /// answering 0, the guard dropped, `1 << K` turned to `1 >> K`).
+    #[test]
+    fn a_servo_cycle_that_breaks_two_cycle_monitors_sets_exactly_their_bits() {
+        let cfg = config("timing");
+        let before = Controller::power_on(&cfg);
+        let mut after = before.clone();
+        let report = after.servo_cycle(&cfg);
+        assert_eq!(cycle_violations(&cfg, &before, report, &after), 0, "the model's own cycle");
+        after.counter -= 2;
+        let overrun = CycleReport { rti_overrun: true, ..report };
+        let expected = 1u64 << monitor_index("the watchdog counter drops by at most one per servo cycle")
+            | 1u64 << monitor_index("an RTI overrun sets bits 22 and 9");
+        assert_eq!(cycle_violations(&cfg, &before, overrun, &after), expected);
+    }
+
+    /// The lockout canary ignores every bit of I41, not only bit 0: with I41 = 2 (bit 1 locks
+    /// the coordinate-system variables such as I5100, SRM p.57) a write of I5100 takes effect
+    /// under the canary and is ignored without it. (cargo-mutants: `1 << bit` turned to
+    /// `1 >> bit`, which left the canary blind to every bit but 0, and its test, which locks
+    /// with bit 0, passing.)
+    #[test]
+    fn the_lockout_canary_ignores_a_lock_by_any_bit_of_i41() {
+        let cfg = config("lockout");
+        let mut start = State { controller: Controller::power_on(&cfg), violations: 0 };
+        start.controller.i41 = 2;
+        let write = Event::Command(HostCommand::parse("I5100=1").unwrap());
+        let honest = WatchdogModel::new(cfg.clone());
+        assert_eq!(honest.step(&start, &write).1.controller.i_variable(5100), 0, "locked: ignored");
+        let canary = WatchdogModel { canary: Some(Canary::LockoutIgnored), ..WatchdogModel::new(cfg) };
+        assert_eq!(canary.step(&start, &write).1.controller.i_variable(5100), 1, "the canary lets it through");
+    }
+}
