@@ -868,6 +868,43 @@ mod tests {
         assert_eq!(cycle_violations(&cfg, &before, overrun, &after), expected);
     }
 
+    /// An endless chain of states: each has one successor, the next number.
+    struct Chain;
+
+    impl Model for Chain {
+        type State = u64;
+        type Action = ();
+        fn init_states(&self) -> Vec<u64> {
+            vec![0]
+        }
+        fn actions(&self, _: &u64, actions: &mut Vec<()>) {
+            actions.push(());
+        }
+        fn next_state(&self, s: &u64, _: ()) -> Option<u64> {
+            Some(s + 1)
+        }
+        // A property that always holds: without one, stateright has nothing to look for and
+        // stops at once.
+        fn properties(&self) -> Vec<Property<Self>> {
+            vec![Property::always("holds", |_, _| true)]
+        }
+    }
+
+    /// A run that stateright stops with exactly `states_max` states generated was cut, not
+    /// complete: `explored_all` must say so (a false "complete" would report the `sometimes`
+    /// properties of an unexplored space as never reached, the false verdict issue 15 names).
+    /// An endless chain never completes; one thread makes the count where it stops repeatable,
+    /// so the second run is stopped exactly at its bound. (cargo-mutants: `<` turned to `<=`.)
+    #[test]
+    fn a_run_stopped_exactly_at_its_bound_is_not_reported_complete() {
+        let first = Chain.checker().threads(1).target_state_count(2).spawn_bfs().join();
+        let at_stop = first.state_count();
+        assert!(at_stop > 2, "stateright stops only after a block of states: {at_stop}");
+        let second = Chain.checker().threads(1).target_state_count(at_stop).spawn_bfs().join();
+        assert_eq!(second.state_count(), at_stop, "stopped exactly at its bound");
+        assert!(!explored_all(&second, at_stop));
+    }
+
     /// The lockout canary ignores every bit of I41, not only bit 0: with I41 = 2 (bit 1 locks
     /// the coordinate-system variables such as I5100, SRM p.57) a write of I5100 takes effect
     /// under the canary and is ignored without it. (cargo-mutants: `1 << bit` turned to
