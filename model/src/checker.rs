@@ -868,6 +868,26 @@ mod tests {
         assert_eq!(cycle_violations(&cfg, &before, overrun, &after), expected);
     }
 
+    /// The event monitors see a leap as one event (the servo interrupts up to the next change),
+    /// as a trace shows it: a leap that takes a killed motor to closed loop without a `J/` sets
+    /// the bit of "a killed motor does not move until it is re-enabled" (UM p.319). A correct
+    /// model never leaps so, so the state is made by hand: a killed motor with a jog stop still
+    /// counting down one cycle, which the servo cycle ends by closing its loop. (cargo-mutants: the
+    /// event monitors skipped on a leap, `cycles > 0` turned to `==` or `<`.)
+    #[test]
+    fn a_leap_is_checked_by_the_event_monitors_as_one_event() {
+        use crate::motion::Stop;
+        use pmacwd_specs::vocab::MotorState;
+        let cfg = config("motion");
+        let mut start = State { controller: Controller::power_on(&cfg), violations: 0 };
+        let m = &mut start.controller.axes.motors_mut()[0];
+        assert_eq!(m.state, MotorState::Killed, "motors power up killed");
+        (m.stop, m.stop_cycles) = (Some(Stop::Jog), 1);
+        let (cycles, next) = WatchdogModel::new(cfg).advance_to_change(&start, false);
+        assert_eq!((cycles, next.controller.axes.motors()[0].state), (1, MotorState::Closed));
+        assert_eq!(next.violations, 1 << monitor_index("a killed motor does not move until it is re-enabled"));
+    }
+
     /// An endless chain of states: each has one successor, the next number.
     struct Chain;
 
