@@ -888,6 +888,48 @@ mod tests {
         assert_eq!(next.violations, 1 << monitor_index("a killed motor does not move until it is re-enabled"));
     }
 
+    /// The two leaps are the ones their names say, in `perform` (which a witness path replays)
+    /// and in the checker's `next_state` alike: the leap to the next change ends on a state whose
+    /// signature differs from the start, the leap to just before it one cycle earlier on a state
+    /// whose signature is the start's. (cargo-mutants: the `==` choosing `just_before` turned
+    /// to `!=` in either place, which swaps the two leaps.)
+    #[test]
+    fn each_leap_stops_where_its_name_says_in_perform_and_in_the_checker() {
+        let cfg = config("i40-zero");
+        assert!(!cfg.single_servo_cycles, "i40-zero leaps");
+        let model = WatchdogModel::new(cfg.clone());
+        let start = State { controller: Controller::power_on(&cfg), violations: 0 };
+        let (to, _, at_change) = model.perform(&start, &Action::ServoToNextChange);
+        let (before, _, just_before) = model.perform(&start, &Action::ServoToJustBeforeChange);
+        let (Event::Servo { cycles: to }, Event::Servo { cycles: before }) = (to, before) else {
+            panic!("leaps are servo events")
+        };
+        assert!(to > 1, "a leap of several cycles: {to}");
+        assert_eq!(before, to - 1);
+        let sig = |s: &State| signature(&cfg, &s.controller);
+        assert!(sig(&at_change) != sig(&start) && sig(&just_before) == sig(&start));
+        assert!(model.next_state(&start, Action::ServoToNextChange) == Some(at_change));
+        assert!(model.next_state(&start, Action::ServoToJustBeforeChange) == Some(just_before));
+    }
+
+    /// A single servo interrupt goes through the cycle monitors: a motor finishing a `Q` stop
+    /// must end at rest with its program at a program point (UM p.217: "Q: Stop at Prog Pt?
+    /// Yes"); a hand-made motor that finishes one while its coordinate system has no program
+    /// sets that monitor's bit on the servo event. (cargo-mutants: the `Servo` arm of
+    /// `apply_in_place` deleted, which left single cycles to the rule without their monitors.)
+    #[test]
+    fn a_single_servo_interrupt_runs_the_cycle_monitors() {
+        use crate::motion::Stop;
+        use pmacwd_specs::vocab::MotorState;
+        let cfg = config("motion");
+        let mut start = State { controller: Controller::power_on(&cfg), violations: 0 };
+        let m = &mut start.controller.axes.motors_mut()[0];
+        (m.state, m.stop, m.stop_cycles) = (MotorState::Decelerating, Some(Stop::Quit), 1);
+        let (_, next) = WatchdogModel::new(cfg).step(&start, &Event::Servo { cycles: 1 });
+        assert_eq!(next.controller.axes.motors()[0].state, MotorState::Closed);
+        assert_eq!(next.violations, 1 << monitor_index("Q and / stop at a program point"));
+    }
+
     /// An endless chain of states: each has one successor, the next number.
     struct Chain;
 
