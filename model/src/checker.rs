@@ -982,5 +982,11 @@ mod tests {
         assert_eq!(honest.step(&start, &write).1.controller.i_variable(5100), 0, "locked: ignored");
         let canary = WatchdogModel { canary: Some(Canary::LockoutIgnored), ..WatchdogModel::new(cfg) };
         assert_eq!(canary.step(&start, &write).1.controller.i_variable(5100), 1, "the canary lets it through");
+        // Only a running card's lockout: a tripped card stays silent and unchanged even so, or
+        // the canary would break a second sentence (UM p.215) and blur what its test shows.
+        // (cargo-mutants: the canary's guard turned to `true`.)
+        let mut tripped = start.clone();
+        tripped.controller.trip = Some(crate::controller::TripCause::StrobeTimeout);
+        assert_eq!(canary.step(&tripped, &write).1.controller.i_variable(5100), 0, "tripped: unchanged");
     }
 }
