@@ -629,6 +629,47 @@ impl Axes {
 mod tests {
     use super::*;
 
+    /// The leaps stop where `motion_signature` changes, so it must see every field a servo
+    /// cycle can change, of every motor and program: each edit below alone changes it. A
+    /// signature blind to one of them would let a leap run past that change, and the checker
+    /// would miss the states in between; no configuration of `check.yaml` has leaps long enough
+    /// over moving motors to show it, so it is checked here. (cargo-mutants: the `motion.rs`
+    /// survivors in `motion_signature`, a field lost through `&`, `>>`, or the first stop
+    /// counted as none through `*`.)
+    #[test]
+    fn motion_signature_sees_every_field_a_servo_cycle_changes() {
+        let spec = pmacwd_specs::Spec::embedded().unwrap();
+        let cfg =
+            pmacwd_specs::config::ModelConfig::from_spec(&spec, "motion", &spec.profiles.default_profile()).unwrap();
+        let base = Axes::power_on(&cfg.motion);
+        assert!(base.motors().len() >= 2 && !base.programs().is_empty(), "several motors and a program");
+        type Edit = (&'static str, fn(&mut Motor));
+        let edits: [Edit; 5] = [
+            ("state", |m| m.state = MotorState::Closed),
+            ("a first stop", |m| m.stop = Some(Stop::Jog)),
+            ("another stop", |m| m.stop = Some(Stop::Hold)),
+            ("stop cycles", |m| m.stop_cycles = 7),
+            ("stop cycles high", |m| m.stop_cycles = 200),
+        ];
+        for k in 0..base.motors().len() {
+            for (what, edit) in edits {
+                let mut changed = base.clone();
+                edit(&mut changed.motors_mut()[k]);
+                assert!(changed.motion_signature() != base.motion_signature(), "motor {}: {what}", k + 1);
+            }
+            // Jog and Hold tell apart from each other too.
+            let (mut jog, mut hold) = (base.clone(), base.clone());
+            jog.motors_mut()[k].stop = Some(Stop::Jog);
+            hold.motors_mut()[k].stop = Some(Stop::Hold);
+            assert!(jog.motion_signature() != hold.motion_signature(), "motor {}: the stops", k + 1);
+        }
+        for cs in 0..base.programs().len() {
+            let mut changed = base.clone();
+            changed.programs_mut()[cs] = Program::Running;
+            assert!(changed.motion_signature() != base.motion_signature(), "program of &{}", cs + 1);
+        }
+    }
+
     /// Every column of every row of the model's stop rules is the table's, so a rule cannot
     /// drift from `specs/stop_commands.yaml` (UM p.217).
     #[test]
