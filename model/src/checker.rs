@@ -930,6 +930,25 @@ mod tests {
         assert_eq!(next.violations, 1 << monitor_index("Q and / stop at a program point"));
     }
 
+    /// The `always` conjunction that stateright checks in every state holds the `always`
+    /// properties only: at power-up, where every `always` property holds and the `sometimes`
+    /// ones (a trip, say) have not happened, it holds, and it fails as soon as one `always`
+    /// property does. A conjunction that took in the `sometimes` properties too would fail
+    /// almost everywhere and send every run to the slower detailed re-run, whose verdicts hide
+    /// the mistake. (cargo-mutants: the guard of `always_holds` turned to `true`.)
+    #[test]
+    fn the_always_conjunction_takes_in_the_always_properties_only() {
+        let cfg = config("timing");
+        let start = State { controller: Controller::power_on(&cfg), violations: 0 };
+        assert!(STATE_PROPERTIES.iter().any(|p| p.expectation == Expectation::Sometimes && !(p.holds)(&cfg, &start)));
+        assert!(every_always_holds(&cfg, &start));
+        let mut broken = start.clone();
+        broken.controller.trip = Some(crate::controller::TripCause::StrobeTimeout);
+        // Tripped with the outputs left as they were: "a tripped card forces its outputs off"
+        // and the others of UM p.215 fail.
+        assert!(!every_always_holds(&cfg, &broken));
+    }
+
     /// An endless chain of states: each has one successor, the next number.
     struct Chain;
 
