@@ -949,6 +949,150 @@ mod tests {
         assert!(!every_always_holds(&cfg, &broken));
     }
 
+    fn actions_of(model: &WatchdogModel, s: &State) -> Vec<Action> {
+        let mut actions = Vec::new();
+        model.actions(s, &mut actions);
+        actions
+    }
+
+    /// `<CLEAR-RTI-REENTRY>` (SRM p.289: bit 22 is sticky until cleared) is offered only where
+    /// the configuration asks for it and the bit is set: elsewhere it would be a no-op the
+    /// checker explores for nothing, or a clearing the configuration does not allow.
+    /// (cargo-mutants: the `&&` of that condition turned to `||`.)
+    #[test]
+    fn the_rti_reentry_clearing_is_offered_only_when_allowed_and_set() {
+        let cfg = config("timing");
+        assert!(cfg.clear_rti_reentry);
+        let clear = Action::Do(Event::ClearRtiReentry);
+        let mut s = State { controller: Controller::power_on(&cfg), violations: 0 };
+        assert!(!actions_of(&WatchdogModel::new(cfg.clone()), &s).contains(&clear), "bit clear");
+        s.controller.status.rti_reentry = true;
+        assert!(actions_of(&WatchdogModel::new(cfg.clone()), &s).contains(&clear), "bit set");
+        let not_allowed = ModelConfig { clear_rti_reentry: false, ..cfg };
+        assert!(!actions_of(&WatchdogModel::new(not_allowed), &s).contains(&clear), "not allowed");
+    }
+
+    /// A motion command is offered once per deceleration length (1 to `decel_cycles_max`) only
+    /// where it can start a deceleration of that length: on a running card, when the
+    /// configuration has more than one length, and unless the run takes the longest only. A
+    /// tripped card gets each command once (it must stay silent, UM p.215). (cargo-mutants:
+    /// the guard turned to `true`, its `&&`s to `||`, `> 1` to `>= 1`.)
+    #[test]
+    fn motion_commands_are_offered_per_deceleration_length_only_where_that_can_differ() {
+        let cfg = config("motion");
+        assert_eq!(cfg.motion.decel_cycles_max, 2);
+        let running = State { controller: Controller::power_on(&cfg), violations: 0 };
+        let mut tripped = running.clone();
+        tripped.controller.trip = Some(crate::controller::TripCause::Undervoltage);
+        let kill = Event::Command(HostCommand::parse("#1K").unwrap());
+        let offered = |model: &WatchdogModel, s: &State| -> Vec<Action> {
+            actions_of(model, s)
+                .into_iter()
+                .filter(|a| matches!(a, Action::Do(e) | Action::Decelerating(e, _) if *e == kill))
+                .collect()
+        };
+        let model = WatchdogModel::new(cfg.clone());
+        assert_eq!(
+            offered(&model, &running),
+            [Action::Decelerating(kill.clone(), 1), Action::Decelerating(kill.clone(), 2)]
+        );
+        assert_eq!(offered(&model, &tripped), [Action::Do(kill.clone())], "tripped");
+        let longest = WatchdogModel { longest_decelerations_only: true, ..WatchdogModel::new(cfg.clone()) };
+        assert_eq!(offered(&longest, &running), [Action::Do(kill.clone())], "longest only");
+        let mut one = cfg;
+        one.motion.decel_cycles_max = 1;
+        assert_eq!(offered(&WatchdogModel::new(one), &running), [Action::Do(kill)], "one length");
+    }
+
+    /// A supply reading is offered exactly when it changes whether the supply is low, with the
+    /// controller's own threshold (UM p.215: the trip below about 4.75 V): at the threshold
+    /// itself the supply is not low, one millivolt below it is. (cargo-mutants: `<` turned to
+    /// `<=` in the action's filter, which disagreed with the rule at the threshold.)
+    #[test]
+    fn a_supply_reading_is_offered_when_it_changes_the_low_supply_flag_at_the_rule_s_threshold() {
+        let base = config("timing");
+        let min = base.supply_min_millivolts;
+        let cfg = ModelConfig { supply_millivolts: vec![min - 1, min, min + 1], ..base };
+        let model = WatchdogModel::new(cfg.clone());
+        let start = State { controller: Controller::power_on(&cfg), violations: 0 };
+        for state in [start.clone(), model.step(&start, &Event::Supply { millivolts: min - 1 }).1] {
+            let offered: Vec<u32> = actions_of(&model, &state)
+                .into_iter()
+                .filter_map(|a| match a {
+                    Action::Do(Event::Supply { millivolts }) => Some(millivolts),
+                    _ => None,
+                })
+                .collect();
+            let changing: Vec<u32> = cfg
+                .supply_millivolts
+                .iter()
+                .copied()
+                .filter(|mv| {
+                    model.step(&state, &Event::Supply { millivolts: *mv }).1.controller.supply_low
+                        != state.controller.supply_low
+                })
+                .collect();
+            assert_eq!(offered, changing, "supply low: {}", state.controller.supply_low);
+        }
+    }
+
+    /// A path's steps are printed with their events: each kind of action says what it does,
+    /// with the deceleration's length where it has one. (cargo-mutants: `format_action`
+    /// answering an empty or a fixed text.)
+    #[test]
+    fn each_action_prints_as_its_event() {
+        let model = WatchdogModel::new(config("motion"));
+        let kill = Event::Command(HostCommand::parse("#1K").unwrap());
+        assert_eq!(model.format_action(&Action::Do(Event::Background)), Event::Background.to_string());
+        assert_eq!(
+            model.format_action(&Action::Decelerating(kill.clone(), 2)),
+            format!("{kill} (a deceleration takes 2 servo cycles)")
+        );
+        assert_eq!(model.format_action(&Action::ServoToNextChange), "servo interrupts up to the next change");
+        assert_eq!(
+            model.format_action(&Action::ServoToJustBeforeChange),
+            "servo interrupts up to just before the next change"
+        );
+    }
+
+    /// A run's report holds when every property holds, and not when one fails (the exit code
+    /// of `pmacwd check` is read from it); its rate is states over seconds. (cargo-mutants:
+    /// `all_hold` answering a constant, `states_per_second` a constant or another operator.)
+    #[test]
+    fn a_report_holds_only_when_every_property_holds_and_its_rate_is_states_over_seconds() {
+        let table = property_table();
+        let row = |holds: bool| table[0].result(holds, true, None);
+        let mut report = RunReport {
+            configuration: "timing".into(),
+            profile: "um-215".into(),
+            complete: true,
+            states: 3_000,
+            depth: 7,
+            duration: Duration::from_millis(1_500),
+            properties: vec![row(true), row(true)],
+        };
+        assert!(report.all_hold());
+        report.properties[1] = row(false);
+        assert!(!report.all_hold());
+        assert_eq!(report.states_per_second(), 2_000.0);
+    }
+
+    /// Every monitor is an `always` property of every configuration: a monitor's row must not
+    /// say it does not apply (it would be reported n/a instead of checked). (cargo-mutants:
+    /// the monitors' `any` answering false.)
+    #[test]
+    fn every_monitor_applies_to_every_configuration() {
+        let spec = Spec::embedded().unwrap();
+        let table = property_table();
+        for name in spec.check.configurations.keys() {
+            let cfg = config(name);
+            for m in MONITORS {
+                let row = table.iter().find(|p| p.name == m.name).expect("each monitor has a row");
+                assert!((row.applies)(&cfg), "{}: {name}", m.name);
+            }
+        }
+    }
+
     /// An endless chain of states: each has one successor, the next number.
     struct Chain;
 
@@ -1007,5 +1151,11 @@ mod tests {
         let mut tripped = start.clone();
         tripped.controller.trip = Some(crate::controller::TripCause::StrobeTimeout);
         assert_eq!(canary.step(&tripped, &write).1.controller.i_variable(5100), 0, "tripped: unchanged");
+        // And only locked writes: an unlocked one leaves the state the honest model leaves,
+        // down to the entry a write of 0 removes. (cargo-mutants: `&` turned to `|`.)
+        let mut unlocked = start;
+        unlocked.controller.i41 = 0;
+        let zero = Event::Command(HostCommand::parse("I5100=0").unwrap());
+        assert!(canary.step(&unlocked, &zero).1 == honest.step(&unlocked, &zero).1, "unlocked: as the model");
     }
 }
