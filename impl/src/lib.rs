@@ -462,6 +462,15 @@ impl Core {
         self.counter_min_before.min(self.counter)
     }
 
+    /// This state with the lazily kept minimum settled: the minimum before the current run of
+    /// decrements replaced by X:$25 itself. The two behave the same under every event (the
+    /// minimum is read only as X:$25, and folded into itself at a reload; a reset replaces it),
+    /// so a search over core states (the exhaustive lockstep) identifies them by this form:
+    /// otherwise each value of the settled minimum would count as a state of its own.
+    pub fn canonical(&self) -> Core {
+        Core { counter_min_before: self.counter_min(), ..*self }
+    }
+
     /// Motor `n` (from 1) as a host or an instrument sees it: state, stop under way, amplifier
     /// enable, commanded output, encoder input, the PLC's latched loss, its coordinate system
     /// and that system's program; `None` for a motor the configuration does not have.
