@@ -167,12 +167,12 @@ fn advance_equals_single_cycles_when_the_counter_stops_strobing_before_the_next_
                         hardware_delay_cycles: delay,
                         saved_i8,
                         saved_i40: i40,
-                        ..base.clone()
+                        ..base
                     };
                     let mut core = Core::power_on(&cfg);
                     for _ in 0..=8 {
                         for new_i8 in 0..=8 {
-                            let mut changed = core.clone();
+                            let mut changed = core;
                             let write = Event::Command(Command::WriteI(8, new_i8));
                             changed.apply(&cfg, write, &mut FewIVariables::<4>::default());
                             for n in 0..=30 {
