@@ -188,3 +188,26 @@ fn advance_equals_single_cycles_when_the_counter_stops_strobing_before_the_next_
     }
     assert_eq!(checked, 5 * 9 * 4 * 2 * 9 * 9 * 31);
 }
+
+/// `advance` is in closed form (docs/core.md: the RTI over whole periods, "at most two partial
+/// RTI periods ... stepped"), so its cost does not grow with n. A card with a hardware delay of
+/// 2^31 servo cycles (UM p.215: the trip comes only after the delay) and a background cycle
+/// between runs (UM p.215: it resets the counter) runs 2^31 - 1 cycles a thousand times over
+/// without tripping: at once in closed form, for hours if a loop stepped the cycles one by one
+/// (the mutation check counts that as a timeout). Every other test's card trips within its
+/// counter and delay, a few tens of thousands of cycles, which stepping also finishes in time.
+/// The servo counter (X:$0) still counts every cycle, modulo its mask.
+#[test]
+fn advance_costs_the_same_for_any_number_of_cycles() {
+    let cfg = Config { hardware_delay_cycles: 1 << 31, ..common::realistic_config() };
+    let mut core = Core::power_on(&cfg);
+    let (rounds, n) = (1000u64, (1u32 << 31) - 1);
+    for _ in 0..rounds {
+        core.advance(&cfg, n);
+        assert!(core.background_possible());
+        core.background_cycle(&cfg);
+    }
+    assert!(!core.tripped());
+    let cycles = rounds * u64::from(n) % (u64::from(cfg.servo_counter_mask) + 1);
+    assert_eq!(u64::from(core.register(&cfg, pmacwd_core::Register::ServoCycles)), cycles);
+}
