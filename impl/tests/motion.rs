@@ -155,6 +155,25 @@ fn a_trip_kills_every_motor() {
     }
 }
 
+/// UM p.215: the trip forces the outputs ("discrete outputs off, and proportional outputs ...
+/// to zero-level"), not the card's memory: a running program's coordinate system still reads
+/// Running, and held one Held, while the card is tripped (MODEL, as the reference model's
+/// `force_off`, which kills the motors and leaves the programs); a reset clears them.
+#[test]
+fn a_trip_leaves_the_programs_where_they_stood() {
+    let mut c = Card::running(config());
+    c.motor(2, MotorCommand::JogStop);
+    c.cs(2, CsCommand::Begin);
+    c.cs(2, CsCommand::Run);
+    c.cs(2, CsCommand::Hold);
+    c.core.apply(&c.cfg, Event::Supply(4500), &mut c.store);
+    assert!(c.core.tripped());
+    let (one, two) = (c.core.motor(&c.cfg, 1).unwrap(), c.core.motor(&c.cfg, 2).unwrap());
+    assert_eq!((one.state, one.program), (MotorState::Killed, Program::Running));
+    assert_eq!((two.state, two.program), (MotorState::Killed, Program::Held));
+    assert!(c.core.motion().consistent());
+}
+
 /// UM p.214-215: the encoder-loss PLC, one scan per background cycle, kills a closed-loop
 /// motor whose encoder is lost and latches the loss; with the encoder back, the intended
 /// reading clears the latch and the literal one (which tests for a status already 0) never does.
