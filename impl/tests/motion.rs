@@ -69,6 +69,21 @@ fn motors_power_up_killed_and_j_slash_closes_the_loop() {
     assert_eq!(c.core.motor(&c.cfg, 3), None, "the configuration has two motors");
 }
 
+/// MODEL, as the reference model: a motor the configuration does not have is not set up
+/// (Ixx00 = 0, the motor not activated) and a command to it does nothing: #3 of a
+/// two-motor card, and #0, leave the motion exactly as it was, whatever the command.
+#[test]
+fn a_command_to_a_motor_the_configuration_does_not_have_does_nothing() {
+    let mut c = Card::new(config());
+    for n in [0u8, 3] {
+        for cmd in [MotorCommand::JogStop, MotorCommand::Jog, MotorCommand::JogStop, MotorCommand::Kill] {
+            let before = *c.core.motion();
+            assert_eq!(c.motor(n, cmd), Reply::Ack, "#{n} {cmd:?}");
+            assert_eq!(*c.core.motion(), before, "#{n} {cmd:?}");
+        }
+    }
+}
+
 /// UM p.217 row 1: J/ begins immediately and decelerates (Ixx19-21) to closed loop at rest,
 /// here in the configured 3 servo cycles.
 #[test]
