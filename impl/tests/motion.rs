@@ -129,6 +129,18 @@ fn q_finishes_the_calculated_moves_and_stops_at_a_program_point() {
     assert_eq!(c.state(1), MotorState::Program);
 }
 
+/// UM p.217 rows 4 and 6: Q "Finishes calculated moves", / ends at the "End of currently
+/// executing move": the stop a motor reports (as `#n?` shows it) is the row of the command
+/// given, though both end alike, at a program point.
+#[test]
+fn q_and_slash_each_report_their_own_row_of_the_stop_table() {
+    for (command, stop) in [(CsCommand::Quit, Stop::Quit), (CsCommand::EndOfMove, Stop::EndOfMove)] {
+        let mut c = Card::running(config());
+        c.cs(1, command);
+        assert_eq!(c.core.motor(&c.cfg, 1).unwrap().stop, Some((stop, 3)), "{command:?}");
+    }
+}
+
 /// UM p.217: H stops on the path, not at a program point ("Similar to %0"); SRM p.260: R
 /// starts a held C.S. again. A C.S. command leaves the other C.S. alone.
 #[test]
