@@ -714,3 +714,36 @@ impl Motion {
         self.loss_status |= hit;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`Motion::consistent`] is what the tests and the proof harnesses check the redundant
+    /// bits with: `stopping` bit k exactly when motor k carries a stop, `amplifiers` bit k
+    /// exactly when it is not killed (UM p.319: only a kill disables the amplifier), every motor
+    /// byte as [`pack`] writes it. It must say false when any of them is out of step, for motor
+    /// #1 and for a later one (bit 3), and true for consistent states.
+    #[test]
+    fn consistent_notices_each_redundant_bit_out_of_step() {
+        let closed = pack(MotorState::Closed, None);
+        let stopping = pack(MotorState::Decelerating, Some(Stop::Jog));
+        let killed = pack(MotorState::Killed, None);
+        for k in [0usize, 3] {
+            let bit = 1u8 << k;
+            let with = |byte: u8, stopping: u8, amplifiers: u8| {
+                let mut motors = [0u8; MOTORS_MAX];
+                motors[k] = byte;
+                Motion { motors, stopping, amplifiers, ..Motion::power_on() }
+            };
+            assert!(with(closed, 0, bit).consistent(), "#{}: closed loop at rest", k + 1);
+            assert!(with(stopping, bit, bit).consistent(), "#{}: a stop under way", k + 1);
+            assert!(!with(closed, bit, bit).consistent(), "#{}: a stopping bit without a stop", k + 1);
+            assert!(!with(stopping, 0, bit).consistent(), "#{}: a stop without its bit", k + 1);
+            assert!(!with(killed, 0, bit).consistent(), "#{}: a killed motor's amplifier on", k + 1);
+            assert!(!with(closed, 0, 0).consistent(), "#{}: a closed loop's amplifier off", k + 1);
+            assert!(!with(7, 0, 0).consistent(), "#{}: a byte pack never writes (code 7)", k + 1);
+        }
+        assert!(Motion::power_on().consistent());
+    }
+}

@@ -217,3 +217,38 @@ proptest! {
         prop_assert_eq!(core.canonical(), settled.canonical());
     }
 }
+
+/// `advance` is in closed form (docs/core.md: the RTI over whole periods, "at most two partial
+/// RTI periods ... stepped"), so its cost does not grow with n. A card with a hardware delay of
+/// 2^31 servo cycles (UM p.215: the trip comes only after the delay) and a background cycle
+/// between runs (UM p.215: it resets the counter) runs 2^31 - 1 cycles a thousand times over
+/// without tripping: at once in closed form, for hours if a loop stepped the cycles one by one
+/// (the mutation check counts that as a timeout). Every other round starts with the RTI phase
+/// past a lowered I8 (UM p.236: the RTI runs every I8 + 1 servo cycles; I8 = 8 for four
+/// cycles, then I8 = 2), the one state in which `advance` steps its second partial period.
+/// Every other test's card trips within its counter and delay, a few tens of thousands of
+/// cycles, which stepping also finishes in time. The servo counter (X:$0) still counts every
+/// cycle, modulo its mask.
+#[test]
+fn advance_costs_the_same_for_any_number_of_cycles() {
+    let cfg = Config { hardware_delay_cycles: 1 << 31, ..common::realistic_config() };
+    let mut core = Core::power_on(&cfg);
+    let mut store = FewIVariables::<4>::default();
+    let n = (1u32 << 31) - 1;
+    let mut cycles = 0u64;
+    for round in 0..1000 {
+        if round % 2 == 1 {
+            core.apply(&cfg, Event::Command(Command::WriteI(8, 8)), &mut store);
+            core.advance(&cfg, 4);
+            core.apply(&cfg, Event::Command(Command::WriteI(8, 2)), &mut store);
+            cycles += 4;
+        }
+        core.advance(&cfg, n);
+        cycles += u64::from(n);
+        assert!(core.background_possible());
+        core.background_cycle(&cfg);
+    }
+    assert!(!core.tripped());
+    let mask = u64::from(cfg.servo_counter_mask);
+    assert_eq!(u64::from(core.register(&cfg, pmacwd_core::Register::ServoCycles)), cycles & mask);
+}

@@ -69,6 +69,21 @@ fn motors_power_up_killed_and_j_slash_closes_the_loop() {
     assert_eq!(c.core.motor(&c.cfg, 3), None, "the configuration has two motors");
 }
 
+/// MODEL, as the reference model: a motor the configuration does not have is not set up
+/// (Ixx00 = 0, the motor not activated) and a command to it does nothing: #3 of a
+/// two-motor card, and #0, leave the motion exactly as it was, whatever the command.
+#[test]
+fn a_command_to_a_motor_the_configuration_does_not_have_does_nothing() {
+    let mut c = Card::new(config());
+    for n in [0u8, 3] {
+        for cmd in [MotorCommand::JogStop, MotorCommand::Jog, MotorCommand::JogStop, MotorCommand::Kill] {
+            let before = *c.core.motion();
+            assert_eq!(c.motor(n, cmd), Reply::Ack, "#{n} {cmd:?}");
+            assert_eq!(*c.core.motion(), before, "#{n} {cmd:?}");
+        }
+    }
+}
+
 /// UM p.217 row 1: J/ begins immediately and decelerates (Ixx19-21) to closed loop at rest,
 /// here in the configured 3 servo cycles.
 #[test]
@@ -114,6 +129,18 @@ fn q_finishes_the_calculated_moves_and_stops_at_a_program_point() {
     assert_eq!(c.state(1), MotorState::Program);
 }
 
+/// UM p.217 rows 4 and 6: Q "Finishes calculated moves", / ends at the "End of currently
+/// executing move": the stop a motor reports (as `#n?` shows it) is the row of the command
+/// given, though both end alike, at a program point.
+#[test]
+fn q_and_slash_each_report_their_own_row_of_the_stop_table() {
+    for (command, stop) in [(CsCommand::Quit, Stop::Quit), (CsCommand::EndOfMove, Stop::EndOfMove)] {
+        let mut c = Card::running(config());
+        c.cs(1, command);
+        assert_eq!(c.core.motor(&c.cfg, 1).unwrap().stop, Some((stop, 3)), "{command:?}");
+    }
+}
+
 /// UM p.217: H stops on the path, not at a program point ("Similar to %0"); SRM p.260: R
 /// starts a held C.S. again. A C.S. command leaves the other C.S. alone.
 #[test]
@@ -153,6 +180,25 @@ fn a_trip_kills_every_motor() {
         let m = c.core.motor(&c.cfg, n).unwrap();
         assert_eq!((m.state, m.amplifier_enabled, m.output_zero), (MotorState::Killed, false, true), "#{n}");
     }
+}
+
+/// UM p.215: the trip forces the outputs ("discrete outputs off, and proportional outputs ...
+/// to zero-level"), not the card's memory: a running program's coordinate system still reads
+/// Running, and held one Held, while the card is tripped (MODEL, as the reference model's
+/// `force_off`, which kills the motors and leaves the programs); a reset clears them.
+#[test]
+fn a_trip_leaves_the_programs_where_they_stood() {
+    let mut c = Card::running(config());
+    c.motor(2, MotorCommand::JogStop);
+    c.cs(2, CsCommand::Begin);
+    c.cs(2, CsCommand::Run);
+    c.cs(2, CsCommand::Hold);
+    c.core.apply(&c.cfg, Event::Supply(4500), &mut c.store);
+    assert!(c.core.tripped());
+    let (one, two) = (c.core.motor(&c.cfg, 1).unwrap(), c.core.motor(&c.cfg, 2).unwrap());
+    assert_eq!((one.state, one.program), (MotorState::Killed, Program::Running));
+    assert_eq!((two.state, two.program), (MotorState::Killed, Program::Held));
+    assert!(c.core.motion().consistent());
 }
 
 /// UM p.214-215: the encoder-loss PLC, one scan per background cycle, kills a closed-loop

@@ -3,7 +3,7 @@
 mod common;
 
 use common::realistic_config as config;
-use pmacwd_core::{AllIVariables, Command, Core, Event, FewIVariables, Load, Reply};
+use pmacwd_core::{AllIVariables, Area, Command, Core, Event, FewIVariables, Load, Register, Reply};
 
 /// The design asks for the state "packed into a few machine words": the I-variable store is
 /// outside the core, so copying a core (as `advance` benchmarks and checkers do) stays cheap.
@@ -134,4 +134,40 @@ fn bit_20_is_set_only_when_the_servo_update_needs_more_than_the_cycle() {
         let (x, _) = core.status_words(&cfg);
         assert_eq!(x & pmacwd_core::bits::SERVO_ERROR != 0, error, "{motors} motors of 10 units in a cycle of 80");
     }
+}
+
+/// UM p.217: X:$1090 holds "the checksum value that was computed the last time one of these
+/// buffers was closed". A user-program fault leaves the reference at the factory checksum
+/// (`RHX:$1090` reads 0); CLOSE then takes the corrupted program's checksum into it (reads 1),
+/// so the user-program pass that follows finds no mismatch (bit 13 stays clear, as the model's
+/// story in `model/tests/semantics.rs` has it); without the CLOSE the same passes find it.
+/// Nothing else read X:$1090 once it held 1.
+#[test]
+fn close_takes_the_program_checksum_into_x_1090() {
+    let cfg = config();
+    let mut store = FewIVariables::<2>::default();
+    let reference = |core: &mut Core, store: &mut FewIVariables<2>| {
+        core.apply(&cfg, Event::Command(Command::ReadHex(Register::ProgramChecksumReference)), store)
+    };
+    // Two firmware passes and two user-program passes, then bit 13 (SRM p.289).
+    let checksum_error_after_passes = |core: &mut Core| {
+        for _ in 0..6 {
+            while !core.background_possible() {
+                core.servo_cycle(&cfg);
+            }
+            core.background_cycle(&cfg);
+        }
+        core.status_words(&cfg).0 & pmacwd_core::bits::CHECKSUM_ERROR != 0
+    };
+    let mut core = Core::power_on(&cfg);
+    core.apply(&cfg, Event::ChecksumFault(Area::UserProgram), &mut store);
+    assert!(checksum_error_after_passes(&mut core), "without CLOSE the fault is found");
+
+    let mut core = Core::power_on(&cfg);
+    assert_eq!(reference(&mut core, &mut store), Reply::Hex(0));
+    core.apply(&cfg, Event::ChecksumFault(Area::UserProgram), &mut store);
+    assert_eq!(reference(&mut core, &mut store), Reply::Hex(0), "a fault does not touch the reference");
+    assert_eq!(core.apply(&cfg, Event::Command(Command::Close), &mut store), Reply::Ack);
+    assert_eq!(reference(&mut core, &mut store), Reply::Hex(1), "CLOSE takes the corrupted checksum");
+    assert!(!checksum_error_after_passes(&mut core), "after CLOSE the passes find no mismatch");
 }
