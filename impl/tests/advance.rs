@@ -252,3 +252,20 @@ fn advance_costs_the_same_for_any_number_of_cycles() {
     let mask = u64::from(cfg.servo_counter_mask);
     assert_eq!(u64::from(core.register(&cfg, pmacwd_core::Register::ServoCycles)), cycles & mask);
 }
+
+/// `canonical` settles the lazily kept minimum: once the counter has fallen below the minimum
+/// remembered at the last reload, the state and its canonical form are different values that
+/// read the same X:$25 (SRM p.57), and settling twice changes nothing more. Without this, a
+/// `canonical` that returned the state unchanged would pass the proptest above (a state cannot
+/// be told apart from itself) while the exhaustive lockstep counted each remembered minimum as
+/// a state of its own. (cargo-mutants: the field dropped from `canonical`'s struct update.)
+#[test]
+fn canonical_settles_the_remembered_minimum_and_keeps_x25() {
+    let cfg = common::realistic_config();
+    let mut core = Core::power_on(&cfg);
+    core.advance(&cfg, 10);
+    let settled = core.canonical();
+    assert_ne!(settled, core, "ten cycles after power-on the counter is below the reload's minimum");
+    assert_eq!((settled.counter_min(), settled.counter()), (core.counter_min(), core.counter()));
+    assert_eq!(settled.canonical(), settled);
+}
