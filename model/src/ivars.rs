@@ -66,15 +66,6 @@ impl IVariables {
     }
 }
 
-impl<'a> IntoIterator for &'a IVariables {
-    type Item = (&'a u16, &'a i64);
-    type IntoIter = std::iter::Map<std::slice::Iter<'a, (u16, i64)>, fn(&'a (u16, i64)) -> (&'a u16, &'a i64)>;
-
-    fn into_iter(self) -> Self::IntoIter {
-        self.0.iter().map(|(n, v)| (n, v))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
