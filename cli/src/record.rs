@@ -103,9 +103,10 @@ pub fn record(a: RecordArgs) -> ExitCode {
     crate::common::console_may_close();
     // Until --sessions host sessions have ended, or SIGINT or SIGTERM asks for a stop.
     crate::interrupt::install();
-    match proxy.wait_unless(|| crate::interrupt::requested().is_some()) {
+    let signal = crate::interrupt::wait_for_stop(|| proxy.sessions_ended());
+    match proxy.stop() {
         Ok((exchanges, steps, notes)) => {
-            if let Some(signal) = crate::interrupt::requested() {
+            if let Some(signal) = signal {
                 to_stdout(format_args!("pmacwd record: stopped by {signal}"));
             }
             for n in notes {

@@ -502,22 +502,22 @@ impl Proxy {
 
     /// Waits until `--sessions` host sessions have ended (forever without it), then closes
     /// the capture: (exchanges, steps, notes left over).
-    pub fn wait(self) -> io::Result<(u64, u64, Vec<String>)> {
-        self.wait_unless(|| false)
+    pub fn wait(mut self) -> io::Result<(u64, u64, Vec<String>)> {
+        if let Some(t) = self.accept.drain(..1).next() {
+            let _ = t.join();
+        }
+        self.close()
     }
 
-    /// As [`Proxy::wait`], but also stops, and closes the capture the same way, as soon as
-    /// `stop` says so (`pmacwd record` asks whether SIGINT or SIGTERM came), looking every
-    /// tenth of a second.
-    pub fn wait_unless(mut self, mut stop: impl FnMut() -> bool) -> io::Result<(u64, u64, Vec<String>)> {
-        if let Some(t) = self.accept.drain(..1).next() {
-            while !t.is_finished() && !stop() {
-                thread::sleep(Duration::from_millis(100));
-            }
-            if t.is_finished() {
-                let _ = t.join();
-            }
-        }
+    /// Whether `--sessions` host sessions have ended (never without it): then [`Proxy::stop`]
+    /// closes the capture as [`Proxy::wait`] would.
+    pub fn sessions_ended(&self) -> bool {
+        self.accept.first().is_none_or(|t| t.is_finished())
+    }
+
+    /// Stops now, and closes the capture as the end of the sessions does (`pmacwd record` on
+    /// SIGINT or SIGTERM): (exchanges, steps, notes left over).
+    pub fn stop(self) -> io::Result<(u64, u64, Vec<String>)> {
         self.close()
     }
 
