@@ -58,7 +58,7 @@ impl ProductModel {
         let core_reply = core.apply(&core_cfg, core_event(&event), &mut store);
         // Core states that differ only in the lazily kept minimum are one state here
         // (`Core::canonical`), as they were before the core kept it lazily.
-        let core = core.canonical();
+        let core = core.canonical(&core_cfg);
         let m = pmacwd_model::observe::of(&model.controller, &self.model.cfg, reply);
         let k = core_observation(&core, &core_cfg, core_reply);
         let mut fields = differences(&m, &k);

@@ -367,10 +367,24 @@ const BOOTSTRAP: u8 = 4;
 const ERROR_FIRMWARE: u8 = 8;
 const ERROR_PROGRAM: u8 = 16;
 const AREA_PROGRAM: u8 = 32;
+/// Bit 20 of X:$6 as the last servo cycle left it (SRM p.289): the servo routines could not
+/// complete under the load of that cycle.
+const SERVO_ERROR_SHOWN: u8 = 64;
+/// The servo routines do not fit in a servo cycle under the current load: bit 20 from the next
+/// servo cycle on (one bit above `SERVO_ERROR_SHOWN`, so that the cycle copies it with a shift).
+const SERVO_OVERLOAD: u8 = 128;
 
 /// The controller state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Core {
+    /// Quiet servo cycles taken but not yet applied to the fields below: the servo cycle only
+    /// counts them, and [`Self::settle`] applies them at once with [`Self::advance`]'s closed
+    /// form. While any are pending, every reader answers as if they had been applied (see
+    /// [`Self::quiet_cycles`] for why the readers without a configuration can).
+    deferred_cycles: u32,
+    /// How many servo cycles may be deferred before the next one has to be taken in full:
+    /// the length of the quiet stretch computed after the last full cycle, 0 when none is.
+    quiet_cycles_max: u32,
     counter: i32,
     /// The lowest counter value before the current run of decrements. Between two reloads the
     /// counter only falls, so X:$25 (the minimum since reset, SRM p.57) is the smaller of this
@@ -381,7 +395,7 @@ pub struct Core {
     background_credit: u32,
     servo_cycles: u32,
     /// Wire layout, without bits 12 and 13 (computed from the checksum engine) and bit 20
-    /// (`servo_error_shown`).
+    /// (`SERVO_ERROR_SHOWN` in `flags`).
     status_x: u32,
     status_y: u32,
     load: Load,
@@ -394,13 +408,9 @@ pub struct Core {
     position: u8,
     /// Content and reference tokens: bit 0 firmware, 1 firmware reference, 2 program, 3 program reference.
     tokens: u8,
-    /// CPU units left after the servo update, and bit 20 if the servo update does not fit:
-    /// both follow from the load, so they are computed when it changes, not every cycle.
+    /// CPU units left after the servo update: it follows from the load, so it is computed
+    /// when the load changes, not every cycle.
     free: u32,
-    servo_error: u32,
-    /// Bit 20 as the last servo cycle left it (SRM p.289): kept apart from `status_x`, so that
-    /// the servo cycle copies one word instead of clearing and setting a bit of another.
-    servo_error_shown: u32,
     /// The motors and coordinate systems (`motion.rs`).
     motion: motion::Motion,
 }
@@ -408,6 +418,8 @@ pub struct Core {
 impl Core {
     pub fn power_on(cfg: &Config) -> Core {
         let mut c = Core {
+            deferred_cycles: 0,
+            quiet_cycles_max: 0,
             counter: 0,
             counter_min_before: 0,
             cycles_since_strobe: 0,
@@ -425,8 +437,6 @@ impl Core {
             position: 0,
             tokens: 0,
             free: 0,
-            servo_error: 0,
-            servo_error_shown: 0,
             motion: motion::Motion::power_on(),
         };
         c.set_load(cfg, cfg.load);
@@ -454,12 +464,23 @@ impl Core {
     }
 
     pub fn counter(&self) -> i32 {
-        self.counter
+        // A quiet stretch ends before the counter would go below zero, so each deferred cycle
+        // took exactly one off it under both readings of `strobe_stop` (`quiet_cycles`), and
+        // the subtraction cannot wrap.
+        self.counter.wrapping_sub_unsigned(self.deferred_cycles)
     }
 
     /// X:$25, the lowest counter value since reset (SRM p.57).
     pub fn counter_min(&self) -> i32 {
-        self.counter_min_before.min(self.counter)
+        self.counter_min_before.min(self.counter())
+    }
+
+    /// This state with its deferred servo cycles applied: the same card, every field as the
+    /// readers report it. Two cores behave the same exactly when their settled forms are equal.
+    pub fn settled(&self, cfg: &Config) -> Core {
+        let mut c = *self;
+        c.settle(cfg);
+        c
     }
 
     /// This state with the lazily kept minimum settled: the minimum before the current run of
@@ -467,20 +488,22 @@ impl Core {
     /// minimum is read only as X:$25, and folded into itself at a reload; a reset replaces it),
     /// so a search over core states (the exhaustive lockstep) identifies them by this form:
     /// otherwise each value of the settled minimum would count as a state of its own.
-    pub fn canonical(&self) -> Core {
-        Core { counter_min_before: self.counter_min(), ..*self }
+    pub fn canonical(&self, cfg: &Config) -> Core {
+        let c = self.settled(cfg);
+        Core { counter_min_before: c.counter_min(), ..c }
     }
 
     /// Motor `n` (from 1) as a host or an instrument sees it: state, stop under way, amplifier
     /// enable, commanded output, encoder input, the PLC's latched loss, its coordinate system
     /// and that system's program; `None` for a motor the configuration does not have.
     pub fn motor(&self, cfg: &Config, n: u8) -> Option<MotorStatus> {
-        self.motion.motor(&cfg.motion, n)
+        self.motion().motor(&cfg.motion, n)
     }
 
-    /// The motors and coordinate systems.
-    pub fn motion(&self) -> &motion::Motion {
-        &self.motion
+    /// The motors and coordinate systems (with the deferred cycles counted off the stops
+    /// under way: no stop ends within a quiet stretch).
+    pub fn motion(&self) -> motion::Motion {
+        self.motion.counted_down(self.deferred_cycles)
     }
 
     pub fn background_possible(&self) -> bool {
@@ -489,7 +512,11 @@ impl Core {
 
     /// X:$000006 and Y:$000006 as `???` reports them.
     pub fn status_words(&self, cfg: &Config) -> (u32, u32) {
-        let mut x = self.status_x | self.servo_error_shown;
+        if self.deferred_cycles != 0 {
+            // The RTI's bits may have changed in the deferred cycles.
+            return self.settled(cfg).status_words(cfg);
+        }
+        let mut x = self.status_x | if self.flags & SERVO_ERROR_SHOWN != 0 { bits::SERVO_ERROR } else { 0 };
         let error = self.flags & (ERROR_FIRMWARE | ERROR_PROGRAM);
         if error != 0 {
             x |= bits::CHECKSUM_ERROR;
@@ -510,6 +537,9 @@ impl Core {
     }
 
     pub fn observe(&self, cfg: &Config, reply: Reply) -> Observation {
+        if self.deferred_cycles != 0 {
+            return self.settled(cfg).observe(cfg, reply);
+        }
         let (status_x, status_y) = self.status_words(cfg);
         Observation {
             reply,
@@ -524,6 +554,8 @@ impl Core {
     /// Applies one event and returns the reply. `store` holds the I-variables the core does not
     /// read itself (see [`IVariableStore`]); only host commands and resets touch it.
     pub fn apply<S: IVariableStore + ?Sized>(&mut self, cfg: &Config, event: Event, store: &mut S) -> Reply {
+        // Every event but a servo cycle applies to the card as it stands: deferred cycles first.
+        self.settle(cfg);
         match event {
             Event::Servo(n) => {
                 self.advance(cfg, n);
@@ -593,8 +625,10 @@ impl Core {
     /// [`Self::restart`] with I8, I40, I41 = `i_variables`: the saved values, or the factory
     /// defaults after `$$$***` (UM p.243).
     fn restart_with(&mut self, cfg: &Config, r: Reset, i_variables: (u8, u16, u8)) {
-        let supply_low = self.flags & SUPPLY_LOW;
-        self.flags = supply_low | if r.bootstrap { BOOTSTRAP } else { 0 };
+        // The supply and the load are the environment's: a reset keeps them (bit 20 itself
+        // shows from the next servo cycle, as after power-up).
+        let environment = self.flags & (SUPPLY_LOW | SERVO_OVERLOAD);
+        self.flags = environment | if r.bootstrap { BOOTSTRAP } else { 0 };
         (self.i8, self.i40, self.i41) = i_variables;
         self.counter = counter::reset_value(self.i40, cfg.profile.reset_value_i40_zero);
         self.counter_min_before = self.counter;
@@ -606,7 +640,6 @@ impl Core {
         self.status_x =
             (if r.dpram_fault { bits::DPRAM_ERROR } else { 0 }) | (if r.flash_fault { bits::FLASH_ERROR } else { 0 });
         self.status_y = 0;
-        self.servo_error_shown = 0;
         self.position = 0;
         self.tokens = 0;
         self.servo_cycles = 0;
@@ -660,22 +693,134 @@ impl Core {
 
     fn set_load(&mut self, cfg: &Config, load: Load) {
         self.load = load;
+        // UM p.236: the servo update takes about 1% of the cycle a motor.
         let servo = u32::from(load.motors).saturating_mul(u32::from(cfg.servo_units_per_motor));
-        // SRM p.289 bit 20: the servo routines could not complete (UM p.236: about 1% a motor).
-        self.servo_error = if servo > u32::from(cfg.cycle_units) { bits::SERVO_ERROR } else { 0 };
+        // SRM p.289 bit 20: the servo routines could not complete.
+        if servo > u32::from(cfg.cycle_units) {
+            self.flags |= SERVO_OVERLOAD;
+        } else {
+            self.flags &= !SERVO_OVERLOAD;
+        }
         self.free = u32::from(cfg.cycle_units).saturating_sub(servo);
     }
 
     /// Bit 20 as of this servo cycle, and the CPU units the cycle leaves.
     #[inline]
     fn free_units(&mut self) -> u32 {
-        self.servo_error_shown = self.servo_error;
+        self.flags = (self.flags & !SERVO_ERROR_SHOWN) | ((self.flags & SERVO_OVERLOAD) >> 1);
         self.free
     }
 
-    /// One servo interrupt and its RTI.
+    /// One servo interrupt and its RTI. In a quiet stretch (`quiet_cycles`) the cycle is only
+    /// counted, and applied with the others in closed form when the card is next read or
+    /// changed; otherwise it is taken in full, and the next stretch computed.
     #[inline]
     pub fn servo_cycle(&mut self, cfg: &Config) {
+        if self.deferred_cycles < self.quiet_cycles_max {
+            // Below the maximum, so no wrap.
+            self.deferred_cycles = self.deferred_cycles.wrapping_add(1);
+            return;
+        }
+        self.servo_cycle_then_stretch(cfg);
+    }
+
+    /// The end of a quiet stretch: its deferred cycles applied, this cycle taken in full, and
+    /// the length of the next stretch.
+    #[inline]
+    fn servo_cycle_then_stretch(&mut self, cfg: &Config) {
+        self.settle(cfg);
+        // A card outside stretches looks for one every eighth cycle only (by the servo
+        // counter, X:$0): its other cycles cost a test, and a stretch begins at most seven
+        // cycles late. The look is at the card as the cycle finds it (`may_be_quiet`), the
+        // stretch computed from the card as the cycle leaves it.
+        let look = self.servo_cycles & 7 == 0 && self.may_be_quiet();
+        self.step(cfg);
+        if look {
+            self.quiet_cycles_max = self.quiet_cycles(cfg);
+        }
+    }
+
+    /// One servo interrupt and its RTI, taken in full, never deferred: the reference the
+    /// deferral is checked against (`proofs::check_deferred_servo_cycles`).
+    pub fn servo_cycle_exact(&mut self, cfg: &Config) {
+        self.settle(cfg);
+        self.step(cfg);
+    }
+
+    /// Applies the deferred servo cycles, and ends the quiet stretch: called first by every
+    /// method that changes the card, so that it changes the card as it stands.
+    #[inline]
+    fn settle(&mut self, cfg: &Config) {
+        // No cycle is deferred without a stretch (`deferred_cycles <= quiet_cycles_max`): a
+        // card outside stretches pays one comparison.
+        if self.quiet_cycles_max != 0 {
+            self.end_stretch(cfg);
+        }
+    }
+
+    #[inline(never)]
+    fn end_stretch(&mut self, cfg: &Config) {
+        let n = self.deferred_cycles;
+        self.deferred_cycles = 0;
+        self.quiet_cycles_max = 0;
+        self.advance_settled(cfg, n);
+    }
+
+    /// A stretch shorter than this costs more to compute and settle than it saves.
+    const QUIET_CYCLES_MIN: u32 = 8;
+
+    /// Whether a stretch of at least [`Self::QUIET_CYCLES_MIN`] cycles may follow this cycle,
+    /// from a few comparisons on the card before it: a card whose background cycles complete
+    /// every few servo cycles (a light load) answers no here, and takes its cycles in full
+    /// without computing a stretch (two divisions). A credit at the cap before the cycle is
+    /// a background cycle the host did not run when it could; one that reaches the cap in this
+    /// cycle is likely to be run at once, which would end a stretch as soon as it began.
+    #[inline]
+    fn may_be_quiet(&self) -> bool {
+        let credit_short = u32::from(self.load.background_units).saturating_sub(self.background_credit);
+        self.running()
+            && self.counter >= Self::QUIET_CYCLES_MIN as i32
+            && (credit_short == 0 || credit_short > self.free.saturating_mul(Self::QUIET_CYCLES_MIN))
+    }
+
+    /// How many of the next servo cycles may be deferred: only counted, with the readers that
+    /// take no configuration answering for them exactly. That holds while, over the stretch:
+    /// - the card runs, and no stop under way ends, so the motion changes only in the stops'
+    ///   cycles left, which `motion` and `motor` count down by the deferred cycles;
+    /// - the timer does not trip (`tripped`): the stretch ends the cycle before the trip;
+    /// - the counter does not go below zero, so each cycle takes exactly one off it under both
+    ///   readings of when the strobe stops (`counter`, `counter_min`);
+    /// - whether a background cycle can complete does not change (`background_possible`): the
+    ///   credit only grows between background cycles, by at most the spare units a cycle, and
+    ///   stops at the cap; so a credit at the cap stays there, and one below it stays below for
+    ///   (cap - credit - 1) / spare cycles at least.
+    ///
+    /// The readers that take the configuration (`status_words`, `observe`, `register`) settle a
+    /// copy first. A stretch is a matter of speed only: its cycles are applied by `advance`,
+    /// which equals single cycles (`proofs::check_advance_equals_single_steps`).
+    #[inline(never)]
+    fn quiet_cycles(&self, cfg: &Config) -> u32 {
+        if !self.running() {
+            return 0;
+        }
+        let before_stop_ends = u64::from(self.motion.cycles_before_a_stop_ends());
+        let before_trip = self.trip_cycle(cfg).saturating_sub(1);
+        let before_negative = u64::from(counter::strobing_cycles(self.counter));
+        let cap = u32::from(self.load.background_units);
+        let before_background = if self.background_credit >= cap {
+            u64::MAX
+        } else {
+            // `free` 0: the credit never grows.
+            u64::from(
+                cap.saturating_sub(self.background_credit).saturating_sub(1).checked_div(self.free).unwrap_or(u32::MAX),
+            )
+        };
+        u32::try_from(before_trip.min(before_negative).min(before_background).min(before_stop_ends)).unwrap_or(u32::MAX)
+    }
+
+    /// One servo interrupt and its RTI on a settled card.
+    #[inline(always)]
+    fn step(&mut self, cfg: &Config) {
         if !self.running() {
             return;
         }
@@ -747,6 +892,12 @@ impl Core {
     /// minimum, the strobe gap and the trip in closed form; the RTI over whole periods in
     /// closed form, with at most two partial periods stepped.
     pub fn advance(&mut self, cfg: &Config, n: u32) {
+        self.settle(cfg);
+        self.advance_settled(cfg, n);
+    }
+
+    /// [`Self::advance`] on a settled card.
+    fn advance_settled(&mut self, cfg: &Config, n: u32) {
         if !self.running() || n == 0 {
             return;
         }
@@ -832,6 +983,7 @@ impl Core {
     // ------------------------------------------------------------------ background
 
     pub fn background_cycle(&mut self, cfg: &Config) {
+        self.settle(cfg);
         if !self.background_possible() {
             return;
         }
@@ -874,6 +1026,7 @@ impl Core {
     // ------------------------------------------------------------------ host commands
 
     pub fn command<S: IVariableStore + ?Sized>(&mut self, cfg: &Config, c: Command, store: &mut S) -> Reply {
+        self.settle(cfg);
         // UM p.215: a tripped card will not communicate.
         if self.tripped() {
             return Reply::Silence;
@@ -949,7 +1102,7 @@ impl Core {
     /// An I-variable write. Locked writes are ignored without an error (SRM p.57). Values
     /// outside I8's, I40's or I41's range answer ERR003 (MODEL, as the reference model); so does
     /// a write the store has no room for (a limit of the store, not of the card).
-    pub fn write_i<S: IVariableStore + ?Sized>(&mut self, n: u16, v: i64, store: &mut S) -> Reply {
+    fn write_i<S: IVariableStore + ?Sized>(&mut self, n: u16, v: i64, store: &mut S) -> Reply {
         if let Some(bit) = LOCKOUT.iter().position(|(a, b)| (*a..=*b).contains(&n)) {
             if self.i41 & (1u8 << bit) != 0 {
                 return Reply::Ack;
@@ -972,6 +1125,9 @@ impl Core {
     }
 
     pub fn register(&self, cfg: &Config, r: Register) -> u32 {
+        if self.deferred_cycles != 0 {
+            return self.settled(cfg).register(cfg, r);
+        }
         let word = |v: i32| (v as u32) & 0xFF_FFFF;
         match r {
             Register::ServoCycles => self.servo_cycles,

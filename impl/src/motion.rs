@@ -393,6 +393,11 @@ impl Motion {
         MotorState::of_code(self.motors.get(k).copied().unwrap_or(0))
     }
 
+    /// Whether any motor has a stop under way (one byte read).
+    pub fn stops_under_way(&self) -> bool {
+        self.stopping != 0
+    }
+
     fn stop(&self, k: usize) -> Option<Stop> {
         unpack(self.motors.get(k).copied().unwrap_or(0)).1
     }
@@ -612,6 +617,19 @@ impl Motion {
         if self.stopping == 0 || n == 0 {
             return;
         }
+        let ended = self.count_down(n);
+        if ended != 0 {
+            // By value, not through `&mut self`: a pointer into the caller's state passed to a
+            // function that is not inlined makes the whole `Core` escape, and the servo cycle
+            // can no longer keep it in registers (measured: idle cycles 1.9x slower).
+            *self = self.with_stops_ended(cfg, ended);
+        }
+    }
+
+    /// Each stop under way comes `n` cycles closer to its end; returns the motors whose stop
+    /// has no cycle left, which end now.
+    #[inline]
+    fn count_down(&mut self, n: u32) -> u8 {
         let step = u8::try_from(n).unwrap_or(u8::MAX);
         let mut ended = 0u8;
         let mut under_way = self.stopping;
@@ -625,12 +643,32 @@ impl Motion {
                 }
             }
         }
-        if ended != 0 {
-            // By value, not through `&mut self`: a pointer into the caller's state passed to a
-            // function that is not inlined makes the whole `Core` escape, and the servo cycle
-            // can no longer keep it in registers (measured: idle cycles 1.9x slower).
-            *self = self.with_stops_ended(cfg, ended);
+        ended
+    }
+
+    /// How many servo cycles pass before any stop under way ends (`u32::MAX` with none): a
+    /// stop with `c` cycles left ends on the `c`-th cycle, or the next one when `c` is 0.
+    pub fn cycles_before_a_stop_ends(&self) -> u32 {
+        let mut fewest = u32::MAX;
+        let mut under_way = self.stopping;
+        while under_way != 0 {
+            let k = under_way.trailing_zeros() as usize;
+            under_way &= under_way.wrapping_sub(1);
+            let left = self.stop_cycles.get(k).copied().unwrap_or(0);
+            fewest = fewest.min(u32::from(left.saturating_sub(1)));
         }
+        fewest
+    }
+
+    /// The motion `n` servo cycles on, when no stop ends within them
+    /// ([`Self::cycles_before_a_stop_ends`] at least `n`): only the stops' cycles left change,
+    /// so no configuration is needed.
+    pub fn counted_down(mut self, n: u32) -> Motion {
+        if n != 0 {
+            let ended = self.count_down(n);
+            debug_assert_eq!(ended, 0, "a stop ended in {n} cycles");
+        }
+        self
     }
 
     /// The stops of the motors in `ended` are done. Every stop ends at rest (closed loop, or

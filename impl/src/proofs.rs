@@ -63,7 +63,7 @@ pub fn check_advance_equals_single_steps(cfg: &crate::Config, start: &crate::Cor
     let mut slow = *start;
     let mut lowest = start.counter_min();
     for _ in 0..n {
-        slow.servo_cycle(cfg);
+        slow.servo_cycle_exact(cfg);
         lowest = lowest.min(slow.counter());
     }
     assert_eq!(fast, slow, "advance({n}) differs from {n} single cycles");
@@ -86,6 +86,48 @@ pub fn check_advance_any_n(cfg: &crate::Config, start: &crate::Core, n: u32, spl
     parts.advance(cfg, a);
     parts.advance(cfg, n.saturating_sub(a));
     assert_eq!(whole, parts, "advance({n}) differs from advance({a}) then advance({})", n.saturating_sub(a));
+}
+
+/// Deferred servo cycles cannot be told apart from cycles taken in full: a card running
+/// `servo_cycle` (which in a quiet stretch only counts the cycle, `Core::quiet_cycles`) and its
+/// twin running `servo_cycle_exact` (each cycle in full, the old single cycle) side by side for
+/// `n` cycles, with a background cycle after every `background_every`-th cycle where one can
+/// complete (0: never). After every cycle each reader answers the same on both, and the first
+/// card, settled, equals the second field for field. With
+/// [`check_advance_equals_single_steps`] (the cycles a stretch defers are applied by
+/// `advance`), this makes the deferral a matter of speed only.
+pub fn check_deferred_servo_cycles(cfg: &crate::Config, start: &crate::Core, n: u32, background_every: u32) {
+    use crate::{Register, Reply};
+    let mut deferred = *start;
+    let mut exact = start.settled(cfg);
+    for i in 1..=n {
+        deferred.servo_cycle(cfg);
+        exact.servo_cycle_exact(cfg);
+        assert_eq!(deferred.tripped(), exact.tripped(), "tripped, cycle {i}");
+        assert_eq!(deferred.counter(), exact.counter(), "the counter, cycle {i}");
+        assert_eq!(deferred.counter_min(), exact.counter_min(), "X:$25, cycle {i}");
+        assert_eq!(deferred.background_possible(), exact.background_possible(), "background possible, cycle {i}");
+        assert_eq!(deferred.motion(), exact.motion(), "the motion, cycle {i}");
+        assert_eq!((deferred.load(), deferred.spare_units()), (exact.load(), exact.spare_units()));
+        assert_eq!(deferred.status_words(cfg), exact.status_words(cfg), "X:$6 and Y:$6, cycle {i}");
+        assert_eq!(deferred.observe(cfg, Reply::None), exact.observe(cfg, Reply::None), "cycle {i}");
+        for r in [
+            Register::ServoCycles,
+            Register::StatusX,
+            Register::StatusY,
+            Register::WatchdogCounter,
+            Register::WatchdogMinimum,
+            Register::RunningChecksum,
+            Register::ProgramChecksumReference,
+        ] {
+            assert_eq!(deferred.register(cfg, r), exact.register(cfg, r), "{r:?}, cycle {i}");
+        }
+        assert_eq!(deferred.settled(cfg), exact, "the settled state, cycle {i}");
+        if i.checked_rem(background_every) == Some(0) && exact.background_possible() {
+            deferred.background_cycle(cfg);
+            exact.background_cycle(cfg);
+        }
+    }
 }
 
 /// A motor's byte holds its state and stop and gives both back: `unpack(pack(s, t)) = (s, t)`
@@ -205,6 +247,15 @@ mod kani_proofs {
         let n: u8 = kani::any();
         kani::assume(n <= 8);
         check_advance_equals_single_steps(&cfg, &crate::Core::power_on(&cfg), n.into());
+    }
+
+    #[kani::proof]
+    #[kani::unwind(10)]
+    fn deferred_servo_cycles_read_as_exact_ones_for_small_n() {
+        let cfg = any_config::<u8>();
+        let n: u8 = kani::any();
+        kani::assume(n <= 8);
+        check_deferred_servo_cycles(&cfg, &crate::Core::power_on(&cfg), n.into(), kani::any::<u32>() % 4);
     }
 
     #[kani::proof]

@@ -4,7 +4,7 @@
 mod common;
 
 use pmacwd_core::motion::{CsCommand, GlobalCommand, MotorCommand, MOTORS_MAX};
-use pmacwd_core::proofs::{check_advance_any_n, check_advance_equals_single_steps};
+use pmacwd_core::proofs::{check_advance_any_n, check_advance_equals_single_steps, check_deferred_servo_cycles};
 use pmacwd_core::{
     Area, Command, Config, Core, Event, FewIVariables, Load, MotionCommand, MotionConfig, Processor, Profile, Reset,
     ResetKind, StrobeStop,
@@ -118,6 +118,36 @@ proptest! {
         check_advance_equals_single_steps(&cfg, &core, n);
     }
 
+    /// The servo cycle defers the cycles of a quiet stretch and applies them in closed form
+    /// when the card is next read or changed; nothing may tell that apart from taking each
+    /// cycle in full. A card and its twin run the same random events with random runs of
+    /// single servo cycles before each (so events land inside stretches, at their ends and
+    /// outside them), the card with `servo_cycle`, the twin with `servo_cycle_exact`: after
+    /// every event the two observe the same and the card, settled, equals its twin; then
+    /// `check_deferred_servo_cycles` compares every reader after each of up to 6,000 more
+    /// cycles (crossing the strobe stop and the trip), with background cycles between them.
+    #[test]
+    fn deferred_servo_cycles_cannot_be_told_apart_from_exact_ones(cfg in config(), prefix in prop::collection::vec((0u32..40, event()), 0..30), n in 0u32..6_000, background_every in 0u32..6) {
+        let mut core = Core::power_on(&cfg);
+        let mut twin = core;
+        let (mut store, mut twin_store) = (FewIVariables::<4>::default(), FewIVariables::<4>::default());
+        for (cycles, e) in prefix {
+            for _ in 0..cycles {
+                core.servo_cycle(&cfg);
+                twin.servo_cycle_exact(&cfg);
+            }
+            prop_assert_eq!(core.background_possible(), twin.background_possible());
+            if e == Event::Background && !twin.background_possible() {
+                continue;
+            }
+            let reply = core.apply(&cfg, e, &mut store);
+            let twin_reply = twin.apply(&cfg, e, &mut twin_store);
+            prop_assert_eq!(core.observe(&cfg, reply), twin.observe(&cfg, twin_reply));
+            prop_assert_eq!(core.settled(&cfg), twin);
+        }
+        check_deferred_servo_cycles(&cfg, &core, n, background_every);
+    }
+
     /// The twin of the Kani harness for every n: advance over the whole u32 range never panics,
     /// keeps X:$25 at or below Y:$25, and splits at any point.
     #[test]
@@ -206,7 +236,7 @@ proptest! {
             }
             core.apply(&cfg, e, &mut store);
         }
-        let mut settled = core.canonical();
+        let mut settled = core.canonical(&cfg);
         let mut settled_store = store;
         for e in suffix {
             let reply = core.apply(&cfg, e, &mut store);
@@ -214,7 +244,7 @@ proptest! {
             prop_assert_eq!(core.observe(&cfg, reply), settled.observe(&cfg, settled_reply));
             prop_assert_eq!(core.background_possible(), settled.background_possible());
         }
-        prop_assert_eq!(core.canonical(), settled.canonical());
+        prop_assert_eq!(core.canonical(&cfg), settled.canonical(&cfg));
     }
 }
 
@@ -264,8 +294,35 @@ fn canonical_settles_the_remembered_minimum_and_keeps_x25() {
     let cfg = common::realistic_config();
     let mut core = Core::power_on(&cfg);
     core.advance(&cfg, 10);
-    let settled = core.canonical();
+    let settled = core.canonical(&cfg);
     assert_ne!(settled, core, "ten cycles after power-on the counter is below the reload's minimum");
     assert_eq!((settled.counter_min(), settled.counter()), (core.counter_min(), core.counter()));
-    assert_eq!(settled.canonical(), settled);
+    assert_eq!(settled.canonical(&cfg), settled);
+}
+
+/// A stop under way changes the motion every servo cycle (a host reads the cycles it has left,
+/// UM p.217), and its end changes the motor's state: a quiet stretch may run while stops are
+/// under way, but must end before the first of them does. Here three of eight jogging motors
+/// decelerate for 40 cycles on a card whose counter and credit would otherwise allow a long
+/// stretch, and every reader, the motion included, must match cycles taken in full throughout
+/// the stops and after they end.
+#[test]
+fn a_quiet_stretch_ends_before_a_stop_under_way_does() {
+    let cfg = Config { motion: MotionConfig::all_in_cs1(8, 40), ..common::realistic_config() };
+    let mut core = Core::power_on(&cfg);
+    let mut store = FewIVariables::<4>::default();
+    let mut send = |core: &mut Core, n: u8, c: MotorCommand| {
+        core.apply(&cfg, Event::Command(Command::Motion(MotionCommand::Motor(n, c))), &mut store)
+    };
+    for n in 1..=8 {
+        send(&mut core, n, MotorCommand::JogStop);
+        send(&mut core, n, MotorCommand::Jog);
+    }
+    // Let the credit reach its cap, so that only the stop stands in the way of a stretch.
+    core.advance(&cfg, 10);
+    for n in 1..=3 {
+        send(&mut core, n, MotorCommand::JogStop);
+    }
+    assert!(core.motion().stops_under_way());
+    check_deferred_servo_cycles(&cfg, &core, 100, 0);
 }

@@ -77,9 +77,9 @@ fn a_command_to_a_motor_the_configuration_does_not_have_does_nothing() {
     let mut c = Card::new(config());
     for n in [0u8, 3] {
         for cmd in [MotorCommand::JogStop, MotorCommand::Jog, MotorCommand::JogStop, MotorCommand::Kill] {
-            let before = *c.core.motion();
+            let before = c.core.motion();
             assert_eq!(c.motor(n, cmd), Reply::Ack, "#{n} {cmd:?}");
-            assert_eq!(*c.core.motion(), before, "#{n} {cmd:?}");
+            assert_eq!(c.core.motion(), before, "#{n} {cmd:?}");
         }
     }
 }

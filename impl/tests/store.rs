@@ -7,7 +7,8 @@ use pmacwd_core::{AllIVariables, Area, Command, Core, Event, FewIVariables, Load
 
 /// The design asks for the state "packed into a few machine words": the I-variable store is
 /// outside the core, so copying a core (as `advance` benchmarks and checkers do) stays cheap.
-/// The watchdog is 56 bytes and the motion of eight motors and sixteen coordinate systems 32
+/// The watchdog is 59 bytes (64 with padding: eleven words, among them the two of the quiet
+/// stretch, and fifteen bytes) and the motion of eight motors and sixteen coordinate systems 32
 /// (`motion.rs`: a byte per motor, a byte of stop length per motor, three bits per program,
 /// four one-bit-per-motor masks).
 #[test]
