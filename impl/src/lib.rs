@@ -367,12 +367,6 @@ const BOOTSTRAP: u8 = 4;
 const ERROR_FIRMWARE: u8 = 8;
 const ERROR_PROGRAM: u8 = 16;
 const AREA_PROGRAM: u8 = 32;
-/// Bit 20 of X:$6 as the last servo cycle left it (SRM p.289): the servo routines could not
-/// complete under the load of that cycle.
-const SERVO_ERROR_SHOWN: u8 = 64;
-/// The servo routines do not fit in a servo cycle under the current load: bit 20 from the next
-/// servo cycle on (one bit above `SERVO_ERROR_SHOWN`, so that the cycle copies it with a shift).
-const SERVO_OVERLOAD: u8 = 128;
 
 /// The controller state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -395,7 +389,7 @@ pub struct Core {
     background_credit: u32,
     servo_cycles: u32,
     /// Wire layout, without bits 12 and 13 (computed from the checksum engine) and bit 20
-    /// (`SERVO_ERROR_SHOWN` in `flags`).
+    /// (`servo_error_shown`).
     status_x: u32,
     status_y: u32,
     load: Load,
@@ -411,6 +405,11 @@ pub struct Core {
     /// CPU units left after the servo update: it follows from the load, so it is computed
     /// when the load changes, not every cycle.
     free: u32,
+    /// 1 when the servo routines do not fit in a servo cycle under the current load (SRM
+    /// p.289 bit 20), computed when the load changes.
+    servo_overload: u8,
+    /// Bit 20 as the last servo cycle left it, 1 or 0: the servo cycle copies one byte.
+    servo_error_shown: u8,
     /// The motors and coordinate systems (`motion.rs`).
     motion: motion::Motion,
 }
@@ -437,6 +436,8 @@ impl Core {
             position: 0,
             tokens: 0,
             free: 0,
+            servo_overload: 0,
+            servo_error_shown: 0,
             motion: motion::Motion::power_on(),
         };
         c.set_load(cfg, cfg.load);
@@ -516,7 +517,7 @@ impl Core {
             // The RTI's bits may have changed in the deferred cycles.
             return self.settled(cfg).status_words(cfg);
         }
-        let mut x = self.status_x | if self.flags & SERVO_ERROR_SHOWN != 0 { bits::SERVO_ERROR } else { 0 };
+        let mut x = self.status_x | if self.servo_error_shown != 0 { bits::SERVO_ERROR } else { 0 };
         let error = self.flags & (ERROR_FIRMWARE | ERROR_PROGRAM);
         if error != 0 {
             x |= bits::CHECKSUM_ERROR;
@@ -625,10 +626,8 @@ impl Core {
     /// [`Self::restart`] with I8, I40, I41 = `i_variables`: the saved values, or the factory
     /// defaults after `$$$***` (UM p.243).
     fn restart_with(&mut self, cfg: &Config, r: Reset, i_variables: (u8, u16, u8)) {
-        // The supply and the load are the environment's: a reset keeps them (bit 20 itself
-        // shows from the next servo cycle, as after power-up).
-        let environment = self.flags & (SUPPLY_LOW | SERVO_OVERLOAD);
-        self.flags = environment | if r.bootstrap { BOOTSTRAP } else { 0 };
+        let supply_low = self.flags & SUPPLY_LOW;
+        self.flags = supply_low | if r.bootstrap { BOOTSTRAP } else { 0 };
         (self.i8, self.i40, self.i41) = i_variables;
         self.counter = counter::reset_value(self.i40, cfg.profile.reset_value_i40_zero);
         self.counter_min_before = self.counter;
@@ -640,6 +639,7 @@ impl Core {
         self.status_x =
             (if r.dpram_fault { bits::DPRAM_ERROR } else { 0 }) | (if r.flash_fault { bits::FLASH_ERROR } else { 0 });
         self.status_y = 0;
+        self.servo_error_shown = 0;
         self.position = 0;
         self.tokens = 0;
         self.servo_cycles = 0;
@@ -696,18 +696,14 @@ impl Core {
         // UM p.236: the servo update takes about 1% of the cycle a motor.
         let servo = u32::from(load.motors).saturating_mul(u32::from(cfg.servo_units_per_motor));
         // SRM p.289 bit 20: the servo routines could not complete.
-        if servo > u32::from(cfg.cycle_units) {
-            self.flags |= SERVO_OVERLOAD;
-        } else {
-            self.flags &= !SERVO_OVERLOAD;
-        }
+        self.servo_overload = u8::from(servo > u32::from(cfg.cycle_units));
         self.free = u32::from(cfg.cycle_units).saturating_sub(servo);
     }
 
     /// Bit 20 as of this servo cycle, and the CPU units the cycle leaves.
     #[inline]
     fn free_units(&mut self) -> u32 {
-        self.flags = (self.flags & !SERVO_ERROR_SHOWN) | ((self.flags & SERVO_OVERLOAD) >> 1);
+        self.servo_error_shown = self.servo_overload;
         self.free
     }
 
@@ -729,13 +725,11 @@ impl Core {
     #[inline]
     fn servo_cycle_then_stretch(&mut self, cfg: &Config) {
         self.settle(cfg);
+        self.step(cfg);
         // A card outside stretches looks for one every eighth cycle only (by the servo
         // counter, X:$0): its other cycles cost a test, and a stretch begins at most seven
-        // cycles late. The look is at the card as the cycle finds it (`may_be_quiet`), the
-        // stretch computed from the card as the cycle leaves it.
-        let look = self.servo_cycles & 7 == 0 && self.may_be_quiet();
-        self.step(cfg);
-        if look {
+        // cycles late.
+        if self.servo_cycles & 7 == 0 && self.may_be_quiet(cfg) {
             self.quiet_cycles_max = self.quiet_cycles(cfg);
         }
     }
@@ -769,18 +763,17 @@ impl Core {
     /// A stretch shorter than this costs more to compute and settle than it saves.
     const QUIET_CYCLES_MIN: u32 = 8;
 
-    /// Whether a stretch of at least [`Self::QUIET_CYCLES_MIN`] cycles may follow this cycle,
-    /// from a few comparisons on the card before it: a card whose background cycles complete
-    /// every few servo cycles (a light load) answers no here, and takes its cycles in full
-    /// without computing a stretch (two divisions). A credit at the cap before the cycle is
-    /// a background cycle the host did not run when it could; one that reaches the cap in this
-    /// cycle is likely to be run at once, which would end a stretch as soon as it began.
+    /// Whether a stretch of at least [`Self::QUIET_CYCLES_MIN`] cycles may follow, from two
+    /// comparisons: the counter has fallen that far since its last reload and can fall as far
+    /// again. A host that runs a background cycle whenever one can complete (the emulator, at a
+    /// light load) reloads the counter every few servo cycles: it answers no here, and takes its
+    /// cycles in full without computing a stretch (two divisions) that its next background
+    /// cycle would end at once.
     #[inline]
-    fn may_be_quiet(&self) -> bool {
-        let credit_short = u32::from(self.load.background_units).saturating_sub(self.background_credit);
-        self.running()
-            && self.counter >= Self::QUIET_CYCLES_MIN as i32
-            && (credit_short == 0 || credit_short > self.free.saturating_mul(Self::QUIET_CYCLES_MIN))
+    fn may_be_quiet(&self, cfg: &Config) -> bool {
+        let min = Self::QUIET_CYCLES_MIN as i32;
+        let reload = counter::reset_value(self.i40, cfg.profile.reset_value_i40_zero);
+        self.running() && self.counter >= min && self.counter <= reload.saturating_sub(min)
     }
 
     /// How many of the next servo cycles may be deferred: only counted, with the readers that
@@ -988,8 +981,9 @@ impl Core {
             return;
         }
         self.background_credit = 0;
-        // The run of decrements ends here: its lowest value, the counter now, joins the minimum.
-        self.counter_min_before = self.counter_min();
+        // The run of decrements ends here: its lowest value, the counter now, joins the minimum
+        // (the card is settled: the counter field is the counter).
+        self.counter_min_before = self.counter_min_before.min(self.counter);
         // UM p.215: "At the end of each background cycle, the CPU resets the counter".
         self.counter = counter::reset_value(self.i40, cfg.profile.reset_value_i40_zero);
         self.checksum_step(cfg);
