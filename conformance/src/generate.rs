@@ -258,8 +258,12 @@ pub fn run_choices<S: Subject>(
         });
         if let Err(d) = outcome {
             let mut events = pair.applied.take().unwrap_or_default();
-            if d.event == Event::Background && events.last() != Some(&Event::Background) {
-                // A background cycle only one side allows: the trace ends by asking for it.
+            // `Pair::apply` compares whether a background cycle can complete after every
+            // event, so a disagreement in it ends the trace at the event that caused it, and a
+            // fixed implementation replays the trace. Only at power-up, before any event, is
+            // it found by asking: that trace is the one `background` step (a trace needs a
+            // step), which a fixed implementation refuses as one neither side can complete.
+            if d.event == Event::Background && events.is_empty() {
                 events.push(Event::Background);
             }
             return Err((d, events));

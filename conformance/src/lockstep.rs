@@ -116,7 +116,13 @@ impl<S: Subject> Pair<S> {
         Ok(m)
     }
 
-    /// Applies one event to both and compares what each observes.
+    /// Applies one event to both and compares what each observes, and whether a background
+    /// cycle can complete after it. The second is compared here, on the event that made the
+    /// two differ, as the exhaustive product does (`product.rs`), rather than only at the next
+    /// `background` step: a divergence saved as a regression trace then ends with that event,
+    /// and the trace still replays once the implementation is fixed. Ending with a
+    /// `background` step that only the broken implementation could complete, it would fail
+    /// on a fixed one ("neither the model nor the implementation can complete one").
     pub fn apply(&mut self, event: &Event) -> Result<Observation, Disagreement> {
         if let Some(v) = &mut self.applied {
             v.push(event.clone());
@@ -124,7 +130,11 @@ impl<S: Subject> Pair<S> {
         self.count += 1;
         let m = self.model.apply(event);
         let s = self.subject.apply(event);
-        let fields = differences(&m, &s);
+        let mut fields = differences(&m, &s);
+        let (bm, bs) = (self.model.background_possible(), self.subject.background_possible());
+        if bm != bs {
+            fields.push(format!("background cycle possible: model {bm}, implementation {bs}"));
+        }
         if !fields.is_empty() {
             return Err(Disagreement { event: event.clone(), fields });
         }

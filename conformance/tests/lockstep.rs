@@ -168,6 +168,59 @@ impl Subject for CounterNeverZero {
     }
 }
 
+/// The model, except that it claims a background cycle can complete once the counter is down
+/// to 1 or below, whatever the load: a deliberate divergence in "background cycle possible",
+/// which agrees at power-up and which only a `background` step used to reveal.
+struct BackgroundPossibleNearZero(ModelSubject);
+
+impl Subject for BackgroundPossibleNearZero {
+    fn name(&self) -> &'static str {
+        "the model with a background cycle possible near zero"
+    }
+    fn power_on(cfg: &pmacwd_specs::config::ModelConfig) -> Self {
+        BackgroundPossibleNearZero(ModelSubject::power_on(cfg))
+    }
+    fn background_possible(&self) -> bool {
+        self.0.background_possible() || self.0.controller().counter <= 1
+    }
+    fn apply(&mut self, event: &Event) -> pmacwd_specs::vocab::Observation {
+        self.0.apply(event)
+    }
+}
+
+/// A shrunk divergence in whether a background cycle can complete is saved ending with the
+/// event after which the two differ, not with a `background` step: on a correct
+/// implementation the saved trace replays in lockstep (the bug fixed, the regression passes),
+/// where a trace ending with a `background` step that neither side can complete would fail
+/// forever ("neither the model nor the implementation can complete one").
+#[test]
+fn a_background_divergence_is_saved_as_a_trace_a_fixed_implementation_replays() {
+    let spec = Spec::embedded().unwrap();
+    let configs = generate::all_configs(&spec).unwrap();
+    let settings = Settings { cases: 200, max_len: 100, seed: 11 };
+    let found = generate::run::<BackgroundPossibleNearZero>(&configs, settings, &|_| {}, &mut |_, _, _| {})
+        .expect_err("a background cycle possible near zero diverges from the model");
+    assert!(
+        found.disagreement.to_string().contains("background cycle possible: model false, implementation true"),
+        "{}",
+        found.disagreement
+    );
+    assert_ne!(found.events.last(), Some(&Event::Background), "the trace ends before any background step");
+    let yaml = to_yaml(&found.to_trace());
+    let loaded = pmacwd_trace::parse_yaml(Path::new("regression.yaml"), &yaml).unwrap();
+    for profile in profiles_of(&spec, &loaded).unwrap() {
+        match run_on_subject::<CoreSubject>(&spec, &loaded, &profile) {
+            Ok(_) => {}
+            Err(Failure::Unusable(e)) => panic!("the saved trace does not run on the core: {e}\n{yaml}"),
+            Err(Failure::Diverged(d)) => panic!("the core diverges on the saved trace: {d}\n{yaml}"),
+        }
+        assert!(
+            run_on_subject::<BackgroundPossibleNearZero>(&spec, &loaded, &profile).is_err(),
+            "the saved trace still catches the broken implementation"
+        );
+    }
+}
+
 #[test]
 fn shrinking_a_divergence_reports_its_progress_case_by_case() {
     // `conform` and `check` show progress while traces are generated, and shrinking a divergence
