@@ -828,9 +828,13 @@ impl Core {
         if strobe {
             self.cycles_since_strobe = 0;
         } else {
+            // UM p.215: no strobe edge for longer than the hardware allows: trip. The gap this
+            // cycle makes is one more than the gap before it, so it exceeds the delay exactly
+            // when the gap before has reached it; compared before the count, which saturates,
+            // so that a delay of u32::MAX trips when `advance` says, not never.
+            let trips = self.cycles_since_strobe >= cfg.hardware_delay_cycles;
             self.cycles_since_strobe = self.cycles_since_strobe.saturating_add(1);
-            // UM p.215: no strobe edge for longer than the hardware allows: trip.
-            if self.cycles_since_strobe > cfg.hardware_delay_cycles {
+            if trips {
                 self.trip();
             }
         }

@@ -326,3 +326,30 @@ fn a_quiet_stretch_ends_before_a_stop_under_way_does() {
     assert!(core.motion().stops_under_way());
     check_deferred_servo_cycles(&cfg, &core, 100, 0);
 }
+
+/// UM p.215: the card trips once no strobe edge has come for longer than the hardware delay.
+/// At the largest delay the core accepts, u32::MAX cycles, the gap since the last strobe
+/// reaches the limit of its counter: a single servo cycle must still trip when `advance` says
+/// it does (the spec loader bounds the delay far lower, but the core's `Config` takes any u32).
+/// Here the counter runs out after 10 cycles, two long advances bring the gap to just below
+/// the delay, and each of the next cycles is taken in full on one card and by `advance(1)` on
+/// its twin: the two agree on every field, and both trip on the same cycle.
+#[test]
+fn at_the_largest_delay_single_cycles_trip_when_advance_does() {
+    let cfg = Config { hardware_delay_cycles: u32::MAX, saved_i40: 10, ..common::realistic_config() };
+    let mut core = Core::power_on(&cfg);
+    core.advance(&cfg, u32::MAX);
+    core.advance(&cfg, 8);
+    assert!(!core.tripped());
+    let mut twin = core;
+    let mut tripped_at = None;
+    for cycle in 1..=4 {
+        core.servo_cycle_exact(&cfg);
+        twin.advance(&cfg, 1);
+        assert_eq!(core, twin, "cycle {cycle} after the long advances");
+        if core.tripped() && tripped_at.is_none() {
+            tripped_at = Some(cycle);
+        }
+    }
+    assert_eq!(tripped_at, Some(3), "the gap passes u32::MAX on the third cycle");
+}
