@@ -303,26 +303,12 @@ fn canonical_settles_the_remembered_minimum_and_keeps_x25() {
 /// A stop under way changes the motion every servo cycle (a host reads the cycles it has left,
 /// UM p.217), and its end changes the motor's state: a quiet stretch may run while stops are
 /// under way, but must end before the first of them does. Here three of eight jogging motors
-/// decelerate for 40 cycles on a card whose counter and credit would otherwise allow a long
-/// stretch, and every reader, the motion included, must match cycles taken in full throughout
-/// the stops and after they end.
+/// decelerate for 40 cycles on a card whose counter and credit soon allow a long stretch, and
+/// every reader, the motion included, must match cycles taken in full throughout the stops and
+/// after they end.
 #[test]
 fn a_quiet_stretch_ends_before_a_stop_under_way_does() {
-    let cfg = Config { motion: MotionConfig::all_in_cs1(8, 40), ..common::realistic_config() };
-    let mut core = Core::power_on(&cfg);
-    let mut store = FewIVariables::<4>::default();
-    let mut send = |core: &mut Core, n: u8, c: MotorCommand| {
-        core.apply(&cfg, Event::Command(Command::Motion(MotionCommand::Motor(n, c))), &mut store)
-    };
-    for n in 1..=8 {
-        send(&mut core, n, MotorCommand::JogStop);
-        send(&mut core, n, MotorCommand::Jog);
-    }
-    // Let the credit reach its cap, so that only the stop stands in the way of a stretch.
-    core.advance(&cfg, 10);
-    for n in 1..=3 {
-        send(&mut core, n, MotorCommand::JogStop);
-    }
+    let (cfg, core) = common::moving(40, 3);
     assert!(core.motion().stops_under_way());
     check_deferred_servo_cycles(&cfg, &core, 100, 0);
 }
