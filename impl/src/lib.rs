@@ -369,7 +369,9 @@ const ERROR_FIRMWARE: u8 = 8;
 const ERROR_PROGRAM: u8 = 16;
 const AREA_PROGRAM: u8 = 32;
 
-/// The controller state.
+/// The controller state. Equality and hashing are of the representation: a core with quiet
+/// servo cycles still deferred (`stretch.rs`) and the same core settled are the same card but
+/// unequal values; compare [`Core::settled`] forms (or [`Core::canonical`]) to compare cards.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Core {
     /// Quiet servo cycles taken but not yet applied to the fields below: the servo cycle only
