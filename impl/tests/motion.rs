@@ -264,3 +264,31 @@ fn a_reset_restarts_the_motors_and_keeps_the_encoder_inputs() {
     assert!(two.encoder_lost);
     assert!(c.core.motion().consistent());
 }
+
+/// The quiet stretches (`stretch.rs`) end before the first stop under way does, and read that
+/// from `cycles_before_a_stop_ends`: none under way, no limit; a stop of c cycles left ends on
+/// the c-th cycle, so c - 1 may pass first; with several, the nearest; and `stops_under_way`
+/// says whether there is any. A limit too low only costs speed, so the deferral's own tests
+/// cannot see it; this states the contract directly (cargo-mutants: the function returning 0
+/// or 1, `stops_under_way` returning true).
+#[test]
+fn the_cycles_before_a_stop_ends_are_those_of_the_nearest_stop_less_one() {
+    let (cfg, mut core) = common::moving(40, 0);
+    assert!(!core.motion().stops_under_way(), "eight motors jogging, none stopping");
+    assert_eq!(core.motion().cycles_before_a_stop_ends(), u32::MAX);
+    let mut store = FewIVariables::<4>::default();
+    let stop = |core: &mut Core, store: &mut FewIVariables<4>, n: u8| {
+        core.apply(&cfg, Event::Command(Command::Motion(MotionCommand::Motor(n, MotorCommand::JogStop))), store)
+    };
+    stop(&mut core, &mut store, 1);
+    assert!(core.motion().stops_under_way());
+    assert_eq!(core.motion().cycles_before_a_stop_ends(), 39, "a J/ of 40 cycles");
+    core.advance(&cfg, 10);
+    stop(&mut core, &mut store, 2);
+    assert_eq!(core.motion().cycles_before_a_stop_ends(), 29, "#1 has 30 left, #2 40: the nearest");
+    core.advance(&cfg, 30);
+    assert_eq!(core.motion().cycles_before_a_stop_ends(), 9, "#1 ended, #2 has 10 left");
+    core.advance(&cfg, 10);
+    assert!(!core.motion().stops_under_way(), "both stops ended");
+    assert_eq!(core.motion().cycles_before_a_stop_ends(), u32::MAX);
+}
