@@ -11,6 +11,12 @@
 use crate::{counter, Config, Core};
 
 impl Core {
+    /// How many servo cycles are counted but not yet applied: what the speed of an idle card
+    /// rests on, for tests and diagnostics. Nothing a reader answers depends on it.
+    pub fn deferred_cycles(&self) -> u32 {
+        self.deferred_cycles
+    }
+
     /// One servo interrupt and its RTI. In a quiet stretch (`quiet_cycles`) the cycle is only
     /// counted, and applied with the others in closed form when the card is next read or
     /// changed; otherwise it is taken in full, and the next stretch computed.
