@@ -17,6 +17,12 @@ impl Core {
         self.deferred_cycles
     }
 
+    /// How many more servo cycles may be deferred before one is taken in full: 0 outside a
+    /// stretch. Like [`Self::deferred_cycles`], for tests and diagnostics only.
+    pub fn quiet_cycles_left(&self) -> u32 {
+        self.quiet_cycles_max.saturating_sub(self.deferred_cycles)
+    }
+
     /// One servo interrupt and its RTI. In a quiet stretch (`quiet_cycles`) the cycle is only
     /// counted, and applied with the others in closed form when the card is next read or
     /// changed; otherwise it is taken in full, and the next stretch computed.
