@@ -302,15 +302,23 @@ fn canonical_settles_the_remembered_minimum_and_keeps_x25() {
 
 /// A stop under way changes the motion every servo cycle (a host reads the cycles it has left,
 /// UM p.217), and its end changes the motor's state: a quiet stretch may run while stops are
-/// under way, but must end before the first of them does. Here three of eight jogging motors
-/// decelerate for 40 cycles on a card whose counter and credit soon allow a long stretch, and
-/// every reader, the motion included, must match cycles taken in full throughout the stops and
-/// after they end.
+/// under way, but must end before the first of them does. Here one, three or eight of eight
+/// jogging motors decelerate for 1 to 64 cycles on a card whose counter and credit soon allow
+/// a long stretch, and every reader, the motion included, must match cycles taken in full
+/// throughout the stops and after they end. (cargo-mutants: `cycles_before_a_stop_ends`
+/// answering 1 for a stop with 1 cycle left deferred the cycle that ends it; a 40-cycle stop
+/// alone never had 1 left when a stretch was looked for.)
 #[test]
 fn a_quiet_stretch_ends_before_a_stop_under_way_does() {
-    let (cfg, core) = common::moving(40, 3);
-    assert!(core.motion().stops_under_way());
-    check_deferred_servo_cycles(&cfg, &core, 100, 0);
+    // Every length up to 64 cycles, so that a stretch is looked for (every eighth cycle) at
+    // every number of cycles a stop can have left, 1 and 0 included; one stop and several.
+    for decel in 1..=64 {
+        for stopping in [1, 3, 8] {
+            let (cfg, core) = common::moving(decel, stopping);
+            assert!(core.motion().stops_under_way());
+            check_deferred_servo_cycles(&cfg, &core, 100, 0);
+        }
+    }
 }
 
 /// UM p.215: the card trips once no strobe edge has come for longer than the hardware delay.
