@@ -479,8 +479,9 @@ impl Core {
         self.counter_min_before.min(self.counter())
     }
 
-    /// This state with the lazily kept minimum settled: the minimum before the current run of
-    /// decrements replaced by X:$25 itself. The two behave the same under every event (the
+    /// This state settled twice over: its deferred servo cycles applied ([`Self::settled`]), and
+    /// the lazily kept minimum settled, the minimum before the current run of decrements
+    /// replaced by X:$25 itself. The two behave the same under every event (the
     /// minimum is read only as X:$25, and folded into itself at a reload; a reset replaces it),
     /// so a search over core states (the exhaustive lockstep) identifies them by this form:
     /// otherwise each value of the settled minimum would count as a state of its own.

@@ -339,6 +339,19 @@ pub struct Motion {
     loss_status: u8,
 }
 
+/// The motor indices a one-bit-per-motor mask names, lowest first: only the set bits are
+/// visited, so an idle mask costs one test.
+fn motors_in(mask: u8) -> impl Iterator<Item = usize> {
+    let mut rest = mask;
+    core::iter::from_fn(move || {
+        (rest != 0).then(|| {
+            let k = rest.trailing_zeros() as usize;
+            rest &= rest.wrapping_sub(1);
+            k
+        })
+    })
+}
+
 impl Default for Motion {
     fn default() -> Self {
         Motion::power_on()
@@ -632,10 +645,7 @@ impl Motion {
     fn count_down(&mut self, n: u32) -> u8 {
         let step = u8::try_from(n).unwrap_or(u8::MAX);
         let mut ended = 0u8;
-        let mut under_way = self.stopping;
-        while under_way != 0 {
-            let k = under_way.trailing_zeros() as usize;
-            under_way &= under_way.wrapping_sub(1);
+        for k in motors_in(self.stopping) {
             if let Some(left) = self.stop_cycles.get_mut(k) {
                 *left = left.saturating_sub(step);
                 if *left == 0 {
@@ -649,15 +659,10 @@ impl Motion {
     /// How many servo cycles pass before any stop under way ends (`u32::MAX` with none): a
     /// stop with `c` cycles left ends on the `c`-th cycle, or the next one when `c` is 0.
     pub fn cycles_before_a_stop_ends(&self) -> u32 {
-        let mut fewest = u32::MAX;
-        let mut under_way = self.stopping;
-        while under_way != 0 {
-            let k = under_way.trailing_zeros() as usize;
-            under_way &= under_way.wrapping_sub(1);
-            let left = self.stop_cycles.get(k).copied().unwrap_or(0);
-            fewest = fewest.min(u32::from(left.saturating_sub(1)));
-        }
-        fewest
+        motors_in(self.stopping)
+            .map(|k| u32::from(self.stop_cycles.get(k).copied().unwrap_or(0).saturating_sub(1)))
+            .min()
+            .unwrap_or(u32::MAX)
     }
 
     /// The motion `n` servo cycles on, when no stop ends within them

@@ -40,8 +40,7 @@ impl Core {
     /// the length of the next stretch.
     #[inline]
     fn servo_cycle_then_stretch(&mut self, cfg: &Config) {
-        self.settle(cfg);
-        self.step(cfg);
+        self.servo_cycle_exact(cfg);
         // A card outside stretches looks for one every eighth cycle only (by the servo
         // counter, X:$0): its other cycles cost a test, and a stretch begins at most seven
         // cycles late.
@@ -52,6 +51,7 @@ impl Core {
 
     /// One servo interrupt and its RTI, taken in full, never deferred: the reference the
     /// deferral is checked against (`proofs::check_deferred_servo_cycles`).
+    #[inline]
     pub fn servo_cycle_exact(&mut self, cfg: &Config) {
         self.settle(cfg);
         self.step(cfg);
