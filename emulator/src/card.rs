@@ -6,7 +6,6 @@
 use crate::capture::CaptureWriter;
 use crate::control::{Control, HELP};
 use crate::framing::{framing_write_out_of_range, Answer, Framing};
-use crate::grammar::{parse_commands, Addressing, Command, Gather, Jog, VarKind};
 use crate::memory::{format_value, HostDefaults, Memory};
 use crate::motor_status::{cs_words, hex_words, motor_words};
 use crate::mvar::MemoryMap;
@@ -15,6 +14,7 @@ use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::grammar::{parse_commands, Addressing, Command, Gather, Jog, VarKind};
 use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion, MotorCommand};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::vocab::Buffer;

@@ -7,7 +7,6 @@ pub mod capture;
 pub mod card;
 pub mod control;
 pub mod framing;
-pub mod grammar;
 pub mod listen;
 pub mod memory;
 pub mod motor_status;

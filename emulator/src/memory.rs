@@ -5,7 +5,7 @@
 //!
 //! Memory is bounded: 8192 of each kind of variable (UM p.243), held in fixed tables.
 
-use crate::grammar::{VarKind, VARIABLE_MAX};
+use pmacwd_specs::grammar::{VarKind, VARIABLE_MAX};
 use pmacwd_specs::variables::{variable_numbers, Variables};
 
 const COUNT: usize = VARIABLE_MAX as usize + 1;

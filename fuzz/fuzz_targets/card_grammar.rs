@@ -1,4 +1,4 @@
-//! The card's command-line grammar, `pmacwd_emulator::grammar::parse_line`, and the card
+//! The card's command-line grammar, `pmacwd_specs::grammar::parse_line`, and the card
 //! answering the same bytes.
 //!
 //! Invariants:
@@ -14,7 +14,7 @@
 use libfuzzer_sys::fuzz_target;
 use pmacwd_emulator::card::{Card, Clock};
 use pmacwd_emulator::framing::parse_reply;
-use pmacwd_emulator::grammar::{parse_line, Addressing, Command};
+use pmacwd_specs::grammar::{parse_line, Addressing, Command};
 
 fuzz_target!(|data: &[u8]| {
     let mut a = Addressing::default();

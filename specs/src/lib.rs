@@ -48,6 +48,7 @@ pub mod common;
 pub mod config;
 mod error;
 pub mod facts;
+pub mod grammar;
 pub mod input;
 pub mod profiles;
 pub mod requirements;

@@ -4,11 +4,11 @@
 
 use super::Card;
 use crate::framing::Answer;
-use crate::grammar::VarKind;
 use crate::memory::format_value;
 use crate::mvar::{self, Definition};
 use pmacwd_bridge::core_command;
 use pmacwd_core as core;
+use pmacwd_specs::grammar::VarKind;
 use pmacwd_specs::vocab::command::{HostCommand, Register, Space};
 
 impl Card {

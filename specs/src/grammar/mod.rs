@@ -18,10 +18,10 @@
 //! The parser stops at the first command it cannot read: the card answers ERR003 there and
 //! runs nothing after it (`framing`'s module text says why).
 
-use crate::mvar::{parse_address, Definition, Format};
-use pmacwd_specs::vocab::command::{
-    CsCommand, GlobalCommand, Motion, MotorCommand, Space, COORDINATE_SYSTEM_MAX, MOTOR_MAX,
-};
+pub mod definition;
+
+use crate::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand, Space, COORDINATE_SYSTEM_MAX, MOTOR_MAX};
+use definition::{parse_address, Definition, Format};
 
 /// The motor and coordinate system a connection addresses. A card powers up addressing motor
 /// 1 and C.S. 1 (the SRM's examples send `J+` and `P1` without a `#` first, SRM p.259).
@@ -429,8 +429,8 @@ impl Parser<'_, '_> {
             return Err(self.error(start, "<MEMORY-WRITE ...> ends with `>`"));
         };
         let text = String::from_utf8_lossy(&self.s[self.i..=self.i + len]).into_owned();
-        match pmacwd_specs::vocab::HostCommand::parse(&text) {
-            Ok(pmacwd_specs::vocab::HostCommand::WriteIMemory(n, v)) => {
+        match crate::vocab::HostCommand::parse(&text) {
+            Ok(crate::vocab::HostCommand::WriteIMemory(n, v)) => {
                 self.i += len + 1;
                 Ok(Command::WriteIMemory(n, v))
             }
@@ -625,7 +625,7 @@ impl Parser<'_, '_> {
         if values.is_empty() {
             return Err(self.error(start, "W{X|Y|D|L}:{address},{value}[,{value}...] writes at least one value"));
         }
-        if u64::from(address) + values.len() as u64 - 1 > u64::from(crate::mvar::ADDRESS_MAX) {
+        if u64::from(address) + values.len() as u64 - 1 > u64::from(definition::ADDRESS_MAX) {
             return Err(self.error(start, "the values run past the last address, $7FFFF"));
         }
         let kind = match letter {
