@@ -144,6 +144,10 @@ pub fn core_command(c: &HostCommand) -> core::Command {
         HostCommand::Reinitialize => core::Command::Reinitialize,
         HostCommand::Checksum => core::Command::Checksum,
         HostCommand::WriteIMemory(n, v) => core::Command::WriteIMemory(*n, *v),
+        HostCommand::DefaultI(n) => core::Command::DefaultI(*n),
+        HostCommand::Card { forgets, .. } => {
+            core::Command::CardOwn { forgets: forgets.map(|r| (r.first, r.count, r.step)) }
+        }
         HostCommand::Unrecognized(_) => core::Command::Unrecognized,
     }
 }
@@ -183,6 +187,7 @@ pub fn vocab_reply(r: core::Reply) -> Reply {
         core::Reply::Value(v) => Reply::Value(v),
         core::Reply::Hex(v) => Reply::Hex(v),
         core::Reply::Error(n) => Reply::Error(n),
+        core::Reply::CardOwn => Reply::CardOwn,
     }
 }
 

@@ -52,6 +52,14 @@ pub const COMMANDS: &[&str] = &[
     "???",
     "I130",
     "I130=7",
+    // The card's own commands and defaults (the grammar reads them; the model has no rule
+    // for their answers, and a write it cannot compute makes I130 the card's own).
+    "I130=*",
+    "I40=*",
+    "I130=I130*1.25",
+    "CPU",
+    "#1P",
+    "&1#1->",
     "I5100=3",
     "I5100",
     "I6800=1",

@@ -23,6 +23,7 @@
 
 use pmacwd_specs::check::{AllKeyword, ProfileSelection};
 use pmacwd_specs::config::{servo_hz_of_i10, CardConfig};
+use pmacwd_specs::grammar::{self, Addressing};
 use pmacwd_specs::input::Lines;
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
@@ -151,6 +152,9 @@ pub enum Answer {
 pub struct Exchanged {
     pub text: String,
     pub command: HostCommand,
+    /// How many values the card answers it with (the grammar's [`Command::values`]); `None`
+    /// when that depends on the card (a listing, or text the grammar cannot read).
+    pub values: Option<usize>,
     pub answer: Answer,
     /// Where the command's text starts on its line.
     pub column: usize,
@@ -165,68 +169,6 @@ pub struct Exchange {
     /// command's) + the stamps' resolution], when the log is stamped.
     pub at: Option<(i128, i128)>,
     pub commands: Vec<Exchanged>,
-}
-
-/// Whether a command always answers one value (`???`, I-variable and memory reads), never
-/// (writes, `$$$`, `OPEN`, `CLOSE`), or is not known to the model (either).
-fn answers(c: &HostCommand) -> Option<bool> {
-    match c {
-        HostCommand::GlobalStatus | HostCommand::ReadI(_) | HostCommand::ReadHex(_) | HostCommand::Checksum => {
-            Some(true)
-        }
-        HostCommand::WriteI(..)
-        | HostCommand::WriteIMemory(..)
-        | HostCommand::Reset
-        | HostCommand::Reinitialize
-        | HostCommand::Open(_)
-        | HostCommand::Close => Some(false),
-        // A motion command answers nothing, except an error (`#1K` during a program, UM p.319).
-        HostCommand::Motion(_) => Some(false),
-        HostCommand::Unrecognized(_) => None,
-    }
-}
-
-/// Splits a command line as the card does, on whitespace, keeping together the forms
-/// [`HostCommand::parse`] reads with spaces inside: `OPEN PLC n`, `OPEN PROG n`, `RH X:$a`,
-/// and spaces around `=`. Consecutive words the model does not know are one command
-/// (`ENABLE PLC 1`, `LIST GATHER`): the model cannot tell where such a command ends. Each
-/// piece with its byte offset.
-fn split_commands(text: &str) -> Vec<(usize, String)> {
-    let mut tokens: Vec<(usize, &str)> = Vec::new();
-    let mut start = None;
-    for (i, c) in text.char_indices().chain(std::iter::once((text.len(), ' '))) {
-        match (c.is_whitespace(), start) {
-            (true, Some(s)) => {
-                tokens.push((s, &text[s..i]));
-                start = None;
-            }
-            (false, None) => start = Some(i),
-            _ => {}
-        }
-    }
-    let mut pieces: Vec<(usize, String)> = Vec::new();
-    let mut i = 0;
-    while i < tokens.len() {
-        let (at, t) = tokens[i];
-        let mut piece = t.to_string();
-        let mut j = i + 1;
-        let upper = t.to_ascii_uppercase();
-        let next_upper = tokens.get(j).map(|(_, n)| n.to_ascii_uppercase());
-        if upper == "OPEN" && j + 1 < tokens.len() && matches!(next_upper.as_deref(), Some("PLC" | "PROG")) {
-            piece = format!("{t} {} {}", tokens[j].1, tokens[j + 1].1);
-            j += 2;
-        } else if upper == "RH" && j < tokens.len() {
-            piece = format!("{t} {}", tokens[j].1);
-            j += 1;
-        }
-        while j < tokens.len() && (piece.ends_with('=') || tokens[j].1.starts_with('=')) {
-            piece.push_str(tokens[j].1);
-            j += 1;
-        }
-        pieces.push((at, piece));
-        i = j;
-    }
-    pieces
 }
 
 fn is_error_reply(r: &str) -> bool {
@@ -248,11 +190,21 @@ pub struct LogParser {
     /// The command line waiting for its reply: (line, column of its text, text, host time).
     pending: Option<(usize, usize, String, Option<HostTime>)>,
     commands: u64,
+    /// The motor and C.S. the host addresses: `#n` and `&n` stay until changed (SRM p.270).
+    addressing: Addressing,
 }
 
 impl LogParser {
     pub fn new(file: &Path) -> LogParser {
-        LogParser { file: file.to_path_buf(), stamped: None, last_stamp: None, days: 0, pending: None, commands: 0 }
+        LogParser {
+            file: file.to_path_buf(),
+            stamped: None,
+            last_stamp: None,
+            days: 0,
+            pending: None,
+            commands: 0,
+            addressing: Addressing::default(),
+        }
     }
 
     fn err(&self, line: usize, column: usize, msg: String) -> SpecError {
@@ -366,7 +318,7 @@ impl LogParser {
     /// The commands of line `line` with their answers from the reply `reply` (on
     /// `reply_line`, starting at `reply_column`).
     fn split(
-        &self,
+        &mut self,
         line: usize,
         column: usize,
         text: &str,
@@ -376,15 +328,22 @@ impl LogParser {
     ) -> Result<Vec<Exchanged>, SpecError> {
         let reply = reply.trim();
         let mut parsed: Vec<Exchanged> = Vec::new();
-        for (at, piece) in split_commands(text) {
-            let command = HostCommand::parse(&piece).map_err(|e| self.err(line, column + at, e.0))?;
-            match (parsed.last_mut(), &command) {
-                (Some(prev), HostCommand::Unrecognized(_)) if matches!(prev.command, HostCommand::Unrecognized(_)) => {
-                    prev.text = format!("{} {piece}", prev.text);
-                    prev.command = HostCommand::Unrecognized(prev.text.clone());
+        // The card's grammar reads the line (`grammar`): commands run together or spaced;
+        // the first it cannot read ends the line (the card answers ERR003 there).
+        for piece in grammar::pieces(text.as_bytes(), &mut self.addressing) {
+            let at = piece.start;
+            let (command, values, piece_text) = match &piece.command {
+                Ok(c) => (
+                    HostCommand::from_grammar(c).map_err(|why| self.err(line, column + at, why))?,
+                    c.values(),
+                    text[piece.start..piece.end].trim().to_string(),
+                ),
+                Err(_) => {
+                    let rest = text[at..].trim().to_string();
+                    (HostCommand::Unrecognized(rest.clone()), None, rest)
                 }
-                _ => parsed.push(Exchanged { text: piece, command, answer: Answer::Ack, column: column + at }),
-            }
+            };
+            parsed.push(Exchanged { text: piece_text, command, values, answer: Answer::Ack, column: column + at });
         }
         if parsed.is_empty() {
             return Err(self.err(line, column, "an empty command: write the command text, e.g. `???`".into()));
@@ -395,7 +354,7 @@ impl LogParser {
             }
             return Ok(parsed);
         }
-        if parsed.len() == 1 {
+        if parsed.len() == 1 && parsed[0].values.is_none_or(|v| v <= 1) {
             parsed[0].answer = if reply.is_empty() { Answer::Ack } else { Answer::Value(reply.to_string()) };
             return Ok(parsed);
         }
@@ -403,8 +362,44 @@ impl LogParser {
         // whitespace or a written `\r` (the card ends each reply with CR).
         let spaced = reply.replace("\\r", " ");
         let values: Vec<&str> = spaced.split_whitespace().collect();
-        let known = parsed.iter().filter(|c| answers(&c.command) == Some(true)).count();
-        let unknown = parsed.iter().filter(|c| answers(&c.command).is_none()).count();
+        // An error ends the line (facts page s.3): the commands before it answered as usual,
+        // the one it answers got it, and those after it were never run.
+        let first_error = values.iter().position(|v| is_error_reply(v));
+        let answering = |c: &Exchanged| c.values.is_some_and(|v| v > 0);
+        let known: usize = parsed.iter().filter_map(|c| c.values).sum();
+        let unknown = parsed.iter().filter(|c| c.values.is_none()).count();
+        if let Some(e) = first_error.filter(|e| *e + 1 == values.len()) {
+            // Which command the error is: the one the grammar could not read (the card reads
+            // the same grammar), else the first whose answers the error falls among, or the
+            // first answering nothing that it meets. MODEL: with several commands that answer
+            // nothing before it, the log cannot tell which one a card refused; the first is taken.
+            let unreadable = parsed.iter().position(|c| matches!(c.command, HostCommand::Unrecognized(_)));
+            let mut before = 0;
+            let mut erring = None;
+            for (k, c) in parsed.iter().enumerate() {
+                let want = c.values.unwrap_or(0);
+                let here = match unreadable {
+                    Some(u) => k == u && before == e,
+                    None => before <= e && (e < before + want || (want == 0 && before == e)),
+                };
+                if here {
+                    erring = Some(k);
+                    break;
+                }
+                before += want;
+            }
+            if let Some(k) = erring {
+                let mut vals = values.iter();
+                for c in parsed.iter_mut().take(k) {
+                    let mine: Vec<&str> = vals.by_ref().take(c.values.unwrap_or(0)).copied().collect();
+                    c.answer = if mine.is_empty() { Answer::Ack } else { Answer::Value(mine.join(" ")) };
+                }
+                let rest: Vec<&str> = vals.copied().collect();
+                parsed[k].answer = Answer::Value(rest.join(" "));
+                parsed.truncate(k + 1);
+                return Ok(parsed);
+            }
+        }
         let unknown_answer = if values.len() == known {
             false
         } else if unknown > 0 && values.len() == known + unknown {
@@ -413,7 +408,11 @@ impl LogParser {
             let names = |want: Option<bool>| -> String {
                 let v: Vec<String> = parsed
                     .iter()
-                    .filter(|c| answers(&c.command) == want)
+                    .filter(|c| match want {
+                        Some(true) => answering(c),
+                        Some(false) => c.values == Some(0),
+                        None => c.values.is_none(),
+                    })
                     .map(|c| format!("`{}`", c.text.to_ascii_uppercase()))
                     .collect();
                 if v.is_empty() {
@@ -441,8 +440,10 @@ impl LogParser {
         };
         let mut values = values.into_iter();
         for c in &mut parsed {
-            if answers(&c.command).unwrap_or(unknown_answer) {
-                c.answer = Answer::Value(values.next().expect("one value per answering command").to_string());
+            let n = c.values.unwrap_or(usize::from(unknown_answer));
+            if n > 0 {
+                let mine: Vec<&str> = values.by_ref().take(n).collect();
+                c.answer = Answer::Value(mine.join(" "));
             }
         }
         Ok(parsed)
@@ -591,8 +592,13 @@ pub struct Summary {
     pub counter_reads: u64,
     /// Restarts read from the counter going backwards (or not fitting the host clock).
     pub restarts: u64,
-    /// Commands the model does not know, kept without an expectation.
+    /// Commands the grammar cannot read that the card answered without an error, kept
+    /// without an expectation.
     pub not_modelled: u64,
+    /// Commands whose answer is the card's own (`CPU`, `#1P`, `P1=5`, reads of I-variables
+    /// no rule fixes): the model has no rule for the value and accepts whatever a running card
+    /// answers, but not silence.
+    pub card_own: u64,
     /// `elapsed` steps bounded by host time alone, while the card was silent.
     pub silent_gaps: u64,
     /// Whether the log has host timestamps.
@@ -783,6 +789,9 @@ impl Importer {
                 };
                 note = Some(format!("reply `{shown}` not compared: the card resets"));
                 expect = Expect::default();
+            }
+            if let HostCommand::Card { .. } = c.command {
+                self.summary.card_own += 1;
             }
             if let HostCommand::Unrecognized(_) = c.command {
                 let replied = match &c.answer {

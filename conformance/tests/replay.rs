@@ -102,7 +102,7 @@ fn a_host_log_whose_command_holds_control_characters_imports_to_a_trace_that_rea
     // the YAML form (`pmacwd import --yaml`) wrote its NUL raw, so the trace did not read back.
     let log = "# comments and blank lines are allowets and blank lines are allowed\n> ???\n< 000000000000\n\
                > RHX:$0\n< 01A2B3\n> I130=5\n<\n> ???\n< (timed\n> ???\n< 000000000000\n> OPEN 0\n\
-               < 01Ats and blank lines are allowets and blank lines are allo2B3\n> I130\x01\0\0\0=5\n<\n\
+               < 01Ats and blank lines are allowets and blank lines are allo2B3\n> I130\x01\0\0\0=5\n< 0 ERR003\n\
                > ???\n< (timeout)\n";
     let trace = pmacwd_conformance::import::import(Path::new("s.log"), log, "i40-zero").unwrap().trace;
     let yaml = pmacwd_trace::to_yaml(&trace);

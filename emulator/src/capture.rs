@@ -22,14 +22,12 @@
 use crate::bounded::cut;
 use crate::framing::{self, framing_write_out_of_range, ReadAnswer, FRAMING_VALUE_MAX};
 use pmacwd_specs::check::{AllKeyword, ProfileSelection};
+use pmacwd_specs::grammar::{self, Addressing, Command, VarKind};
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_trace::jsonl as trace_jsonl;
 use pmacwd_trace::{Expect, Step, Trace, TraceEvent, FORMAT_VERSION, STEP_CYCLES_MAX};
 use std::io::{self, Write};
-
-/// Commands every host sends that the model does not know, each answered by one message.
-const IDENTITY_COMMANDS: [&str; 2] = ["VER", "CID"];
 
 /// Notes kept verbatim for one step: the first few say what happened, and beyond them a
 /// count says how many more there were. A line of unknown commands makes a note per command
@@ -205,9 +203,15 @@ impl<W: Write> CaptureWriter<W> {
 
     /// A command line and its reply (`None`: no reply came).
     pub fn exchange(&mut self, line: &str, reply: Option<&[u8]>) -> io::Result<()> {
+        self.exchange_addressed(line, Addressing::default(), reply)
+    }
+
+    /// As [`CaptureWriter::exchange`], for a connection that addressed `addressing` (`#n`,
+    /// `&n`) before this line.
+    pub fn exchange_addressed(&mut self, line: &str, addressing: Addressing, reply: Option<&[u8]>) -> io::Result<()> {
         // A note goes with the line's step before it, or with the next step written.
         let mut last: Option<(Step, Notes)> = None;
-        for m in self.match_line(line, reply) {
+        for m in self.match_line(line, addressing, reply) {
             match m {
                 Matched::Step(s) => {
                     if let Some((previous, after)) = last.replace((s, Notes::default())) {
@@ -238,9 +242,30 @@ impl<W: Write> CaptureWriter<W> {
         Ok(std::mem::take(&mut self.pending_notes).into_list())
     }
 
-    fn match_line(&mut self, line: &str, reply: Option<&[u8]>) -> Vec<Matched> {
-        let commands = framing::split_commands(line);
-        if commands.iter().any(|c| memory_access(c) == Some(MemoryAccess::Write)) {
+    fn match_line(&mut self, line: &str, addressing: Addressing, reply: Option<&[u8]>) -> Vec<Matched> {
+        // The card's grammar reads the line, as the card did (`pmacwd_specs::grammar`).
+        let mut addressing = addressing;
+        let commands: Vec<Read> = grammar::pieces(line.as_bytes(), &mut addressing)
+            .into_iter()
+            .map(|p| {
+                let text = line.get(p.start..p.end).unwrap_or(line).trim().to_string();
+                match p.command {
+                    Ok(c) => Read {
+                        memory: memory_access(&c),
+                        values: c.values(),
+                        host: HostCommand::from_grammar(&c),
+                        text,
+                    },
+                    Err(e) => Read {
+                        text: line.get(p.start..).unwrap_or(line).trim().to_string(),
+                        host: Ok(HostCommand::Unrecognized(e.at)),
+                        values: Some(0),
+                        memory: None,
+                    },
+                }
+            })
+            .collect();
+        if commands.iter().any(|c| c.memory == Some(MemoryAccess::Write)) {
             self.memory_written = true;
         }
         let command_step = |c: HostCommand, expect: Expect, note: Option<String>| {
@@ -253,12 +278,13 @@ impl<W: Write> CaptureWriter<W> {
         let each_command = |expect: Expect| -> Vec<Matched> {
             commands
                 .iter()
-                .map(|c| match HostCommand::parse(c) {
-                    Ok(HostCommand::WriteI(n, v)) if framing_write_out_of_range(n, v) => Matched::Note(format!(
-                        "`{c}` left out: I{n} ranges 0..{FRAMING_VALUE_MAX} (SRM p.37, PMAC2 SRM p.25), which the emulator enforces and the model does not"
+                .map(|c| match &c.host {
+                    Ok(HostCommand::WriteI(n, v)) if framing_write_out_of_range(*n, *v) => Matched::Note(format!(
+                        "`{}` left out: I{n} ranges 0..{FRAMING_VALUE_MAX} (SRM p.37, PMAC2 SRM p.25), which the emulator enforces and the model does not",
+                        c.text
                     )),
-                    Ok(h) => command_step(h, expect.clone(), None),
-                    Err(e) => Matched::Note(format!("`{c}` left out: {}", e.0)),
+                    Ok(h) => command_step(h.clone(), expect.clone(), None),
+                    Err(e) => Matched::Note(format!("`{}` left out: {e}", c.text)),
                 })
                 .collect()
         };
@@ -284,14 +310,16 @@ impl<W: Write> CaptureWriter<W> {
         let mut answers = parsed.answers.into_iter().peekable();
         let mut out = Vec::new();
         let mut stopped = false;
-        for text in &commands {
+        let unreadable_at = commands.iter().position(|c| matches!(c.host, Ok(HostCommand::Unrecognized(_))));
+        for (k, c) in commands.iter().enumerate() {
+            let text = &c.text;
             if stopped {
                 out.push(Matched::Note(format!("`{text}` not executed: it follows an error in the line")));
                 continue;
             }
             // An M-variable definition or assignment, or a direct memory write: answered with
             // nothing, or an error that ends the line; outside the model's vocabulary.
-            if memory_access(text).is_some() {
+            if c.memory.is_some() {
                 if let Some(ReadAnswer::Error(code)) = answers.peek() {
                     let code = code.map_or("an error".to_string(), |n| format!("ERR{n:03}"));
                     answers.next();
@@ -304,34 +332,45 @@ impl<W: Write> CaptureWriter<W> {
                 }
                 continue;
             }
-            let parsed = HostCommand::parse(text);
-            let identity = IDENTITY_COMMANDS.iter().any(|i| text.eq_ignore_ascii_case(i));
-            let reports = identity
-                || matches!(
-                    parsed,
-                    Ok(HostCommand::GlobalStatus
-                        | HostCommand::ReadI(_)
-                        | HostCommand::ReadHex(_)
-                        | HostCommand::Checksum)
-                );
-            let unknown = !identity && matches!(parsed, Ok(HostCommand::Unrecognized(_)) | Err(_));
-            let answer = if reports || unknown { answers.next() } else { None };
-            let error = match &answer {
-                Some(ReadAnswer::Error(n)) => Some(*n),
-                _ => None,
-            };
-            if unknown && answer.is_some() && error.is_none() {
-                return unmatched(format!(
-                    "reply `{shown}` to `{line}` not compared: the card accepted `{text}`, which the model does not know"
-                ));
+            // The command's answers: as many as it reports, or one error in their place. When
+            // the grammar could not read a later command, the error is that command's (the
+            // card reads the same grammar); otherwise the first command to meet it took it.
+            let mut data = Vec::new();
+            let mut error = None;
+            let want = c.values.unwrap_or(0);
+            let later_unreadable = unreadable_at.is_some_and(|u| u > k);
+            loop {
+                match answers.peek() {
+                    Some(ReadAnswer::Error(_)) if later_unreadable => break,
+                    Some(ReadAnswer::Error(n)) => {
+                        error = Some(*n);
+                        answers.next();
+                        break;
+                    }
+                    Some(ReadAnswer::Data(_)) if data.len() < want || c.values.is_none() => {
+                        if let Some(ReadAnswer::Data(d)) = answers.next() {
+                            data.push(d.trim().to_string());
+                        }
+                    }
+                    _ => break,
+                }
             }
-            if reports && answer.is_none() {
+            if error.is_none() && data.len() < want {
                 return unmatched(format!("reply `{shown}` to `{line}` not compared: fewer answers than commands"));
             }
-            let command = match parsed {
-                Ok(c) => c,
+            let command = match &c.host {
+                // The emulator refuses I3 and I6 outside 0..3 (MODEL, `FRAMING_VALUE_MAX`)
+                // where the model would take them: left out.
+                Ok(HostCommand::WriteI(n, v)) if framing_write_out_of_range(*n, *v) => {
+                    out.push(Matched::Note(format!(
+                        "`{text}` left out: I{n} ranges 0..{FRAMING_VALUE_MAX} (SRM p.37, PMAC2 SRM p.25), which the emulator enforces and the model does not"
+                    )));
+                    stopped = error.is_some();
+                    continue;
+                }
+                Ok(h) => h.clone(),
                 Err(e) => {
-                    out.push(Matched::Note(format!("`{text}` left out: {}", e.0)));
+                    out.push(Matched::Note(format!("`{text}` left out: {e}")));
                     stopped = error.is_some();
                     continue;
                 }
@@ -344,8 +383,8 @@ impl<W: Write> CaptureWriter<W> {
                     Some(n) => expect.reply = Some(format!("ERR{n:03}")),
                     None => note = Some("an error without its number (I6 = 0 or 2): not compared".to_string()),
                 }
-            } else if let Some(ReadAnswer::Data(data)) = answer {
-                (expect.reply, note) = self.expect_data(&command, identity, data.trim());
+            } else if !data.is_empty() {
+                (expect.reply, note) = self.expect_data(&command, &data.join(" "));
             } else if matches!(command, HostCommand::Reset | HostCommand::Reinitialize) {
                 note = Some(format!("{command} resets the card: its acknowledgement is the link's, not compared"));
             } else {
@@ -363,19 +402,13 @@ impl<W: Write> CaptureWriter<W> {
     }
 
     /// What to expect of a command that reported `data`, or why it is only a note.
-    fn expect_data(&self, command: &HostCommand, identity: bool, data: &str) -> (Option<String>, Option<String>) {
+    fn expect_data(&self, command: &HostCommand, data: &str) -> (Option<String>, Option<String>) {
         let exact = self.timing == Timing::Exact;
         let note = |why: &str| (None, Some(format!("reply `{data}` not compared: {why}")));
-        if identity {
-            return note("outside the model's vocabulary");
-        }
         match command {
             HostCommand::ReadI(_) if self.memory_written => note(
                 "an M-variable assignment or memory write since the last reset may have changed it (SRM p.57: past I41), and the capture cannot tell which I-variable it reached",
             ),
-            HostCommand::ReadI(n) if !matches!(n, 8 | 40 | 41) && !self.written[usize::from(*n)] => {
-                note("the card's saved value; the model starts every I-variable but I8, I40, I41 at 0")
-            }
             HostCommand::ReadHex(Register::ServoCycles) => note("X:$0 counts from wherever the card started"),
             HostCommand::Checksum => {
                 note("a card's firmware reference checksum; the model's is a token (MODEL: it sums no memory)")
@@ -388,7 +421,16 @@ impl<W: Write> CaptureWriter<W> {
     }
 }
 
-/// What a command does to memory beyond the model's vocabulary, read from its text.
+/// One command of a line as the grammar read it, with the model's view of it.
+struct Read {
+    text: String,
+    host: Result<HostCommand, String>,
+    /// How many values the card answers it with (`Command::values`).
+    values: Option<usize>,
+    memory: Option<MemoryAccess>,
+}
+
+/// What a command does to memory beyond the model's vocabulary.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum MemoryAccess {
     /// `M100->X:$25,0,24,S`, `M1..8->*`: a definition (answers nothing).
@@ -397,22 +439,12 @@ enum MemoryAccess {
     Write,
 }
 
-fn memory_access(text: &str) -> Option<MemoryAccess> {
-    let t = text.trim().to_ascii_uppercase();
-    let b = t.as_bytes();
-    if b.len() > 2 && b[0] == b'W' && matches!(b[1], b'X' | b'Y' | b'D' | b'L') && t.contains(',') {
-        return Some(MemoryAccess::Write);
+fn memory_access(c: &Command) -> Option<MemoryAccess> {
+    match c {
+        Command::MDefine { .. } => Some(MemoryAccess::Define),
+        Command::Write { kind: VarKind::M, .. } | Command::MemoryWrite { .. } => Some(MemoryAccess::Write),
+        _ => None,
     }
-    let rest = t.strip_prefix('M')?;
-    let digits = rest.trim_start_matches(|c: char| c.is_ascii_digit() || c == '.');
-    if digits.len() == rest.len() || !rest.starts_with(|c: char| c.is_ascii_digit()) {
-        return None;
-    }
-    if let Some(def) = digits.strip_prefix("->") {
-        // `M100->` alone reports the definition: an answer, not a definition.
-        return (!def.is_empty()).then_some(MemoryAccess::Define);
-    }
-    digits.starts_with('=').then_some(MemoryAccess::Write)
 }
 
 #[cfg(test)]
@@ -469,13 +501,19 @@ mod tests {
 
     #[test]
     fn a_refused_definition_ends_the_line_and_takes_its_error() {
-        // `M1->Z:0` is ERR003 and nothing after it runs: the next command must not be held to
-        // the error.
+        // `M1->Z:0` is ERR003 and nothing after it runs: the grammar cannot read it, so it and
+        // the rest of the line are one unrecognized command that the model also answers
+        // ERR003; I130 is not held to the error.
         let t =
             capture(Timing::Exact, &[("M1->Z:0 I130", Some(b"\x07ERR003\r")), ("???", Some(b"000000000000\r\x06"))]);
-        assert_eq!(replies(&t), [("???".to_string(), Some("000000000000".to_string()))], "I130 did not run");
-        let notes: Vec<_> = t.steps.iter().filter_map(|s| s.note.as_deref()).collect();
-        assert!(notes.iter().any(|n| n.contains("`M1->Z:0` answered ERR003")), "{notes:?}");
+        assert_eq!(
+            replies(&t),
+            [
+                ("M1->Z:0 I130".to_string(), Some("ERR003".to_string())),
+                ("???".to_string(), Some("000000000000".to_string()))
+            ],
+            "I130 did not run"
+        );
     }
 
     #[test]
@@ -486,8 +524,8 @@ mod tests {
         let r = replies(&t);
         assert_eq!(r[0], ("I6=1".into(), Some("(ack)".into())));
         assert_eq!(r[1], ("I3=2".into(), Some("(ack)".into())));
-        assert_eq!(r[2].1, None);
-        assert!(t.steps[3].note.as_deref().unwrap().contains("outside the model's vocabulary"));
+        // `ver` is the card's own answer: kept, and the model accepts whatever a running card says.
+        assert_eq!(r[2], ("VER".into(), Some("1.947".into())));
     }
 
     #[test]
@@ -500,7 +538,8 @@ mod tests {
             ],
         );
         let r = replies(&t);
-        assert_eq!(r[0].1, None, "I130 before any write: the card's saved value");
+        // I130 before any write: the card's saved value, which the model takes as the card's own.
+        assert_eq!(r[0].1.as_deref(), Some("7"));
         assert_eq!(r[1].1.as_deref(), Some("0"));
         assert_eq!(r[2].1, None, "Y:$25 from a host clock");
         assert_eq!(r[3].1.as_deref(), Some("000000000000"));
@@ -512,40 +551,40 @@ mod tests {
     fn an_error_ends_the_line_and_silence_is_a_trip() {
         let t = capture(
             Timing::HostClock { window_cycles: 225 },
-            &[("I130=1 FOO I131=1", Some(b"\x07ERR003\r")), ("???", None)],
+            &[("I130=1 ZZZ I131=1", Some(b"\x07ERR003\r")), ("???", None)],
         );
         let r = replies(&t);
-        assert_eq!(r.len(), 3, "I131=1 follows the error: a note, not a step");
-        assert_eq!(r[1].1.as_deref(), Some("ERR003"));
+        assert_eq!(r.len(), 3, "I131=1 follows the error: not a step of its own");
+        assert_eq!(r[1], ("ZZZ I131=1".into(), Some("ERR003".into())));
         let last = t.steps.last().unwrap();
         assert_eq!((last.expect.tripped, last.expect.window_cycles), (Some(true), Some(225)));
         assert!(last.note.is_none());
-        assert!(t.steps.iter().any(|s| s.note.as_deref().is_some_and(|n| n.contains("`I131=1` not executed"))));
     }
 
     #[test]
     fn answers_that_do_not_line_up_are_kept_but_not_compared() {
-        // `#1HM` (home) is a real command the model does not know; `#1J+` used to be the example
-        // until the model learned the jog commands (issue 16).
+        // Two status reads answered with one value: neither is compared.
         let t = capture(Timing::Exact, &[("#1HM ???", Some(b"000000000000\r\x06")), ("??? ???", Some(b"1\r\x06"))]);
-        assert!(replies(&t).iter().all(|(_, r)| r.is_none()));
+        let r = replies(&t);
+        assert_eq!(r[0], ("#1J=".into(), Some("(ack)".into())), "a homing search starts motion as a jog does");
+        assert_eq!(r[1].1.as_deref(), Some("000000000000"));
+        assert!(r[2..].iter().all(|(_, r)| r.is_none()));
         let notes: Vec<&str> = t.steps.iter().filter_map(|s| s.note.as_deref()).collect();
-        assert!(notes.iter().any(|n| n.contains("the card accepted `#1HM`")));
         assert!(notes.iter().any(|n| n.contains("fewer answers than commands")));
     }
 
     #[test]
     fn notes_waiting_for_a_step_stay_bounded_however_many_lines_bring_them() {
-        // A client that sends only commands the model cannot hold (I-variables beyond I8191
-        // or with numbers too long to read) makes notes and no steps; the notes wait for the
-        // next step. Before the bound they grew without limit (850 MB in 5 s) and the step
-        // that finally came was one line of hundreds of MB. Now the first NOTES_PER_STEP_MAX
-        // are kept, each cut to NOTE_BYTES_MAX, and the rest are counted.
-        let long = format!("I9{}", "0".repeat(1400));
+        // A client that sends only commands the model cannot follow (I40 written from the
+        // card's own variables) makes notes and no steps; the notes wait for the next step.
+        // Before the bound they grew without limit (850 MB in 5 s) and the step that finally
+        // came was one line of hundreds of MB. Now the first NOTES_PER_STEP_MAX are kept, each
+        // cut to NOTE_BYTES_MAX, and the rest are counted.
+        let long = format!("I40=I10{}", "+0".repeat(700));
         let mut buf = Vec::new();
         let mut w = CaptureWriter::new(&mut buf, "test", "i40-zero", Timing::Exact).unwrap();
         for _ in 0..10_000 {
-            w.exchange(&format!("{long} I9000"), Some(b"\x07ERR003\r")).unwrap();
+            w.exchange(&format!("{long} I41=I10"), Some(b"\x06")).unwrap();
         }
         w.exchange("???", Some(b"000000000000\r\x06")).unwrap();
         assert!(w.finish().unwrap().is_empty(), "the notes went with the `???` step");

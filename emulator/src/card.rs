@@ -14,8 +14,8 @@ use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::grammar::{parse_commands, Addressing, Command, Gather, Jog, VarKind};
-use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion, MotorCommand};
+use pmacwd_specs::grammar::{parse_commands, Addressing, Assigned, Command, Env, Gather, VarKind, Vars, VARIABLE_MAX};
+use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::vocab::Buffer;
 use pmacwd_trace::jsonl::step_line;
@@ -91,6 +91,10 @@ pub struct FlashIVariables {
     values: Box<core::AllIVariables>,
     saved: Box<core::AllIVariables>,
     factory: Box<core::AllIVariables>,
+    /// The exact values of I-variables last written with a fraction (`I222=0.5`); the core's
+    /// store holds whole numbers, this the rest. Saved and restored with the others.
+    fractions: std::collections::BTreeMap<u16, f64>,
+    saved_fractions: std::collections::BTreeMap<u16, f64>,
 }
 
 impl FlashIVariables {
@@ -104,7 +108,35 @@ impl FlashIVariables {
             t
         };
         let flash = table(saved);
-        FlashIVariables { values: flash.clone(), saved: flash, factory: table(factory) }
+        FlashIVariables {
+            values: flash.clone(),
+            saved: flash,
+            factory: table(factory),
+            fractions: Default::default(),
+            saved_fractions: Default::default(),
+        }
+    }
+
+    /// I`n`'s exact value when it holds a fraction.
+    pub fn fraction(&self, n: u16) -> Option<f64> {
+        self.fractions.get(&n).copied()
+    }
+
+    /// I`n` = `v`, a fraction kept.
+    pub fn write_exact(&mut self, n: u16, v: f64) {
+        self.values.write(n, v.trunc() as i64);
+        if v.fract() == 0.0 {
+            self.fractions.remove(&n);
+        } else {
+            self.fractions.insert(n, v);
+        }
+    }
+
+    /// I`n` back to the firmware's default (`I{n}=*`).
+    pub fn restore_factory(&mut self, n: u16) {
+        let v = self.factory.read(n).unwrap_or(0);
+        self.values.write(n, v);
+        self.fractions.remove(&n);
     }
 }
 
@@ -112,23 +144,45 @@ impl FlashIVariables {
     /// `SAVE`: the values in use become the ones a reset restores (UM p.243).
     pub fn save(&mut self) {
         self.saved.0 = self.values.0;
+        self.saved_fractions = self.fractions.clone();
     }
 }
 
+/// The emulated card knows every I-variable: one never written holds its firmware default,
+/// 0 unless `variables.yaml` gives another (MODEL).
 impl IVariableStore for FlashIVariables {
-    fn read(&self, n: u16) -> i64 {
-        self.values.read(n)
+    fn read(&self, n: u16) -> Option<i64> {
+        Some(self.values.read(n).unwrap_or(0))
     }
     fn write(&mut self, n: u16, v: i64) -> bool {
+        self.fractions.remove(&n);
         self.values.write(n, v)
     }
+    /// Nothing is unknown on the emulated card: a command it runs computes every value.
+    fn forget(&mut self, _: u16) {}
     fn restore(&mut self) {
         self.values.0 = self.saved.0;
+        self.fractions = self.saved_fractions.clone();
     }
     /// `$$$***`: the firmware's defaults in use; what was saved stays in flash, unused, until
     /// the next reset (UM p.243).
     fn factory(&mut self) {
         self.values.0 = self.factory.0;
+        self.fractions.clear();
+    }
+}
+
+/// Expressions are evaluated against the card's own variables (UM p.248).
+impl Env for Card {
+    fn var(&mut self, kind: VarKind, n: u16, _cs: u8) -> f64 {
+        match kind {
+            VarKind::I => match self.store.fraction(n) {
+                Some(v) if !matches!(n, 8 | 40 | 41) => v,
+                _ => self.core.read_i(n, &self.store).unwrap_or(0) as f64,
+            },
+            VarKind::M => self.m_value(n),
+            VarKind::P | VarKind::Q => self.memory.read(kind, n),
+        }
     }
 }
 
@@ -385,7 +439,7 @@ impl Card {
     }
 
     fn framing(&self) -> Framing {
-        Framing { i3: self.core.read_i(3, &self.store), i6: self.core.read_i(6, &self.store) }
+        Framing { i3: self.core.read_i(3, &self.store).unwrap_or(0), i6: self.core.read_i(6, &self.store).unwrap_or(0) }
     }
 
     /// Answers a command line with the card's own addressing (for callers that keep none:
@@ -402,9 +456,10 @@ impl Card {
     pub fn line_addressed(&mut self, bytes: &[u8], addressing: &mut Addressing) -> Option<Vec<u8>> {
         self.catch_up();
         let line = String::from_utf8_lossy(bytes).into_owned();
+        let before = *addressing;
         let reply = self.answer(bytes, addressing);
         let r = reply.as_deref();
-        self.captured(|c| c.exchange(&line, r));
+        self.captured(|c| c.exchange_addressed(&line, before, r));
         reply
     }
 
@@ -477,11 +532,6 @@ impl Card {
             .collect()
     }
 
-    /// A motion command for the core.
-    fn motion_answer(&mut self, m: Motion) -> Answer {
-        self.core_answer(&HostCommand::Motion(m))
-    }
-
     /// One command's answers: one for most, one per variable for a range, none for a write.
     /// `addressing` is the connection's as it stands after the command was read.
     fn command(&mut self, c: Command, addressing: Addressing, out: &mut Vec<Answer>) {
@@ -489,11 +539,25 @@ impl Card {
         match c {
             Command::Version => out.push(data(self.identity.version.clone())),
             Command::CardId => out.push(data(self.identity.card_id.clone())),
+            // MODEL: the CPU's part name, as the `???` CPU type bits of this card name it
+            // (SRM p.289); the EPICS driver asks right after `cid` and keeps the text.
+            Command::Cpu => out.push(data(
+                match self.cfg.processor {
+                    core::Processor::Dsp56303 => "DSP56303",
+                    core::Processor::Dsp56309 => "DSP56309",
+                    core::Processor::Dsp56311 => "DSP56311",
+                    core::Processor::Dsp56321 => "DSP56321",
+                }
+                .into(),
+            )),
             Command::GlobalStatus => out.push(self.core_answer(&HostCommand::GlobalStatus)),
-            Command::ReadHex(text) => match HostCommand::parse(&text) {
-                Ok(h @ HostCommand::ReadHex(_)) => out.push(self.core_answer(&h)),
-                // A register the emulator does not hold, or not a register read at all.
-                _ => out.push(Answer::Error(3)),
+            // A register of the core through the core; any other word as the memory map holds it.
+            Command::ReadHex { space, address } => match Register::at(space, address) {
+                Some(r) => out.push(self.core_answer(&HostCommand::ReadHex(r))),
+                None => {
+                    let word = self.word_at(space, address);
+                    out.push(data(format!("{word:06X}")));
+                }
             },
             Command::Reset => out.push(self.core_answer(&HostCommand::Reset)),
             Command::Reinitialize => out.push(self.core_answer(&HostCommand::Reinitialize)),
@@ -502,21 +566,13 @@ impl Card {
             Command::Close => out.push(self.core_answer(&HostCommand::Close)),
             Command::OpenPlc(n) => out.push(self.core_answer(&HostCommand::Open(Buffer::Plc(n)))),
             Command::OpenProgram(n) => out.push(self.core_answer(&HostCommand::Open(Buffer::Program(n)))),
-            Command::Motion(m) => {
-                if let Motion::CoordinateSystem(cs, CsCommand::Feedrate(p)) = m {
-                    self.memory.set_feed(cs, f64::from(p));
-                }
-                out.push(self.motion_answer(m));
+            Command::Feed { cs, percent } => {
+                self.memory.set_feed(cs, percent);
+                out.push(self.grammar_answer(&c));
             }
-            // A jog to a target or by a distance, and a homing search, start motion as a jog
-            // does: the core hears a jog to a position (MODEL: the stop rules of UM p.217 treat
-            // every jog move alike, and a homing search is a jog move until its trigger).
-            Command::Jog(n, Jog::To(_) | Jog::Relative(_)) | Command::Home(n) => {
-                out.push(self.motion_answer(Motion::Motor(n, MotorCommand::JogToPosition)))
-            }
-            Command::Jog(n, Jog::Plus) => out.push(self.motion_answer(Motion::Motor(n, MotorCommand::JogPlus))),
-            Command::Jog(n, Jog::Minus) => out.push(self.motion_answer(Motion::Motor(n, MotorCommand::JogMinus))),
-            Command::Jog(n, Jog::Stop) => out.push(self.motion_answer(Motion::Motor(n, MotorCommand::JogStop))),
+            // Motion and stop commands, jogs to a target or by a distance, and homing: the
+            // core hears what the vocabulary makes of them (`HostCommand::from_grammar`).
+            Command::Motion(_) | Command::Jog(..) | Command::Home(_) => out.push(self.grammar_answer(&c)),
             Command::MotorStatus(n) => {
                 let (x, y) = motor_words(pmacwd_bridge::motor_status(&self.core, &self.cfg, n).as_ref());
                 out.push(data(hex_words(&[x, y])));
@@ -527,40 +583,67 @@ impl Card {
             }
             // Positions, velocities and following errors: the emulated motors do not move
             // (the core models motion as states, not trajectories): 0 counts, a documented
-            // constant.
+            // constant. `HMZ` makes the present position zero, which it already is.
             Command::Position(_) | Command::Velocity(_) | Command::FollowingError(_) => out.push(data("0".into())),
+            Command::HomeZero(_) => out.push(Answer::Nothing),
             // Reported as `#1`, `&1` (SRM p.270: the motor "reported with the #{constant}
             // command").
             Command::ReportMotor => out.push(data(format!("#{}", addressing.motor))),
             Command::ReportCs => out.push(data(format!("&{}", addressing.cs))),
             Command::FeedRead(cs) => out.push(data(format_value(self.memory.feed(cs)))),
-            Command::Read { kind: VarKind::I, first, last, .. } => {
-                let i9 = self.core.read_i(9, &self.store);
-                for n in first..=last {
-                    match self.core.command(&self.cfg, core::Command::ReadI(n), &mut self.store) {
-                        core::Reply::Value(v) => out.push(data(self.memory.format_i(n, v, i9))),
-                        other => out.push(reply_answer(other)),
+            Command::Read { kind, vars, cs } => {
+                let Some(numbers) = self.numbers(&vars) else {
+                    out.push(Answer::Error(3));
+                    return;
+                };
+                for n in numbers {
+                    match kind {
+                        VarKind::I => out.push(self.read_i_answer(n)),
+                        VarKind::M => self.read_m(n, n, out),
+                        VarKind::P | VarKind::Q => out.push(data(format_value(self.memory.read(kind, n)))),
+                    }
+                    let _ = cs;
+                }
+            }
+            Command::Write { kind, vars, value, .. } => {
+                let Some(numbers) = self.numbers(&vars) else {
+                    out.push(Answer::Error(3));
+                    return;
+                };
+                // The value is computed once, before any variable is written (UM p.248: the
+                // expression is evaluated, then assigned).
+                let value = match &value {
+                    Assigned::Expr(e) => match e.eval(self) {
+                        Ok(v) => Some(v),
+                        Err(_) => {
+                            out.push(Answer::Error(3));
+                            return;
+                        }
+                    },
+                    Assigned::Default => None,
+                };
+                for n in numbers {
+                    let answer = match (kind, value) {
+                        (VarKind::I, Some(v)) => self.write_i(n, v),
+                        (VarKind::I, None) => self.default_i(n),
+                        (VarKind::M, Some(v)) => {
+                            let mut one = Vec::new();
+                            self.write_m(n, n, v, &mut one);
+                            one.pop().unwrap_or(Answer::Nothing)
+                        }
+                        (VarKind::P | VarKind::Q, Some(v)) => {
+                            self.memory.write(kind, n, v);
+                            Answer::Nothing
+                        }
+                        // The grammar reads `=*` for I-variables only.
+                        (_, None) => Answer::Error(3),
+                    };
+                    let failed = matches!(answer, Answer::Error(_));
+                    out.push(answer);
+                    if failed {
+                        return;
                     }
                 }
-            }
-            Command::Read { kind: VarKind::M, first, last, .. } => self.read_m(first, last, out),
-            Command::Read { kind, first, last, .. } => {
-                for n in first..=last {
-                    out.push(data(format_value(self.memory.read(kind, n))));
-                }
-            }
-            Command::Write { kind: VarKind::I, number, value, .. } => {
-                // The core's store holds whole numbers: a fraction is refused (MODEL: the
-                // I-variables host programs write are integers; a card would keep the fraction).
-                if value.fract() != 0.0 || !value.is_finite() || value.abs() > 9.0e15 {
-                    out.push(Answer::Error(3));
-                } else {
-                    out.push(self.core_answer(&HostCommand::WriteI(number, value as i64)));
-                }
-            }
-            Command::Write { kind, number, value, .. } => {
-                self.memory.write(kind, number, value);
-                out.push(Answer::Nothing);
             }
             // No MACRO ring on the emulated card (I20..I23 = $0): a station's variables read
             // 0 and writes change nothing (MODEL: a card without the ring reports its
@@ -571,11 +654,28 @@ impl Card {
             // M-variables as pointers into memory, and the direct memory write (`card/memory_access.rs`).
             Command::MDefine { first, last, definition } => self.define_m(first, last, definition, out),
             Command::MReport { first, last } => self.report_m(first, last, out),
-            Command::MWrite { first, last, value } => self.write_m(first, last, value, out),
             Command::MemoryWrite { kind, values } => self.write_memory(kind, values, out),
+            // Axis definitions of each C.S. (SRM `#{constant}->`): kept and reported back;
+            // a motor with none reports 0 (MODEL: the pages at hand do not print the report
+            // of an undefined motor).
+            Command::AxisDefine { cs, motor, definition } => {
+                self.memory.define_axis(cs, motor, definition);
+                out.push(Answer::Nothing)
+            }
+            Command::AxisReport { cs, motor } => out.push(data(self.memory.axis(cs, motor).unwrap_or("0").to_string())),
+            Command::Undefine { cs } => {
+                self.memory.undefine(cs);
+                out.push(Answer::Nothing)
+            }
             // MODEL: user PLC programs are not run (their CPU load is the control port's
             // `plc0` and `background`); switching them is acknowledged.
             Command::PlcSwitch => out.push(Answer::Nothing),
+            // MODEL: the emulator keeps no program or kinematics text (a buffer's checksum is
+            // the core's), so every listing is empty.
+            Command::List(_) => out.push(Answer::Nothing),
+            // Look-ahead buffers and the temporary buffers the EPICS driver's C.S. groups
+            // define and delete: nothing the emulator runs uses them.
+            Command::DefineLookahead { .. } | Command::DeleteAllTemps => out.push(Answer::Nothing),
             Command::Save => {
                 self.store.save();
                 self.mvars.save();
@@ -588,6 +688,70 @@ impl Card {
                 out.push(Answer::Nothing)
             }
             Command::Ignored(_) => out.push(Answer::Nothing),
+        }
+    }
+
+    /// The variables a read or write names; `None` when a computed number is not one.
+    fn numbers(&mut self, vars: &Vars) -> Option<Vec<u16>> {
+        match vars {
+            Vars::Numbers(r) => Some(r.numbers().collect()),
+            Vars::Computed(e) => {
+                let v = e.eval(self).ok()?.round();
+                (0.0..=f64::from(VARIABLE_MAX)).contains(&v).then(|| vec![v as u16])
+            }
+        }
+    }
+
+    /// `In`, as the card prints it under I9 (a fraction as written).
+    fn read_i_answer(&mut self, n: u16) -> Answer {
+        let i9 = self.core.read_i(9, &self.store).unwrap_or(0);
+        match self.core.command(&self.cfg, core::Command::ReadI(n), &mut self.store) {
+            core::Reply::Value(v) => match self.store.fraction(n) {
+                Some(exact) => Answer::Data(self.memory.format_i_value(n, &format_value(exact), i9)),
+                None => Answer::Data(self.memory.format_i(n, v, i9)),
+            },
+            other => reply_answer(other),
+        }
+    }
+
+    /// `In={value}`: I8, I40, I41 and the framing variables through the core (their ranges);
+    /// any other, past I41's lockout (SRM p.57), with the value as written, fraction and all
+    /// (`I222=0.5`: a jog speed under one count per millisecond).
+    fn write_i(&mut self, n: u16, v: f64) -> Answer {
+        if !v.is_finite() || v.abs() >= 9.0e15 {
+            return Answer::Error(3);
+        }
+        if matches!(n, 8 | 40 | 41) || v.fract() == 0.0 {
+            // MODEL (as the vocabulary): a fraction written to I8, I40 or I41 is rounded.
+            return self.core_answer(&HostCommand::WriteI(n, v.round() as i64));
+        }
+        if framing_write_out_of_range(n, v.round() as i64) || matches!(n, 3 | 6) {
+            return Answer::Error(3);
+        }
+        if !self.core.write_locked(n) {
+            self.store.write_exact(n, v);
+        }
+        Answer::Nothing
+    }
+
+    /// `In=*`: the factory default (SRM on-line commands), past I41's lockout.
+    fn default_i(&mut self, n: u16) -> Answer {
+        match n {
+            8 | 40 | 41 => self.core_answer(&HostCommand::DefaultI(n)),
+            n => {
+                if !self.core.write_locked(n) {
+                    self.store.restore_factory(n);
+                }
+                Answer::Nothing
+            }
+        }
+    }
+
+    /// A command the vocabulary maps for the core.
+    fn grammar_answer(&mut self, c: &Command) -> Answer {
+        match HostCommand::from_grammar(c) {
+            Ok(h) => self.core_answer(&h),
+            Err(_) => Answer::Error(3),
         }
     }
 
@@ -643,7 +807,8 @@ impl Card {
             Control::Starve => {
                 // PLC 0 takes exactly the CPU the servo leaves in each RTI period (UM p.236:
                 // the RTI runs every I8+1 servo cycles), so the background never gets any.
-                let period = u32::try_from(self.core.read_i(8, &self.store)).unwrap_or(0).saturating_add(1);
+                let period =
+                    u32::try_from(self.core.read_i(8, &self.store).unwrap_or(0)).unwrap_or(0).saturating_add(1);
                 let fill = self
                     .core
                     .spare_units()
@@ -766,6 +931,8 @@ fn reply_answer(reply: core::Reply) -> Answer {
         core::Reply::Value(v) => Answer::Data(v.to_string()),
         core::Reply::Hex(v) => Answer::Data(format!("{v:06X}")),
         core::Reply::Error(n) => Answer::Error(n),
+        // The emulator answers every command itself before the core could call it the card's.
+        core::Reply::CardOwn => Answer::Nothing,
     }
 }
 

@@ -68,6 +68,9 @@ pub struct Memory {
     m_constant: Box<[Option<i64>]>,
     i_hex: Box<[bool]>,
     feed: [f64; 16],
+    /// Axis definitions by (C.S., motor): SRM `#{constant}->{axis definition}`. MODEL: kept
+    /// across resets, as a card keeps them in its saved set after SAVE.
+    axes: std::collections::BTreeMap<(u8, u8), String>,
 }
 
 impl Memory {
@@ -87,6 +90,25 @@ impl Memory {
             m_constant,
             i_hex,
             feed: [FEED_DEFAULT; 16],
+            axes: Default::default(),
+        }
+    }
+
+    pub fn define_axis(&mut self, cs: u8, motor: u8, definition: String) {
+        // A motor belongs to one C.S. at a time: a new definition moves it.
+        self.axes.retain(|(_, m), _| *m != motor);
+        self.axes.insert((cs, motor), definition);
+    }
+
+    pub fn axis(&self, cs: u8, motor: u8) -> Option<&str> {
+        self.axes.get(&(cs, motor)).map(String::as_str)
+    }
+
+    /// `UNDEFINE` of one C.S., `UNDEFINE ALL` of every one.
+    pub fn undefine(&mut self, cs: Option<u8>) {
+        match cs {
+            Some(cs) => self.axes.retain(|(c, _), _| *c != cs),
+            None => self.axes.clear(),
         }
     }
 
@@ -136,10 +158,15 @@ impl Memory {
     pub fn format_i(&self, n: u16, v: i64, i9: i64) -> String {
         let hex = self.i_hex[usize::from(n.min(VARIABLE_MAX))] && i9 & 2 != 0;
         let value = if hex { format!("${:X}", v & 0xFFFF_FFFF_FFFF) } else { v.to_string() };
+        self.format_i_value(n, &value, i9)
+    }
+
+    /// `value` as I`n`'s answer under I9 bit 0 (the whole statement).
+    pub fn format_i_value(&self, n: u16, value: &str, i9: i64) -> String {
         if i9 & 1 != 0 {
             format!("I{n}={value}")
         } else {
-            value
+            value.to_string()
         }
     }
 }

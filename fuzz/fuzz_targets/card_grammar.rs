@@ -6,6 +6,8 @@
 //! - at most one command per input byte, plus one (an error or a bare `#`/`&` report);
 //! - only the last element may be an error: the line stops at the first command it cannot read;
 //! - the addressing stays a real motor (1..=32) and C.S. (1..=16);
+//! - every command read prints (`Display`) as text the grammar reads back as one command that
+//!   prints the same (parse, print, parse);
 //! - the card answers every line it is not tripped for, and its reply reads back under its
 //!   framing (`parse_reply`), acknowledged exactly when no command failed (commands after an
 //!   OPEN on the same line are program text, which the card stores).
@@ -24,6 +26,13 @@ fuzz_target!(|data: &[u8]| {
         assert!(before.iter().all(Result::is_ok), "an error before the last command");
     }
     assert!((1..=32).contains(&a.motor) && (1..=16).contains(&a.cs), "{a:?}");
+    for c in commands.iter().flatten() {
+        let printed = c.to_string();
+        let again = parse_line(printed.as_bytes(), &mut Addressing::default());
+        assert_eq!(again.len(), 1, "`{}` reads as {} commands", printed.escape_debug(), again.len());
+        let again = again[0].as_ref().unwrap_or_else(|e| panic!("`{}` does not read back: {e:?}", printed.escape_debug()));
+        assert_eq!(again.to_string(), printed, "the printed form is not canonical");
+    }
 
     // A line the card's buffer takes (1,492 bytes), on a fresh card each time.
     if data.len() <= 1492 {

@@ -70,49 +70,57 @@ pub const I41_DEFAULT: u8 = 0;
 /// few machine words: a firmware has its memory map, an emulator a table of all 8192
 /// ([`AllIVariables`]), a test a few slots ([`FewIVariables`]).
 pub trait IVariableStore {
-    /// The value of I`n` (0 when never written since the last reset).
-    fn read(&self, n: u16) -> i64;
+    /// The value of I`n`; `None` when this store does not know it (a core held to the
+    /// reference model: never written since the last reset, so the card's own saved value).
+    fn read(&self, n: u16) -> Option<i64>;
     /// Stores I`n` = `v`; `false` when the store has no room (answered ERR003).
     fn write(&mut self, n: u16, v: i64) -> bool;
-    /// Back to the values saved in flash: all zero in this core's configuration.
+    /// I`n` is no longer known: a write the core could not compute reached it.
+    fn forget(&mut self, n: u16);
+    /// Back to the values saved in flash: unknown in this core's configuration.
     fn restore(&mut self);
     /// The firmware's factory defaults in active memory, the saved values kept but unused
     /// (`$$$***`, UM p.243): all zero in this core's configuration.
     fn factory(&mut self);
 }
 
-/// Every I-variable I0..I8191, 64 KiB: what an emulator embeds.
+/// Every I-variable I0..I8191, 128 KiB, each known once written.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct AllIVariables(pub [i64; I_VARIABLE_MAX as usize + 1]);
+pub struct AllIVariables(pub [Option<i64>; I_VARIABLE_MAX as usize + 1]);
 
 impl Default for AllIVariables {
     fn default() -> Self {
-        AllIVariables([0; I_VARIABLE_MAX as usize + 1])
+        AllIVariables([None; I_VARIABLE_MAX as usize + 1])
     }
 }
 
 impl IVariableStore for AllIVariables {
-    fn read(&self, n: u16) -> i64 {
-        self.0.get(usize::from(n)).copied().unwrap_or(0)
+    fn read(&self, n: u16) -> Option<i64> {
+        self.0.get(usize::from(n)).copied().flatten()
     }
     fn write(&mut self, n: u16, v: i64) -> bool {
         match self.0.get_mut(usize::from(n)) {
             Some(slot) => {
-                *slot = v;
+                *slot = Some(v);
                 true
             }
             None => false,
         }
     }
+    fn forget(&mut self, n: u16) {
+        if let Some(slot) = self.0.get_mut(usize::from(n)) {
+            *slot = None;
+        }
+    }
     fn restore(&mut self) {
-        self.0 = [0; I_VARIABLE_MAX as usize + 1];
+        self.0 = [None; I_VARIABLE_MAX as usize + 1];
     }
     fn factory(&mut self) {
         self.restore();
     }
 }
 
-/// Up to `N` non-zero I-variables in a small table; a write needing more answers ERR003.
+/// Up to `N` known I-variables in a small table; a write needing more answers ERR003.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct FewIVariables<const N: usize> {
     slots: [(u16, i64); N],
@@ -126,19 +134,21 @@ impl<const N: usize> Default for FewIVariables<N> {
 }
 
 impl<const N: usize> IVariableStore for FewIVariables<N> {
-    fn read(&self, n: u16) -> i64 {
-        self.slots.iter().take(self.len).find(|(k, _)| *k == n).map_or(0, |(_, v)| *v)
+    fn read(&self, n: u16) -> Option<i64> {
+        self.slots.iter().take(self.len).find(|(k, _)| *k == n).map(|(_, v)| *v)
+    }
+    fn forget(&mut self, n: u16) {
+        let len = self.len.min(N);
+        if let Some(i) = self.slots[..len].iter().position(|(k, _)| *k == n) {
+            // The last slot moves into the freed one.
+            self.slots[i] = self.slots[len.saturating_sub(1)];
+            self.len = len.saturating_sub(1);
+        }
     }
     fn write(&mut self, n: u16, v: i64) -> bool {
         let len = self.len.min(N);
         match self.slots[..len].iter().position(|(k, _)| *k == n) {
-            Some(i) if v == 0 => {
-                // Zero is the default: forget the slot (the last one moves into it).
-                self.slots[i] = self.slots[len.saturating_sub(1)];
-                self.len = len.saturating_sub(1);
-            }
             Some(i) => self.slots[i].1 = v,
-            None if v == 0 => {}
             None if len < N => {
                 self.slots[len] = (n, v);
                 self.len = len.saturating_add(1);
@@ -302,6 +312,13 @@ pub enum Command {
     Checksum,
     /// An M-variable assignment or memory write into I-variable `n` (SRM p.57: past I41).
     WriteIMemory(u16, i64),
+    /// `I{n}=*`: the factory default (through I41, SRM p.57).
+    DefaultI(u16),
+    /// A command whose answer is the card's own; the I-variables of `forgets` (first, count,
+    /// step) take values this core cannot compute.
+    CardOwn {
+        forgets: Option<(u16, u16, u16)>,
+    },
     Unrecognized,
 }
 
@@ -328,11 +345,16 @@ pub enum Reply {
     None,
     Silence,
     Ack,
-    Status { x: u32, y: u32 },
+    Status {
+        x: u32,
+        y: u32,
+    },
     Bootstrap,
     Value(i64),
     Hex(u32),
     Error(u16),
+    /// An answer this core has no rule for (the card's own).
+    CardOwn,
 }
 
 impl Reply {
@@ -930,7 +952,7 @@ impl Core {
                 let (x, y) = self.status_words(cfg);
                 Reply::Status { x, y }
             }
-            Command::ReadI(n) => Reply::Value(self.read_i(n, store)),
+            Command::ReadI(n) => self.read_i(n, store).map_or(Reply::CardOwn, Reply::Value),
             Command::WriteI(n, v) => self.write_i(n, v, store),
             Command::ReadHex(r) => Reply::Hex(self.register(cfg, r)),
             Command::Reset => {
@@ -976,15 +998,44 @@ impl Core {
             Command::Checksum => Reply::Hex(u32::from(self.tokens >> 1 & 1)),
             // SRM p.57: I41 does not stop an M-variable assignment or a memory write.
             Command::WriteIMemory(n, v) => self.store_i(n, v, store),
+            // As the reference model: the defaults of I8, I40, I41 are the core's; any other
+            // I-variable becomes unknown, unless I41 locks it (SRM p.57).
+            Command::DefaultI(n) => match n {
+                8 => self.write_i(8, i64::from(I8_DEFAULT), store),
+                40 => self.write_i(40, i64::from(I40_DEFAULT), store),
+                41 => self.write_i(41, i64::from(I41_DEFAULT), store),
+                n => {
+                    if !self.write_locked(n) {
+                        store.forget(n);
+                    }
+                    Reply::Ack
+                }
+            },
+            Command::CardOwn { forgets } => {
+                if let Some((first, count, step)) = forgets {
+                    for k in 0..count {
+                        let n = first.saturating_add(k.saturating_mul(step));
+                        if !self.write_locked(n) {
+                            store.forget(n);
+                        }
+                    }
+                }
+                Reply::CardOwn
+            }
             Command::Unrecognized => Reply::Error(3),
         }
     }
 
-    pub fn read_i<S: IVariableStore + ?Sized>(&self, n: u16, store: &S) -> i64 {
+    /// Whether I41 locks I`n` against host writes now (SRM p.57: the write is then ignored).
+    pub fn write_locked(&self, n: u16) -> bool {
+        LOCKOUT.iter().position(|(a, b)| (*a..=*b).contains(&n)).is_some_and(|bit| self.i41 & (1u8 << bit) != 0)
+    }
+
+    pub fn read_i<S: IVariableStore + ?Sized>(&self, n: u16, store: &S) -> Option<i64> {
         match n {
-            8 => i64::from(self.i8),
-            40 => i64::from(self.i40),
-            41 => i64::from(self.i41),
+            8 => Some(i64::from(self.i8)),
+            40 => Some(i64::from(self.i40)),
+            41 => Some(i64::from(self.i41)),
             _ => store.read(n),
         }
     }
@@ -993,10 +1044,8 @@ impl Core {
     /// outside I8's, I40's or I41's range answer ERR003 (MODEL, as the reference model); so does
     /// a write the store has no room for (a limit of the store, not of the card).
     fn write_i<S: IVariableStore + ?Sized>(&mut self, n: u16, v: i64, store: &mut S) -> Reply {
-        if let Some(bit) = LOCKOUT.iter().position(|(a, b)| (*a..=*b).contains(&n)) {
-            if self.i41 & (1u8 << bit) != 0 {
-                return Reply::Ack;
-            }
+        if self.write_locked(n) {
+            return Reply::Ack;
         }
         self.store_i(n, v, store)
     }

@@ -21,26 +21,35 @@ fn the_core_state_fits_in_twelve_machine_words() {
     );
 }
 
-/// A small store forgets zeroed slots, so it only runs out when more than N variables are
-/// non-zero at once; then the write answers ERR003 and the value is not half-stored.
+/// A small store holds the variables written since the last reset, zero included (a value
+/// the log wrote is known, whatever it is); when it is full the next write answers ERR003 and
+/// the value is not half-stored. A variable never written reads as the card's own.
 #[test]
-fn a_full_small_store_refuses_the_next_write_with_err003_and_zero_frees_a_slot() {
+fn a_full_small_store_refuses_the_next_write_with_err003_and_forgetting_frees_a_slot() {
     let cfg = config();
     let mut core = Core::power_on(&cfg);
     let mut store = FewIVariables::<2>::default();
     let cmd = |core: &mut Core, store: &mut FewIVariables<2>, c| core.apply(&cfg, Event::Command(c), store);
-    assert_eq!(cmd(&mut core, &mut store, Command::WriteI(130, 5)), Reply::Ack);
+    assert_eq!(cmd(&mut core, &mut store, Command::ReadI(130)), Reply::CardOwn, "never written: the card's own");
+    assert_eq!(cmd(&mut core, &mut store, Command::WriteI(130, 0)), Reply::Ack);
+    assert_eq!(cmd(&mut core, &mut store, Command::ReadI(130)), Reply::Value(0), "zero is a value the log wrote");
     assert_eq!(cmd(&mut core, &mut store, Command::WriteI(131, 6)), Reply::Ack);
     assert_eq!(cmd(&mut core, &mut store, Command::WriteI(132, 7)), Reply::Error(3));
-    assert_eq!(cmd(&mut core, &mut store, Command::ReadI(132)), Reply::Value(0));
-    assert_eq!(cmd(&mut core, &mut store, Command::WriteI(130, 0)), Reply::Ack);
-    assert_eq!(cmd(&mut core, &mut store, Command::WriteI(132, 7)), Reply::Ack);
+    assert_eq!(cmd(&mut core, &mut store, Command::ReadI(132)), Reply::CardOwn);
+    let forget = Command::CardOwn { forgets: Some((130, 1, 1)) };
+    assert_eq!(cmd(&mut core, &mut store, forget), Reply::CardOwn);
+    assert_eq!(
+        cmd(&mut core, &mut store, Command::ReadI(130)),
+        Reply::CardOwn,
+        "written with a value the core cannot compute"
+    );
+    assert_eq!(cmd(&mut core, &mut store, Command::WriteI(132, 7)), Reply::Ack, "the freed slot");
     assert_eq!(cmd(&mut core, &mut store, Command::ReadI(131)), Reply::Value(6));
     assert_eq!(cmd(&mut core, &mut store, Command::ReadI(132)), Reply::Value(7));
 }
 
-/// `$$$` resets the card: I-variables go back to their saved values (zero here) in the store
-/// too, like I8, I40 and I41 inside the core.
+/// `$$$` resets the card: I-variables go back to their saved values, which this core does not
+/// know (the card's own), in the store too; I8, I40 and I41 to theirs inside the core.
 #[test]
 fn a_reset_command_restores_the_stored_i_variables() {
     let cfg = config();
@@ -49,12 +58,12 @@ fn a_reset_command_restores_the_stored_i_variables() {
     assert_eq!(core.apply(&cfg, Event::Command(Command::WriteI(8191, -3)), &mut *store), Reply::Ack);
     assert_eq!(core.apply(&cfg, Event::Command(Command::ReadI(8191)), &mut *store), Reply::Value(-3));
     core.apply(&cfg, Event::Command(Command::Reset), &mut *store);
-    assert_eq!(core.apply(&cfg, Event::Command(Command::ReadI(8191)), &mut *store), Reply::Value(0));
+    assert_eq!(core.apply(&cfg, Event::Command(Command::ReadI(8191)), &mut *store), Reply::CardOwn);
 }
 
 /// `$$$***` puts the factory defaults in use (UM p.243): in both stores every I-variable the
-/// core does not keep itself reads its default, 0, afterwards. (The small store was once left
-/// holding its values; only this test notices.)
+/// core does not keep itself is unknown afterwards (the card's own default). (The small store
+/// was once left holding its values; only this test notices.)
 #[test]
 fn reinitialization_puts_the_factory_defaults_in_use_in_either_store() {
     let cfg = config();
@@ -65,7 +74,7 @@ fn reinitialization_puts_the_factory_defaults_in_use_in_either_store() {
         (Command::WriteI(130, 5), Reply::Ack),
         (Command::ReadI(130), Reply::Value(5)),
         (Command::Reinitialize, Reply::None),
-        (Command::ReadI(130), Reply::Value(0)),
+        (Command::ReadI(130), Reply::CardOwn),
     ] {
         assert_eq!(core.apply(&cfg, Event::Command(c), &mut few), expected, "small store: {c:?}");
     }
@@ -73,23 +82,30 @@ fn reinitialization_puts_the_factory_defaults_in_use_in_either_store() {
     for (c, expected) in [
         (Command::WriteI(130, 5), Reply::Ack),
         (Command::Reinitialize, Reply::None),
-        (Command::ReadI(130), Reply::Value(0)),
+        (Command::ReadI(130), Reply::CardOwn),
     ] {
         assert_eq!(core.apply(&cfg, Event::Command(c), &mut *all), expected, "full store: {c:?}");
     }
 }
 
-/// Writing 0 to a variable the small store does not hold stores nothing (0 is what it reads
-/// anyway), so such writes never use up the room other variables need.
+/// `I{n}=*` (SRM on-line commands): I40 to its factory default through the core, any other
+/// I-variable unknown; both ignored while I41 locks them (SRM p.57).
 #[test]
-fn writing_zero_to_an_unstored_variable_takes_no_slot() {
+fn a_default_write_restores_i40_and_forgets_others_unless_locked() {
     let cfg = config();
     let mut core = Core::power_on(&cfg);
-    let mut store = FewIVariables::<2>::default();
-    for c in [Command::WriteI(140, 0), Command::WriteI(141, 0), Command::WriteI(130, 5), Command::WriteI(131, 6)] {
-        assert_eq!(core.apply(&cfg, Event::Command(c), &mut store), Reply::Ack, "{c:?}");
-    }
-    assert_eq!(core.apply(&cfg, Event::Command(Command::ReadI(131)), &mut store), Reply::Value(6));
+    let mut store = FewIVariables::<4>::default();
+    let mut cmd = |c| core.apply(&cfg, Event::Command(c), &mut store);
+    assert_eq!(cmd(Command::WriteI(40, 9)), Reply::Ack);
+    assert_eq!(cmd(Command::WriteI(130, 9)), Reply::Ack);
+    assert_eq!(cmd(Command::DefaultI(40)), Reply::Ack);
+    assert_eq!(cmd(Command::ReadI(40)), Reply::Value(0));
+    assert_eq!(cmd(Command::WriteI(41, 1)), Reply::Ack, "I41 bit 0 locks I100-I4899 (SRM p.57)");
+    assert_eq!(cmd(Command::DefaultI(130)), Reply::Ack);
+    assert_eq!(cmd(Command::ReadI(130)), Reply::Value(9), "locked: ignored");
+    assert_eq!(cmd(Command::WriteI(41, 0)), Reply::Ack);
+    assert_eq!(cmd(Command::DefaultI(130)), Reply::Ack);
+    assert_eq!(cmd(Command::ReadI(130)), Reply::CardOwn);
 }
 
 /// SRM p.289: the first reply character is bits 23-20 of X:$000006, the twelfth bits 3-0 of

@@ -1142,15 +1142,15 @@ mod tests {
         start.controller.i41 = 2;
         let write = Event::Command(HostCommand::parse("I5100=1").unwrap());
         let honest = WatchdogModel::new(cfg.clone());
-        assert_eq!(honest.step(&start, &write).1.controller.i_variable(5100), 0, "locked: ignored");
+        assert_eq!(honest.step(&start, &write).1.controller.i_variable(5100), None, "locked: ignored");
         let canary = WatchdogModel { canary: Some(Canary::LockoutIgnored), ..WatchdogModel::new(cfg) };
-        assert_eq!(canary.step(&start, &write).1.controller.i_variable(5100), 1, "the canary lets it through");
+        assert_eq!(canary.step(&start, &write).1.controller.i_variable(5100), Some(1), "the canary lets it through");
         // Only a running card's lockout: a tripped card stays silent and unchanged even so, or
         // the canary would break a second sentence (UM p.215) and blur what its test shows.
         // (cargo-mutants: the canary's guard turned to `true`.)
         let mut tripped = start.clone();
         tripped.controller.trip = Some(crate::controller::TripCause::StrobeTimeout);
-        assert_eq!(canary.step(&tripped, &write).1.controller.i_variable(5100), 0, "tripped: unchanged");
+        assert_eq!(canary.step(&tripped, &write).1.controller.i_variable(5100), None, "tripped: unchanged");
         // And only locked writes: an unlocked one leaves the state the honest model leaves,
         // down to the entry a write of 0 removes. (cargo-mutants: `&` turned to `|`.)
         let mut unlocked = start;

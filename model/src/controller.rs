@@ -439,7 +439,9 @@ impl Controller {
                 let (x, y) = self.status_words(cfg);
                 Reply::Status { x, y }
             }
-            HostCommand::ReadI(n) => Reply::Value(self.i_variable(*n)),
+            // A variable no rule fixes and the log never wrote is the card's own (its saved
+            // value, unknown to the model): not compared.
+            HostCommand::ReadI(n) => self.i_variable(*n).map_or(Reply::CardOwn, Reply::Value),
             HostCommand::WriteI(n, v) => self.write_i_variable(cfg, *n, *v),
             HostCommand::ReadHex(r) => Reply::Hex(self.register(cfg, *r)),
             HostCommand::Reset => {
@@ -488,17 +490,49 @@ impl Controller {
             // SRM p.57: "I41 does not prevent changes to an I-variable by means of an M-variable
             // assignment or a direct memory write command".
             HostCommand::WriteIMemory(n, v) => self.store_i_variable(cfg, *n, *v),
+            // SRM on-line commands `I{data}=*`: the factory default, through the lockout as
+            // any write (SRM p.57). MODEL: the model knows the defaults of the variables it
+            // rules on (variables.yaml); any other becomes the card's own.
+            HostCommand::DefaultI(n) => match *n {
+                8 => self.write_i_variable(cfg, 8, i64::from(cfg.factory.i8)),
+                40 => self.write_i_variable(cfg, 40, i64::from(cfg.factory.i40)),
+                41 => self.write_i_variable(cfg, 41, i64::from(cfg.factory.i41)),
+                n => {
+                    if !self.write_locked(cfg, n) {
+                        self.other_i_variables.remove(&n);
+                    }
+                    Reply::Ack
+                }
+            },
+            // The card's own commands: whatever they answer, the model has no rule for it. A
+            // write the model cannot compute leaves the variables it wrote the card's own
+            // (unless I41 locked them: SRM p.57, the write is then ignored).
+            HostCommand::Card { forgets, .. } => {
+                for n in forgets.iter().flat_map(|r| r.numbers()) {
+                    if !self.write_locked(cfg, n) {
+                        self.other_i_variables.remove(&n);
+                    }
+                }
+                Reply::CardOwn
+            }
             // Facts s.3: ERR003, "data error or unrecognized command".
             HostCommand::Unrecognized(_) => Reply::Error(3),
         }
     }
 
-    pub fn i_variable(&self, n: u16) -> i64 {
+    /// SRM p.57: whether I41 now locks I`n` against host writes (which are then ignored).
+    fn write_locked(&self, cfg: &ModelConfig, n: u16) -> bool {
+        cfg.lockout_bit(n).is_some_and(|bit| self.i41 & (1 << bit) != 0)
+    }
+
+    /// I`n`'s value, when the model knows it: I8, I40, I41 always; any other once the log
+    /// wrote it since the last reset (before that it holds the card's own saved value).
+    pub fn i_variable(&self, n: u16) -> Option<i64> {
         match n {
-            8 => i64::from(self.i8),
-            40 => i64::from(self.i40),
-            41 => i64::from(self.i41),
-            _ => self.other_i_variables.get(&n).copied().unwrap_or(0),
+            8 => Some(i64::from(self.i8)),
+            40 => Some(i64::from(self.i40)),
+            41 => Some(i64::from(self.i41)),
+            _ => self.other_i_variables.get(&n).copied(),
         }
     }
 
@@ -525,13 +559,7 @@ impl Controller {
             40 if in_range(cfg.i40_range) => self.i40 = v as u16,
             41 if in_range(cfg.i41_range) => self.i41 = v as u8,
             8 | 40 | 41 => return Reply::Error(3),
-            _ => {
-                if v == 0 {
-                    self.other_i_variables.remove(&n);
-                } else {
-                    self.other_i_variables.insert(n, v);
-                }
-            }
+            _ => self.other_i_variables.insert(n, v),
         }
         Reply::Ack
     }

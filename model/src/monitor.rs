@@ -155,7 +155,7 @@ pub const MONITORS: &[Monitor] = &[
         cite: "SRM p.57",
         sentence: "The following table shows the I-variable set that each bit of I41 controls (I41 is in none of them).",
         check: Check::Event(|cfg, prev, ev, _, next| match ev {
-            Event::Command(HostCommand::WriteI(41, v)) if running(prev) && cfg.i41_range.0 <= *v && *v <= cfg.i41_range.1 => next.i_variable(41) == *v,
+            Event::Command(HostCommand::WriteI(41, v)) if running(prev) && cfg.i41_range.0 <= *v && *v <= cfg.i41_range.1 => next.i_variable(41) == Some(*v),
             _ => true,
         }),
     },
@@ -164,7 +164,7 @@ pub const MONITORS: &[Monitor] = &[
         cite: "SRM p.57",
         sentence: "each bit independently controls access to a set of I-variables.",
         check: Check::Event(|cfg, prev, ev, reply, next| match ev {
-            Event::Command(HostCommand::WriteI(n, v)) if running(prev) && !locked(cfg, prev, *n) && reply == Reply::Ack => next.i_variable(*n) == *v,
+            Event::Command(HostCommand::WriteI(n, v)) if running(prev) && !locked(cfg, prev, *n) && reply == Reply::Ack => next.i_variable(*n) == Some(*v),
             _ => true,
         }),
     },
@@ -173,7 +173,7 @@ pub const MONITORS: &[Monitor] = &[
         cite: "SRM p.57",
         sentence: "I41 does not prevent changes to an I-variable by means of an M-variable assignment or a direct memory write command.",
         check: Check::Event(|_, prev, ev, reply, next| match ev {
-            Event::Command(HostCommand::WriteIMemory(n, v)) if running(prev) && reply == Reply::Ack => next.i_variable(*n) == *v,
+            Event::Command(HostCommand::WriteIMemory(n, v)) if running(prev) && reply == Reply::Ack => next.i_variable(*n) == Some(*v),
             _ => true,
         }),
     },
@@ -620,7 +620,7 @@ mod tests {
         let prev = lockout_card(&cfg, 1);
         let ev = command("I5100=1");
         let (next, reply) = step(&cfg, &prev, &ev);
-        assert_eq!((reply, next.i_variable(5100)), (Reply::Ack, 1));
+        assert_eq!((reply, next.i_variable(5100)), (Reply::Ack, Some(1)));
         assert!(check(&cfg, &prev, &ev, reply, &next), "the model's write holds");
         let mut ignored = next.clone();
         ignored.other_i_variables.remove(&5100);
@@ -628,7 +628,7 @@ mod tests {
         // The locked write that changes nothing is the lockout's, not a violation of this one.
         let locked = command("I130=1");
         let (next, reply) = step(&cfg, &prev, &locked);
-        assert_eq!(next.i_variable(130), 0);
+        assert_eq!(next.i_variable(130), None);
         assert!(check(&cfg, &prev, &locked, reply, &next));
     }
 
@@ -643,7 +643,7 @@ mod tests {
         let prev = lockout_card(&cfg, 1);
         let ev = command("<MEMORY-WRITE I130=2>");
         let (next, reply) = step(&cfg, &prev, &ev);
-        assert_eq!((reply, next.i_variable(130)), (Reply::Ack, 2));
+        assert_eq!((reply, next.i_variable(130)), (Reply::Ack, Some(2)));
         assert!(check(&cfg, &prev, &ev, reply, &next), "the model's memory write holds");
         assert!(!check(&cfg, &prev, &ev, reply, &prev), "a memory write stopped by I41 fires");
         let refused = command("<MEMORY-WRITE I41=16>");
@@ -653,7 +653,7 @@ mod tests {
         let mut tripped = prev.clone();
         tripped.trip = Some(TripCause::StrobeTimeout);
         let (next, reply) = step(&cfg, &tripped, &ev);
-        assert_eq!((reply, next.i_variable(130)), (Reply::Silence, 0));
+        assert_eq!((reply, next.i_variable(130)), (Reply::Silence, None));
         assert!(check(&cfg, &tripped, &ev, reply, &next), "a tripped card's silence holds");
     }
 

@@ -294,14 +294,17 @@ fn a_trip_sets_the_outputs_and_init_clears_them() {
     assert_eq!(card.outputs, pmacwd_model::controller::Outputs::default());
 }
 
-/// The model does not track host addressing: a stop command without its motor or C.S. stays
-/// unrecognized (ERR003), as it was before motion was modelled (docs/model.md, MODEL).
+/// A step's command is read with the addressing a card powers up with (SRM p.259: the
+/// examples send `J+` without a `#` first): a bare `K` kills motor 1, a bare `A` aborts C.S. 1.
 #[test]
-fn a_stop_command_without_its_address_is_answered_err003() {
+fn a_stop_command_without_its_address_acts_on_motor_1_and_cs_1() {
     let cfg = config("motion", "um-215");
-    let mut card = Controller::power_on(&cfg);
-    assert_eq!(cmd(&mut card, &cfg, "K"), Reply::Error(3));
-    assert_eq!(cmd(&mut card, &cfg, "A"), Reply::Error(3));
+    let mut bare = Controller::power_on(&cfg);
+    let mut addressed = Controller::power_on(&cfg);
+    for (b, a) in [("#1J+", "#1J+"), ("K", "#1K"), ("A", "&1A")] {
+        assert_eq!(cmd(&mut bare, &cfg, b), cmd(&mut addressed, &cfg, a), "{b}");
+        assert_eq!(bare, addressed, "{b}");
+    }
 }
 
 /// UM p.217: the card "continually computes the checksum of its firmware as a background task"

@@ -11,6 +11,8 @@ and sent as it sends them; each answer is read the way the driver reads it:
 - pmacAxis (per axis): fast `#nP`, `#nF`, `i<n>24`, `#n?`; at start `I<n>13 I<n>14 I<n>30
   I<n>31 I<n>33`.
 - pmacHardwareTurbo::setupCSStatus: pre-fast `&n??`.
+- pmacController::mediumUpdate: `&n#m->,` (pmacHardwareTurbo CS_AXIS_MAPPING) for every axis
+  with a coordinate system, here all 8 axes in C.S. 1, on every medium poll.
 - pmacCommandStore::buildCommandString: keys joined with spaces after a leading space, at most
   PMAC_MAX_REQUESTS = 40 per line; pmacCommandStore::updateReply: the answer split at CR, one
   value per key in order.
@@ -37,6 +39,7 @@ def driver_lists(cs_count):
     for a in axes:
         fast += [f"#{a}P", f"#{a}F", f"i{a}24", f"#{a}?"]
     medium = [f"&{cs}%" for cs in range(1, cs_count + 1)]
+    medium += [f"&1#{a}->," for a in axes]
     medium += [f"M{5000 + p}" for p in range(32)]
     medium += [f"M{p * 100 + 5180}" for p in range(16)]
     medium += [f"M{32 + g}" for g in range(8)] + [f"M{g}" for g in range(16)]
@@ -65,6 +68,8 @@ def check_value(key, value):
         ok = re.fullmatch(r"[0-9A-F]{18}", value)
     elif key.endswith("?"):
         ok = re.fullmatch(r"[0-9A-F]{12}", value)
+    elif key.endswith("->,"):
+        ok = re.fullmatch(r"[-+0-9.XYZABCUVWI]+", value)  # an axis definition, `0` for none
     elif re.fullmatch(r"i\d+24", key):
         ok = HEX.match(value)  # flag control, an address-type I-variable: hex under I9 = 2
     else:
@@ -115,13 +120,57 @@ class EpicsPollLists(unittest.TestCase):
         self.assertEqual(problems, [])
 
     def test_the_motor_commands_the_driver_sends_are_accepted(self):
-        # pmacAxis.cpp: move, home, stop, kill as it formats them (a space after `#n`).
-        for line in ["#1 J/", "#1 K", "#1 HOME", "#1 J=100", "#1 J/ M140=1", "&1A", "#1J/"]:
+        # Every command line the driver builds for a Turbo PMAC / Geo Brick, formatted as its
+        # source formats it (DiamondLightSource/pmac, pmacApp/src), none left out.
+        self.assertEqual(self.ask("cid"), ["603382"])
+        self.assertRegex(self.ask("cpu")[0], r"^DSP563\d\d$", "pmacController::readDeviceType")
+        axis, cs = 1, 1
+        lines = [
+            # pmacAxis::move: velocity and acceleration, then the jog to the target.
+            f"I{axis}22=0.500000 I{axis}20=100.000000 #{axis} J=2000.00",
+            f" i{axis}24=i{axis}24&$FDFFFF",
+            # pmacAxis::home: the flag set, then the search.
+            f" i{axis}24=i{axis}24|$20000",
+            f"#{axis} HOME",
+            # pmacAxis::moveVelocity: a jog at a velocity.
+            f"I{axis}22=2.000000 I{axis}20=50.000000 #{axis} J+",
+            # pmacAxis::stop, with and without the C.S. stop of a motor in one.
+            f"#{axis} J/ M{axis}40=1",
+            f"M{axis}40=1",
+            f"&{cs}A Q7{axis}=Q8{axis}",
+            f"#{axis} J/",
+            f"#{axis} K",
+            # pmacAxis::setPosition (Turbo): the kill and the position offsets, as expressions.
+            f"#{axis}K M{axis}61=100*32*I{axis}08 M{axis}62=100*32*I{axis}08",
+            # pmacController limits: the soft limits off and on.
+            f"I{axis}13=0 I{axis}14=0",
+            f"I{axis}14=-1000 I{axis}13=1",
+            # pmacController feedrate: ` &n%v` with a fraction.
+            f" &{cs}%100.000000",
+            # pmacCSAxis / pmacCSController: a C.S. move and its stop.
+            f"&{cs}Q70=1.500000 ",
+            f"I{cs + 50}87=100.000000",
+            f"&{cs}Q71=10.000000000000 B1R",
+            f"&{cs}A Q71=Q81",
+            f"&{cs}A",
+            # pmacCsGroups: redefining the axes of a C.S., and its look-ahead.
+            "undefine all",
+            f"&{cs} #{axis}->X",
+            f"&{cs} #2->Y",
+            "DELETE ALL TEMPS",
+            f"&{cs}DEFINE LOOKAHEAD 50,10",
+            # pmacController kill all.
+            "\x0b",
+        ]
+        for line in lines:
             self.ask(line)
-        # pmacController: kill all, a feedrate write.
-        self.ask("\x0b")
-        self.ask("&1%100")
-        self.assertEqual(self.ask("&1%"), ["100"])
+        self.assertEqual(self.ask(f"&{cs}%"), ["100"])
+        self.assertEqual(self.ask(f"&{cs}#{axis}->,"), ["X"], "the definition set above, read back")
+        self.assertEqual(self.ask(f"&{cs}#3->,"), ["0"], "a motor without one")
+        self.assertEqual(self.ask(f"I{axis}22"), ["0.5"], "a fraction is kept")
+        self.assertEqual(self.ask(f"M{axis}61"), ["0"], "100*32*I108 with I108 = 0")
+        # pmacCSController::listKinematic: the listing loop ends at an empty reply.
+        self.assertEqual(self.ask(f"&{cs} list forward,0,1"), [])
 
 
 if __name__ == "__main__":

@@ -30,7 +30,7 @@ impl Card {
 
     /// `Mn..m->`: PMAC-SRM p.253, the definition itself, or with I9 bit 0 the whole statement.
     pub(super) fn report_m(&mut self, first: u16, last: u16, out: &mut Vec<Answer>) {
-        let whole_statement = self.core.read_i(9, &self.store) & 1 != 0;
+        let whole_statement = self.core.read_i(9, &self.store).unwrap_or(0) & 1 != 0;
         for n in first..=last {
             let text = self.mvars.definition(n).report();
             out.push(Answer::Data(if whole_statement { format!("M{n}->{text}") } else { text }));
@@ -65,7 +65,7 @@ impl Card {
 
     /// M-variable `n`'s value: its own (`*`, or a documented constant), or what its
     /// definition points at (module `mvar`).
-    fn m_value(&mut self, n: u16) -> f64 {
+    pub(super) fn m_value(&mut self, n: u16) -> f64 {
         match self.mvars.definition(n) {
             Definition::SelfReferenced => self.memory.read(VarKind::M, n),
             Definition::Word { space, address, offset, width, format } => {
@@ -73,13 +73,13 @@ impl Card {
             }
             Definition::Fixed { address, dual_ported } => {
                 if let Some(i) = self.mvars.i_variable_at(address) {
-                    return self.core.read_i(i, &self.store) as f64;
+                    return self.core.read_i(i, &self.store).unwrap_or(0) as f64;
                 }
                 let (x, y) = (self.word_at(Space::X, address), self.word_at(Space::Y, address));
                 (if dual_ported { mvar::join32(x, y) } else { mvar::join48(x, y) }) as f64
             }
             Definition::Float { address, .. } => match self.mvars.i_variable_at(address) {
-                Some(i) => self.core.read_i(i, &self.store) as f64,
+                Some(i) => self.core.read_i(i, &self.store).unwrap_or(0) as f64,
                 None if Register::at(Space::X, address).is_some() || Register::at(Space::Y, address).is_some() => {
                     mvar::join48(self.word_at(Space::X, address), self.word_at(Space::Y, address)) as f64
                 }
@@ -90,7 +90,7 @@ impl Card {
 
     /// The 24-bit word at `space:address`: a core register read as `RH` reads it, half of an
     /// I-variable's storage (X the high 24 bits, Y the low), or a word the emulator keeps.
-    fn word_at(&mut self, space: Space, address: u32) -> u32 {
+    pub(super) fn word_at(&mut self, space: Space, address: u32) -> u32 {
         if let Some(r) = Register::at(space, address) {
             let read = core_command(&HostCommand::ReadHex(r));
             return match self.core.command(&self.cfg, read, &mut self.store) {
@@ -99,7 +99,7 @@ impl Card {
             };
         }
         if let Some(i) = self.mvars.i_variable_at(address) {
-            let (x, y) = mvar::split48(self.core.read_i(i, &self.store));
+            let (x, y) = mvar::split48(self.core.read_i(i, &self.store).unwrap_or(0));
             return if space == Space::X { x } else { y };
         }
         self.mvars.word(space, address)
@@ -130,7 +130,7 @@ impl Card {
                 let word = mvar::with_field(self.word_at(space, address), offset, width, format, mvar::whole(value));
                 match i_variable {
                     Some(i) => {
-                        let (x, y) = mvar::split48(self.core.read_i(i, &self.store));
+                        let (x, y) = mvar::split48(self.core.read_i(i, &self.store).unwrap_or(0));
                         let v = if space == Space::X { mvar::join48(word, y) } else { mvar::join48(x, word) };
                         return self.core_answer(&HostCommand::WriteIMemory(i, v));
                     }

@@ -1,27 +1,38 @@
-//! The card's command-line grammar: how one line of text becomes the on-line commands a Turbo
-//! PMAC executes, in order.
+//! The card's command language, parsed once: how one line of text becomes the on-line commands
+//! a Turbo PMAC executes, in order. The model's vocabulary ([`crate::vocab::HostCommand`]), the
+//! host-log importer, `pmacwd record` and the emulator all read command lines here; there is
+//! no second parser of host command lines in the workspace. `docs/grammar.md` is the reference
+//! table, one row per command with its citation.
 //!
 //! A host may run commands together without separators: DLS's `dls-pmaccontrol` polls with
 //! `i65???&1??%#1?PVF m190 p99#2?PVF ...`, and the SRM's own examples do the same
 //! (`@0&1B1R@1&1B7R`, SRM p.259). Spaces are allowed between commands and ignored. What
 //! makes this readable without separators is that every command starts with a fixed symbol or
-//! keyword and takes only what its own syntax allows (a number after `I`, a value after `=`),
-//! so the next command starts where the previous one's syntax ends.
+//! keyword and takes only what its own syntax allows (a number after `I`, an expression after
+//! `=`), so the next command starts where the previous one's syntax ends.
 //!
 //! Motor commands (`?`, `P`, `V`, `F`, `J+`, `K`, `HM`) act on the motor last addressed with
-//! `#n`, coordinate-system commands (`??`, `%`, `A`, `R`, `Qn`) on the C.S. last addressed with
-//! `&n`; the addressing stays until changed, on this port only (SRM p.270: "the individual motor
-//! addressed with the # command"; UM p.46: motor-, C.S.-specific and global on-line commands),
-//! so it is kept per connection in [`Addressing`]. Control characters are commands of their
-//! own that need no carriage return (SRM p.259), so they may appear anywhere in a line.
+//! `#n`, coordinate-system commands (`??`, `%`, `A`, `R`, `Qn`, `#n->`) on the C.S. last
+//! addressed with `&n`; the addressing stays until changed, on this port only (SRM p.270: "the
+//! individual motor addressed with the # command"; UM p.46: motor-, C.S.-specific and global
+//! on-line commands), so it is kept per connection in [`Addressing`]. Control characters are
+//! commands of their own that need no carriage return (SRM p.259), so they may appear anywhere
+//! in a line.
+//!
+//! Values after `=` are expressions ([`expr`]): `I120=I120+5`, `M162=1000/0.0009765625`,
+//! `I(P1*100+20)=10`, `Q71=Q81`. The grammar reads them; the card that holds the variables
+//! evaluates them.
 //!
 //! The parser stops at the first command it cannot read: the card answers ERR003 there and
-//! runs nothing after it (`framing`'s module text says why).
+//! runs nothing after it (facts page s.3: ERR003, "data error or unrecognized command").
 
 pub mod definition;
+pub mod expr;
 
 use crate::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand, Space, COORDINATE_SYSTEM_MAX, MOTOR_MAX};
 use definition::{parse_address, Definition, Format};
+pub use expr::{Env, EvalError, Expr, Index};
+use std::fmt;
 
 /// The motor and coordinate system a connection addresses. A card powers up addressing motor
 /// 1 and C.S. 1 (the SRM's examples send `J+` and `P1` without a `#` first, SRM p.259).
@@ -38,7 +49,7 @@ impl Default for Addressing {
 }
 
 /// The four kinds of numbered variable (UM p.243: 8192 of each, 0..8191).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum VarKind {
     I,
     M,
@@ -49,10 +60,63 @@ pub enum VarKind {
 /// The highest number of an I-, M-, P- or Q-variable (UM p.243).
 pub const VARIABLE_MAX: u16 = 8191;
 
-/// A character that would make a value the start of an expression (`I124=I124&$FDFFFF`),
-/// which the emulator does not evaluate.
-fn is_operator(c: u8) -> bool {
-    matches!(c, b'&' | b'|' | b'*' | b'+' | b'-' | b'/' | b'^')
+/// Numbered variables of one kind: `I130` (one), `I20..23` (a run), `I130,4,100` (four,
+/// 100 apart: I130, I230, I330, I430; SRM on-line commands, `I{constant}[,{constant}[,{constant}]]`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct VarRange {
+    pub first: u16,
+    pub count: u16,
+    pub step: u16,
+}
+
+impl VarRange {
+    pub fn one(n: u16) -> VarRange {
+        VarRange { first: n, count: 1, step: 1 }
+    }
+
+    /// `first..last`.
+    pub fn run(first: u16, last: u16) -> VarRange {
+        VarRange { first, count: last - first + 1, step: 1 }
+    }
+
+    pub fn numbers(self) -> impl Iterator<Item = u16> {
+        (0..self.count).map(move |k| self.first + k * self.step)
+    }
+
+    pub fn last(self) -> u16 {
+        self.first + (self.count - 1) * self.step
+    }
+
+    /// The run `first..last` this is, if its step is 1.
+    pub fn as_run(self) -> Option<(u16, u16)> {
+        (self.step == 1).then(|| (self.first, self.last()))
+    }
+}
+
+impl fmt::Display for VarRange {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match (self.count, self.step) {
+            (1, _) => write!(f, "{}", self.first),
+            (_, 1) => write!(f, "{}..{}", self.first, self.last()),
+            _ => write!(f, "{},{},{}", self.first, self.count, self.step),
+        }
+    }
+}
+
+/// Which variables a read or an assignment names.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Vars {
+    Numbers(VarRange),
+    /// `I(P1*100+20)`: the number computed on the card (UM p.248).
+    Computed(Expr),
+}
+
+/// What an assignment gives.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Assigned {
+    Expr(Expr),
+    /// `I130=*`: the variable's factory default (SRM on-line commands, `I{data}=*`).
+    Default,
 }
 
 /// The largest feedrate override `%` takes, in percent. MODEL: the override register holds
@@ -68,8 +132,10 @@ pub enum Jog {
     Stop,
     /// `J=` to the last jog position, `J={value}` to a position in counts.
     To(Option<f64>),
-    /// `J^{value}`: a distance from the present actual position; `J:{value}` from the commanded one.
-    Relative(f64),
+    /// `J^{value}`: a distance from the present actual position.
+    ByFromActual(f64),
+    /// `J:{value}`: a distance from the present commanded position.
+    ByFromCommanded(f64),
 }
 
 /// The data-gathering commands dls-pmaccontrol's gather window sends.
@@ -85,6 +151,33 @@ pub enum Gather {
     List,
     /// `DELETE GATHER`: free the buffer.
     Delete,
+}
+
+/// A buffer `LIST` reports (SRM on-line commands `LIST PROG`, `LIST PLC`, `LIST FORWARD`,
+/// `LIST INVERSE`), with the `,start[,length]` of the partial forms.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Listing {
+    Program {
+        number: u16,
+        start: Option<u32>,
+        length: Option<u32>,
+    },
+    Plc {
+        number: u8,
+        start: Option<u32>,
+        length: Option<u32>,
+    },
+    /// Forward and inverse kinematics of a C.S. (`&1 list forward,0,1`, the EPICS driver).
+    Forward {
+        cs: u8,
+        start: Option<u32>,
+        length: Option<u32>,
+    },
+    Inverse {
+        cs: u8,
+        start: Option<u32>,
+        length: Option<u32>,
+    },
 }
 
 /// One on-line command with its motor or C.S. resolved from the addressing.
@@ -105,18 +198,22 @@ pub enum Command {
     ReportCs,
     /// `%` of a C.S.: report its feedrate override.
     FeedRead(u8),
-    /// `In`, `In..m`, `Mn`, `Pn`, `Qn` (Q-variables of the addressed C.S.).
+    /// `%{constant}` of a C.S.: set its feedrate override, in percent (0 holds the C.S.).
+    Feed {
+        cs: u8,
+        percent: f64,
+    },
+    /// `In`, `In..m`, `In,count,step`, `I(expr)`; and of `M`, `P`, `Q` (Q of the addressed C.S.).
     Read {
         kind: VarKind,
-        first: u16,
-        last: u16,
+        vars: Vars,
         cs: u8,
     },
-    /// `In=v` and the like. `text` is the value as sent (an I-variable keeps its integer).
+    /// `In=expr`, `In=*`, `Mn..m=expr`, `Q71=Q81`, `I(P1*100+20)=10`.
     Write {
         kind: VarKind,
-        number: u16,
-        value: f64,
+        vars: Vars,
+        value: Assigned,
         cs: u8,
     },
     /// `Mn[..m]->{definition}`: M-variable definitions (`M190->Y:$078F00,0,24,S`, UM p.246).
@@ -129,12 +226,6 @@ pub enum Command {
     MReport {
         first: u16,
         last: u16,
-    },
-    /// `Mn[..m]=v`: M-variable assignments (PMAC-SRM p.253: `M1..8=0`).
-    MWrite {
-        first: u16,
-        last: u16,
-        value: f64,
     },
     /// `W{X|Y|D|L}:{address},{value}[,{value}...]`: a direct memory write (SRM p.57), each value
     /// to the next address, as through an M-variable of `kind` (a whole 24-bit word for X and
@@ -150,20 +241,50 @@ pub enum Command {
         ivar: u16,
         value: Option<f64>,
     },
-    /// `RHX:$25`: a register read, in the vocabulary's text form for its parser.
-    ReadHex(String),
+    /// `RHX:$25`, `RHY:$000025`: read a 24-bit word in hex (SRM p.295 `RH`).
+    ReadHex {
+        space: Space,
+        address: u32,
+    },
     /// A motion or stop command for the core (motor, C.S. or global; UM p.217).
     Motion(Motion),
-    /// A jog with a target the vocabulary does not carry (`J=1000`, `J^1000`).
+    /// A jog with a target or a distance (`J=1000`, `J^1000`, `J:-5`).
     Jog(u8, Jog),
-    /// `HM` / `HOME`: a homing search move.
+    /// `HM` / `HOME`: a homing search move; `HMZ` / `HOMEZ`: zero the position where it stands.
     Home(u8),
+    HomeZero(u8),
+    /// `#m->{definition}` in C.S. `cs`: assign motor m to axes (`#1->1000X`, `#2->X+Y+10`,
+    /// `#3->I` for inverse kinematics; SRM on-line commands `#{constant}->{axis definition}`).
+    AxisDefine {
+        cs: u8,
+        motor: u8,
+        definition: String,
+    },
+    /// `#m->` (and the EPICS driver's `#m->,`): report motor m's axis definition in C.S. `cs`.
+    AxisReport {
+        cs: u8,
+        motor: u8,
+    },
+    /// `UNDEFINE`: erase the axis definitions of C.S. `cs`; `UNDEFINE ALL`: of every C.S.
+    Undefine {
+        cs: Option<u8>,
+    },
     /// `OPEN PLC n`, `OPEN PROG n`, `CLOSE`.
     OpenPlc(u8),
     OpenProgram(u16),
     Close,
     /// `ENABLE PLC n[,m...]`, `DISABLE PLC n`, and the PLCC forms.
     PlcSwitch,
+    /// `LIST PROG n`, `LIST PLC n`, `LIST FORWARD`, `LIST INVERSE`.
+    List(Listing),
+    /// `DEFINE LOOKAHEAD {segments},{outputs}` of C.S. `cs`, and `DELETE ALL TEMPS`
+    /// (the EPICS driver's C.S. group set-up): buffer management a host may send.
+    DefineLookahead {
+        cs: u8,
+        segments: u32,
+        outputs: u32,
+    },
+    DeleteAllTemps,
     /// `$$$`
     Reset,
     /// `$$$***`: re-initialize to the factory defaults (UM p.243).
@@ -175,11 +296,65 @@ pub enum Command {
     WriteIMemory(u16, i64),
     /// `SAVE`
     Save,
+    /// `VER`, `CID`, `CPU`: firmware version, card ID, CPU type.
     Version,
     CardId,
+    Cpu,
     Gather(Gather),
     /// A control character with no effect on this card (`<CTRL-X>`: nothing in progress to cancel).
     Ignored(u8),
+}
+
+impl Command {
+    /// How many values the card answers this command with (each ended by CR): `None` when the
+    /// number depends on what the card holds (a listing). Any command may instead answer an
+    /// error, which ends the line.
+    pub fn values(&self) -> Option<usize> {
+        Some(match self {
+            Command::GlobalStatus
+            | Command::CsStatus(_)
+            | Command::MotorStatus(_)
+            | Command::Position(_)
+            | Command::Velocity(_)
+            | Command::FollowingError(_)
+            | Command::ReportMotor
+            | Command::ReportCs
+            | Command::FeedRead(_)
+            | Command::ReadHex { .. }
+            | Command::AxisReport { .. }
+            | Command::Checksum
+            | Command::Version
+            | Command::CardId
+            | Command::Cpu => 1,
+            Command::Read { vars: Vars::Numbers(r), .. } => usize::from(r.count),
+            Command::Read { vars: Vars::Computed(_), .. } => 1,
+            Command::MReport { first, last } => usize::from(last - first) + 1,
+            Command::MacroStation { value, .. } => usize::from(value.is_none()),
+            Command::List(_) | Command::Gather(Gather::List) => return None,
+            Command::Feed { .. }
+            | Command::Write { .. }
+            | Command::MDefine { .. }
+            | Command::MemoryWrite { .. }
+            | Command::Motion(_)
+            | Command::Jog(..)
+            | Command::Home(_)
+            | Command::HomeZero(_)
+            | Command::AxisDefine { .. }
+            | Command::Undefine { .. }
+            | Command::OpenPlc(_)
+            | Command::OpenProgram(_)
+            | Command::Close
+            | Command::PlcSwitch
+            | Command::DefineLookahead { .. }
+            | Command::DeleteAllTemps
+            | Command::Reset
+            | Command::Reinitialize
+            | Command::WriteIMemory(..)
+            | Command::Save
+            | Command::Gather(Gather::Define(_) | Gather::Start | Gather::End | Gather::Delete)
+            | Command::Ignored(_) => 0,
+        })
+    }
 }
 
 /// Why a command could not be read: the card answers ERR003 (data error or unrecognized command).
@@ -187,6 +362,8 @@ pub enum Command {
 pub struct Unreadable {
     /// The text from where the unreadable command starts.
     pub at: String,
+    /// Where in the line it starts (a byte offset).
+    pub offset: usize,
     pub why: &'static str,
 }
 
@@ -196,14 +373,31 @@ pub fn parse_line(line: &[u8], addressing: &mut Addressing) -> Vec<Result<Comman
     parse_commands(line, addressing).into_iter().map(|(c, _)| c).collect()
 }
 
+/// One command read from a line: the command (or why not), and the text it was read from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Piece {
+    pub command: Result<Command, Unreadable>,
+    /// Where its text starts and ends in the line (byte offsets), addressing included.
+    pub start: usize,
+    pub end: usize,
+}
+
 /// As [`parse_line`], with where in `line` each command ends (an `OPEN` makes the rest of the
 /// line program text, which the card then reads differently).
 pub fn parse_commands(line: &[u8], addressing: &mut Addressing) -> Vec<(Result<Command, Unreadable>, usize)> {
+    pieces(line, addressing).into_iter().map(|p| (p.command, p.end)).collect()
+}
+
+/// As [`parse_line`], with the span of text each command was read from.
+pub fn pieces(line: &[u8], addressing: &mut Addressing) -> Vec<Piece> {
     let mut p = Parser { s: line, i: 0, addressing };
     let mut out = Vec::new();
-    while let Some(next) = p.next_command() {
+    loop {
+        p.skip_spaces();
+        let start = p.i;
+        let Some(next) = p.next_command() else { break };
         let failed = next.is_err();
-        out.push((next, p.i));
+        out.push(Piece { command: next, start, end: p.i });
         if failed {
             break;
         }
@@ -220,29 +414,35 @@ struct Parser<'a, 'b> {
 /// Multi-letter keywords, longest first where one is a prefix of another, each with what it
 /// starts. Single letters (`P`, `V`, `K`, `A`, ...) are tried only when none of these matches,
 /// so that `SAVE` is not `S` (step) and `HM` is not `H` (hold).
-const KEYWORDS: [&str; 24] = [
+const KEYWORDS: [&str; 30] = [
     "ENDGATHER",
+    "UNDEFINE",
     "CHECKSUM",
-    "ENDG",
+    "DISABLE",
     "DEFINE",
     "DELETE",
-    "DISABLE",
     "ENABLE",
     "GATHER",
+    "HOMEZ",
+    "UNDEF",
     "CLOSE",
     "HOME",
     "LIST",
     "OPEN",
     "SAVE",
+    "ENDG",
+    "CHKS",
     "VER",
     "CID",
+    "CPU",
     "DEF",
     "DEL",
     "DIS",
     "ENA",
     "GAT",
     "LIS",
-    "CHKS",
+    "HMZ",
+    "CLS",
     "HM",
     "MS",
 ];
@@ -264,7 +464,9 @@ impl Parser<'_, '_> {
     }
 
     fn error(&self, start: usize, why: &'static str) -> Unreadable {
-        Unreadable { at: String::from_utf8_lossy(&self.s[start..]).into_owned(), why }
+        // The rest of the line, at most a screenful: a reader of any length stays linear.
+        let end = self.s.len().min(start + 80);
+        Unreadable { at: String::from_utf8_lossy(&self.s[start..end]).into_owned(), offset: start, why }
     }
 
     /// Decimal digits as a number (at most 9 of them); `None` when there are none.
@@ -279,6 +481,7 @@ impl Parser<'_, '_> {
     /// A constant: optional sign, `$hex` or decimal with an optional fraction.
     fn value(&mut self) -> Option<f64> {
         self.skip_spaces();
+        let start = self.i;
         let negative = match self.peek() {
             Some(b'-') => {
                 self.i += 1;
@@ -292,24 +495,42 @@ impl Parser<'_, '_> {
         };
         let magnitude = if self.peek() == Some(b'$') {
             self.i += 1;
-            let start = self.i;
-            while self.peek().is_some_and(|c| c.is_ascii_hexdigit()) && self.i - start < 12 {
+            let from = self.i;
+            while self.peek().is_some_and(|c| c.is_ascii_hexdigit()) && self.i - from < 12 {
                 self.i += 1;
             }
-            let digits = std::str::from_utf8(&self.s[start..self.i]).ok()?;
-            i64::from_str_radix(digits, 16).ok()? as f64
+            let digits = std::str::from_utf8(&self.s[from..self.i]).ok()?;
+            i64::from_str_radix(digits, 16).ok().map(|v| v as f64)
         } else {
-            let start = self.i;
-            while self.peek().is_some_and(|c| c.is_ascii_digit() || c == b'.') && self.i - start < 24 {
+            let from = self.i;
+            let mut dot = false;
+            while let Some(c) = self.peek() {
+                if c == b'.' && !dot && !self.starts_with("..") {
+                    dot = true;
+                } else if !c.is_ascii_digit() || self.i - from >= 40 {
+                    break;
+                }
                 self.i += 1;
             }
-            let text = std::str::from_utf8(&self.s[start..self.i]).ok()?;
-            if !text.bytes().any(|c| c.is_ascii_digit()) {
-                return None;
+            let text = std::str::from_utf8(&self.s[from..self.i]).ok()?;
+            if text.bytes().any(|c| c.is_ascii_digit()) {
+                text.parse::<f64>().ok()
+            } else {
+                None
             }
-            text.parse::<f64>().ok()?
         };
-        Some(if negative { -magnitude } else { magnitude })
+        match magnitude {
+            Some(m) => Some(if negative { -m } else { m }),
+            None => {
+                self.i = start;
+                None
+            }
+        }
+    }
+
+    /// An expression after `=` (or inside `I(...)`).
+    fn expression(&mut self) -> Option<Expr> {
+        expr::parse(self.s, &mut self.i, self.addressing.cs)
     }
 
     fn next_command(&mut self) -> Option<Result<Command, Unreadable>> {
@@ -321,13 +542,53 @@ impl Parser<'_, '_> {
             if c == b'#' || c == b'&' {
                 self.i += 1;
                 match self.address(start, c == b'#') {
-                    Ok(true) => continue,
+                    Ok(true) => {
+                        // `#m->...`: motor m's axis definition in the addressed C.S.
+                        if c == b'#' {
+                            let save = self.i;
+                            self.skip_spaces();
+                            if self.starts_with("->") {
+                                self.i += 2;
+                                return Some(self.axis_definition(start));
+                            }
+                            self.i = save;
+                        }
+                        continue;
+                    }
                     Ok(false) => return Some(Ok(if c == b'#' { Command::ReportMotor } else { Command::ReportCs })),
                     Err(e) => return Some(Err(e)),
                 }
             }
             return Some(self.command(c, start));
         }
+    }
+
+    /// After `#m->`: a definition up to the first character that cannot continue it, or none
+    /// (a report). MODEL: the EPICS driver polls `&n#m->,` on every Turbo PMAC it drives
+    /// (pmacHardwareTurbo.cpp, CS_AXIS_MAPPING); the comma ends an empty definition, so it is
+    /// read as part of the report.
+    fn axis_definition(&mut self, start: usize) -> Result<Command, Unreadable> {
+        let (cs, motor) = (self.addressing.cs, self.addressing.motor);
+        // MODEL: the definition follows `->` directly; after a space, `#1-> UNDEFINE` is a
+        // report and then a command of its own.
+        let from = self.i;
+        while self.peek().is_some_and(|c| c.is_ascii_digit() || matches!(c, b'.' | b'+' | b'-' | b'I') || is_axis(c)) {
+            self.i += 1;
+        }
+        let text = String::from_utf8_lossy(&self.s[from..self.i]).to_ascii_uppercase();
+        if text.is_empty() {
+            if self.peek() == Some(b',') {
+                self.i += 1;
+            }
+            return Ok(Command::AxisReport { cs, motor });
+        }
+        if !valid_axis_definition(&text) {
+            return Err(self.error(
+                start,
+                "an axis definition is I, or scaled axes X Y Z A B C U V W and an offset (#1->1000X+10)",
+            ));
+        }
+        Ok(Command::AxisDefine { cs, motor, definition: text })
     }
 
     fn command(&mut self, c: u8, start: usize) -> Result<Command, Unreadable> {
@@ -351,12 +612,12 @@ impl Parser<'_, '_> {
             b'%' => {
                 self.i += 1;
                 self.skip_spaces();
-                if self.peek().is_some_and(|c| c.is_ascii_digit() || c == b'.') {
+                if self.peek().is_some_and(|c| c.is_ascii_digit() || c == b'.' || c == b'$') {
                     match self.value() {
-                        // The vocabulary's feedrate is whole percent; the card's `%` takes
-                        // fractions, rounded here. The range is the card's (0 to 838860%).
+                        // The card's range (0 to 838860 %), fractions kept (the EPICS driver
+                        // writes `&1%100.000000`).
                         Some(v) if (0.0..=FEED_MAX).contains(&v) => {
-                            Ok(self.cs_command(CsCommand::Feedrate(v.round().min(f64::from(u16::MAX)) as u16)))
+                            Ok(Command::Feed { cs: self.addressing.cs, percent: v })
                         }
                         _ => Err(self.error(start, "a feedrate override is 0 to 838860 %")),
                     }
@@ -373,6 +634,7 @@ impl Parser<'_, '_> {
                 Ok(Command::Reset)
             }
             b'<' if self.starts_with("<MEMORY-WRITE") => self.memory_write(start),
+            b'<' => self.control_name(start),
             b'/' => {
                 self.i += 1;
                 Ok(self.cs_command(CsCommand::EndOfMove))
@@ -401,6 +663,20 @@ impl Parser<'_, '_> {
         Ok(Command::Motion(Motion::Global(global)))
     }
 
+    /// `<CTRL-K>` and the like: a control character written as the manual prints it, as a
+    /// trace (which is text) holds it (UM p.217).
+    fn control_name(&mut self, start: usize) -> Result<Command, Unreadable> {
+        for (name, c) in
+            [("<CTRL-A>", 0x01), ("<CTRL-K>", 0x0B), ("<CTRL-O>", 0x0F), ("<CTRL-Q>", 0x11), ("<CTRL-X>", 0x18)]
+        {
+            if self.starts_with(name) {
+                self.i += name.len();
+                return self.control(c, start);
+            }
+        }
+        Err(self.error(start, "the control characters are written <CTRL-A>, <CTRL-K>, <CTRL-O>, <CTRL-Q>, <CTRL-X>"))
+    }
+
     /// After `#` or `&`: `Ok(true)` when a number followed and is now addressed, `Ok(false)`
     /// when none did (the command then reports the addressed motor or C.S.).
     fn address(&mut self, start: usize, motor: bool) -> Result<bool, Unreadable> {
@@ -422,19 +698,32 @@ impl Parser<'_, '_> {
         }
     }
 
-    /// `<MEMORY-WRITE In=v>` up to its `>`: read by the vocabulary's own parser, so the
-    /// emulator and a trace read it alike.
+    /// `<MEMORY-WRITE In=v>` up to its `>`.
     fn memory_write(&mut self, start: usize) -> Result<Command, Unreadable> {
-        let Some(len) = self.s[self.i..].iter().position(|&c| c == b'>') else {
-            return Err(self.error(start, "<MEMORY-WRITE ...> ends with `>`"));
+        const WHY: &str = "a memory write is <MEMORY-WRITE In=v>, n in 0..8191 and v a whole number";
+        self.i += "<MEMORY-WRITE".len();
+        self.skip_spaces();
+        if self.peek() != Some(b'I') {
+            return Err(self.error(start, WHY));
+        }
+        self.i += 1;
+        let n = match self.number().and_then(|n| u16::try_from(n).ok()) {
+            Some(n) if n <= VARIABLE_MAX => n,
+            _ => return Err(self.error(start, WHY)),
         };
-        let text = String::from_utf8_lossy(&self.s[self.i..=self.i + len]).into_owned();
-        match crate::vocab::HostCommand::parse(&text) {
-            Ok(crate::vocab::HostCommand::WriteIMemory(n, v)) => {
-                self.i += len + 1;
-                Ok(Command::WriteIMemory(n, v))
+        self.skip_spaces();
+        if self.peek() != Some(b'=') {
+            return Err(self.error(start, WHY));
+        }
+        self.i += 1;
+        let v = self.value().filter(|v| v.fract() == 0.0 && v.abs() < 1e15);
+        self.skip_spaces();
+        match (v, self.peek()) {
+            (Some(v), Some(b'>')) => {
+                self.i += 1;
+                Ok(Command::WriteIMemory(n, v as i64))
             }
-            _ => Err(self.error(start, "a memory write is <MEMORY-WRITE In=v>, n in 0..8191")),
+            _ => Err(self.error(start, WHY)),
         }
     }
 
@@ -453,12 +742,8 @@ impl Parser<'_, '_> {
         }
         // `RHX:$25`, `RHY:$000025`: a register read.
         if self.starts_with("RH") {
-            let from = self.i;
             self.i += 2;
-            while self.peek().is_some_and(|c| matches!(c, b'X' | b'Y' | b':' | b'$' | b' ') || c.is_ascii_hexdigit()) {
-                self.i += 1;
-            }
-            return Ok(Command::ReadHex(String::from_utf8_lossy(&self.s[from..self.i]).trim().to_string()));
+            return self.read_hex(start);
         }
         // `WX:$2082,7`: a direct memory write (SRM p.57).
         if self.peek() == Some(b'W')
@@ -469,7 +754,6 @@ impl Parser<'_, '_> {
         }
         let letter = self.peek().unwrap_or(b' ');
         self.i += 1;
-        let followed_by_digit = self.peek().is_some_and(|c| c.is_ascii_digit());
         let kind = match letter {
             b'I' => Some(VarKind::I),
             b'M' => Some(VarKind::M),
@@ -477,8 +761,13 @@ impl Parser<'_, '_> {
             b'Q' => Some(VarKind::Q),
             _ => None,
         };
-        if let (Some(kind), true) = (kind, followed_by_digit) {
-            return self.variable(kind, start);
+        if let Some(kind) = kind {
+            if self.peek().is_some_and(|c| c.is_ascii_digit()) {
+                return self.variable(kind, start);
+            }
+            if self.peek() == Some(b'(') {
+                return self.computed_variable(kind, start);
+            }
         }
         let motor = self.addressing.motor;
         Ok(match letter {
@@ -497,8 +786,38 @@ impl Parser<'_, '_> {
                 self.number();
                 self.cs_command(CsCommand::Begin)
             }
-            _ => return Err(self.error(start, "not a command this emulator knows")),
+            _ => return Err(self.error(start, "not an on-line command of the card")),
         })
+    }
+
+    /// After `RH`: `X:$25`, `Y:$000025`, `X$25` (SRM p.295, `RH{address}`).
+    fn read_hex(&mut self, start: usize) -> Result<Command, Unreadable> {
+        self.skip_spaces();
+        let space = match self.peek() {
+            Some(b'X') => Space::X,
+            Some(b'Y') => Space::Y,
+            _ => return Err(self.error(start, "RH reads X: or Y: memory, e.g. RHX:$25")),
+        };
+        self.i += 1;
+        if self.peek() == Some(b':') {
+            self.i += 1;
+        }
+        let from = self.i;
+        if self.peek() == Some(b'$') {
+            self.i += 1;
+            while self.peek().is_some_and(|c| c.is_ascii_hexdigit()) {
+                self.i += 1;
+            }
+        } else {
+            while self.peek().is_some_and(|c| c.is_ascii_digit()) {
+                self.i += 1;
+            }
+        }
+        let text = String::from_utf8_lossy(&self.s[from..self.i]).into_owned();
+        match parse_address(&text) {
+            Ok(address) => Ok(Command::ReadHex { space, address }),
+            Err(why) => Err(self.error(start, why)),
+        }
     }
 
     fn jog(&mut self, start: usize) -> Result<Command, Unreadable> {
@@ -509,94 +828,126 @@ impl Parser<'_, '_> {
             Some(b'+') => Ok(self.motor_command(MotorCommand::JogPlus)),
             Some(b'-') => Ok(self.motor_command(MotorCommand::JogMinus)),
             Some(b'/') => Ok(self.motor_command(MotorCommand::JogStop)),
-            Some(b'=') => {
-                let at = self.i;
-                match self.value() {
-                    Some(v) => Ok(Command::Jog(motor, Jog::To(Some(v)))),
-                    None => {
-                        self.i = at;
-                        Ok(Command::Jog(motor, Jog::To(None)))
-                    }
-                }
-            }
-            Some(b'^' | b':') => match self.value() {
-                Some(v) => Ok(Command::Jog(motor, Jog::Relative(v))),
-                None => Err(self.error(start, "J^ and J: take a distance")),
+            Some(b'=') => Ok(Command::Jog(motor, Jog::To(self.value()))),
+            Some(b'^') => match self.value() {
+                Some(v) => Ok(Command::Jog(motor, Jog::ByFromActual(v))),
+                None => Err(self.error(start, "J^ takes a distance")),
+            },
+            Some(b':') => match self.value() {
+                Some(v) => Ok(Command::Jog(motor, Jog::ByFromCommanded(v))),
+                None => Err(self.error(start, "J: takes a distance")),
             },
             _ => Err(self.error(start, "J is followed by +, -, /, =, ^ or :")),
         }
     }
 
-    fn variable(&mut self, kind: VarKind, start: usize) -> Result<Command, Unreadable> {
-        let too_high = "variables are numbered 0..8191";
+    /// The variables after the letter: `n`, `n..m`, `n,count[,step]`.
+    fn var_range(&mut self, start: usize) -> Result<VarRange, Unreadable> {
         let first = match self.number().and_then(|n| u16::try_from(n).ok()) {
             Some(n) if n <= VARIABLE_MAX => n,
-            _ => return Err(self.error(start, too_high)),
+            _ => return Err(self.error(start, "variables are numbered 0..8191")),
         };
-        let cs = self.addressing.cs;
-        if kind == VarKind::M {
-            return self.m_variable(first, start);
-        }
-        self.skip_spaces();
         if self.starts_with("..") {
             self.i += 2;
             return match self.number().and_then(|n| u16::try_from(n).ok()) {
-                Some(last) if last <= VARIABLE_MAX && last >= first => Ok(Command::Read { kind, first, last, cs }),
+                Some(last) if last <= VARIABLE_MAX && last >= first => Ok(VarRange::run(first, last)),
                 _ => Err(self.error(start, "a range runs from a lower to a higher number, at most 8191")),
             };
         }
-        if self.starts_with("->") {
-            return Err(self.error(start, "only M-variables are defined with ->"));
-        }
-        if self.peek() == Some(b'=') {
+        if self.peek() == Some(b',') && self.s.get(self.i + 1).is_some_and(u8::is_ascii_digit) {
             self.i += 1;
-            return match self.value() {
-                // A value must end where the next command can start: `I124=I124&$FDFFFF`
-                // is an expression, which the emulator does not evaluate.
-                Some(value) if !self.peek().is_some_and(is_operator) => {
-                    Ok(Command::Write { kind, number: first, value, cs })
-                }
-                _ => Err(self.error(start, "the value is a constant (expressions are not evaluated)")),
+            let count = self.number().and_then(|n| u16::try_from(n).ok()).filter(|c| *c >= 1);
+            let step = if self.peek() == Some(b',') && self.s.get(self.i + 1).is_some_and(u8::is_ascii_digit) {
+                self.i += 1;
+                self.number().and_then(|n| u16::try_from(n).ok()).filter(|s| *s >= 1)
+            } else {
+                Some(1)
             };
+            let range = match (count, step) {
+                (Some(count), Some(step)) => VarRange { first, count, step },
+                _ => return Err(self.error(start, "I{n},{count},{step}: count and step are at least 1")),
+            };
+            if u32::from(range.first) + (u32::from(range.count) - 1) * u32::from(range.step) > u32::from(VARIABLE_MAX) {
+                return Err(self.error(start, "the range runs past 8191"));
+            }
+            return Ok(range);
         }
-        Ok(Command::Read { kind, first, last: first, cs })
+        Ok(VarRange::one(first))
     }
 
-    /// `Mn`, `Mn..m`, `Mn->`, `Mn->{definition}`, `Mn=v`, each also over a range.
-    fn m_variable(&mut self, first: u16, start: usize) -> Result<Command, Unreadable> {
-        let mut last = first;
+    fn variable(&mut self, kind: VarKind, start: usize) -> Result<Command, Unreadable> {
+        let range = self.var_range(start)?;
+        let cs = self.addressing.cs;
         self.skip_spaces();
-        if self.starts_with("..") {
-            self.i += 2;
-            last = match self.number().and_then(|n| u16::try_from(n).ok()) {
-                Some(l) if l <= VARIABLE_MAX && l >= first => l,
-                _ => return Err(self.error(start, "a range runs from a lower to a higher number, at most 8191")),
-            };
-        }
         if self.starts_with("->") {
-            self.i += 2;
-            let from = self.i;
-            // The definition runs to the next space (`Y:$078F00,0,24,S`, `*`).
-            while self.s.get(self.i).is_some_and(|c| *c > b' ') {
-                self.i += 1;
+            if kind != VarKind::M {
+                return Err(self.error(start, "only M-variables are defined with ->"));
             }
-            if self.i == from {
-                return Ok(Command::MReport { first, last });
-            }
-            let text = String::from_utf8_lossy(&self.s[from..self.i]).into_owned();
-            return match Definition::parse(&text) {
-                Ok(definition) => Ok(Command::MDefine { first, last, definition }),
-                Err(why) => Err(self.error(start, why)),
+            let Some((first, last)) = range.as_run() else {
+                return Err(self.error(start, "M-variable definitions take n or n..m"));
             };
+            return self.m_definition(first, last, start);
         }
         if self.peek() == Some(b'=') {
             self.i += 1;
-            return match self.value() {
-                Some(value) if !self.peek().is_some_and(is_operator) => Ok(Command::MWrite { first, last, value }),
-                _ => Err(self.error(start, "the value is a constant (expressions are not evaluated)")),
-            };
+            return self.assignment(kind, Vars::Numbers(range), start);
         }
-        Ok(Command::Read { kind: VarKind::M, first, last, cs: self.addressing.cs })
+        Ok(Command::Read { kind, vars: Vars::Numbers(range), cs })
+    }
+
+    /// `I(P1*100+20)` and `I(P1*100+20)=10` (UM p.248).
+    fn computed_variable(&mut self, kind: VarKind, start: usize) -> Result<Command, Unreadable> {
+        let before = self.i;
+        let Some(Expr::Var { number, .. }) = ({
+            self.i -= 1;
+            self.expression()
+        }) else {
+            self.i = before;
+            return Err(self.error(start, "the variable's number is an expression in parentheses"));
+        };
+        let Index::Computed(index) = *number else {
+            return Err(self.error(start, "the variable's number is an expression in parentheses"));
+        };
+        self.skip_spaces();
+        if self.peek() == Some(b'=') {
+            self.i += 1;
+            return self.assignment(kind, Vars::Computed(index), start);
+        }
+        Ok(Command::Read { kind, vars: Vars::Computed(index), cs: self.addressing.cs })
+    }
+
+    fn assignment(&mut self, kind: VarKind, vars: Vars, start: usize) -> Result<Command, Unreadable> {
+        self.skip_spaces();
+        let cs = self.addressing.cs;
+        if self.peek() == Some(b'*') {
+            if kind != VarKind::I {
+                return Err(self.error(start, "only I-variables have a factory default (I{n}=*)"));
+            }
+            self.i += 1;
+            return Ok(Command::Write { kind, vars, value: Assigned::Default, cs });
+        }
+        match self.expression() {
+            Some(e) => Ok(Command::Write { kind, vars, value: Assigned::Expr(e), cs }),
+            None => Err(self.error(start, "the value is an expression: constants, variables, functions and operators")),
+        }
+    }
+
+    /// After `Mn[..m]->`: a definition, or a report when none follows.
+    fn m_definition(&mut self, first: u16, last: u16, start: usize) -> Result<Command, Unreadable> {
+        self.i += 2;
+        let from = self.i;
+        // The definition runs to the next space (`Y:$078F00,0,24,S`, `*`).
+        while self.s.get(self.i).is_some_and(|c| *c > b' ') {
+            self.i += 1;
+        }
+        if self.i == from {
+            return Ok(Command::MReport { first, last });
+        }
+        let text = String::from_utf8_lossy(&self.s[from..self.i]).into_owned();
+        match Definition::parse(&text) {
+            Ok(definition) => Ok(Command::MDefine { first, last, definition }),
+            Err(why) => Err(self.error(start, why)),
+        }
     }
 
     /// `WX:$2082,7`, `WY:$10000,1,2,3`, `WD:$2028,4096`, `WL:$1000,1.5`.
@@ -637,19 +988,53 @@ impl Parser<'_, '_> {
         Ok(Command::MemoryWrite { kind, values })
     }
 
+    /// `,start[,length]` after a listing's buffer.
+    fn listing_range(&mut self) -> (Option<u32>, Option<u32>) {
+        let mut part = || {
+            let save = self.i;
+            self.skip_spaces();
+            if self.peek() == Some(b',') {
+                self.i += 1;
+                self.skip_spaces();
+                if let Some(n) = self.number() {
+                    return Some(n);
+                }
+            }
+            self.i = save;
+            None
+        };
+        let start = part();
+        let length = start.and(part());
+        (start, length)
+    }
+
     fn keyword(&mut self, k: &str, start: usize) -> Result<Command, Unreadable> {
         Ok(match k {
             "VER" => Command::Version,
             "CID" => Command::CardId,
+            "CPU" => Command::Cpu,
             "SAVE" => Command::Save,
             "CHECKSUM" | "CHKS" => Command::Checksum,
-            "CLOSE" => Command::Close,
+            "CLOSE" | "CLS" => Command::Close,
             "HM" | "HOME" => Command::Home(self.addressing.motor),
+            "HMZ" | "HOMEZ" => Command::HomeZero(self.addressing.motor),
             "GATHER" | "GAT" => Command::Gather(Gather::Start),
+            "ENDGATHER" | "ENDG" => Command::Gather(Gather::End),
+            "UNDEFINE" | "UNDEF" => {
+                let save = self.i;
+                self.skip_spaces();
+                if self.starts_with("ALL") {
+                    self.i += 3;
+                    Command::Undefine { cs: None }
+                } else {
+                    self.i = save;
+                    Command::Undefine { cs: Some(self.addressing.cs) }
+                }
+            }
             "ENABLE" | "ENA" | "DISABLE" | "DIS" => {
                 self.skip_spaces();
                 if !self.starts_with("PLC") {
-                    return Err(self.error(start, "of ENABLE and DISABLE only the PLC forms are emulated"));
+                    return Err(self.error(start, "ENABLE and DISABLE take PLC or PLCC and the program numbers"));
                 }
                 self.i += 3;
                 if self.peek() == Some(b'C') {
@@ -657,31 +1042,56 @@ impl Parser<'_, '_> {
                 }
                 // `n`, `n,m`, `n..m`.
                 self.skip_spaces();
-                if self.number().is_none() {
-                    return Err(self.error(start, "ENABLE PLC takes PLC numbers"));
+                match self.number() {
+                    Some(n) if n <= 31 => {}
+                    _ => return Err(self.error(start, "PLC programs are 0..31")),
                 }
                 while self.peek().is_some_and(|c| c == b',' || c == b'.' || c.is_ascii_digit()) {
                     self.i += 1;
                 }
                 Command::PlcSwitch
             }
-            "ENDGATHER" | "ENDG" => Command::Gather(Gather::End),
-            "DEFINE" | "DEF" | "DELETE" | "DEL" | "LIST" | "LIS" => {
+            "DEFINE" | "DEF" => {
                 self.skip_spaces();
-                let what = ["GATHER", "GAT"].iter().find(|w| self.starts_with(w));
-                let Some(w) = what else {
-                    return Err(self.error(start, "of DEFINE, DELETE and LIST only the GATHER forms are emulated"));
-                };
-                self.i += w.len();
-                Command::Gather(match k {
-                    "DEFINE" | "DEF" => {
-                        self.skip_spaces();
-                        Gather::Define(self.number())
+                if let Some(w) = ["GATHER", "GAT"].iter().find(|w| self.starts_with(w)) {
+                    self.i += w.len();
+                    self.skip_spaces();
+                    Command::Gather(Gather::Define(self.number()))
+                } else if let Some(w) = ["LOOKAHEAD", "LOOK"].iter().find(|w| self.starts_with(w)) {
+                    self.i += w.len();
+                    self.skip_spaces();
+                    let segments = self.number();
+                    let comma = self.peek() == Some(b',');
+                    self.i += usize::from(comma);
+                    let outputs = self.number();
+                    match (segments, comma, outputs) {
+                        (Some(segments), true, Some(outputs)) => {
+                            Command::DefineLookahead { cs: self.addressing.cs, segments, outputs }
+                        }
+                        _ => return Err(self.error(start, "DEFINE LOOKAHEAD {segments},{outputs}")),
                     }
-                    "DELETE" | "DEL" => Gather::Delete,
-                    _ => Gather::List,
-                })
+                } else {
+                    return Err(self.error(start, "DEFINE takes GATHER or LOOKAHEAD"));
+                }
             }
+            "DELETE" | "DEL" => {
+                self.skip_spaces();
+                if let Some(w) = ["GATHER", "GAT"].iter().find(|w| self.starts_with(w)) {
+                    self.i += w.len();
+                    Command::Gather(Gather::Delete)
+                } else if self.starts_with("ALL") {
+                    self.i += 3;
+                    self.skip_spaces();
+                    if !self.starts_with("TEMPS") {
+                        return Err(self.error(start, "DELETE ALL TEMPS"));
+                    }
+                    self.i += 5;
+                    Command::DeleteAllTemps
+                } else {
+                    return Err(self.error(start, "DELETE takes GATHER or ALL TEMPS"));
+                }
+            }
+            "LIST" | "LIS" => self.listing(start)?,
             "OPEN" => {
                 self.skip_spaces();
                 if self.starts_with("PLC") {
@@ -699,7 +1109,7 @@ impl Parser<'_, '_> {
                         _ => return Err(self.error(start, "motion programs are numbered from 1")),
                     }
                 } else {
-                    return Err(self.error(start, "OPEN PLC n and OPEN PROG n are emulated"));
+                    return Err(self.error(start, "OPEN PLC n or OPEN PROG n"));
                 }
             }
             "MS" => {
@@ -713,7 +1123,7 @@ impl Parser<'_, '_> {
                 self.i += usize::from(i);
                 let ivar = self.number().and_then(|n| u16::try_from(n).ok());
                 let (Some(station), true, true, Some(ivar)) = (station, comma, i, ivar) else {
-                    return Err(self.error(start, "MS{station},I{n} is the MACRO station form emulated"));
+                    return Err(self.error(start, "MS{station},I{n} is the MACRO station form"));
                 };
                 let value = if self.peek() == Some(b'=') {
                     self.i += 1;
@@ -729,185 +1139,206 @@ impl Parser<'_, '_> {
             _ => unreachable!("every keyword is handled: {k}"),
         })
     }
+
+    /// After `LIST`: `GATHER`, `PROG n`, `PLC n`, `FORWARD`, `INVERSE`, with `,start,length`.
+    fn listing(&mut self, start: usize) -> Result<Command, Unreadable> {
+        self.skip_spaces();
+        if let Some(w) = ["GATHER", "GAT"].iter().find(|w| self.starts_with(w)) {
+            self.i += w.len();
+            return Ok(Command::Gather(Gather::List));
+        }
+        for (word, forward) in [("FORWARD", true), ("FWD", true), ("INVERSE", false), ("INV", false)] {
+            if self.starts_with(word) {
+                self.i += word.len();
+                let cs = self.addressing.cs;
+                let (start, length) = self.listing_range();
+                return Ok(Command::List(if forward {
+                    Listing::Forward { cs, start, length }
+                } else {
+                    Listing::Inverse { cs, start, length }
+                }));
+            }
+        }
+        if self.starts_with("PLC") {
+            self.i += 3;
+            self.skip_spaces();
+            let Some(number) = self.number().and_then(|n| u8::try_from(n).ok()).filter(|n| *n <= 31) else {
+                return Err(self.error(start, "LIST PLC n: PLC programs are 0..31"));
+            };
+            let (start, length) = self.listing_range();
+            return Ok(Command::List(Listing::Plc { number, start, length }));
+        }
+        if self.starts_with("PROG") {
+            self.i += 4;
+            self.skip_spaces();
+            let Some(number) = self.number().and_then(|n| u16::try_from(n).ok()).filter(|n| *n >= 1) else {
+                return Err(self.error(start, "LIST PROG n: motion programs are numbered from 1"));
+            };
+            let (start, length) = self.listing_range();
+            return Ok(Command::List(Listing::Program { number, start, length }));
+        }
+        Err(self.error(start, "LIST takes GATHER, PROG n, PLC n, FORWARD or INVERSE"))
+    }
+}
+
+/// The axis letters of a Turbo PMAC coordinate system (SRM `#{constant}->`).
+fn is_axis(c: u8) -> bool {
+    matches!(c, b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W')
+}
+
+/// `I`, or terms `[sign][scale]axis` joined by `+`/`-` with an optional constant offset last
+/// (`1000X`, `X`, `-500Y+10`, `.5X+.5Y`, `0`: SRM `#{constant}->{axis definition}`).
+fn valid_axis_definition(text: &str) -> bool {
+    if text == "I" {
+        return true;
+    }
+    let b = text.as_bytes();
+    let mut i = 0;
+    let mut terms = 0;
+    let mut offset = false;
+    while i < b.len() {
+        if offset {
+            return false;
+        }
+        if terms > 0 || matches!(b[i], b'+' | b'-') {
+            if !matches!(b[i], b'+' | b'-') {
+                return false;
+            }
+            i += 1;
+        }
+        let from = i;
+        while i < b.len() && (b[i].is_ascii_digit() || b[i] == b'.') {
+            i += 1;
+        }
+        let scale = &text[from..i];
+        if !scale.is_empty() && scale.parse::<f64>().is_err() {
+            return false;
+        }
+        if i < b.len() && is_axis(b[i]) {
+            i += 1;
+        } else if scale.is_empty() {
+            return false;
+        } else {
+            offset = true;
+        }
+        terms += 1;
+    }
+    terms > 0
+}
+
+/// A command's text as a host would send it, with its motor or C.S. addressed explicitly:
+/// reading it again gives the same command (the fuzz target `grammar` checks this).
+impl fmt::Display for Command {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let opt = |v: &Option<u32>| v.map(|v| format!(",{v}")).unwrap_or_default();
+        let kind_prefix = |kind: &VarKind, cs: &u8| if *kind == VarKind::Q { format!("&{cs}") } else { String::new() };
+        match self {
+            Command::GlobalStatus => f.write_str("???"),
+            Command::CsStatus(cs) => write!(f, "&{cs}??"),
+            Command::MotorStatus(m) => write!(f, "#{m}?"),
+            Command::Position(m) => write!(f, "#{m}P"),
+            Command::Velocity(m) => write!(f, "#{m}V"),
+            Command::FollowingError(m) => write!(f, "#{m}F"),
+            Command::ReportMotor => f.write_str("#"),
+            Command::ReportCs => f.write_str("&"),
+            Command::FeedRead(cs) => write!(f, "&{cs}%"),
+            Command::Feed { cs, percent } => write!(f, "&{cs}%{}", expr::number_text(*percent)),
+            Command::Read { kind, vars, cs } => write!(f, "{}{kind:?}{}", kind_prefix(kind, cs), vars_text(vars)),
+            Command::Write { kind, vars, value, cs } => {
+                let value = match value {
+                    Assigned::Default => "*".to_string(),
+                    Assigned::Expr(e) => e.to_string(),
+                };
+                write!(f, "{}{kind:?}{}={value}", kind_prefix(kind, cs), vars_text(vars))
+            }
+            Command::MDefine { first, last, definition } => {
+                write!(f, "M{}->{}", VarRange::run(*first, *last), definition.report())
+            }
+            Command::MReport { first, last } => write!(f, "M{}->", VarRange::run(*first, *last)),
+            Command::MemoryWrite { kind, values } => {
+                let (letter, address) = match kind {
+                    Definition::Word { space, address, .. } => (format!("{space:?}"), *address),
+                    Definition::Fixed { address, .. } => ("D".into(), *address),
+                    Definition::Float { address, .. } => ("L".into(), *address),
+                    Definition::SelfReferenced => ("L".into(), 0),
+                };
+                write!(f, "W{letter}:${address:X}")?;
+                for v in values {
+                    write!(f, ",{}", expr::number_text(*v))?;
+                }
+                Ok(())
+            }
+            Command::MacroStation { station, ivar, value } => {
+                write!(f, "MS{station},I{ivar}")?;
+                match value {
+                    Some(v) => write!(f, "={}", expr::number_text(*v)),
+                    None => Ok(()),
+                }
+            }
+            Command::ReadHex { space, address } => write!(f, "RH{space:?}:${address:X}"),
+            Command::Motion(Motion::CoordinateSystem(cs, CsCommand::Feedrate(p))) => write!(f, "&{cs}%{p}"),
+            Command::Motion(m) => write!(f, "{m}"),
+            Command::Jog(m, j) => match j {
+                Jog::Plus => write!(f, "#{m}J+"),
+                Jog::Minus => write!(f, "#{m}J-"),
+                Jog::Stop => write!(f, "#{m}J/"),
+                Jog::To(None) => write!(f, "#{m}J="),
+                Jog::To(Some(v)) => write!(f, "#{m}J={}", expr::number_text(*v)),
+                Jog::ByFromActual(v) => write!(f, "#{m}J^{}", expr::number_text(*v)),
+                Jog::ByFromCommanded(v) => write!(f, "#{m}J:{}", expr::number_text(*v)),
+            },
+            Command::Home(m) => write!(f, "#{m}HM"),
+            Command::HomeZero(m) => write!(f, "#{m}HMZ"),
+            Command::AxisDefine { cs, motor, definition } => write!(f, "&{cs}#{motor}->{definition}"),
+            Command::AxisReport { cs, motor } => write!(f, "&{cs}#{motor}->"),
+            Command::Undefine { cs: Some(cs) } => write!(f, "&{cs}UNDEFINE"),
+            Command::Undefine { cs: None } => f.write_str("UNDEFINE ALL"),
+            Command::OpenPlc(n) => write!(f, "OPEN PLC {n}"),
+            Command::OpenProgram(n) => write!(f, "OPEN PROG {n}"),
+            Command::Close => f.write_str("CLOSE"),
+            Command::PlcSwitch => f.write_str("ENABLE PLC 0"),
+            Command::List(l) => match l {
+                Listing::Program { number, start, length } => {
+                    write!(f, "LIST PROG {number}{}{}", opt(start), opt(length))
+                }
+                Listing::Plc { number, start, length } => write!(f, "LIST PLC {number}{}{}", opt(start), opt(length)),
+                Listing::Forward { cs, start, length } => write!(f, "&{cs}LIST FORWARD{}{}", opt(start), opt(length)),
+                Listing::Inverse { cs, start, length } => write!(f, "&{cs}LIST INVERSE{}{}", opt(start), opt(length)),
+            },
+            Command::DefineLookahead { cs, segments, outputs } => {
+                write!(f, "&{cs}DEFINE LOOKAHEAD {segments},{outputs}")
+            }
+            Command::DeleteAllTemps => f.write_str("DELETE ALL TEMPS"),
+            Command::Reset => f.write_str("$$$"),
+            Command::Reinitialize => f.write_str("$$$***"),
+            Command::Checksum => f.write_str("CHECKSUM"),
+            Command::WriteIMemory(n, v) => write!(f, "<MEMORY-WRITE I{n}={v}>"),
+            Command::Save => f.write_str("SAVE"),
+            Command::Version => f.write_str("VER"),
+            Command::CardId => f.write_str("CID"),
+            Command::Cpu => f.write_str("CPU"),
+            Command::Gather(g) => match g {
+                Gather::Define(None) => f.write_str("DEFINE GATHER"),
+                Gather::Define(Some(n)) => write!(f, "DEFINE GATHER {n}"),
+                Gather::Start => f.write_str("GATHER"),
+                Gather::End => f.write_str("ENDGATHER"),
+                Gather::List => f.write_str("LIST GATHER"),
+                Gather::Delete => f.write_str("DELETE GATHER"),
+            },
+            Command::Ignored(c) => match c {
+                0x18 => f.write_str("<CTRL-X>"),
+                c => write!(f, "<{c:#04X}>"),
+            },
+        }
+    }
+}
+
+fn vars_text(vars: &Vars) -> String {
+    match vars {
+        Vars::Numbers(r) => r.to_string(),
+        Vars::Computed(e) => format!("({e})"),
+    }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn parse(line: &str) -> Vec<Result<Command, Unreadable>> {
-        parse_line(line.as_bytes(), &mut Addressing::default())
-    }
-
-    fn ok(line: &str) -> Vec<Command> {
-        parse(line).into_iter().map(|r| r.unwrap_or_else(|e| panic!("{line}: {e:?}"))).collect()
-    }
-
-    #[test]
-    fn the_dls_pmaccontrol_poll_line_reads_as_its_52_requests() {
-        // commsThread.py builds this for 8 axes; the GUI splits the answer at CR and expects
-        // 4 + 6 x 8 values, so each piece must be one command.
-        let mut line = String::from("i65???&1??%");
-        for m in 1..=8 {
-            line += &format!("#{m}?PVF m{m}90 p99");
-        }
-        let cmds = ok(&line);
-        assert_eq!(cmds.len(), 52);
-        assert_eq!(cmds[0], Command::Read { kind: VarKind::I, first: 65, last: 65, cs: 1 });
-        assert_eq!(cmds[1], Command::GlobalStatus);
-        assert_eq!(cmds[2], Command::CsStatus(1));
-        assert_eq!(cmds[3], Command::FeedRead(1));
-        for m in 1..=8u8 {
-            let row = &cmds[4 + 6 * usize::from(m - 1)..][..6];
-            assert_eq!(
-                row,
-                [
-                    Command::MotorStatus(m),
-                    Command::Position(m),
-                    Command::Velocity(m),
-                    Command::FollowingError(m),
-                    Command::Read {
-                        kind: VarKind::M,
-                        first: u16::from(m) * 100 + 90,
-                        last: u16::from(m) * 100 + 90,
-                        cs: 1
-                    },
-                    Command::Read { kind: VarKind::P, first: 99, last: 99, cs: 1 },
-                ]
-            );
-        }
-    }
-
-    #[test]
-    fn question_marks_count_one_two_or_three() {
-        // `?` motor, `??` C.S., `???` global (SRM p.284 for ? and ??).
-        let mut a = Addressing::default();
-        let cmds: Vec<_> = parse_line(b"#3&2?????? ?", &mut a).into_iter().map(Result::unwrap).collect();
-        assert_eq!(cmds, [Command::GlobalStatus, Command::GlobalStatus, Command::MotorStatus(3)]);
-        assert_eq!(ok("&2??"), [Command::CsStatus(2)]);
-    }
-
-    #[test]
-    fn addressing_persists_across_lines_of_one_connection() {
-        let mut a = Addressing::default();
-        parse_line(b"#4&3", &mut a);
-        assert_eq!(a, Addressing { motor: 4, cs: 3 });
-        let cmds: Vec<_> = parse_line(b"P ?? K", &mut a).into_iter().map(Result::unwrap).collect();
-        assert_eq!(
-            cmds,
-            [Command::Position(4), Command::CsStatus(3), Command::Motion(Motion::Motor(4, MotorCommand::Kill))]
-        );
-        assert_eq!(parse_line(b"#", &mut a), [Ok(Command::ReportMotor)]);
-    }
-
-    #[test]
-    fn jog_home_and_kill_as_the_gui_buttons_send_them() {
-        assert_eq!(ok("#1J^1000"), [Command::Jog(1, Jog::Relative(1000.0))]);
-        assert_eq!(ok("#1J^-250.5"), [Command::Jog(1, Jog::Relative(-250.5))]);
-        assert_eq!(ok("#1HM"), [Command::Home(1)]);
-        assert_eq!(ok("#1HOME"), [Command::Home(1)]);
-        assert_eq!(ok("#1J/"), [Command::Motion(Motion::Motor(1, MotorCommand::JogStop))]);
-        assert_eq!(ok("#1J=0"), [Command::Jog(1, Jog::To(Some(0.0)))]);
-        assert_eq!(ok("#2J="), [Command::Jog(2, Jog::To(None))]);
-        assert_eq!(ok("#1k"), [Command::Motion(Motion::Motor(1, MotorCommand::Kill))]);
-        assert_eq!(
-            ok("#1 J/ #2 K"),
-            [
-                Command::Motion(Motion::Motor(1, MotorCommand::JogStop)),
-                Command::Motion(Motion::Motor(2, MotorCommand::Kill))
-            ]
-        );
-    }
-
-    #[test]
-    fn control_characters_are_commands_anywhere_in_a_line() {
-        // KILL ALL in dls-pmaccontrol sends CTRL-K as a line of its own (SRM p.289's <CTRL-K>).
-        assert_eq!(ok("\x0b"), [Command::Motion(Motion::Global(GlobalCommand::KillAll))]);
-        assert_eq!(ok("P1\x01P2").len(), 3);
-        assert_eq!(ok("\x11\x0f")[1], Command::Motion(Motion::Global(GlobalCommand::HoldAll)));
-        assert!(parse("\x02").last().unwrap().is_err(), "CTRL-B is not emulated: ERR003");
-    }
-
-    #[test]
-    fn variables_read_write_and_ranges() {
-        assert_eq!(ok("i20..23"), [Command::Read { kind: VarKind::I, first: 20, last: 23, cs: 1 }]);
-        assert_eq!(ok("I124=$20001"), [Command::Write { kind: VarKind::I, number: 124, value: 131073.0, cs: 1 }]);
-        assert_eq!(ok("P1=-1.5"), [Command::Write { kind: VarKind::P, number: 1, value: -1.5, cs: 1 }]);
-        assert_eq!(ok("&2Q81"), [Command::Read { kind: VarKind::Q, first: 81, last: 81, cs: 2 }]);
-        assert_eq!(ok("i6=1 i3=2 ver").len(), 3);
-        assert!(parse("I8192").last().unwrap().is_err());
-        assert!(parse("I124=I124&$FDFFFF").last().unwrap().is_err(), "expressions are refused, not half-run");
-        let y = Definition::parse("Y:$078F00,0,24,S").unwrap();
-        assert_eq!(
-            ok("M190->Y:$078F00,0,24,S M191->* M0..8191->*"),
-            [
-                Command::MDefine { first: 190, last: 190, definition: y },
-                Command::MDefine { first: 191, last: 191, definition: Definition::SelfReferenced },
-                Command::MDefine { first: 0, last: 8191, definition: Definition::SelfReferenced },
-            ]
-        );
-        assert_eq!(ok("M1..3->"), [Command::MReport { first: 1, last: 3 }], "a report, not a definition");
-        assert_eq!(ok("M1..8=0"), [Command::MWrite { first: 1, last: 8, value: 0.0 }]);
-        let x = Definition::Word { space: Space::X, address: 0x2082, offset: 0, width: 24, format: Format::U };
-        assert_eq!(ok("WX:$2082,7,-1"), [Command::MemoryWrite { kind: x, values: vec![7.0, -1.0] }]);
-        assert!(parse("M1->X:$25").last().unwrap().is_err(), "an X definition gives its bit");
-        assert!(parse("P1->X:$0").last().unwrap().is_err());
-        assert!(parse("I23..20").last().unwrap().is_err());
-    }
-
-    #[test]
-    fn keywords_win_over_single_letters() {
-        assert_eq!(ok("SAVE"), [Command::Save]);
-        assert_eq!(
-            ok("define gather 1000 gather list gather delete gather endgather"),
-            [
-                Command::Gather(Gather::Define(Some(1000))),
-                Command::Gather(Gather::Start),
-                Command::Gather(Gather::List),
-                Command::Gather(Gather::Delete),
-                Command::Gather(Gather::End),
-            ]
-        );
-        assert_eq!(
-            ok("ENABLE PLC 1,2 DISABLE PLCC 0..3 DIS PLC 5"),
-            [Command::PlcSwitch, Command::PlcSwitch, Command::PlcSwitch]
-        );
-        assert_eq!(ok("ms0,i910"), [Command::MacroStation { station: 0, ivar: 910, value: None }]);
-        assert_eq!(ok("OPEN PLC 1 CLOSE"), [Command::OpenPlc(1), Command::Close]);
-        assert_eq!(
-            ok("&1%50 %"),
-            [Command::Motion(Motion::CoordinateSystem(1, CsCommand::Feedrate(50))), Command::FeedRead(1)]
-        );
-        assert_eq!(ok("RHX:$25"), [Command::ReadHex("RHX:$25".into())]);
-        // UM p.243, SRM p.295, SRM p.57 (the memory write is the vocabulary's pseudo-command).
-        assert_eq!(
-            ok("$$$***CHKS checksum <memory-write i130=$10>I130"),
-            [
-                Command::Reinitialize,
-                Command::Checksum,
-                Command::Checksum,
-                Command::WriteIMemory(130, 16),
-                Command::Read { kind: VarKind::I, first: 130, last: 130, cs: 1 },
-            ]
-        );
-        assert_eq!(ok("$$$ $$$***"), [Command::Reset, Command::Reinitialize]);
-        assert!(parse("<MEMORY-WRITE I130>")[0].is_err(), "a memory write needs its value");
-        assert!(parse("<MEMORY-WRITE I130=1")[0].is_err(), "and its closing `>`");
-    }
-
-    #[test]
-    fn the_first_unreadable_command_ends_the_line() {
-        let r = parse("I40 ZZZ I41");
-        assert_eq!(r.len(), 2);
-        let e = r[1].clone().unwrap_err();
-        assert_eq!(e.at, "ZZZ I41");
-        // Letters run together are commands of their own: `FOO` is `F` (following error),
-        // then `O`, which starts nothing.
-        let r = parse("FOO");
-        assert_eq!(r[0], Ok(Command::FollowingError(1)));
-        assert_eq!(r[1].clone().unwrap_err().at, "OO");
-        assert!(parse("#33K").last().unwrap().is_err(), "motors are #1..#32");
-        assert!(parse("&17A").last().unwrap().is_err());
-        assert!(parse("$$$**").last().unwrap().is_err(), "`$$$` then `**`, which starts nothing");
-    }
-}
+mod tests;

@@ -34,6 +34,7 @@
 //! is a command the model cannot represent faithfully: a memory read of a register it does not
 //! model, or an I-variable number beyond I8191.
 
+use crate::grammar::{self, Addressing, Assigned, Command, Jog, VarKind, VarRange, Vars};
 use std::fmt;
 
 /// X or Y memory.
@@ -178,73 +179,6 @@ impl Motion {
             }),
         }
     }
-
-    fn parse(compact: &str) -> Option<Motion> {
-        let global = match compact {
-            "<CTRL-A>" => Some(GlobalCommand::AbortAll),
-            "<CTRL-Q>" => Some(GlobalCommand::QuitAll),
-            "<CTRL-O>" => Some(GlobalCommand::HoldAll),
-            "<CTRL-K>" => Some(GlobalCommand::KillAll),
-            _ => None,
-        };
-        if let Some(g) = global {
-            return Some(Motion::Global(g));
-        }
-        let (sigil, rest) = compact.split_at_checked(1)?;
-        let digits = rest.chars().take_while(char::is_ascii_digit).count();
-        let (number, body) = rest.split_at(digits);
-        let number: u8 = number.parse().ok()?;
-        let body = body.trim_start();
-        match sigil {
-            "#" if (1..=MOTOR_MAX).contains(&number) => {
-                let c = match body {
-                    "J+" => MotorCommand::JogPlus,
-                    "J-" => MotorCommand::JogMinus,
-                    "J/" => MotorCommand::JogStop,
-                    "K" => MotorCommand::Kill,
-                    _ => match body.strip_prefix("J=") {
-                        Some(v) if v.trim().is_empty() || parse_value(v.trim()).is_some() => {
-                            MotorCommand::JogToPosition
-                        }
-                        _ => return None,
-                    },
-                };
-                Some(Motion::Motor(number, c))
-            }
-            "&" if (1..=COORDINATE_SYSTEM_MAX).contains(&number) => {
-                let c = match body {
-                    "A" => CsCommand::Abort,
-                    "Q" => CsCommand::Quit,
-                    "/" => CsCommand::EndOfMove,
-                    "H" => CsCommand::Hold,
-                    "\\" => CsCommand::QuickStop,
-                    "R" => CsCommand::Run,
-                    "S" => CsCommand::Step,
-                    _ => {
-                        if let Some(n) = body.strip_prefix('B') {
-                            if n.trim().is_empty()
-                                || n.trim().chars().all(|c| c.is_ascii_digit()) && n.trim().len() <= 5
-                            {
-                                CsCommand::Begin
-                            } else {
-                                return None;
-                            }
-                        } else if let Some(p) = body.strip_prefix('%') {
-                            let p = p.trim();
-                            if p.is_empty() || p.len() > 5 || !p.chars().all(|c| c.is_ascii_digit()) {
-                                return None;
-                            }
-                            CsCommand::Feedrate(p.parse().ok()?)
-                        } else {
-                            return None;
-                        }
-                    }
-                };
-                Some(Motion::CoordinateSystem(number, c))
-            }
-            _ => None,
-        }
-    }
 }
 
 impl fmt::Display for Motion {
@@ -301,7 +235,18 @@ pub enum HostCommand {
     /// An M-variable assignment or a direct memory write into I-variable `n`'s storage, which
     /// I41 does not prevent (SRM p.57). Written `<MEMORY-WRITE In=v>` (see the module text).
     WriteIMemory(u16, i64),
-    /// Anything else: answered with ERR003.
+    /// `I{n}=*`: I-variable n back to its factory default (SRM on-line commands, `I{data}=*`).
+    DefaultI(u16),
+    /// A command the card accepts and the model has no rule for (`CPU`, `#1P`, `P1=5`,
+    /// `&1#1->`, `RHX:$78F00`, ...): its answer is the card's own, never compared with a value
+    /// of the model's. `forgets` names the I-variables it writes with a value the model cannot
+    /// compute (`I130=I130*1.25`, `I130,4,100=*`): from then on their values are the card's own
+    /// too. `text` is the command as the grammar prints it.
+    Card {
+        text: String,
+        forgets: Option<VarRange>,
+    },
+    /// Text the grammar cannot read: the card answers ERR003 (facts page s.3).
     Unrecognized(String),
 }
 
@@ -318,123 +263,151 @@ impl fmt::Display for CommandError {
 /// The highest I-variable number of a Turbo PMAC.
 pub const I_VARIABLE_MAX: u16 = 8191;
 
+/// The I-variables whose values the model's rules read (I8, I40, I41: `variables.yaml`): a
+/// write the model cannot compute may not reach them, or the model would hold a value the
+/// card does not.
+pub const RULED_I_VARIABLES: [u16; 3] = [8, 40, 41];
+
 impl HostCommand {
+    /// One command, as a trace step holds it, read by the card's grammar ([`crate::grammar`])
+    /// with the addressing a card powers up with (motor 1, C.S. 1: a bare `K` kills motor 1,
+    /// SRM p.259). Text the card would refuse is [`HostCommand::Unrecognized`] (ERR003), a
+    /// legal input. What *is* an error: no command at all, several commands (a step holds
+    /// one), and a command the model cannot follow faithfully (a write to I8, I40 or I41 whose
+    /// value depends on the card's own variables).
     pub fn parse(text: &str) -> Result<HostCommand, CommandError> {
         let t = text.trim();
         if t.is_empty() {
             return Err(CommandError("an empty command: write the command text, e.g. `???`".into()));
         }
-        let upper = t.to_ascii_uppercase();
-        let compact: String = upper.split_whitespace().collect::<Vec<_>>().join(" ");
-        if compact == "???" {
-            return Ok(HostCommand::GlobalStatus);
+        let mut addressing = Addressing::default();
+        let pieces = grammar::pieces(t.as_bytes(), &mut addressing);
+        if pieces.iter().any(|p| p.command.is_err()) {
+            return Ok(HostCommand::Unrecognized(t.to_string()));
         }
-        if compact == "$$$" {
-            return Ok(HostCommand::Reset);
+        match pieces.as_slice() {
+            [] => Err(CommandError(format!("`{t}` addresses a motor or C.S. but gives no command"))),
+            [one] => match &one.command {
+                Ok(c) => HostCommand::from_grammar(c).map_err(|why| CommandError(format!("`{t}`: {why}"))),
+                Err(_) => unreachable!("errors are handled above"),
+            },
+            _ => Err(CommandError(format!(
+                "`{t}` is {} commands; a step holds one (write one step per command)",
+                pieces.len()
+            ))),
         }
-        if compact == "$$$***" {
-            return Ok(HostCommand::Reinitialize);
-        }
-        if compact == "CHECKSUM" || compact == "CHKS" {
-            return Ok(HostCommand::Checksum);
-        }
-        if let Some(inner) = compact.strip_prefix("<MEMORY-WRITE ").and_then(|r| r.strip_suffix('>')) {
-            return match HostCommand::parse(inner)? {
-                HostCommand::WriteI(n, v) => Ok(HostCommand::WriteIMemory(n, v)),
-                _ => Err(CommandError(format!(
-                    "`{t}`: a memory write names an I-variable and its value, e.g. `<MEMORY-WRITE I130=7>`"
-                ))),
-            };
-        }
-        if compact == "CLOSE" {
-            return Ok(HostCommand::Close);
-        }
-        if let Some(m) = Motion::parse(&compact) {
-            return Ok(HostCommand::Motion(m));
-        }
-        if let Some(rest) = compact.strip_prefix("OPEN ") {
-            let words: Vec<&str> = rest.split(' ').collect();
-            return Ok(match words.as_slice() {
-                ["PLC", n] => match n.parse::<u8>() {
-                    Ok(n) if n <= 31 => HostCommand::Open(Buffer::Plc(n)),
-                    _ => HostCommand::Unrecognized(t.to_string()),
-                },
-                ["PROG", n] => match n.parse::<u16>() {
-                    Ok(n) if n >= 1 => HostCommand::Open(Buffer::Program(n)),
-                    _ => HostCommand::Unrecognized(t.to_string()),
-                },
-                _ => HostCommand::Unrecognized(t.to_string()),
-            });
-        }
-        if let Some(rest) = compact.strip_prefix("RH") {
-            let rest = rest.trim();
-            let (space, addr) = match rest.split_once(":$") {
-                Some(("X", a)) => (Space::X, a),
-                Some(("Y", a)) => (Space::Y, a),
-                _ => return Ok(HostCommand::Unrecognized(t.to_string())),
-            };
-            // Hex digits only: `from_str_radix` would also take a sign (`RHX:$+25`).
-            if addr.is_empty() || !addr.chars().all(|c| c.is_ascii_hexdigit()) {
-                return Ok(HostCommand::Unrecognized(t.to_string()));
-            }
-            let Ok(address) = u32::from_str_radix(addr, 16) else {
-                return Ok(HostCommand::Unrecognized(t.to_string()));
-            };
-            if addr.len() > 6 {
-                return Ok(HostCommand::Unrecognized(t.to_string()));
-            }
-            return match Register::at(space, address) {
-                Some(r) => Ok(HostCommand::ReadHex(r)),
-                None => Err(CommandError(format!(
-                    "`{t}`: the model holds no register at {space:?}:${address:06X} (it models X:$0, X:$6, Y:$6, X:$25, Y:$25, X:$1080, X:$1090)"
-                ))),
-            };
-        }
-        if let Some(rest) = compact.strip_prefix('I') {
-            let (num, value) = match rest.split_once('=') {
-                Some((n, v)) => (n.trim(), Some(v.trim())),
-                None => (rest.trim(), None),
-            };
-            if num.is_empty() || !num.chars().all(|c| c.is_ascii_digit()) {
-                return Ok(HostCommand::Unrecognized(t.to_string()));
-            }
-            let number: u32 = num.parse().map_err(|_| CommandError(format!("`{t}`: I-variable number too long")))?;
-            if number > u32::from(I_VARIABLE_MAX) {
-                return Err(CommandError(format!(
-                    "`{t}`: Turbo PMAC has I0..I{I_VARIABLE_MAX}; there is no I{number}"
-                )));
-            }
-            let number = number as u16;
-            return Ok(match value {
-                None => HostCommand::ReadI(number),
-                Some(v) => match parse_value(v) {
-                    Some(v) => HostCommand::WriteI(number, v),
-                    None => HostCommand::Unrecognized(t.to_string()),
-                },
-            });
-        }
-        Ok(HostCommand::Unrecognized(t.to_string()))
     }
-}
 
-/// Decimal or `$`-prefixed hex, optionally negative.
-fn parse_value(v: &str) -> Option<i64> {
-    let (neg, body) = match v.strip_prefix('-') {
-        Some(b) => (true, b),
-        None => (false, v),
-    };
-    let magnitude = match body.strip_prefix('$') {
-        // Hex digits only: `from_str_radix` would also take a sign (`I5=$-5`).
-        Some(hex) if !hex.is_empty() && hex.len() <= 12 && hex.chars().all(|c| c.is_ascii_hexdigit()) => {
-            i64::from_str_radix(hex, 16).ok()?
-        }
-        Some(_) => return None,
-        None if !body.is_empty() && body.len() <= 15 && body.chars().all(|c| c.is_ascii_digit()) => {
-            body.parse().ok()?
-        }
-        None => return None,
-    };
-    Some(if neg { -magnitude } else { magnitude })
+    /// The model's view of a command the grammar read: its own variant where a rule of the
+    /// manuals fixes the answer, [`HostCommand::Card`] where the answer is the card's own.
+    /// `Err` for a write the model cannot follow (see [`HostCommand::parse`]).
+    pub fn from_grammar(c: &Command) -> Result<HostCommand, String> {
+        let card = |forgets: Option<VarRange>| HostCommand::Card { text: c.to_string(), forgets };
+        Ok(match c {
+            Command::GlobalStatus => HostCommand::GlobalStatus,
+            Command::Read { kind: VarKind::I, vars: Vars::Numbers(r), .. } if r.count == 1 => {
+                HostCommand::ReadI(r.first)
+            }
+            Command::Write { kind: VarKind::I, vars, value, .. } => {
+                let range = match vars {
+                    Vars::Numbers(r) => *r,
+                    Vars::Computed(e) => match e.constant().map(f64::round) {
+                        Some(n) if (0.0..=f64::from(grammar::VARIABLE_MAX)).contains(&n) => VarRange::one(n as u16),
+                        _ => {
+                            return Err(format!(
+                                "the I-variable written is computed from the card's own variables ({e}): it may be one of {RULED_I_VARIABLES:?}, which the model must follow"
+                            ))
+                        }
+                    },
+                };
+                let ruled = range.numbers().find(|n| RULED_I_VARIABLES.contains(n));
+                match (value, range.count) {
+                    (Assigned::Default, 1) => HostCommand::DefaultI(range.first),
+                    (Assigned::Expr(e), 1) => match e.constant() {
+                        // MODEL: a fraction written to I8, I40 or I41 (integer variables, SRM
+                        // p.42, p.57) is rounded to the nearest whole number.
+                        Some(v) if v.abs() < 1e15 && (v.fract() == 0.0 || ruled.is_some()) => {
+                            HostCommand::WriteI(range.first, v.round() as i64)
+                        }
+                        Some(_) => card(Some(range)),
+                        None if ruled.is_some() => {
+                            return Err(format!(
+                                "I{} is written from the card's own variables ({e}); the model cannot follow its value",
+                                range.first
+                            ))
+                        }
+                        None => card(Some(range)),
+                    },
+                    (_, _) if ruled.is_some() => {
+                        return Err(format!(
+                        "a write of several I-variables reaches I{}: write it on its own so the model can follow it",
+                        ruled.unwrap_or(0)
+                    ))
+                    }
+                    (_, _) => card(Some(range)),
+                }
+            }
+            Command::ReadHex { space, address } => match Register::at(*space, *address) {
+                Some(r) => HostCommand::ReadHex(r),
+                None => card(None),
+            },
+            Command::Reset => HostCommand::Reset,
+            Command::Reinitialize => HostCommand::Reinitialize,
+            Command::Checksum => HostCommand::Checksum,
+            Command::WriteIMemory(n, v) => HostCommand::WriteIMemory(*n, *v),
+            Command::OpenPlc(n) => HostCommand::Open(Buffer::Plc(*n)),
+            Command::OpenProgram(n) => HostCommand::Open(Buffer::Program(*n)),
+            Command::Close => HostCommand::Close,
+            Command::Motion(m) => HostCommand::Motion(*m),
+            // MODEL: the stop rules tell a zero override (a hold, UM p.217) from any other; a
+            // fraction of a percent counts as a running override, rounded up.
+            Command::Feed { cs, percent } => HostCommand::Motion(Motion::CoordinateSystem(
+                *cs,
+                CsCommand::Feedrate(if *percent == 0.0 {
+                    0
+                } else {
+                    percent.ceil().clamp(1.0, f64::from(u16::MAX)) as u16
+                }),
+            )),
+            // A jog to a target or by a distance, and a homing search, start motion as a jog
+            // does (MODEL: the stop rules of UM p.217 treat every jog move alike, and a homing
+            // search is a jog move until its trigger).
+            Command::Jog(n, Jog::To(_) | Jog::ByFromActual(_) | Jog::ByFromCommanded(_)) | Command::Home(n) => {
+                HostCommand::Motion(Motion::Motor(*n, MotorCommand::JogToPosition))
+            }
+            Command::Jog(n, Jog::Plus) => HostCommand::Motion(Motion::Motor(*n, MotorCommand::JogPlus)),
+            Command::Jog(n, Jog::Minus) => HostCommand::Motion(Motion::Motor(*n, MotorCommand::JogMinus)),
+            Command::Jog(n, Jog::Stop) => HostCommand::Motion(Motion::Motor(*n, MotorCommand::JogStop)),
+            Command::Read { .. }
+            | Command::Write { .. }
+            | Command::CsStatus(_)
+            | Command::MotorStatus(_)
+            | Command::Position(_)
+            | Command::Velocity(_)
+            | Command::FollowingError(_)
+            | Command::ReportMotor
+            | Command::ReportCs
+            | Command::FeedRead(_)
+            | Command::MDefine { .. }
+            | Command::MReport { .. }
+            | Command::MemoryWrite { .. }
+            | Command::MacroStation { .. }
+            | Command::HomeZero(_)
+            | Command::AxisDefine { .. }
+            | Command::AxisReport { .. }
+            | Command::Undefine { .. }
+            | Command::PlcSwitch
+            | Command::List(_)
+            | Command::DefineLookahead { .. }
+            | Command::DeleteAllTemps
+            | Command::Save
+            | Command::Version
+            | Command::CardId
+            | Command::Cpu
+            | Command::Gather(_)
+            | Command::Ignored(_) => card(None),
+        })
+    }
 }
 
 impl fmt::Display for HostCommand {
@@ -455,6 +428,8 @@ impl fmt::Display for HostCommand {
             HostCommand::Reinitialize => f.write_str("$$$***"),
             HostCommand::Checksum => f.write_str("CHECKSUM"),
             HostCommand::WriteIMemory(n, v) => write!(f, "<MEMORY-WRITE I{n}={v}>"),
+            HostCommand::DefaultI(n) => write!(f, "I{n}=*"),
+            HostCommand::Card { text, .. } => f.write_str(text),
             HostCommand::Unrecognized(t) => f.write_str(t),
         }
     }
@@ -497,23 +472,73 @@ mod tests {
 
     #[test]
     fn text_the_controller_would_reject_is_kept_for_an_err003_reply() {
-        // A real controller answers these with ERR003, so the model must too: they are inputs.
-        // A motion command without its motor or C.S. (the model does not track addressing), or
-        // with one the card does not have, stays unrecognized.
-        for text in ["HELLO", "I40=abc", "OPEN PLC 99", "RHZ:$25", "I", "K", "#0K", "#33J+", "&17A", "&1%x", "#1J=abc"]
+        // A card answers these with ERR003, so the model must too: they are inputs.
+        for text in
+            ["HELLO", "I40=abc", "OPEN PLC 99", "RHZ:$25", "I", "#0K", "#33J+", "&17A", "&1%x", "#1J=abc", "I9000=1"]
         {
             assert!(matches!(HostCommand::parse(text), Ok(HostCommand::Unrecognized(_))), "{text}");
         }
     }
 
     #[test]
-    fn commands_the_model_cannot_represent_are_errors_not_guesses() {
-        assert!(HostCommand::parse("RHX:$1234").unwrap_err().0.contains("no register"));
-        assert!(HostCommand::parse("I9000=1").unwrap_err().0.contains("I0..I8191"));
-        // A memory write names an I-variable the card has and a value; anything else is not a
-        // memory write the model can make.
-        assert!(HostCommand::parse("<MEMORY-WRITE I130>").unwrap_err().0.contains("e.g. `<MEMORY-WRITE I130=7>`"));
-        assert!(HostCommand::parse("<MEMORY-WRITE I9000=1>").unwrap_err().0.contains("I0..I8191"));
+    fn a_command_without_its_address_acts_on_motor_1_and_cs_1_as_a_card_powers_up() {
+        // SRM p.259: the examples send `J+` without `#` first.
+        assert_eq!(HostCommand::parse("K").unwrap().to_string(), "#1K");
+        assert_eq!(HostCommand::parse("A").unwrap().to_string(), "&1A");
+    }
+
+    #[test]
+    fn commands_the_card_accepts_and_the_model_has_no_rule_for_are_the_card_s_own() {
+        for text in [
+            "RHX:$1234",
+            "CPU",
+            "#1P",
+            "P1=5",
+            "&1#1->",
+            "&1#1->,",
+            "M162=1000/0.0009765625",
+            "I130,4,100",
+            "SAVE",
+            "LIST PROG 1",
+        ] {
+            assert!(matches!(HostCommand::parse(text), Ok(HostCommand::Card { forgets: None, .. })), "{text}");
+        }
+        // A write the model cannot compute makes the variable the card's own.
+        assert_eq!(
+            HostCommand::parse("I130=1.25*I130").unwrap(),
+            HostCommand::Card { text: "I130=(1.25*I130)".into(), forgets: Some(VarRange::one(130)) }
+        );
+        assert_eq!(
+            HostCommand::parse("I222=0.5").unwrap(),
+            HostCommand::Card { text: "I222=0.5".into(), forgets: Some(VarRange::one(222)) }
+        );
+        assert_eq!(HostCommand::parse("I130=*").unwrap(), HostCommand::DefaultI(130));
+        assert_eq!(HostCommand::parse("I40=5*2").unwrap(), HostCommand::WriteI(40, 10), "a constant expression");
+        assert_eq!(HostCommand::parse("I(10*4)=3").unwrap(), HostCommand::WriteI(40, 3), "a constant index");
+        assert_eq!(HostCommand::parse("I40=0.6").unwrap(), HostCommand::WriteI(40, 1), "MODEL: rounded");
+        assert_eq!(
+            HostCommand::parse("&1%100.000000").unwrap(),
+            HostCommand::Motion(Motion::CoordinateSystem(1, CsCommand::Feedrate(100)))
+        );
+        assert_eq!(
+            HostCommand::parse("&1%0.4").unwrap(),
+            HostCommand::Motion(Motion::CoordinateSystem(1, CsCommand::Feedrate(1))),
+            "not a hold"
+        );
+    }
+
+    #[test]
+    fn commands_the_model_cannot_follow_are_errors_not_guesses() {
+        // A write of I8, I40 or I41 from the card's own variables, or a computed I-variable
+        // number that might be one of them.
+        assert!(HostCommand::parse("I40=I10/2").unwrap_err().0.contains("cannot follow"));
+        assert!(HostCommand::parse("I(P1)=5").unwrap_err().0.contains("computed"));
+        assert!(HostCommand::parse("I39..41=0").unwrap_err().0.contains("I40"));
+        assert!(HostCommand::parse("I40 I41").unwrap_err().0.contains("2 commands"));
+        assert!(HostCommand::parse("#1").unwrap_err().0.contains("no command"));
+        // A memory write names an I-variable the card has and a whole value: else ERR003.
+        assert!(matches!(HostCommand::parse("<MEMORY-WRITE I130>"), Ok(HostCommand::Unrecognized(_))));
+        assert!(matches!(HostCommand::parse("<MEMORY-WRITE I9000=1>"), Ok(HostCommand::Unrecognized(_))));
     }
 
     #[test]

@@ -39,6 +39,9 @@ pub struct EncoderInput {
     pub lost: bool,
 }
 
+/// How [`Reply::CardOwn`] prints.
+pub const CARD_OWN: &str = "(the card's own)";
+
 /// What a host sees in answer to a command.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Reply {
@@ -58,6 +61,10 @@ pub enum Reply {
     Hex(u32),
     /// `BEL ERRnnn CR`.
     Error(u16),
+    /// An answer the model has no rule for: the card's own (a value of a variable it never
+    /// saw written, a motor's position, the CPU type, ...). It matches any answer a running
+    /// card gives, and never silence: a card that answers is running (UM p.215).
+    CardOwn,
 }
 
 impl fmt::Display for Reply {
@@ -71,6 +78,7 @@ impl fmt::Display for Reply {
             Reply::Value(v) => write!(f, "{v}"),
             Reply::Hex(v) => write!(f, "{v:06X}"),
             Reply::Error(n) => write!(f, "ERR{n:03}"),
+            Reply::CardOwn => f.write_str(CARD_OWN),
         }
     }
 }
