@@ -457,3 +457,40 @@ fn the_emulator_s_own_capture_of_a_refused_i3_write_replays_as_consistent() {
     assert_explained_by_default(&spec, &path);
     std::fs::remove_file(&path).ok();
 }
+
+#[test]
+fn the_emulator_s_capture_of_the_grammar_s_new_commands_replays_as_consistent() {
+    // Issue 28: `I130,4,100`, expressions, `I222=0.5`, `cpu`, `I130=*`, axis definitions and
+    // their report, the EPICS driver's feedrate with a fraction and `Q71=Q81`, each answered
+    // by the emulator and each a step the model follows or takes as the card's own, so that
+    // `serve --record` writes a capture `replay` explains.
+    let spec = pmacwd_specs::Spec::embedded().unwrap();
+    let path = std::env::temp_dir().join(format!("pmacwd-record-grammar-{}.jsonl", std::process::id()));
+    let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
+    let mut card = Card::default_card(Clock::Virtual);
+    card.record(CaptureWriter::new(out, "grammar", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap());
+    let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
+    {
+        let mut c = TcpStream::connect(server.local_addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        assert_eq!(ask(&mut c, "i6=1 i3=2 ver"), b"1.947\r\x06");
+        assert_eq!(ask(&mut c, "cid cpu"), b"603382\rDSP56303\r\x06");
+        assert_eq!(ask(&mut c, "I130=1000 I230=2 I330=3 I430=4"), b"\x06");
+        assert_eq!(ask(&mut c, "I130,4,100"), b"1000\r2\r3\r4\r\x06");
+        assert_eq!(ask(&mut c, "I130=1.25*I130 I130"), b"1250\r\x06");
+        assert_eq!(ask(&mut c, "M162=1000/0.0009765625 M162"), b"1024000\r\x06");
+        assert_eq!(ask(&mut c, "I222=0.5 I222"), b"0.5\r\x06");
+        assert_eq!(ask(&mut c, "I130=* I130"), b"0\r\x06");
+        assert_eq!(ask(&mut c, "&1#1->1000X &1#1->, #2->"), b"1000X\r0\r\x06");
+        assert_eq!(ask(&mut c, "&1%100.000000 &1%"), b"100\r\x06");
+        assert_eq!(ask(&mut c, "&1A Q81=7 Q71=Q81 Q71"), b"7\r\x06");
+        assert_eq!(ask(&mut c, "I40=5*2 I40"), b"10\r\x06");
+        assert_eq!(ask(&mut c, "???").len(), 14, "12 hex digits, CR, ACK");
+    }
+    assert!(server.with_card(|c| c.finish_recording()).is_empty());
+    server.stop();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(!text.contains("left out"), "every command is a step: {text}");
+    assert_explained_by_default(&spec, &path);
+    std::fs::remove_file(&path).ok();
+}

@@ -41,31 +41,6 @@ pub const CR: u8 = 0x0D;
 pub const ACK: u8 = 0x06;
 pub const BEL: u8 = 0x07;
 
-/// Splits a command line into commands: spaces separate commands, except that `OPEN` takes its
-/// buffer type and number (`OPEN PLC 1`). Control characters other than spaces are dropped.
-pub fn split_commands(line: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut words = line.split(|c: char| c.is_whitespace() || c.is_control()).filter(|w| !w.is_empty()).peekable();
-    while let Some(word) = words.next() {
-        if word.eq_ignore_ascii_case("OPEN") {
-            let mut command = word.to_string();
-            for _ in 0..2 {
-                match words.next() {
-                    Some(w) => {
-                        command.push(' ');
-                        command.push_str(w);
-                    }
-                    None => break,
-                }
-            }
-            out.push(command);
-        } else {
-            out.push(word.to_string());
-        }
-    }
-    out
-}
-
 /// What one command produced, before framing.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Answer {
@@ -269,13 +244,6 @@ mod tests {
                 assert!(!parsed.acknowledged);
             }
         }
-    }
-
-    #[test]
-    fn a_line_splits_into_commands_and_open_keeps_its_words() {
-        assert_eq!(split_commands("i6=1 i3=2 ver"), ["i6=1", "i3=2", "ver"]);
-        assert_eq!(split_commands(" ???  OPEN PLC 1 I130\r"), ["???", "OPEN PLC 1", "I130"]);
-        assert!(split_commands("\r\n").is_empty());
     }
 
     #[test]
