@@ -354,9 +354,31 @@ impl LogParser {
             }
             return Ok(parsed);
         }
-        if parsed.len() == 1 && parsed[0].values.is_none_or(|v| v <= 1) {
+        // What the card sent, without its framing: a reply that still holds the ACK, BEL or
+        // another control byte (raw or written as an escape) was logged with its framing, and
+        // its values cannot be told apart safely.
+        if let Some(at) = reply.find(|c: char| c.is_control() && c != '\t') {
+            return Err(self.err(
+                reply_line,
+                reply_column + at,
+                "the reply holds a control byte (the card's ACK, BEL or CR framing?): write the values the card sent, separated by spaces or `\\r`".into(),
+            ));
+        }
+        for escape in ["\\x06", "\\x07", "\\a", "\\x18", "\\x0d", "\\n"] {
+            if let Some(at) = reply.to_ascii_lowercase().find(escape) {
+                return Err(self.err(
+                    reply_line,
+                    reply_column + at,
+                    format!("the reply holds `{}`, the card's framing written out: write the values the card sent, separated by spaces or `\\r`", &reply[at..at + escape.len()]),
+                ));
+            }
+        }
+        let single_value = !reply.contains(char::is_whitespace) && !reply.contains("\\r")
+            || (parsed[0].command == HostCommand::GlobalStatus && reply == "BOOTSTRAP PROM");
+        if parsed.len() == 1 && (parsed[0].values.is_none() || parsed[0].values.is_some_and(|v| v <= 1) && single_value)
+        {
             parsed[0].answer = if reply.is_empty() { Answer::Ack } else { Answer::Value(reply.to_string()) };
-            return Ok(parsed);
+            return self.checked(parsed, reply_line, reply_column);
         }
         // Several commands: the replies of those that answer, in order, separated by
         // whitespace or a written `\r` (the card ends each reply with CR).
@@ -444,6 +466,39 @@ impl LogParser {
             if n > 0 {
                 let mine: Vec<&str> = values.by_ref().take(n).collect();
                 c.answer = Answer::Value(mine.join(" "));
+            }
+        }
+        self.checked(parsed, reply_line, reply_column)
+    }
+
+    /// Each value against the form its command's reply has: a `???` reply is 12 hex digits
+    /// (SRM p.289) or `BOOTSTRAP PROM`, a register read at most 6 (a 24-bit word, SRM p.295);
+    /// any command may answer `ERRnnn` instead. A value of another form is no card's reply.
+    fn checked(
+        &self,
+        parsed: Vec<Exchanged>,
+        reply_line: usize,
+        reply_column: usize,
+    ) -> Result<Vec<Exchanged>, SpecError> {
+        for c in &parsed {
+            let Answer::Value(v) = &c.answer else { continue };
+            if is_error_reply(v) {
+                continue;
+            }
+            let hex =
+                |n: std::ops::RangeInclusive<usize>| n.contains(&v.len()) && v.chars().all(|c| c.is_ascii_hexdigit());
+            let why = match c.command {
+                HostCommand::GlobalStatus if !hex(12..=12) && v != "BOOTSTRAP PROM" => {
+                    Some("a `???` reply is 12 hex digits (SRM p.289) or BOOTSTRAP PROM")
+                }
+                // X:$0 has its own check where its value is read for timing.
+                HostCommand::ReadHex(r) if r != Register::ServoCycles && !hex(1..=6) => {
+                    Some("a register read answers a 24-bit word: at most 6 hex digits (SRM p.295)")
+                }
+                _ => None,
+            };
+            if let Some(why) = why {
+                return Err(self.err(reply_line, reply_column, format!("`{v}` answers `{}`: {why}", c.text)));
             }
         }
         Ok(parsed)

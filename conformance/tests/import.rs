@@ -349,3 +349,25 @@ fn a_gap_longer_than_one_counter_turn_is_split_into_steps_whose_bounds_add_up() 
         .collect();
     assert_eq!(gap, [(1 << 24, 1 << 24), (1 << 24, 1 << 24), (16, 16)]);
 }
+
+#[test]
+fn a_reply_no_card_sends_is_unusable_input_not_a_verdict() {
+    // Issue 29: a `???` reply of 11 or 13 hex digits, the ACK left in (raw or written out), a
+    // NUL, or two replies to one command gave a verdict; each is a line a card never sent.
+    for (log, column, says) in [
+        ("> ???\n< 00000000000\n", 3, "12 hex digits"),
+        ("> ???\n< 0000000000000\n", 3, "12 hex digits"),
+        ("> ???\n< 000000000000\\x06\n", 15, "framing written out"),
+        ("> ???\n< 000000000000\\r\\x06\n", 17, "framing written out"),
+        ("> ???\n< 000000000000\x06\n", 15, "control byte"),
+        ("> ???\n< 0000\x0000000000\n", 7, "control byte"),
+        ("> ???\n< 000000000000 000000000000\n", 3, "holds 2 values"),
+        ("> RHY:$25\n< 1000FFF\n", 3, "at most 6 hex digits"),
+    ] {
+        let e = err(log);
+        assert_eq!(at(&e), (2, column), "{}: {e}", log.escape_debug());
+        assert!(e.message.contains(says), "{}: {e}", log.escape_debug());
+    }
+    // `BOOTSTRAP PROM` is one `???` answer (SRM p.289), spaces and all.
+    assert_eq!(ok("> ???\n< BOOTSTRAP PROM\n").trace.steps[0].expect.reply.as_deref(), Some("BOOTSTRAP PROM"));
+}

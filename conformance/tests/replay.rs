@@ -101,7 +101,7 @@ fn a_host_log_whose_command_holds_control_characters_imports_to_a_trace_that_rea
     // Found by the fuzz target host_log: `I130\x01\0\0\0=5` is kept for an ERR003 reply, and
     // the YAML form (`pmacwd import --yaml`) wrote its NUL raw, so the trace did not read back.
     let log = "# comments and blank lines are allowets and blank lines are allowed\n> ???\n< 000000000000\n\
-               > RHX:$0\n< 01A2B3\n> I130=5\n<\n> ???\n< (timed\n> ???\n< 000000000000\n> OPEN 0\n\
+               > RHX:$0\n< 01A2B3\n> I130=5\n<\n> ???\n< 000000000000\n> ???\n< 000000000000\n> OPEN 0\n\
                < 01Ats and blank lines are allowets and blank lines are allo2B3\n> I130\x01\0\0\0=5\n< 0 ERR003\n\
                > ???\n< (timeout)\n";
     let trace = pmacwd_conformance::import::import(Path::new("s.log"), log, "i40-zero").unwrap().trace;
@@ -335,4 +335,34 @@ fn a_card_running_at_4_7_volts_is_explained_by_a_threshold_within_about_4_75_vol
     assert!(t.supply_min_millivolts <= 4700, "{t:?}");
     let r = explain(&spec, &temp_capture("supply-4600.yaml", &supply_at(4600)), None).unwrap();
     assert!(!r.explained());
+}
+
+/// Writes `text` as a host log in the temporary folder and replays it.
+fn replay_log(name: &str, text: &str) -> Report {
+    let path = std::env::temp_dir().join(format!("pmacwd-replay-{}-{name}.log", std::process::id()));
+    std::fs::write(&path, text).unwrap();
+    let r = explain(&Spec::embedded().unwrap(), &path, None).unwrap();
+    std::fs::remove_file(&path).ok();
+    r
+}
+
+#[test]
+fn reads_of_variables_no_rule_fixes_are_the_card_s_own_and_never_compared_with_a_default() {
+    // Issue 29: `I10` read 3713707 on a card was compared with the model's 0 and judged "no
+    // correct card"; so were the usual values of I5, I15, I130, I3, I6, I24, an M-variable and
+    // a memory word, and an M-variable's own write read back.
+    let r = replay_log("i10", "> I10\n< 3713707\n> ???\n< 000000000000\n");
+    assert!(r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    let r = replay_log(
+        "usual",
+        "> $$$\n<\n> I5 I15 I130 I3 I6 I24 M70 RHX:$78F00 CPU cid\n< 2 0 1000 2 1 $800000 1234 00A000 DSP56321 603382\n\
+         > M1=5 M1\n< 5\n> WX:$2082,7\n<\n> ???\n< 000000000000\n",
+    );
+    assert!(r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    // A variable the log wrote is known from then on: a read of another value is no correct card.
+    let r = replay_log("written", "> $$$\n<\n> I130=5\n<\n> I130\n< 6\n");
+    assert!(!r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    // And a card's own answer is still evidence that the card ran: silence instead is a trip.
+    let r = replay_log("silent", "> $$$\n<\n> CPU\n< (timeout)\n> ???\n< 000000000000\n");
+    assert!(!r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
 }
