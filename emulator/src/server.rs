@@ -15,6 +15,9 @@ use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
 use crate::control::{read_line_max, Control, CONTROL_LINE_BYTES_MAX};
 use crate::framing::BEL;
 use crate::listen::bind;
+/// The byte a flush is acknowledged with (see `Request::Flush` in `serve_connection`).
+pub const FLUSH_ACK: u8 = crate::protocol::DOWNLOAD;
+
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
 use pmacwd_specs::grammar::Addressing;
 use std::io::{self, BufReader, Write};
@@ -363,12 +366,18 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
                     vec![0]
                 }
             }),
-            Request::ReadReady => (!shared.card_now().tripped()).then(|| vec![0, u8::from(sent < pending.len())]),
+            // UMAC Turbo CPU/Communications Board Hardware Manual p.36 (Ethernet Protocol,
+            // VR_PMAC_READREADY): "Two bytes are returned. The first byte if non-zero
+            // indicates there is data to be read"; the EPICS pmac driver tests `data[0]`.
+            Request::ReadReady => (!shared.card_now().tripped()).then(|| vec![u8::from(sent < pending.len()), 0]),
             Request::Flush => {
                 pending.clear();
                 sent = 0;
-                // The card answers the flush with a CTRL-X.
-                (!shared.card_now().tripped()).then(|| vec![0x18])
+                // The flush is acknowledged with one byte. MODEL: the manual's text says
+                // CTRL-X; DLS's EPICS driver (pmacAsynIPPort.c, pmacFlush) records that real
+                // cards send 0x40 (VR_DOWNLOAD) and reads any byte; the emulator sends what the
+                // cards send.
+                (!shared.card_now().tripped()).then(|| vec![FLUSH_ACK])
             }
             Request::Control(c) => shared.card_now().control_character(c),
         };

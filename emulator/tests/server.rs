@@ -426,3 +426,28 @@ fn the_recording_proxy_keeps_at_most_its_sessions_open_and_a_newcomer_closes_the
     assert_eq!(ask(&mut sessions[1], "???").last(), Some(&0x06), "the others stay");
     s.stop();
 }
+
+#[test]
+fn readready_says_in_its_first_byte_and_flush_answers_as_real_cards_do() {
+    // The EPICS pmac driver (pmacAsynIPPort.c) tests READREADY's first byte (UMAC Turbo CPU
+    // manual p.36: "the first byte if non-zero indicates there is data to be read"), and reads
+    // one byte after FLUSH, which real cards send as 0x40. READREADY used to answer [0, ready],
+    // which the driver reads as "nothing waiting" for ever, and FLUSH CTRL-X.
+    use pmacwd_emulator::protocol::{DOWNLOAD, UPLOAD, VR_PMAC_FLUSH, VR_PMAC_READREADY, VR_PMAC_SENDLINE};
+    let s = server(Clock::Virtual, 8, None);
+    let mut c = connect(&s);
+    let header =
+        |request_type, request, length| Header { request_type, request, value: 0, index: 0, length }.to_bytes();
+    c.write_all(&header(UPLOAD, VR_PMAC_READREADY, 2)).unwrap();
+    assert_eq!(packet(&mut c), [0, 0], "nothing waiting");
+    // SENDLINE leaves the answer waiting for GETLINE.
+    c.write_all(&header(DOWNLOAD, VR_PMAC_SENDLINE, 3)).unwrap();
+    c.write_all(b"???").unwrap();
+    assert_eq!(packet(&mut c).len(), 1);
+    c.write_all(&header(UPLOAD, VR_PMAC_READREADY, 2)).unwrap();
+    assert_eq!(packet(&mut c), [1, 0], "an answer waits: the first byte says so");
+    c.write_all(&header(DOWNLOAD, VR_PMAC_FLUSH, 0)).unwrap();
+    assert_eq!(packet(&mut c), [0x40], "the flush's acknowledgement");
+    c.write_all(&header(UPLOAD, VR_PMAC_READREADY, 2)).unwrap();
+    assert_eq!(packet(&mut c), [0, 0], "flushed");
+}
