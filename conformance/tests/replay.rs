@@ -366,3 +366,25 @@ fn reads_of_variables_no_rule_fixes_are_the_card_s_own_and_never_compared_with_a
     let r = replay_log("silent", "> $$$\n<\n> CPU\n< (timeout)\n> ???\n< 000000000000\n");
     assert!(!r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
 }
+
+#[test]
+fn a_trip_expected_within_a_window_is_found_by_replay_as_by_run() {
+    // Issue 36: `replay` ignored `window_cycles`, so a capture `pmacwd run` passes (a starved
+    // card seen tripped by a host whose clock is not exact to the servo cycle) was "no correct
+    // card". The trip comes at about cycle 4142 (4096 of counter, then the hardware delay).
+    let trace = |window: u32| {
+        format!(
+            "version: 1\ndescription: a starved card seen tripped\nconfiguration: i40-zero\nprofiles: all\nsteps:\n  \
+             - load: {{motors: 8, plc0_units: 276, background_units: 250}}\n  - run: 4100\n  - command: \"???\"\n    \
+             expect: {{tripped: true, window_cycles: {window}}}\n"
+        )
+    };
+    let path = std::env::temp_dir().join(format!("pmacwd-window-{}.yaml", std::process::id()));
+    std::fs::write(&path, trace(100)).unwrap();
+    let r = explain(&Spec::embedded().unwrap(), &path, None).unwrap();
+    assert!(r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    std::fs::write(&path, trace(10)).unwrap();
+    let r = explain(&Spec::embedded().unwrap(), &path, None).unwrap();
+    assert!(!r.explained(), "the trip is 40 cycles away: outside a window of 10");
+    std::fs::remove_file(&path).ok();
+}

@@ -17,7 +17,7 @@ use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::{Event, Reply};
 use pmacwd_specs::vocab::reply_text::{self, StatusReply};
 use pmacwd_specs::{Position, Spec, SpecError};
-use pmacwd_trace::{Step, TraceEvent};
+use pmacwd_trace::{Expect, Step, TraceEvent};
 use std::collections::{HashMap, VecDeque};
 use std::path::Path;
 use std::sync::Arc;
@@ -324,6 +324,47 @@ fn both_ends(
     }
 }
 
+/// Compares as `runner::compare`, with a capture's timing window as `pmacwd run` applies it
+/// (`Runner::check`): with `window_cycles: W`, an expected trip also holds if the candidate
+/// trips within the next W servo cycles (docs/trace-format.md). The candidate itself is not
+/// advanced, as in a run. MODEL: an expected *absence* of a trip is held exactly here (the
+/// search keeps no count of cycles since a trip), which can only reject, never explain.
+pub(super) fn compare_windowed(
+    spec: &Spec,
+    cfg: &ModelConfig,
+    expect: &Expect,
+    card: &Controller,
+    obs: &pmacwd_specs::vocab::Observation,
+) -> Result<usize, Mismatch> {
+    let (Some(window), Some(true)) = (expect.window_cycles, expect.tripped) else {
+        return compare(spec, expect, obs);
+    };
+    if card.tripped() {
+        return compare(spec, expect, obs);
+    }
+    let mut probe = card.clone();
+    if !(0..window).any(|_| {
+        probe.servo_cycle(cfg);
+        probe.tripped()
+    }) {
+        return Err(Mismatch::Field("tripped", format!("true within {window} servo cycles"), "false".into()));
+    }
+    // The trip-derived observations follow the windowed verdict.
+    let mut rest = expect.clone();
+    for field in [
+        &mut rest.tripped,
+        &mut rest.led_red,
+        &mut rest.fefco_on,
+        &mut rest.relay_tripped,
+        &mut rest.outputs_forced_off,
+    ] {
+        if *field == Some(true) {
+            *field = None;
+        }
+    }
+    Ok(1 + compare(spec, &rest, obs)?)
+}
+
 /// The Y:$25 value a step reads, if it reads one.
 fn counter_read(step: &Step) -> Option<i32> {
     match (&step.event, step.expect.reply.as_deref()) {
@@ -591,7 +632,7 @@ impl Lane {
             }
             for (c, reply) in results {
                 let obs = observation(spec, cfg, &c.card, c.cpu, reply);
-                match compare(spec, &step.expect, &obs) {
+                match compare_windowed(spec, cfg, &step.expect, &c.card, &obs) {
                     Ok(_) => insert(c, &mut next)?,
                     Err(Mismatch::UnknownBit(_, _, name)) => {
                         return Err(SpecError::at(

@@ -441,7 +441,7 @@ pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> 
             }
         };
         let obs = observation(spec, cfg, &card, w.cpu, reply);
-        match crate::runner::compare(spec, step.expect().unwrap_or(&nothing), &obs) {
+        match super::search::compare_windowed(spec, cfg, step.expect().unwrap_or(&nothing), &card, &obs) {
             Ok(n) => checked += n,
             Err(crate::runner::Mismatch::Field(what, expected, observed)) => {
                 return Err(format!(
