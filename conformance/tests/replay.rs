@@ -362,9 +362,6 @@ fn reads_of_variables_no_rule_fixes_are_the_card_s_own_and_never_compared_with_a
     // A variable the log wrote is known from then on: a read of another value is no correct card.
     let r = replay_log("written", "> $$$\n<\n> I130=5\n<\n> I130\n< 6\n");
     assert!(!r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
-    // And a card's own answer is still evidence that the card ran: silence instead is a trip.
-    let r = replay_log("silent", "> $$$\n<\n> CPU\n< (timeout)\n> ???\n< 000000000000\n");
-    assert!(!r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
 }
 
 #[test]
