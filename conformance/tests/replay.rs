@@ -385,3 +385,31 @@ fn a_trip_expected_within_a_window_is_found_by_replay_as_by_run() {
     assert!(!r.explained(), "the trip is 40 cycles away: outside a window of 10");
     std::fs::remove_file(&path).ok();
 }
+
+#[test]
+fn the_diagnosis_calls_seen_only_what_the_log_shows() {
+    // Issue 29: "RTI overruns (bit 22) had been seen" was said when every `???` read was 0:
+    // the search's own choice in an unseen gap was reported as observed.
+    let text = std::fs::read_to_string(capture("starvation-trip.log")).unwrap();
+    let said = |text: &str| {
+        let r = replay_log("diagnosis", text);
+        assert!(r.explained());
+        pmacwd_conformance::explain::report::to_text(&r)
+    };
+    let shown = "the log's `???` replies show RTI overruns (bit 22)";
+    assert!(said(&text).contains(shown));
+    // The same log without the `???` reads that show bit 22 (and their replies).
+    let lines: Vec<&str> = text.lines().collect();
+    let mut cut = Vec::new();
+    let mut k = 0;
+    while k < lines.len() {
+        if lines[k].ends_with("> ???") && lines.get(k + 1).is_some_and(|r| r.ends_with("< 400000000000")) {
+            k += 2;
+            continue;
+        }
+        cut.push(lines[k]);
+        k += 1;
+    }
+    assert!(cut.len() + 6 <= lines.len(), "three reads of bit 22 cut");
+    assert!(!said(&(cut.join("\n") + "\n")).contains(shown));
+}

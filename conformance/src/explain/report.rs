@@ -86,7 +86,7 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
     let description = source.description().to_string();
     let profiles = source.profiles(spec, path)?;
     let card = source.card();
-    drop(source);
+    let observed = observed_rti_reentry(spec, source)?;
     if !spec.check.configurations.contains_key(&configuration) {
         return Err(SpecError::at(
             path,
@@ -175,7 +175,7 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
             (p.name.clone(), p.name == spec.profiles.default_profile().name, explains)
         })
         .collect();
-    let diagnosis = diagnose(&done);
+    let diagnosis = diagnose(&done, observed);
 
     // The explanation: the default profile's lane if it explains, else the first that does,
     // searched again with its choices recorded.
@@ -253,7 +253,29 @@ pub fn witness_for(
 const WITNESS_TRIES: usize = 16;
 
 /// When some explaining card is tripped at the end: every cause that remains possible.
-fn diagnose(lanes: &[Lane]) -> Option<Diagnosis> {
+/// Whether a `???` reply of the capture itself shows RTI re-entry (bit 22, SRM p.289): what the
+/// diagnosis may call observed, as against what the search chose in the unseen gaps.
+fn observed_rti_reentry(spec: &Spec, mut source: Source) -> Result<bool, SpecError> {
+    use pmacwd_specs::status::WordId;
+    use pmacwd_specs::vocab::reply_text::{self, StatusReply};
+    let Some((word, bit)) = spec.status.bit("rti_reentry") else { return Ok(false) };
+    while let Some((_, step)) = source.next_step()? {
+        if let Some(Ok(StatusReply::Words { x, y })) = step.expect.reply.as_deref().map(reply_text::decode) {
+            let w = match word {
+                WordId::X => x,
+                WordId::Y => y,
+            };
+            if w & (1 << bit) != 0 || step.expect.status_set.iter().any(|n| n == "rti_reentry") {
+                return Ok(true);
+            }
+        } else if step.expect.status_set.iter().any(|n| n == "rti_reentry") {
+            return Ok(true);
+        }
+    }
+    Ok(false)
+}
+
+fn diagnose(lanes: &[Lane], rti_reentry_observed: bool) -> Option<Diagnosis> {
     let alive: Vec<&Lane> = lanes.iter().filter(|l| l.alive()).collect();
     let tripped: Vec<_> = alive.iter().flat_map(|l| l.cands.iter()).filter(|c| c.card.tripped()).collect();
     if tripped.is_empty() {
@@ -265,8 +287,15 @@ fn diagnose(lanes: &[Lane]) -> Option<Diagnosis> {
         let overran =
             tripped.iter().any(|c| c.card.trip == Some(TripCause::StrobeTimeout) && c.card.status.rti_reentry);
         let mut s = STARVED.to_string();
-        if overran {
-            s.push_str("; RTI overruns (bit 22) had been seen, which points at PLC 0 or move planning");
+        // Only what the log shows is called seen; the search's own choice in an unseen gap is
+        // said to be its choice (issue 29).
+        if rti_reentry_observed {
+            s.push_str("; the log's `???` replies show RTI overruns (bit 22), which points at PLC 0 or move planning");
+        } else if overran {
+            s.push_str(
+                "; in the explanation the search chose, RTI overruns (bit 22) came before the trip, which no `???` \
+                 reply of the log shows",
+            );
         }
         d.possible.push(s);
     } else {
