@@ -950,3 +950,60 @@ fn sigterm_stops_record_in_order_closing_the_capture_and_saying_what_it_recorded
     assert!(replay.status.success(), "{}", String::from_utf8_lossy(&replay.stdout));
     let _ = std::fs::remove_file(&path);
 }
+
+#[test]
+fn every_numeric_flag_out_of_its_range_is_refused_with_the_range_before_any_work() {
+    // Issue 33: `conform --max-len` with a huge value aborted (SIGABRT, exit 134) allocating
+    // the generator's trees, and a server flag out of range started a server. Every numeric
+    // flag is now checked when the command line is parsed: exit 2, the accepted range, nothing
+    // done (a server that started would be killed after 10 s and fail here).
+    let tmp = TempDir::new("ranges");
+    let out = tmp.join("c.jsonl");
+    let out = out.to_str().unwrap();
+    let serve = ["serve", "--listen", "127.0.0.1:0", "--control", "127.0.0.1:0"];
+    let record = ["record", "--listen", "127.0.0.1:0", "--target", "127.0.0.1:1", "--out", out];
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["conform", "--max-len", "18446744073709551615"], "give 1 to 10000"),
+        (vec!["conform", "--max-len", "100000000"], "give 1 to 10000"),
+        (vec!["conform", "--max-len", "0"], "give 1 to 10000"),
+        (vec!["conform", "--cases", "4294967296"], "give 0 to 4294967295"),
+        (vec!["conform", "--seed", "18446744073709551616"], "give 0 to 18446744073709551615"),
+        (vec!["conform", "--threads", "18446744073709551616"], "give 1 to"),
+        (vec!["check", "--threads", "-1"], "give 1 to"),
+        ([&serve[..], &["--clients-max", "0"]].concat(), "give 1 to 100000"),
+        ([&serve[..], &["--clients-max", "18446744073709551615"]].concat(), "give 1 to 100000"),
+        ([&serve[..], &["--idle-timeout", "18446744073709551615"]].concat(), "give 0 to 31536000 seconds"),
+        ([&serve[..], &["--control-idle-timeout", "31536001"]].concat(), "give 0 to 31536000 seconds"),
+        ([&serve[..], &["--servo-hz", "99999999999"]].concat(), "the servo clock ranges 1..100000 Hz"),
+        ([&record[..], &["--silence-ms", "0"]].concat(), "give 1 to 3600000 ms"),
+        ([&record[..], &["--silence-ms", "18446744073709551615"]].concat(), "give 1 to 3600000 ms"),
+        ([&record[..], &["--sessions", "0"]].concat(), "give 1 to 18446744073709551615"),
+        ([&record[..], &["--servo-hz", "-1"]].concat(), "the servo clock ranges 1..100000 Hz"),
+        (vec!["margin", "--i40", "-5"], "give 0 to 65535"),
+        (vec!["margin", "--i40", "18446744073709551615"], "give 0 to 65535"),
+        (vec!["margin", "--i8", "256"], "give 0 to 255"),
+        (vec!["margin", "--i10", "0"], "give 1 to 8388607"),
+        (vec!["margin", "--motors", "256"], "give 0 to 255"),
+        (vec!["margin", "--plc0-units", "65536"], "give 0 to 65535"),
+        (vec!["margin", "--background-units", "-1"], "give 0 to 65535"),
+        (vec!["margin", "--servo-hz", "4294967296"], "the servo clock ranges 1..100000 Hz"),
+    ];
+    for (args, range) in cases {
+        let mut child = pmacwd()
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let started = std::time::Instant::now();
+        while child.try_wait().unwrap().is_none() && started.elapsed() < std::time::Duration::from_secs(10) {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let _ = child.kill();
+        let done = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&done.stderr);
+        assert_eq!(done.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(range), "{args:?}: {stderr}");
+        assert!(done.stdout.is_empty(), "{args:?} did work before refusing");
+    }
+}
