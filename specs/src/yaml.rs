@@ -35,6 +35,14 @@ pub struct SourceMap {
     names: HashMap<(u32, Box<str>), Vec<u32>>,
 }
 
+/// The most nodes (scalars, mappings and sequences: keys, values and list items) one spec or
+/// trace file may have. Memory grows with the nodes, not the bytes: each costs about 250 bytes
+/// between the source map and serde_yaml's event list, so a flow collection written wide
+/// (`[1,1,1,...]`, 2 bytes a node) took 130 times its size (a 16 MB file 2.1 GB, and a YAML
+/// trace may have 64 MiB). The shipped files have at most a few thousand nodes; a longer trace
+/// is JSON Lines, which is read a step at a time.
+pub const NODES_MAX: usize = 250_000;
+
 /// The keys that name a list item in a dotted path (`rules.counter_reset`).
 const NAMING_KEYS: [&str; 4] = ["id", "name", "command", "number"];
 
@@ -68,6 +76,7 @@ impl SourceMap {
             names: HashMap::new(),
             error: None,
             documents: 0,
+            nodes: 0,
         };
         let mut parser = Parser::new_from_str(text);
         // All documents are walked, so that a second one is an error with its position.
@@ -224,6 +233,8 @@ struct Walker {
     names: HashMap<(u32, Box<str>), Vec<u32>>,
     error: Option<SpecError>,
     documents: u32,
+    /// Nodes met so far, at most [`NODES_MAX`].
+    nodes: usize,
 }
 
 impl Walker {
@@ -285,6 +296,20 @@ impl MarkedEventReceiver for Walker {
     fn on_event(&mut self, ev: Event, mark: Marker) {
         if self.error.is_some() {
             return;
+        }
+        if matches!(ev, Event::Scalar(..) | Event::Alias(_) | Event::MappingStart(..) | Event::SequenceStart(..)) {
+            self.nodes += 1;
+            if self.nodes > NODES_MAX {
+                self.error = Some(SpecError::at(
+                    &self.file,
+                    position_of(&mark),
+                    format!(
+                        "more than {NODES_MAX} YAML nodes (keys, values and list items), the most a spec or trace file \
+                         may have: write a longer trace as JSON Lines"
+                    ),
+                ));
+                return;
+            }
         }
         match ev {
             Event::DocumentStart => {
@@ -427,6 +452,24 @@ mod tests {
         let stored: usize = map.children.keys().map(|(_, k)| k.len()).sum();
         assert!(stored <= text.len(), "{stored} key bytes kept for a {}-byte file", text.len());
         assert_eq!(map.position(&format!("{long_key}.c9999")), Position { line: 10_002, column: 3 });
+    }
+
+    #[test]
+    fn a_file_past_the_node_limit_is_refused_at_the_first_node_beyond_it() {
+        // Issue 33: a flow collection written wide (`[1,1,1,...]`, 2 bytes a node) took 130
+        // times its size in memory (4 MB: 538 MB), whatever the file was for. The walk now
+        // stops at the first node past NODES_MAX, before serde_yaml holds any of it.
+        let wide = |items: usize| format!("a: 1\nb: [{}1]\n", "1,".repeat(items - 1));
+        // `a`, 1, `b`, the sequence: 4 nodes besides the items; the root mapping is the 5th.
+        let at_limit = wide(NODES_MAX - 5);
+        assert!(SourceMap::build(Path::new("w.yaml"), &at_limit).is_ok());
+        let e = SourceMap::build(Path::new("w.yaml"), &wide(NODES_MAX - 4)).unwrap_err();
+        let column = 5 + 2 * (NODES_MAX - 5);
+        assert_eq!(e.position, Some(Position { line: 2, column }), "{e}");
+        assert!(e.message.contains(&format!("more than {NODES_MAX} YAML nodes")), "{e}");
+        // parse refuses it before deserializing.
+        let e = parse::<serde_yaml::Value>(Path::new("w.yaml"), &wide(3 * NODES_MAX)).unwrap_err();
+        assert_eq!(e.position, Some(Position { line: 2, column }), "{e}");
     }
 
     #[test]
