@@ -457,3 +457,61 @@ fn the_emulator_s_own_capture_of_a_refused_i3_write_replays_as_consistent() {
     assert_explained_by_default(&spec, &path);
     std::fs::remove_file(&path).ok();
 }
+
+/// Sends one control line and reads its reply line.
+fn control_line(addr: std::net::SocketAddr, line: &str) -> String {
+    use std::io::BufRead;
+    let c = TcpStream::connect(addr).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    (&c).write_all(format!("{line}\n").as_bytes()).unwrap();
+    let mut reply = String::new();
+    std::io::BufReader::new(&c).read_line(&mut reply).unwrap();
+    reply
+}
+
+/// The servo cycles of a capture's `servo` steps, each at most STEP_CYCLES_MAX (the reader
+/// refuses the capture otherwise).
+fn servo_cycles(path: &std::path::Path, text: &str) -> u64 {
+    let trace = pmacwd_trace::jsonl::read_all(path, text.as_bytes()).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    trace
+        .steps
+        .iter()
+        .filter_map(|s| match s.event {
+            TraceEvent::Model(pmacwd_specs::vocab::event::Event::Servo { cycles }) => Some(u64::from(cycles)),
+            _ => None,
+        })
+        .sum()
+}
+
+#[test]
+fn a_servo_control_longer_than_a_step_is_captured_as_steps_the_capture_s_own_replay_reads() {
+    // Issue 33: `serve --record` and `record` wrote `servo 40000000` as one step of 40 million
+    // cycles, which a trace reader (and so their own `replay`) refuses past 2^24 (exit 2).
+    // Both now write it as steps of at most STEP_CYCLES_MAX; `servo 0` writes no step.
+    let cycles = 2 * pmacwd_trace::STEP_CYCLES_MAX + 5;
+    // The emulator's own capture.
+    let path = std::env::temp_dir().join(format!("pmacwd-servo-steps-{}.jsonl", std::process::id()));
+    let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
+    let mut card = Card::default_card(Clock::Virtual);
+    card.record(CaptureWriter::new(out, "servo", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap());
+    let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
+    let server = Server::start(card, options).unwrap();
+    let control = server.control_addr.unwrap();
+    assert_eq!(control_line(control, &format!("servo {cycles}")), format!("ok {{\"servo\":{cycles}}}\n"));
+    assert_eq!(control_line(control, "servo 0"), "ok {\"servo\":0}\n");
+    server.with_card(|c| c.finish_recording());
+    server.stop();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(servo_cycles(&path, &text), u64::from(cycles), "{text}");
+    std::fs::remove_file(&path).ok();
+    // The recording proxy's, in front of an emulator that answers with the whole step.
+    let (server, proxy, buffer) = proxy_to_an_emulator();
+    let reply = control_line(proxy.control_addr.unwrap(), &format!("servo {cycles}"));
+    assert_eq!(reply, format!("ok {{\"servo\":{cycles}}}\n"));
+    drop(TcpStream::connect(proxy.local_addr).unwrap());
+    let (_, _, left) = proxy.wait().unwrap();
+    server.stop();
+    assert!(left.is_empty(), "{left:?}");
+    let text = String::from_utf8(buffer.0.lock().unwrap().clone()).unwrap();
+    assert_eq!(servo_cycles(std::path::Path::new("capture.jsonl"), &text), u64::from(cycles), "{text}");
+}

@@ -28,7 +28,8 @@ use crate::framing::{ACK, BEL, CR};
 use crate::listen::bind;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
 use crate::server::CONTROL_CLIENTS_MAX;
-use pmacwd_trace::Step;
+use pmacwd_specs::vocab::event::Event;
+use pmacwd_trace::{Expect, Step, TraceEvent, STEP_CYCLES_MAX};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::io::{self, BufReader, Read, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
@@ -132,10 +133,30 @@ impl Recorder {
         self.capture.exchange(line, reply)
     }
 
+    /// An event of the card (a control reply). A `servo` step longer than a trace reader takes
+    /// ([`STEP_CYCLES_MAX`]: an emulator answers `servo N` with the whole step) is written as
+    /// several, the expectations and note on the last; `servo 0` ran nothing and is a note,
+    /// since a reader refuses a step of no cycles. Before, such a capture's own `replay`
+    /// refused it (exit 2).
     fn event(&mut self, at: Instant, step: Step) -> io::Result<()> {
         self.advance_to(at);
         self.note_not_recorded();
-        self.capture.event(step)
+        let TraceEvent::Model(Event::Servo { cycles }) = step.event else { return self.capture.event(step) };
+        if cycles == 0 {
+            self.capture.note("control `servo 0`: no servo cycle ran".into());
+            return Ok(());
+        }
+        let mut left = cycles;
+        while left > STEP_CYCLES_MAX {
+            let part = Step {
+                event: TraceEvent::Model(Event::Servo { cycles: STEP_CYCLES_MAX }),
+                expect: Expect::default(),
+                note: None,
+            };
+            self.capture.event(part)?;
+            left -= STEP_CYCLES_MAX;
+        }
+        self.capture.event(Step { event: TraceEvent::Model(Event::Servo { cycles: left }), ..step })
     }
 
     /// A request forwarded to the card that the capture does not record (READREADY, FLUSH,
@@ -837,7 +858,14 @@ fn control_session(client: TcpStream, card: TcpStream, shared: &Shared, last_act
         // cannot reach the capture ahead of this event.
         let text = String::from_utf8_lossy(&reply);
         if let Some(json) = text.trim_end().strip_prefix("ok {").map(|rest| format!("{{{rest}")) {
-            match serde_json::from_str::<Step>(&json) {
+            // `{"servo":N}` past what one trace step takes is the emulator's answer to a long
+            // `servo N`; the step reader refuses it, so it is read here and split when written.
+            let long_servo = serde_json::from_str::<serde_json::Value>(&json).ok().and_then(|v| {
+                let m = v.as_object().filter(|m| m.len() == 1)?;
+                let cycles = u32::try_from(m.get("servo")?.as_u64()?).ok()?;
+                Some(Step { event: TraceEvent::Model(Event::Servo { cycles }), expect: Expect::default(), note: None })
+            });
+            match long_servo.map_or_else(|| serde_json::from_str::<Step>(&json), Ok) {
                 Ok(step) => shared.record(|r| r.event(at, step)),
                 Err(e) => shared.record(|r| {
                     r.capture_note(format!("control reply `{json}` not understood: {e}"));

@@ -17,6 +17,9 @@ use crate::framing::BEL;
 use crate::grammar::Addressing;
 use crate::listen::bind;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
+use pmacwd_specs::vocab::event::Event;
+use pmacwd_trace::jsonl::step_line;
+use pmacwd_trace::{Expect, Step, TraceEvent, STEP_CYCLES_MAX};
 use std::io::{self, BufReader, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -443,11 +446,40 @@ fn control_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU6
         }
         let reply = match Control::parse(text) {
             Ok(Control::Step { cycles }) => step_in_chunks(shared, cycles, last_active_ms),
+            Ok(Control::Servo { cycles }) => servo_in_steps(shared, cycles),
             Ok(c) => shared.card_now().control(c),
             Err(e) => format!("error: {e}"),
         };
         writeln!(writer, "{reply}")?;
     }
+}
+
+/// `servo N` applied at most [`STEP_CYCLES_MAX`] cycles at a time, so that the card's own
+/// capture (`serve --record`) writes each part as a `servo` step a trace reader takes: one
+/// `servo 4294967295` was written as one step, which the capture's own `replay` refused (exit
+/// 2). A servo run with no background is the core's closed form, so each part is one short
+/// lock hold. `servo 0` runs nothing and writes nothing (a reader refuses a step of 0 cycles).
+/// The reply is the whole step's, as if it had run at once.
+fn servo_in_steps(shared: &Shared, cycles: u32) -> String {
+    let whole = || {
+        let step = Step { event: TraceEvent::Model(Event::Servo { cycles }), expect: Expect::default(), note: None };
+        format!("ok {}", step_line(&step))
+    };
+    if cycles == 0 {
+        // As `step 0`: refused on the wall clock, nothing to run otherwise.
+        let reply = shared.card_now().control(Control::Step { cycles: 0 });
+        return if reply.starts_with("ok") { whole() } else { reply };
+    }
+    let mut done = 0u32;
+    while done < cycles {
+        let n = (cycles - done).min(STEP_CYCLES_MAX);
+        let reply = shared.card_now().control(Control::Servo { cycles: n });
+        if !reply.starts_with("ok") || n == cycles {
+            return reply;
+        }
+        done += n;
+    }
+    whole()
 }
 
 /// `step N` run [`CYCLES_PER_HOLD_MAX`] cycles per lock hold, so that hosts keep getting
