@@ -515,3 +515,57 @@ fn a_servo_control_longer_than_a_step_is_captured_as_steps_the_capture_s_own_rep
     let text = String::from_utf8(buffer.0.lock().unwrap().clone()).unwrap();
     assert_eq!(servo_cycles(std::path::Path::new("capture.jsonl"), &text), u64::from(cycles), "{text}");
 }
+
+#[test]
+fn a_host_that_does_not_wait_for_a_silent_card_is_closed_past_the_bound_on_waiting_requests() {
+    // Issue 33: `record` kept every request of a host that does not wait for its replies, each
+    // resolved only after `silence` when the card is silent: memory grew without bound. Past
+    // WAITING_MAX waiting requests the session is now closed, and the capture says so.
+    use pmacwd_emulator::proxy::WAITING_MAX;
+    // A silent card: it reads every request and answers none.
+    let card = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let card_addr = card.local_addr().unwrap();
+    let silent = std::thread::spawn(move || {
+        let (mut c, _) = card.accept().unwrap();
+        let _ = std::io::copy(&mut c, &mut std::io::sink());
+    });
+    let buffer = SharedBuffer::default();
+    let out: Box<dyn Write + Send> = Box::new(buffer.clone());
+    let capture = CaptureWriter::new(out, "silent card", "i40-zero", Recorder::timing(2250, false)).unwrap();
+    let options = RecordOptions {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        target: card_addr.to_string(),
+        control: None,
+        servo_hz: 2250,
+        virtual_time: false,
+        silence: Duration::from_secs(60),
+        sessions: Some(1),
+        verbose: false,
+        thread_stack_bytes: None,
+    };
+    let proxy = Proxy::start(Recorder::new(capture, 2250, false), options).unwrap();
+    let mut c = TcpStream::connect(proxy.local_addr).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    let mut request = Header::getresponse(3).to_bytes().to_vec();
+    request.extend_from_slice(b"???");
+    // Sent without waiting; the proxy closes the session at the request past the bound, so
+    // a write may fail once it has.
+    for _ in 0..WAITING_MAX + 10 {
+        if c.write_all(&request).is_err() {
+            break;
+        }
+    }
+    let mut rest = Vec::new();
+    let closed = c.read_to_end(&mut rest);
+    assert!(
+        closed.is_ok() || closed.as_ref().is_err_and(|e| e.kind() == std::io::ErrorKind::ConnectionReset),
+        "{closed:?}: the session was not closed"
+    );
+    assert!(rest.is_empty(), "a silent card's proxy answered {rest:?}");
+    let (exchanges, _, left) = proxy.wait().unwrap();
+    silent.join().unwrap();
+    assert_eq!(exchanges, WAITING_MAX as u64, "the waiting requests are recorded, as silent");
+    let text = String::from_utf8(buffer.0.lock().unwrap().clone()).unwrap();
+    let said = format!("{WAITING_MAX} requests of a host session were waiting");
+    assert!(text.contains(&said) || left.iter().any(|n| n.contains(&said)), "{left:?}");
+}

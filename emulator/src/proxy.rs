@@ -44,6 +44,14 @@ use std::time::{Duration, Instant};
 /// gone silent never lock a new one out. Control sessions: `CONTROL_CLIENTS_MAX`, the same way.
 pub const SESSIONS_MAX: usize = 128;
 
+/// Requests of one host session forwarded to the card and still waiting for their replies.
+/// A host waits for each reply (or pipelines a few: READREADY then GETBUFFER); a host that
+/// does not wait, in front of a silent card (tripped, UM p.215), had every request kept, each
+/// resolved only after `silence`: memory grew without bound. The request past this many closes
+/// the session, with a note in the capture; the ones waiting are recorded as silent. At most
+/// about 1.5 KB each (a line is at most 1,492 bytes), 384 KB a session.
+pub const WAITING_MAX: usize = 256;
+
 /// A reply line from the proxied control interface is at most this long, its newline
 /// included; a longer one ends that control session with an error line. The emulator's
 /// longest reply (`help`) is about 400 bytes and a step's JSON a few hundred: ten times that
@@ -682,6 +690,24 @@ fn requests_to_card(
             // The request joins the session's queue before it is forwarded, so that its reply
             // always finds it there.
             let mut s = lock(session);
+            if s.waiting.len() >= WAITING_MAX {
+                // The card answers nothing this host waits for, and the host does not wait:
+                // close the session rather than keep its requests.
+                s.finish(shared);
+                shared.record(|r| {
+                    r.capture_note(format!(
+                        "{WAITING_MAX} requests of a host session were waiting for their replies (a silent card, \
+                         a host that does not wait) when it sent another: session closed, the waiting ones \
+                         recorded as silent"
+                    ));
+                    Ok(())
+                });
+                shared.log(&format!("a session had {WAITING_MAX} requests waiting for replies: closed"));
+                drop(s);
+                let _ = reader.get_ref().shutdown(Shutdown::Both);
+                let _ = card.shutdown(Shutdown::Both);
+                return;
+            }
             let code = h.request;
             let not_recorded = |shared: &Shared| {
                 shared.record(|r| {
