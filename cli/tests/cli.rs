@@ -1007,3 +1007,64 @@ fn every_numeric_flag_out_of_its_range_is_refused_with_the_range_before_any_work
         assert!(done.stdout.is_empty(), "{args:?} did work before refusing");
     }
 }
+
+/// Sets the address-space soft limit of process `pid` (`None`: back to the hard limit).
+#[cfg(target_os = "linux")]
+fn set_address_space_limit(pid: u32, soft_bytes: Option<u64>) {
+    let pid = libc::pid_t::try_from(pid).unwrap();
+    let mut old = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+    // SAFETY: prlimit reads `new` and writes `old`, both valid for the call.
+    assert_eq!(unsafe { libc::prlimit(pid, libc::RLIMIT_AS, std::ptr::null(), &mut old) }, 0);
+    let new =
+        libc::rlimit { rlim_cur: soft_bytes.map_or(old.rlim_max, |b| b.min(old.rlim_max)), rlim_max: old.rlim_max };
+    assert_eq!(unsafe { libc::prlimit(pid, libc::RLIMIT_AS, &new, std::ptr::null_mut()) }, 0);
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_server_out_of_address_space_closes_the_connections_it_has_no_room_for_and_never_aborts() {
+    // Issue 33: under an address-space limit (`ulimit -v`) a connection's thread could get its
+    // stack and then not its alternate signal stack or its first allocation, and Rust aborted
+    // the whole server (SIGABRT: "memory allocation of 41 bytes failed"). The limit is set a
+    // stack's worth (2 MiB) and a few KiB above the server's size, where that happened; the
+    // server now closes the connection it has no room for, counts it, and answers again once
+    // there is room.
+    use std::io::{Read, Write};
+    let mut request = vec![0x40, 0xBF, 0, 0, 0, 0, 0, 3];
+    request.extend_from_slice(b"???");
+    let ask = |addr: std::net::SocketAddr| -> Vec<u8> {
+        let Ok(mut c) = std::net::TcpStream::connect(addr) else { return Vec::new() };
+        c.set_read_timeout(Some(std::time::Duration::from_secs(3))).unwrap();
+        let _ = c.write_all(&request);
+        let mut reply = [0u8; 64];
+        c.read(&mut reply).map(|n| reply[..n].to_vec()).unwrap_or_default()
+    };
+    for extra_kib in [4u64, 8, 64] {
+        let (mut server, addr) = serve_on_a_free_port(&["--verbose"]);
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        let status = std::fs::read_to_string(format!("/proc/{}/status", server.id())).unwrap();
+        let size_kib: u64 = status
+            .lines()
+            .find_map(|l| l.strip_prefix("VmSize:"))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+            .unwrap();
+        set_address_space_limit(server.id(), Some((size_kib + 2048 + extra_kib) * 1024));
+        for _ in 0..3 {
+            // Closed (or, with room after all, answered): either way the server lives on.
+            let _ = ask(addr);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        let alive = server.try_wait().unwrap();
+        assert!(alive.is_none(), "+{extra_kib} KiB: the server ended: {alive:?}");
+        set_address_space_limit(server.id(), None);
+        let reply = ask(addr);
+        assert!(
+            reply.len() == 14 && reply.ends_with(b"\r\x06"),
+            "+{extra_kib} KiB: not answered once there is room: {reply:?}"
+        );
+        server.kill().unwrap();
+        let out = server.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains("cannot start its thread"), "+{extra_kib} KiB: {stderr}");
+    }
+}

@@ -21,7 +21,7 @@
 //! commands seen on the proxied control interface of a `pmacwd serve --virtual-time`.
 //! Concurrent sessions share one timeline, in the order their exchanges complete.
 
-use crate::bounded::{accepted, spawn, CountedLog, Table};
+use crate::bounded::{accepted, room_for_a_thread, spawn, CountedLog, Table};
 use crate::capture::{CaptureWriter, Timing};
 use crate::control::{read_line_max, CONTROL_LINE_BYTES_MAX};
 use crate::framing::{ACK, BEL, CR};
@@ -585,6 +585,11 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
             return;
         }
         let Some(client) = accepted(client, &shared.accept_errors) else { continue };
+        if let Err(e) = room_for_a_thread(shared.options.thread_stack_bytes) {
+            // Before the table or the threads allocate anything for it: closed, counted.
+            shared.spawn_failures.report(&format!("a session: cannot start its threads: {e}"));
+            continue;
+        }
         let (id, last_active_ms, evicted) = match shared.hosts.admit(&client, shared.now_ms()) {
             Ok(admitted) => admitted,
             Err(e) => {
@@ -801,6 +806,10 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
             return;
         }
         let Some(client) = accepted(client, &shared.accept_errors) else { continue };
+        if let Err(e) = room_for_a_thread(shared.options.thread_stack_bytes) {
+            shared.spawn_failures.report(&format!("a control session: cannot start its thread: {e}"));
+            continue;
+        }
         let (id, last_active_ms, evicted) = match shared.controls.admit(&client, shared.now_ms()) {
             Ok(admitted) => admitted,
             Err(e) => {

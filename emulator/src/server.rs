@@ -10,7 +10,7 @@
 //! a new one (half-open connections are never the ones in use). The card's lock is held for
 //! at most [`CYCLES_PER_HOLD_MAX`] servo cycles at a time.
 
-use crate::bounded::{accepted, spawn, CountedLog, Table};
+use crate::bounded::{accepted, room_for_a_thread, spawn, CountedLog, Table};
 use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
 use crate::control::{read_line_max, Control, CONTROL_LINE_BYTES_MAX};
 use crate::framing::BEL;
@@ -266,6 +266,12 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
             return;
         }
         let Some(stream) = accepted(stream, &shared.accept_errors) else { continue };
+        if let Err(e) = room_for_a_thread(shared.options.thread_stack_bytes) {
+            // Before the table or the thread allocate anything for it: closed, counted.
+            shared.stats.spawn_failures.fetch_add(1, Ordering::Relaxed);
+            shared.spawn_failures.report(&format!("a host connection: cannot start its thread: {e}"));
+            continue;
+        }
         let (id, last_active_ms, evicted) = match shared.hosts.admit(&stream, shared.now_ms()) {
             Ok(admitted) => admitted,
             Err(e) => {
@@ -395,6 +401,11 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
             return;
         }
         let Some(stream) = accepted(stream, &shared.accept_errors) else { continue };
+        if let Err(e) = room_for_a_thread(shared.options.thread_stack_bytes) {
+            shared.stats.spawn_failures.fetch_add(1, Ordering::Relaxed);
+            shared.spawn_failures.report(&format!("a control connection: cannot start its thread: {e}"));
+            continue;
+        }
         let (id, last_active_ms, evicted) = match shared.controls.admit(&stream, shared.now_ms()) {
             Ok(admitted) => admitted,
             Err(e) => {
