@@ -697,8 +697,8 @@ fn requests_to_card(
             let mut s = lock(session);
             if s.waiting.len() >= WAITING_MAX {
                 // The card answers nothing this host waits for, and the host does not wait:
-                // close the session rather than keep its requests.
-                s.finish(shared);
+                // close the session rather than keep its requests. The note goes with the
+                // first of the waiting requests, which `finish` writes as silent.
                 shared.record(|r| {
                     r.capture_note(format!(
                         "{WAITING_MAX} requests of a host session were waiting for their replies (a silent card, \
@@ -707,6 +707,7 @@ fn requests_to_card(
                     ));
                     Ok(())
                 });
+                s.finish(shared);
                 shared.log(&format!("a session had {WAITING_MAX} requests waiting for replies: closed"));
                 drop(s);
                 let _ = reader.get_ref().shutdown(Shutdown::Both);
