@@ -44,13 +44,20 @@ use std::time::{Duration, Instant};
 /// gone silent never lock a new one out. Control sessions: `CONTROL_CLIENTS_MAX`, the same way.
 pub const SESSIONS_MAX: usize = 128;
 
-/// Requests of one host session forwarded to the card and still waiting for their replies.
-/// A host waits for each reply (or pipelines a few: READREADY then GETBUFFER); a host that
+/// What the requests of one host session forwarded to the card and still waiting for their
+/// replies may hold, in bytes: [`AWAITING_BYTES`] for each and its command line. A host that
 /// does not wait, in front of a silent card (tripped, UM p.215), had every request kept, each
-/// resolved only after `silence`: memory grew without bound. The request past this many closes
-/// the session, with a note in the capture; the ones waiting are recorded as silent. At most
-/// about 1.5 KB each (a line is at most 1,492 bytes), 384 KB a session.
-pub const WAITING_MAX: usize = 256;
+/// resolved only after `silence`: memory grew without bound (550 MB in 10 s). With this much
+/// waiting, the host's next request is read only when the queue has drained to half (a host
+/// that pipelines thousands of polls to a card that answers goes at the card's pace); when the
+/// oldest has had no reply byte for half the silence, the session is closed instead, with a
+/// note in the capture, the ones waiting recorded as silent. 4,003 `???` requests, or about
+/// 320 of the longest lines (1,492 bytes); 128 sessions hold at most 64 MiB.
+pub const WAITING_BYTES_MAX: usize = 512 * 1024;
+
+/// What one waiting request is counted for besides its line: its entry in the queue (about
+/// 100 bytes) and its place in the proxy's order, rounded up.
+pub const AWAITING_BYTES: usize = 128;
 
 /// A reply line from the proxied control interface is at most this long, its newline
 /// included; a longer one ends that control session with an error line. The emulator's
@@ -332,11 +339,21 @@ struct Session {
     clock_from: Instant,
     /// Reply bytes that came when no request was waiting.
     unsolicited_bytes: u64,
+    /// The requests' thread waits for the queue to drain (see [`WAITING_BYTES_MAX`]).
+    host_waits: bool,
+    /// What the waiting requests are counted for ([`AWAITING_BYTES`] and the line of each).
+    waiting_bytes: usize,
 }
 
 impl Session {
     fn new() -> Session {
-        Session { waiting: VecDeque::new(), clock_from: Instant::now(), unsolicited_bytes: 0 }
+        Session {
+            waiting: VecDeque::new(),
+            clock_from: Instant::now(),
+            unsolicited_bytes: 0,
+            host_waits: false,
+            waiting_bytes: 0,
+        }
     }
 
     fn push(&mut self, shared: &Shared, line: Option<String>, end: ReplyEnd) {
@@ -345,6 +362,7 @@ impl Session {
             self.clock_from = now;
         }
         let id = shared.order.forwarded();
+        self.waiting_bytes += AWAITING_BYTES + line.as_ref().map_or(0, String::len);
         self.waiting.push_back(Awaiting {
             id,
             sent: now,
@@ -393,6 +411,7 @@ impl Session {
 
     fn resolve_front(&mut self, shared: &Shared) {
         let Some(a) = self.waiting.pop_front() else { return };
+        self.waiting_bytes = self.waiting_bytes.saturating_sub(AWAITING_BYTES + a.line.as_ref().map_or(0, String::len));
         if let Some(line) = &a.line {
             let reply = a.answered().then_some(a.bytes.as_slice());
             let dropped = a.bytes_dropped;
@@ -638,11 +657,14 @@ fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>, id: u6
     };
     let _ = client.set_nodelay(true);
     let _ = card.set_nodelay(true);
+    // Signalled by the replies when the queue is down to half (see WAITING_BYTES_MAX).
+    let room = Arc::new(Condvar::new());
     let replies = {
         let shared = shared.clone();
         let session = session.clone();
+        let room = room.clone();
         spawn(format!("record: replies {id}"), shared.options.thread_stack_bytes, move || {
-            replies_to_host(card_r, client_w, &shared, &session)
+            replies_to_host(card_r, client_w, &shared, &session, &room)
         })
     };
     let replies = match replies {
@@ -655,7 +677,7 @@ fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>, id: u6
             return;
         }
     };
-    requests_to_card(client, card_w, shared, &session, last_active_ms);
+    requests_to_card(client, card_w, shared, &session, &room, last_active_ms);
     let _ = card.shutdown(Shutdown::Write);
     let _ = replies.join();
     lock(&session).finish(shared);
@@ -670,6 +692,7 @@ fn requests_to_card(
     mut card: TcpStream,
     shared: &Shared,
     session: &Mutex<Session>,
+    room: &Condvar,
     last_active_ms: &AtomicU64,
 ) {
     let mut reader = BufReader::new(client);
@@ -695,25 +718,39 @@ fn requests_to_card(
             // The request joins the session's queue before it is forwarded, so that its reply
             // always finds it there.
             let mut s = lock(session);
-            if s.waiting.len() >= WAITING_MAX {
-                // The card answers nothing this host waits for, and the host does not wait:
-                // close the session rather than keep its requests. The note goes with the
-                // first of the waiting requests, which `finish` writes as silent.
-                shared.record(|r| {
-                    r.capture_note(format!(
-                        "{WAITING_MAX} requests of a host session were waiting for their replies (a silent card, \
-                         a host that does not wait) when it sent another: session closed, the waiting ones \
-                         recorded as silent"
-                    ));
-                    Ok(())
-                });
-                s.finish(shared);
-                shared.log(&format!("a session had {WAITING_MAX} requests waiting for replies: closed"));
-                drop(s);
-                let _ = reader.get_ref().shutdown(Shutdown::Both);
-                let _ = card.shutdown(Shutdown::Both);
-                return;
+            // A full queue: a host that pipelines waits here (it is not read meanwhile) while
+            // a card that answers drains it to half (one wake-up per half a queue, not one per
+            // reply); a card silent on the oldest request for half the silence, with a host
+            // that does not wait, closes the session instead.
+            let full = s.waiting_bytes >= WAITING_BYTES_MAX;
+            while full && s.waiting_bytes > WAITING_BYTES_MAX / 2 {
+                let silent = s.waiting.front().is_some_and(|a| !a.answered())
+                    && s.clock_from.elapsed() >= shared.options.silence / 2;
+                if silent || shared.stopping.load(Ordering::SeqCst) {
+                    // The note goes with the first of the waiting requests, which `finish`
+                    // writes as silent.
+                    let waited = (shared.options.silence / 2).as_millis();
+                    let (n, bytes) = (s.waiting.len(), s.waiting_bytes);
+                    shared.record(|r| {
+                        r.capture_note(format!(
+                            "{n} requests of a host session ({bytes} bytes, at most {WAITING_BYTES_MAX}) were \
+                             waiting for their replies, the oldest \
+                             {waited} ms without a reply byte (a silent card, a host that does not wait), when \
+                             it sent another: session closed, the waiting ones recorded as silent"
+                        ));
+                        Ok(())
+                    });
+                    s.finish(shared);
+                    shared.log(&format!("a session had {n} requests waiting for a silent card: closed"));
+                    drop(s);
+                    let _ = reader.get_ref().shutdown(Shutdown::Both);
+                    let _ = card.shutdown(Shutdown::Both);
+                    return;
+                }
+                s.host_waits = true;
+                s = room.wait_timeout(s, Duration::from_millis(10)).unwrap_or_else(|e| e.into_inner()).0;
             }
+            s.host_waits = false;
             let code = h.request;
             let not_recorded = |shared: &Shared| {
                 shared.record(|r| {
@@ -775,7 +812,20 @@ fn requests_to_card(
     }
 }
 
-fn replies_to_host(mut card: TcpStream, mut client: TcpStream, shared: &Shared, session: &Mutex<Session>) {
+fn replies_to_host(
+    mut card: TcpStream,
+    mut client: TcpStream,
+    shared: &Shared,
+    session: &Mutex<Session>,
+    room: &Condvar,
+) {
+    // Wakes the requests' thread when it waits for the queue to drain to half.
+    let drained = |s: &mut Session| {
+        if s.host_waits && s.waiting_bytes <= WAITING_BYTES_MAX / 2 {
+            s.host_waits = false;
+            room.notify_one();
+        }
+    };
     let silence = shared.options.silence;
     let _ = card.set_read_timeout(Some(Duration::from_millis(20).min(silence)));
     let mut buf = [0u8; 4096];
@@ -785,13 +835,19 @@ fn replies_to_host(mut card: TcpStream, mut client: TcpStream, shared: &Shared, 
             Ok(n) => {
                 // Recorded first, then forwarded: the host cannot send its next request
                 // before this reply is in the capture.
-                lock(session).reply_bytes(shared, &buf[..n]);
+                {
+                    let mut s = lock(session);
+                    s.reply_bytes(shared, &buf[..n]);
+                    drained(&mut s);
+                }
                 if client.write_all(&buf[..n]).is_err() {
                     break;
                 }
             }
             Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => {
-                lock(session).check_silence(shared, silence);
+                let mut s = lock(session);
+                s.check_silence(shared, silence);
+                drained(&mut s);
             }
             Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
             Err(_) => break,
