@@ -302,6 +302,20 @@ mod tests {
         assert!(spawn("fine".into(), None, || 7).unwrap().join().unwrap() == 7);
     }
 
+    #[cfg(unix)]
+    #[test]
+    fn room_for_a_thread_maps_nothing_it_keeps_and_says_what_was_missing() {
+        // The probe of the room a connection's thread needs: a stack the address space cannot
+        // hold is refused with OutOfMemory and names the headroom; the default stack fits.
+        let e = room_for_a_thread(Some(1 << 60)).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::OutOfMemory);
+        assert!(e.to_string().contains("a thread's stack and 4 MiB besides"), "{e}");
+        for _ in 0..1000 {
+            // Unmapped each time: a thousand probes of 6 MiB do not add up.
+            room_for_a_thread(None).unwrap();
+        }
+    }
+
     #[test]
     fn cut_keeps_short_text_and_cuts_long_text_on_a_character_boundary() {
         // Reasons and notes may quote a client's bytes; the cut must not split a character.
