@@ -1068,3 +1068,35 @@ fn a_server_out_of_address_space_closes_the_connections_it_has_no_room_for_and_n
         assert!(stderr.contains("cannot start its thread"), "+{extra_kib} KiB: {stderr}");
     }
 }
+
+#[test]
+fn import_as_yaml_stops_before_its_trace_is_longer_than_the_readers_take() {
+    // The YAML readers take at most yaml::NODES_MAX nodes (issue 33); `import --yaml` of a long
+    // log wrote a trace that `run` and `replay` then refused. It now stops with exit 2, the
+    // log's line and the way out (JSON Lines), and leaves no file under --out.
+    let dir = TempDir::new("import-yaml-bound");
+    let log = dir.join("long.log");
+    let mut text = String::new();
+    for i in 0..20_000u32 {
+        text.push_str(&format!("> RHX:$0\n< {:06X}\n> ???\n< 001000000000\n", (i * 300) & 0xFF_FFFF));
+    }
+    std::fs::write(&log, text).unwrap();
+    let out = dir.join("long.yaml");
+    let done = pmacwd().arg("import").arg(&log).arg("--yaml").arg("--out").arg(&out).output().unwrap();
+    let stderr = String::from_utf8_lossy(&done.stderr);
+    assert_eq!(done.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("more than the 250000 `run` and `replay` read: import the log as JSON Lines"), "{stderr}");
+    assert!(stderr.contains("long.log:"), "{stderr}");
+    assert!(!out.exists(), "a refused import left {}", out.display());
+    // As JSON Lines the same log imports, and its trace loads.
+    let jsonl = dir.join("long.jsonl");
+    let done = pmacwd().arg("import").arg(&log).arg("--out").arg(&jsonl).output().unwrap();
+    assert_eq!(done.status.code(), Some(0), "{}", String::from_utf8_lossy(&done.stderr));
+    // A shorter log as YAML loads too.
+    let short = dir.join("short.log");
+    std::fs::write(&short, "> RHX:$0\n< 000010\n> ???\n< 001000000000\n".repeat(1)).unwrap();
+    let yaml = dir.join("short.yaml");
+    let done = pmacwd().arg("import").arg(&short).arg("--yaml").arg("--out").arg(&yaml).output().unwrap();
+    assert_eq!(done.status.code(), Some(0), "{}", String::from_utf8_lossy(&done.stderr));
+    pmacwd_trace::load(&yaml).unwrap();
+}

@@ -354,6 +354,23 @@ impl MarkedEventReceiver for Walker {
     }
 }
 
+/// The nodes of `text` as [`NODES_MAX`] counts them (scalars, aliases, mappings and
+/// sequences), or `None` when it is not YAML: for a writer that must stay within what the
+/// readers take (`pmacwd import --yaml`).
+pub fn node_count(text: &str) -> Option<usize> {
+    struct Count(usize);
+    impl MarkedEventReceiver for Count {
+        fn on_event(&mut self, ev: Event, _: Marker) {
+            if matches!(ev, Event::Scalar(..) | Event::Alias(_) | Event::MappingStart(..) | Event::SequenceStart(..)) {
+                self.0 += 1;
+            }
+        }
+    }
+    let mut count = Count(0);
+    Parser::new_from_str(text).load(&mut count, true).ok()?;
+    Some(count.0)
+}
+
 /// Parses one file strictly into `T`, returning the source map for later checks.
 pub fn parse<T: DeserializeOwned>(file: &Path, text: &str) -> Result<(T, SourceMap), SpecError> {
     let map = SourceMap::build(file, text)?;
