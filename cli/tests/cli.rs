@@ -1094,7 +1094,7 @@ fn import_as_yaml_stops_before_its_trace_is_longer_than_the_readers_take() {
     assert_eq!(done.status.code(), Some(0), "{}", String::from_utf8_lossy(&done.stderr));
     // A shorter log as YAML loads too.
     let short = dir.join("short.log");
-    std::fs::write(&short, "> RHX:$0\n< 000010\n> ???\n< 001000000000\n".repeat(1)).unwrap();
+    std::fs::write(&short, "> RHX:$0\n< 000010\n> ???\n< 001000000000\n").unwrap();
     let yaml = dir.join("short.yaml");
     let done = pmacwd().arg("import").arg(&short).arg("--yaml").arg("--out").arg(&yaml).output().unwrap();
     assert_eq!(done.status.code(), Some(0), "{}", String::from_utf8_lossy(&done.stderr));
