@@ -1039,8 +1039,20 @@ fn a_server_out_of_address_space_closes_the_connections_it_has_no_room_for_and_n
         let mut reply = [0u8; 64];
         c.read(&mut reply).map(|n| reply[..n].to_vec()).unwrap_or_default()
     };
+    /// Kills the server when an assertion fails, so that no server outlives its test.
+    struct Killed(Option<std::process::Child>);
+    impl Drop for Killed {
+        fn drop(&mut self) {
+            if let Some(mut c) = self.0.take() {
+                let _ = c.kill();
+                let _ = c.wait();
+            }
+        }
+    }
     for extra_kib in [4u64, 8, 64] {
-        let (mut server, addr) = serve_on_a_free_port(&["--verbose"]);
+        let (server, addr) = serve_on_a_free_port(&["--verbose"]);
+        let mut guard = Killed(Some(server));
+        let server = guard.0.as_mut().unwrap();
         std::thread::sleep(std::time::Duration::from_millis(200));
         let status = std::fs::read_to_string(format!("/proc/{}/status", server.id())).unwrap();
         let size_kib: u64 = status
@@ -1062,6 +1074,7 @@ fn a_server_out_of_address_space_closes_the_connections_it_has_no_room_for_and_n
             reply.len() == 14 && reply.ends_with(b"\r\x06"),
             "+{extra_kib} KiB: not answered once there is room: {reply:?}"
         );
+        let mut server = guard.0.take().unwrap();
         server.kill().unwrap();
         let out = server.wait_with_output().unwrap();
         let stderr = String::from_utf8_lossy(&out.stderr);
