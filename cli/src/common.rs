@@ -190,3 +190,39 @@ pub fn listen_address(text: &str) -> Result<std::net::SocketAddr, String> {
         .copied()
         .ok_or_else(|| format!("`{text}` names no address; {usage}"))
 }
+
+/// A clap value parser for a numeric flag: a number in `min..=max`, or an error that gives the
+/// accepted range (and `why`, when the bound has a reason), so that every numeric flag is
+/// checked before any work and refused with exit 2 (issue 33: `conform --max-len` with a huge
+/// value aborted allocating the generator's trees).
+pub fn ranged<T>(min: T, max: T, why: &'static str) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync
+where
+    T: std::str::FromStr + PartialOrd + Copy + std::fmt::Display + Send + Sync + 'static,
+{
+    move |text: &str| match text.trim().parse::<T>() {
+        Ok(v) if min <= v && v <= max => Ok(v),
+        _ => Err(format!("give {min} to {max}{why}")),
+    }
+}
+
+/// `--servo-hz` as `serve`, `record` and `margin` take it: any whole number a `u32` holds goes
+/// on to the check against the spec's servo clock range (which `--specs` may change); anything
+/// else is refused here with the shipped range.
+pub fn servo_hz(text: &str) -> Result<u32, String> {
+    text.trim().parse::<u32>().map_err(|_| {
+        format!(
+            "the servo clock ranges 1..{} Hz (scheduling.yaml's servo_clock_hz_range)",
+            pmacwd_emulator::card::SERVO_HZ_MAX
+        )
+    })
+}
+
+/// `--threads`: 1 to the machine's cores, as [`threads`] checks it, refused at parse time too
+/// when the number does not even fit.
+pub fn threads_flag(text: &str) -> Result<usize, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    match text.trim().parse::<usize>() {
+        Ok(n) => Ok(n),
+        Err(_) => Err(format!("give 1 to {cores} (the cores of this machine)")),
+    }
+}

@@ -66,7 +66,7 @@ pub fn import_log(log: &Path, out: Option<PathBuf>, configuration: &str, yaml: b
                 .map_err(|e| format!("{}: cannot write: {e}", partial.display()))
                 .and_then(|f| {
                     let mut w = BufWriter::new(f);
-                    let steps = write_trace(&mut stream, form, &mut w)?;
+                    let steps = write_trace(&mut stream, form, &mut w, log)?;
                     w.flush().map_err(|e| format!("{}: cannot write: {e}", partial.display()))?;
                     Ok(steps)
                 })
@@ -89,7 +89,7 @@ pub fn import_log(log: &Path, out: Option<PathBuf>, configuration: &str, yaml: b
         None => {
             let stdout = std::io::stdout();
             let mut w = BufWriter::new(stdout.lock());
-            let result = write_trace(&mut stream, form, &mut w);
+            let result = write_trace(&mut stream, form, &mut w, log);
             let _ = w.flush();
             match result {
                 Ok(_) => {
@@ -147,13 +147,93 @@ fn partial_path(path: &Path) -> PathBuf {
 }
 
 /// Imports the log into `out`; the number of steps written.
-fn write_trace(stream: &mut ImportStream, form: Form, out: &mut dyn Write) -> Result<u64, String> {
+fn write_trace(stream: &mut ImportStream, form: Form, out: &mut dyn Write, log: &Path) -> Result<u64, String> {
     let write_error = |e: std::io::Error| format!("cannot write the trace: {e}");
     form.header(out, &stream.header, stream.card.as_ref()).map_err(write_error)?;
+    let mut nodes = YamlNodes::default();
+    if let Form::Yaml = form {
+        nodes.header(&pmacwd_trace::yaml_header_with_card(&stream.header, stream.card.as_ref()));
+    }
     let mut steps = 0u64;
-    while let Some((_, step)) = stream.next_step().map_err(|e| e.to_string())? {
+    while let Some((line, step)) = stream.next_step().map_err(|e| e.to_string())? {
+        if let Form::Yaml = form {
+            nodes.step(&pmacwd_trace::yaml_step(&step)).map_err(|n| {
+                format!(
+                    "{}:{line}: the YAML trace would have {n} nodes with this step, more than the {} `run` \
+                     and `replay` read: import the log as JSON Lines (without --yaml), which they read a \
+                     step at a time",
+                    log.display(),
+                    pmacwd_specs::yaml::NODES_MAX
+                )
+            })?;
+        }
         form.step(out, &step).map_err(write_error)?;
         steps += 1;
     }
     Ok(steps)
+}
+
+/// The nodes of a YAML trace written a step at a time, as the readers count them
+/// ([`pmacwd_specs::yaml::NODES_MAX`]): a longer one would be written only to be refused.
+#[derive(Default)]
+struct YamlNodes(usize);
+
+impl YamlNodes {
+    /// The header ends with `steps:`, whose empty value stands for the sequence of steps.
+    fn header(&mut self, text: &str) {
+        self.0 = pmacwd_specs::yaml::node_count(text).unwrap_or(0);
+    }
+
+    /// A step is written as an item (`  - command: ...`): alone it parses as a sequence of one,
+    /// and that sequence is the header's.
+    fn step(&mut self, text: &str) -> Result<(), usize> {
+        self.0 += pmacwd_specs::yaml::node_count(text).unwrap_or(1).saturating_sub(1);
+        if self.0 > pmacwd_specs::yaml::NODES_MAX {
+            return Err(self.0);
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_yaml_node_tally_of_an_import_is_the_count_of_the_whole_trace() {
+        // `import --yaml` stops before its trace passes what the readers take; the tally it
+        // keeps step by step must be the count a reader makes of the whole file.
+        let dir = std::env::temp_dir().join(format!("pmacwd-import-tally-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let log = dir.join("s.log");
+        let mut text = String::new();
+        for i in 0..50 {
+            text.push_str(&format!("> RHX:$0\n< {:06X}\n> ???\n< 001000000000\n> I40\n< 0\n", i * 300));
+        }
+        std::fs::write(&log, text).unwrap();
+        let spec = Spec::embedded().unwrap();
+        let mut stream = ImportStream::open(&spec, &log, "host-log").unwrap();
+        let mut out = Vec::new();
+        write_trace(&mut stream, Form::Yaml, &mut out, &log).unwrap();
+        let written = String::from_utf8(out).unwrap();
+        let whole = pmacwd_specs::yaml::node_count(&written).unwrap();
+        let mut nodes = YamlNodes::default();
+        let (header, steps) = written.split_at(written.find("steps:\n").unwrap() + "steps:\n".len());
+        nodes.header(header);
+        // The tally again, over the text as written: each step begins at a line `  - `.
+        let mut items: Vec<String> = Vec::new();
+        for line in steps.lines() {
+            if line.starts_with("  - ") {
+                items.push(String::new());
+            }
+            let item = items.last_mut().unwrap();
+            item.push_str(line);
+            item.push('\n');
+        }
+        for item in &items {
+            nodes.step(item).unwrap();
+        }
+        assert_eq!(nodes.0, whole, "{written}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }

@@ -89,7 +89,7 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         save: Option<PathBuf>,
         /// Checker threads (default: the machine's cores).
-        #[arg(long, value_name = "N")]
+        #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = common::threads_flag)]
         threads: Option<usize>,
         /// Skip the conformance summary (the core against the model) after the model check.
         #[arg(long)]

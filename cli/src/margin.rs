@@ -20,25 +20,25 @@ pub struct MarginArgs {
     #[arg(long, value_name = "NAME")]
     pub profile: Option<String>,
     /// Servo clock in Hz.
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, allow_negative_numbers = true, value_name = "HZ", value_parser = crate::common::servo_hz)]
     pub servo_hz: Option<u32>,
     /// Servo clock as I10 (SRM p.43: 8,388,608,000 / I10 Hz).
-    #[arg(long, value_name = "I10")]
+    #[arg(long, value_name = "I10", allow_negative_numbers = true, value_parser = crate::common::ranged(1i64, 8_388_607, " (SRM p.43)"))]
     pub i10: Option<i64>,
     /// I8: the RTI comes every I8 + 1 servo cycles.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = crate::common::ranged(0i64, 255, " (I8's range, variables.yaml)"))]
     pub i8: Option<i64>,
     /// I40: the watchdog counter's reload (0: 4095 or 4096 by the profile's reading).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = crate::common::ranged(0i64, 65_535, " (I40's range, variables.yaml)"))]
     pub i40: Option<i64>,
     /// Motors closed by the servo routines.
-    #[arg(long, value_name = "N")]
+    #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = crate::common::ranged(0u8, u8::MAX, ""))]
     pub motors: Option<u8>,
     /// PLC 0 cost per RTI, in the configuration's CPU units.
-    #[arg(long, value_name = "UNITS")]
+    #[arg(long, allow_negative_numbers = true, value_name = "UNITS", value_parser = crate::common::ranged(0u16, u16::MAX, ""))]
     pub plc0_units: Option<u16>,
     /// CPU units one background cycle needs.
-    #[arg(long, value_name = "UNITS")]
+    #[arg(long, allow_negative_numbers = true, value_name = "UNITS", value_parser = crate::common::ranged(0u16, u16::MAX, ""))]
     pub background_units: Option<u16>,
     /// A measured X:$25 (`RHX:$25`: the lowest watchdog counter value since reset, SRM p.57):
     /// also say, per profile, the longest run without a background cycle it proves and how many

@@ -30,7 +30,7 @@ pub struct RecordArgs {
     pub specs: Option<PathBuf>,
     /// The card's servo rate, 1..100000 Hz (the servo clock range of specs/scheduling.yaml;
     /// default: the configuration's; docs/emulator.md "Limits").
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, allow_negative_numbers = true, value_name = "HZ", value_parser = crate::common::servo_hz)]
     pub servo_hz: Option<u32>,
     /// Also proxy an emulator's control interface: listen here ...
     #[arg(long, value_name = "ADDR", requires = "control_target", value_parser = listen_address)]
@@ -43,11 +43,11 @@ pub struct RecordArgs {
     #[arg(long, requires = "control_target")]
     pub virtual_time: bool,
     /// No reply byte for this long counts as silence (a tripped card).
-    #[arg(long, value_name = "MS", default_value_t = 1000)]
+    #[arg(long, allow_negative_numbers = true, value_name = "MS", default_value_t = 1000, value_parser = crate::common::ranged(1u64, 3_600_000, " ms (at most an hour)"))]
     pub silence_ms: u64,
     /// Stop after this many host sessions have ended (default: run until killed; every
     /// exchange is on disk as soon as it completes).
-    #[arg(long, value_name = "N")]
+    #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = crate::common::ranged(1u64, u64::MAX, ""))]
     pub sessions: Option<u64>,
     /// Log sessions, and each one whose card could not be reached or whose thread could not
     /// be started, to standard error (without it, those are summed up on one line at most once
@@ -81,7 +81,7 @@ pub fn record(a: RecordArgs) -> ExitCode {
         control: a.control_listen.zip(a.control_target.clone()),
         servo_hz,
         virtual_time: a.virtual_time,
-        silence: Duration::from_millis(a.silence_ms.max(1)),
+        silence: Duration::from_millis(a.silence_ms),
         sessions: a.sessions,
         verbose: a.verbose,
         thread_stack_bytes: None,

@@ -9,6 +9,12 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
+/// The most `--clients-max` admits (a test of `record` ran 100,000 behind it).
+const CLIENTS_MAX_MAX: usize = 100_000;
+/// The longest idle timeout, a year in seconds: longer is `0` (never) in all but name.
+const TIMEOUT_SECONDS_MAX: u64 = 365 * 24 * 3600;
+const TIMEOUT_WHY: &str = " seconds (0: never; at most a year)";
+
 /// Turbo PMAC emulator on the Ethernet protocol, backed by the compact core.
 #[derive(clap::Args, Debug)]
 pub struct ServeArgs {
@@ -33,7 +39,7 @@ pub struct ServeArgs {
     /// Servo interrupt rate, 1..100000 Hz (the servo clock range of specs/scheduling.yaml;
     /// default: the configuration's; 100 kHz is above any servo clock a real card sustains,
     /// docs/emulator.md "Limits").
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, allow_negative_numbers = true, value_name = "HZ", value_parser = crate::common::servo_hz)]
     pub servo_hz: Option<u32>,
     /// Time moves only by `step` and `servo` on the control interface (for tests).
     #[arg(long)]
@@ -56,15 +62,15 @@ pub struct ServeArgs {
     #[arg(long, value_name = "FILE")]
     pub record: Option<PathBuf>,
     /// Host connections open at once; beyond it the one idle longest is closed.
-    #[arg(long, value_name = "N", default_value_t = 128)]
+    #[arg(long, allow_negative_numbers = true, value_name = "N", default_value_t = 128, value_parser = crate::common::ranged(1usize, CLIENTS_MAX_MAX, " (each open connection has its thread)"))]
     pub clients_max: usize,
     /// Close a host connection silent this long (0: never, as a card never closes one; at
     /// --clients-max the one idle longest makes room for a newcomer).
-    #[arg(long, value_name = "SECONDS", default_value_t = 0)]
+    #[arg(long, allow_negative_numbers = true, value_name = "SECONDS", default_value_t = 0, value_parser = crate::common::ranged(0u64, TIMEOUT_SECONDS_MAX, TIMEOUT_WHY))]
     pub idle_timeout: u64,
     /// Close a control connection silent this long (0: never); when 16 are open, the one idle
     /// longest is closed for a newcomer.
-    #[arg(long, value_name = "SECONDS", default_value_t = CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS)]
+    #[arg(long, allow_negative_numbers = true, value_name = "SECONDS", default_value_t = CONTROL_IDLE_TIMEOUT_DEFAULT_SECONDS, value_parser = crate::common::ranged(0u64, TIMEOUT_SECONDS_MAX, TIMEOUT_WHY))]
     pub control_idle_timeout: u64,
     /// Log connections, their ends and each protocol error to standard error (without it,
     /// protocol errors are summed up on one line at most once a minute).

@@ -954,3 +954,166 @@ fn sigterm_stops_record_in_order_closing_the_capture_and_saying_what_it_recorded
     assert!(replay.status.success(), "{}", String::from_utf8_lossy(&replay.stdout));
     let _ = std::fs::remove_file(&path);
 }
+
+#[test]
+fn every_numeric_flag_out_of_its_range_is_refused_with_the_range_before_any_work() {
+    // Issue 33: `conform --max-len` with a huge value aborted (SIGABRT, exit 134) allocating
+    // the generator's trees, and a server flag out of range started a server. Every numeric
+    // flag is now checked when the command line is parsed: exit 2, the accepted range, nothing
+    // done (a server that started would be killed after 10 s and fail here).
+    let tmp = TempDir::new("ranges");
+    let out = tmp.join("c.jsonl");
+    let out = out.to_str().unwrap();
+    let serve = ["serve", "--listen", "127.0.0.1:0", "--control", "127.0.0.1:0"];
+    let record = ["record", "--listen", "127.0.0.1:0", "--target", "127.0.0.1:1", "--out", out];
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["conform", "--max-len", "18446744073709551615"], "give 1 to 10000"),
+        (vec!["conform", "--max-len", "100000000"], "give 1 to 10000"),
+        (vec!["conform", "--max-len", "0"], "give 1 to 10000"),
+        (vec!["conform", "--cases", "4294967296"], "give 0 to 4294967295"),
+        (vec!["conform", "--seed", "18446744073709551616"], "give 0 to 18446744073709551615"),
+        (vec!["conform", "--threads", "18446744073709551616"], "give 1 to"),
+        (vec!["check", "--threads", "-1"], "give 1 to"),
+        ([&serve[..], &["--clients-max", "0"]].concat(), "give 1 to 100000"),
+        ([&serve[..], &["--clients-max", "18446744073709551615"]].concat(), "give 1 to 100000"),
+        ([&serve[..], &["--idle-timeout", "18446744073709551615"]].concat(), "give 0 to 31536000 seconds"),
+        ([&serve[..], &["--control-idle-timeout", "31536001"]].concat(), "give 0 to 31536000 seconds"),
+        ([&serve[..], &["--servo-hz", "99999999999"]].concat(), "the servo clock ranges 1..100000 Hz"),
+        ([&record[..], &["--silence-ms", "0"]].concat(), "give 1 to 3600000 ms"),
+        ([&record[..], &["--silence-ms", "18446744073709551615"]].concat(), "give 1 to 3600000 ms"),
+        ([&record[..], &["--sessions", "0"]].concat(), "give 1 to 18446744073709551615"),
+        ([&record[..], &["--servo-hz", "-1"]].concat(), "the servo clock ranges 1..100000 Hz"),
+        (vec!["margin", "--i40", "-5"], "give 0 to 65535"),
+        (vec!["margin", "--i40", "18446744073709551615"], "give 0 to 65535"),
+        (vec!["margin", "--i8", "256"], "give 0 to 255"),
+        (vec!["margin", "--i10", "0"], "give 1 to 8388607"),
+        (vec!["margin", "--motors", "256"], "give 0 to 255"),
+        (vec!["margin", "--plc0-units", "65536"], "give 0 to 65535"),
+        (vec!["margin", "--background-units", "-1"], "give 0 to 65535"),
+        (vec!["margin", "--servo-hz", "4294967296"], "the servo clock ranges 1..100000 Hz"),
+    ];
+    for (args, range) in cases {
+        let mut child = pmacwd()
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let started = std::time::Instant::now();
+        while child.try_wait().unwrap().is_none() && started.elapsed() < std::time::Duration::from_secs(10) {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let _ = child.kill();
+        let done = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&done.stderr);
+        assert_eq!(done.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(range), "{args:?}: {stderr}");
+        assert!(done.stdout.is_empty(), "{args:?} did work before refusing");
+    }
+}
+
+/// Sets the address-space soft limit of process `pid` (`None`: back to the hard limit).
+#[cfg(target_os = "linux")]
+fn set_address_space_limit(pid: u32, soft_bytes: Option<u64>) {
+    let pid = libc::pid_t::try_from(pid).unwrap();
+    let mut old = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+    // SAFETY: prlimit reads `new` and writes `old`, both valid for the call.
+    assert_eq!(unsafe { libc::prlimit(pid, libc::RLIMIT_AS, std::ptr::null(), &mut old) }, 0);
+    let new =
+        libc::rlimit { rlim_cur: soft_bytes.map_or(old.rlim_max, |b| b.min(old.rlim_max)), rlim_max: old.rlim_max };
+    assert_eq!(unsafe { libc::prlimit(pid, libc::RLIMIT_AS, &new, std::ptr::null_mut()) }, 0);
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_server_out_of_address_space_closes_the_connections_it_has_no_room_for_and_never_aborts() {
+    // Issue 33: under an address-space limit (`ulimit -v`) a connection's thread could get its
+    // stack and then not its alternate signal stack or its first allocation, and Rust aborted
+    // the whole server (SIGABRT: "memory allocation of 41 bytes failed"). The limit is set a
+    // stack's worth (2 MiB) and a few KiB above the server's size, where that happened; the
+    // server now closes the connection it has no room for, counts it, and answers again once
+    // there is room.
+    use std::io::{Read, Write};
+    let mut request = vec![0x40, 0xBF, 0, 0, 0, 0, 0, 3];
+    request.extend_from_slice(b"???");
+    let ask = |addr: std::net::SocketAddr| -> Vec<u8> {
+        let Ok(mut c) = std::net::TcpStream::connect(addr) else { return Vec::new() };
+        c.set_read_timeout(Some(std::time::Duration::from_secs(3))).unwrap();
+        let _ = c.write_all(&request);
+        let mut reply = [0u8; 64];
+        c.read(&mut reply).map(|n| reply[..n].to_vec()).unwrap_or_default()
+    };
+    /// Kills the server when an assertion fails, so that no server outlives its test.
+    struct Killed(Option<std::process::Child>);
+    impl Drop for Killed {
+        fn drop(&mut self) {
+            if let Some(mut c) = self.0.take() {
+                let _ = c.kill();
+                let _ = c.wait();
+            }
+        }
+    }
+    for extra_kib in [4u64, 8, 64] {
+        let (server, addr) = serve_on_a_free_port(&["--verbose"]);
+        let mut guard = Killed(Some(server));
+        let server = guard.0.as_mut().unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        let status = std::fs::read_to_string(format!("/proc/{}/status", server.id())).unwrap();
+        let size_kib: u64 = status
+            .lines()
+            .find_map(|l| l.strip_prefix("VmSize:"))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+            .unwrap();
+        set_address_space_limit(server.id(), Some((size_kib + 2048 + extra_kib) * 1024));
+        for _ in 0..3 {
+            // Closed (or, with room after all, answered): either way the server lives on.
+            let _ = ask(addr);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        let alive = server.try_wait().unwrap();
+        assert!(alive.is_none(), "+{extra_kib} KiB: the server ended: {alive:?}");
+        set_address_space_limit(server.id(), None);
+        let reply = ask(addr);
+        assert!(
+            reply.len() == 14 && reply.ends_with(b"\r\x06"),
+            "+{extra_kib} KiB: not answered once there is room: {reply:?}"
+        );
+        let mut server = guard.0.take().unwrap();
+        server.kill().unwrap();
+        let out = server.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains("cannot start its thread"), "+{extra_kib} KiB: {stderr}");
+    }
+}
+
+#[test]
+fn import_as_yaml_stops_before_its_trace_is_longer_than_the_readers_take() {
+    // The YAML readers take at most yaml::NODES_MAX nodes (issue 33); `import --yaml` of a long
+    // log wrote a trace that `run` and `replay` then refused. It now stops with exit 2, the
+    // log's line and the way out (JSON Lines), and leaves no file under --out.
+    let dir = TempDir::new("import-yaml-bound");
+    let log = dir.join("long.log");
+    let mut text = String::new();
+    for i in 0..20_000u32 {
+        text.push_str(&format!("> RHX:$0\n< {:06X}\n> ???\n< 001000000000\n", (i * 300) & 0xFF_FFFF));
+    }
+    std::fs::write(&log, text).unwrap();
+    let out = dir.join("long.yaml");
+    let done = pmacwd().arg("import").arg(&log).arg("--yaml").arg("--out").arg(&out).output().unwrap();
+    let stderr = String::from_utf8_lossy(&done.stderr);
+    assert_eq!(done.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("more than the 250000 `run` and `replay` read: import the log as JSON Lines"), "{stderr}");
+    assert!(stderr.contains("long.log:"), "{stderr}");
+    assert!(!out.exists(), "a refused import left {}", out.display());
+    // As JSON Lines the same log imports, and its trace loads.
+    let jsonl = dir.join("long.jsonl");
+    let done = pmacwd().arg("import").arg(&log).arg("--out").arg(&jsonl).output().unwrap();
+    assert_eq!(done.status.code(), Some(0), "{}", String::from_utf8_lossy(&done.stderr));
+    // A shorter log as YAML loads too.
+    let short = dir.join("short.log");
+    std::fs::write(&short, "> RHX:$0\n< 000010\n> ???\n< 001000000000\n").unwrap();
+    let yaml = dir.join("short.yaml");
+    let done = pmacwd().arg("import").arg(&short).arg("--yaml").arg("--out").arg(&yaml).output().unwrap();
+    assert_eq!(done.status.code(), Some(0), "{}", String::from_utf8_lossy(&done.stderr));
+    pmacwd_trace::load(&yaml).unwrap();
+}

@@ -494,3 +494,124 @@ fn the_emulator_s_capture_of_the_grammar_s_new_commands_replays_as_consistent() 
     assert_explained_by_default(&spec, &path);
     std::fs::remove_file(&path).ok();
 }
+
+/// Sends one control line and reads its reply line.
+fn control_line(addr: std::net::SocketAddr, line: &str) -> String {
+    use std::io::BufRead;
+    let c = TcpStream::connect(addr).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    (&c).write_all(format!("{line}\n").as_bytes()).unwrap();
+    let mut reply = String::new();
+    std::io::BufReader::new(&c).read_line(&mut reply).unwrap();
+    reply
+}
+
+/// The servo cycles of a capture's `servo` steps, each at most STEP_CYCLES_MAX (the reader
+/// refuses the capture otherwise).
+fn servo_cycles(path: &std::path::Path, text: &str) -> u64 {
+    let trace = pmacwd_trace::jsonl::read_all(path, text.as_bytes()).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    trace
+        .steps
+        .iter()
+        .filter_map(|s| match s.event {
+            TraceEvent::Model(pmacwd_specs::vocab::event::Event::Servo { cycles }) => Some(u64::from(cycles)),
+            _ => None,
+        })
+        .sum()
+}
+
+#[test]
+fn a_servo_control_longer_than_a_step_is_captured_as_steps_the_capture_s_own_replay_reads() {
+    // Issue 33: `serve --record` and `record` wrote `servo 40000000` as one step of 40 million
+    // cycles, which a trace reader (and so their own `replay`) refuses past 2^24 (exit 2).
+    // Both now write it as steps of at most STEP_CYCLES_MAX; `servo 0` writes no step.
+    let cycles = 2 * pmacwd_trace::STEP_CYCLES_MAX + 5;
+    // The emulator's own capture.
+    let path = std::env::temp_dir().join(format!("pmacwd-servo-steps-{}.jsonl", std::process::id()));
+    let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
+    let mut card = Card::default_card(Clock::Virtual);
+    card.record(CaptureWriter::new(out, "servo", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap());
+    let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
+    let server = Server::start(card, options).unwrap();
+    let control = server.control_addr.unwrap();
+    assert_eq!(control_line(control, &format!("servo {cycles}")), format!("ok {{\"servo\":{cycles}}}\n"));
+    assert_eq!(control_line(control, "servo 0"), "ok {\"servo\":0}\n");
+    server.with_card(|c| c.finish_recording());
+    server.stop();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(servo_cycles(&path, &text), u64::from(cycles), "{text}");
+    std::fs::remove_file(&path).ok();
+    // The recording proxy's, in front of an emulator that answers with the whole step.
+    let (server, proxy, buffer) = proxy_to_an_emulator();
+    let reply = control_line(proxy.control_addr.unwrap(), &format!("servo {cycles}"));
+    assert_eq!(reply, format!("ok {{\"servo\":{cycles}}}\n"));
+    drop(TcpStream::connect(proxy.local_addr).unwrap());
+    let (_, _, left) = proxy.wait().unwrap();
+    server.stop();
+    assert!(left.is_empty(), "{left:?}");
+    let text = String::from_utf8(buffer.0.lock().unwrap().clone()).unwrap();
+    assert_eq!(servo_cycles(std::path::Path::new("capture.jsonl"), &text), u64::from(cycles), "{text}");
+}
+
+#[test]
+fn a_host_that_does_not_wait_for_a_silent_card_is_closed_past_the_bound_on_waiting_requests() {
+    // Issue 33: `record` kept every request of a host that does not wait for its replies, each
+    // resolved only after `silence` when the card is silent: memory grew without bound. With
+    // WAITING_BYTES_MAX waiting and the oldest silent for half the silence, the session is now
+    // closed, and the capture says so. (A host pipelining to a card that answers is only
+    // slowed: forwarded_requests_the_capture_does_not_record_are_counted_not_noted_one_by_one.)
+    use pmacwd_emulator::proxy::{AWAITING_BYTES, WAITING_BYTES_MAX};
+    // `???` requests fill the queue at this many.
+    let waiting = WAITING_BYTES_MAX.div_ceil(AWAITING_BYTES + 3);
+    // A silent card: it reads every request and answers none.
+    let card = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let card_addr = card.local_addr().unwrap();
+    let silent = std::thread::spawn(move || {
+        let (mut c, _) = card.accept().unwrap();
+        let _ = std::io::copy(&mut c, &mut std::io::sink());
+    });
+    let buffer = SharedBuffer::default();
+    let out: Box<dyn Write + Send> = Box::new(buffer.clone());
+    let capture = CaptureWriter::new(out, "silent card", "i40-zero", Recorder::timing(2250, false)).unwrap();
+    let options = RecordOptions {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        target: card_addr.to_string(),
+        control: None,
+        servo_hz: 2250,
+        virtual_time: false,
+        // Long enough that no request is resolved as silent before the session closes, at
+        // half of it.
+        silence: Duration::from_secs(4),
+        sessions: Some(1),
+        verbose: false,
+        thread_stack_bytes: None,
+    };
+    let proxy = Proxy::start(Recorder::new(capture, 2250, false), options).unwrap();
+    let mut c = TcpStream::connect(proxy.local_addr).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+    let mut request = Header::getresponse(3).to_bytes().to_vec();
+    request.extend_from_slice(b"???");
+    // Sent without waiting; the proxy closes the session at the request past the bound, so
+    // a write may fail once it has.
+    for _ in 0..waiting + 10 {
+        if c.write_all(&request).is_err() {
+            break;
+        }
+    }
+    let mut rest = Vec::new();
+    let closed = c.read_to_end(&mut rest);
+    assert!(
+        closed.is_ok() || closed.as_ref().is_err_and(|e| e.kind() == std::io::ErrorKind::ConnectionReset),
+        "{closed:?}: the session was not closed"
+    );
+    assert!(rest.is_empty(), "a silent card's proxy answered {rest:?}");
+    let (exchanges, _, left) = proxy.wait().unwrap();
+    silent.join().unwrap();
+    assert_eq!(exchanges, waiting as u64, "the waiting requests are recorded, as silent");
+    let text = String::from_utf8(buffer.0.lock().unwrap().clone()).unwrap();
+    let said = format!(
+        "{waiting} requests of a host session ({} bytes, at most {WAITING_BYTES_MAX}) were waiting",
+        waiting * (AWAITING_BYTES + 3)
+    );
+    assert!(text.contains(&said), "the capture does not say why the session closed: {left:?}");
+}

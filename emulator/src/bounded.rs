@@ -6,6 +6,13 @@
 //! for a stack); in an accept loop that panic would end the loop and leave the listener open
 //! but unanswered. [`spawn`] returns the error instead, so the caller can close that one
 //! connection and keep accepting.
+//!
+//! A thread the system does start can still find no memory: under an address-space limit
+//! (`ulimit -v`) its stack fit, and then its alternate signal stack or its first allocation did
+//! not, and Rust aborts the whole process on either (SIGABRT: "memory allocation of 41 bytes
+//! failed"). [`room_for_a_thread`] asks first for the stack and [`HEADROOM_BYTES`] besides,
+//! and [`spawn`] refuses the thread when they are not there, so a server at the limit closes
+//! the one connection that needed a thread and the ones already running keep their room.
 
 use std::io;
 use std::net::{Shutdown, TcpStream};
@@ -14,14 +21,62 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::{Builder, JoinHandle};
 use std::time::{Duration, Instant};
 
+/// Address space kept free beyond a new thread's stack: what the thread needs next (its
+/// alternate signal stack, 12 KiB; its buffers, a few KiB) and what the threads already
+/// running may still allocate, many times over.
+pub const HEADROOM_BYTES: usize = 4 << 20;
+
+/// The stack std gives a thread when none is asked for (`RUST_MIN_STACK` unset).
+const DEFAULT_STACK_BYTES: usize = 2 << 20;
+
+/// Whether the address space has room for a thread's stack (`stack_bytes`, `None`: std's
+/// default) and [`HEADROOM_BYTES`] besides: that much is mapped, never touched (no memory is
+/// used) and unmapped at once. Mapped directly, not allocated: the allocator would keep a
+/// freed block of that size for its next request and answer from it when the system has no
+/// room left. An error says what was missing.
+pub fn room_for_a_thread(stack_bytes: Option<usize>) -> io::Result<()> {
+    #[cfg(unix)]
+    {
+        let bytes = stack_bytes.unwrap_or(DEFAULT_STACK_BYTES).saturating_add(HEADROOM_BYTES);
+        // SAFETY: a fresh anonymous mapping that nothing reads or writes, unmapped right away;
+        // mmap with a null hint never replaces an existing mapping.
+        let p = unsafe {
+            libc::mmap(
+                std::ptr::null_mut(),
+                bytes,
+                libc::PROT_NONE,
+                libc::MAP_PRIVATE | libc::MAP_ANONYMOUS | libc::MAP_NORESERVE,
+                -1,
+                0,
+            )
+        };
+        if p == libc::MAP_FAILED {
+            let e = io::Error::last_os_error();
+            return Err(io::Error::new(
+                io::ErrorKind::OutOfMemory,
+                format!(
+                    "no room in the address space for a thread's stack and {} MiB besides ({e})",
+                    HEADROOM_BYTES >> 20
+                ),
+            ));
+        }
+        // SAFETY: exactly the mapping made above.
+        unsafe { libc::munmap(p, bytes) };
+    }
+    #[cfg(not(unix))]
+    let _ = stack_bytes;
+    Ok(())
+}
+
 /// Starts `f` on a new thread named `name`. `stack_bytes` is the thread's stack (`None`: the
-/// platform's default). The error is the system's refusal; `f` is dropped with it, so whatever
-/// it owned (a connection's socket) is closed.
+/// platform's default). The error is the system's refusal, or [`room_for_a_thread`]'s; `f` is
+/// dropped with it, so whatever it owned (a connection's socket) is closed.
 pub fn spawn<T: Send + 'static>(
     name: String,
     stack_bytes: Option<usize>,
     f: impl FnOnce() -> T + Send + 'static,
 ) -> io::Result<JoinHandle<T>> {
+    room_for_a_thread(stack_bytes)?;
     let mut builder = Builder::new().name(name);
     if let Some(bytes) = stack_bytes {
         builder = builder.stack_size(bytes);
@@ -245,6 +300,20 @@ mod tests {
         let r = spawn("too big".into(), Some(1 << 60), || ());
         assert!(r.is_err());
         assert!(spawn("fine".into(), None, || 7).unwrap().join().unwrap() == 7);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn room_for_a_thread_maps_nothing_it_keeps_and_says_what_was_missing() {
+        // The probe of the room a connection's thread needs: a stack the address space cannot
+        // hold is refused with OutOfMemory and names the headroom; the default stack fits.
+        let e = room_for_a_thread(Some(1 << 60)).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::OutOfMemory);
+        assert!(e.to_string().contains("a thread's stack and 4 MiB besides"), "{e}");
+        for _ in 0..1000 {
+            // Unmapped each time: a thousand probes of 6 MiB do not add up.
+            room_for_a_thread(None).unwrap();
+        }
     }
 
     #[test]

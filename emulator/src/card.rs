@@ -323,9 +323,9 @@ impl Card {
     /// The card `pmacwd serve` emulates by default: the embedded spec's `i40-zero`
     /// configuration under its default profile, with the default saved I-variables.
     pub fn default_card(clock: Clock) -> Card {
-        // Reading the embedded spec parses every spec file twice: done once per process, since
-        // tests and the card_grammar fuzz target make a fresh card per case (under the fuzzer's
-        // sanitizers the parse took seconds, and the target ran 119 cases in 10 minutes).
+        // The configuration and host defaults are resolved once per process, since tests and
+        // the card_grammar fuzz target make a fresh card per case (under the fuzzer's
+        // sanitizers reading the spec took seconds, and the target ran 119 cases in 10 minutes).
         static DEFAULTS: std::sync::OnceLock<(core::Config, HostDefaults)> = std::sync::OnceLock::new();
         let (cfg, defaults) = DEFAULTS.get_or_init(|| {
             let spec = pmacwd_specs::Spec::embedded().expect("the embedded spec is checked by its own tests");

@@ -21,14 +21,15 @@
 //! commands seen on the proxied control interface of a `pmacwd serve --virtual-time`.
 //! Concurrent sessions share one timeline, in the order their exchanges complete.
 
-use crate::bounded::{accepted, spawn, CountedLog, Table};
+use crate::bounded::{accepted, room_for_a_thread, spawn, CountedLog, Table};
 use crate::capture::{CaptureWriter, Timing};
 use crate::control::{read_line_max, CONTROL_LINE_BYTES_MAX};
 use crate::framing::{ACK, BEL, CR};
 use crate::listen::bind;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
 use crate::server::CONTROL_CLIENTS_MAX;
-use pmacwd_trace::Step;
+use pmacwd_specs::vocab::event::Event;
+use pmacwd_trace::{Expect, Step, TraceEvent, STEP_CYCLES_MAX};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::io::{self, BufReader, Read, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
@@ -42,6 +43,21 @@ use std::time::{Duration, Instant};
 /// bounded (two threads a session; 2,000 idle sessions held 4,000 threads before) and sessions
 /// gone silent never lock a new one out. Control sessions: `CONTROL_CLIENTS_MAX`, the same way.
 pub const SESSIONS_MAX: usize = 128;
+
+/// What the requests of one host session forwarded to the card and still waiting for their
+/// replies may hold, in bytes: [`AWAITING_BYTES`] for each and its command line. A host that
+/// does not wait, in front of a silent card (tripped, UM p.215), had every request kept, each
+/// resolved only after `silence`: memory grew without bound (550 MB in 10 s). With this much
+/// waiting, the host's next request is read only when the queue has drained to half (a host
+/// that pipelines thousands of polls to a card that answers goes at the card's pace); when the
+/// oldest has had no reply byte for half the silence, the session is closed instead, with a
+/// note in the capture, the ones waiting recorded as silent. 4,003 `???` requests, or about
+/// 320 of the longest lines (1,492 bytes); 128 sessions hold at most 64 MiB.
+pub const WAITING_BYTES_MAX: usize = 512 * 1024;
+
+/// What one waiting request is counted for besides its line: its entry in the queue (about
+/// 100 bytes) and its place in the proxy's order, rounded up.
+pub const AWAITING_BYTES: usize = 128;
 
 /// A reply line from the proxied control interface is at most this long, its newline
 /// included; a longer one ends that control session with an error line. The emulator's
@@ -132,10 +148,30 @@ impl Recorder {
         self.capture.exchange(line, reply)
     }
 
+    /// An event of the card (a control reply). A `servo` step longer than a trace reader takes
+    /// ([`STEP_CYCLES_MAX`]: an emulator answers `servo N` with the whole step) is written as
+    /// several, the expectations and note on the last; `servo 0` ran nothing and is a note,
+    /// since a reader refuses a step of no cycles. Before, such a capture's own `replay`
+    /// refused it (exit 2).
     fn event(&mut self, at: Instant, step: Step) -> io::Result<()> {
         self.advance_to(at);
         self.note_not_recorded();
-        self.capture.event(step)
+        let TraceEvent::Model(Event::Servo { cycles }) = step.event else { return self.capture.event(step) };
+        if cycles == 0 {
+            self.capture.note("control `servo 0`: no servo cycle ran".into());
+            return Ok(());
+        }
+        let mut left = cycles;
+        while left > STEP_CYCLES_MAX {
+            let part = Step {
+                event: TraceEvent::Model(Event::Servo { cycles: STEP_CYCLES_MAX }),
+                expect: Expect::default(),
+                note: None,
+            };
+            self.capture.event(part)?;
+            left -= STEP_CYCLES_MAX;
+        }
+        self.capture.event(Step { event: TraceEvent::Model(Event::Servo { cycles: left }), ..step })
     }
 
     /// A request forwarded to the card that the capture does not record (READREADY, FLUSH,
@@ -303,11 +339,21 @@ struct Session {
     clock_from: Instant,
     /// Reply bytes that came when no request was waiting.
     unsolicited_bytes: u64,
+    /// The requests' thread waits for the queue to drain (see [`WAITING_BYTES_MAX`]).
+    host_waits: bool,
+    /// What the waiting requests are counted for ([`AWAITING_BYTES`] and the line of each).
+    waiting_bytes: usize,
 }
 
 impl Session {
     fn new() -> Session {
-        Session { waiting: VecDeque::new(), clock_from: Instant::now(), unsolicited_bytes: 0 }
+        Session {
+            waiting: VecDeque::new(),
+            clock_from: Instant::now(),
+            unsolicited_bytes: 0,
+            host_waits: false,
+            waiting_bytes: 0,
+        }
     }
 
     fn push(&mut self, shared: &Shared, line: Option<String>, end: ReplyEnd) {
@@ -316,6 +362,7 @@ impl Session {
             self.clock_from = now;
         }
         let id = shared.order.forwarded();
+        self.waiting_bytes += AWAITING_BYTES + line.as_ref().map_or(0, String::len);
         self.waiting.push_back(Awaiting {
             id,
             sent: now,
@@ -364,6 +411,7 @@ impl Session {
 
     fn resolve_front(&mut self, shared: &Shared) {
         let Some(a) = self.waiting.pop_front() else { return };
+        self.waiting_bytes = self.waiting_bytes.saturating_sub(AWAITING_BYTES + a.line.as_ref().map_or(0, String::len));
         if let Some(line) = &a.line {
             let reply = a.answered().then_some(a.bytes.as_slice());
             let dropped = a.bytes_dropped;
@@ -556,6 +604,11 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
             return;
         }
         let Some(client) = accepted(client, &shared.accept_errors) else { continue };
+        if let Err(e) = room_for_a_thread(shared.options.thread_stack_bytes) {
+            // Before the table or the threads allocate anything for it: closed, counted.
+            shared.spawn_failures.report(&format!("a session: cannot start its threads: {e}"));
+            continue;
+        }
         let (id, last_active_ms, evicted) = match shared.hosts.admit(&client, shared.now_ms()) {
             Ok(admitted) => admitted,
             Err(e) => {
@@ -604,11 +657,14 @@ fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>, id: u6
     };
     let _ = client.set_nodelay(true);
     let _ = card.set_nodelay(true);
+    // Signalled by the replies when the queue is down to half (see WAITING_BYTES_MAX).
+    let room = Arc::new(Condvar::new());
     let replies = {
         let shared = shared.clone();
         let session = session.clone();
+        let room = room.clone();
         spawn(format!("record: replies {id}"), shared.options.thread_stack_bytes, move || {
-            replies_to_host(card_r, client_w, &shared, &session)
+            replies_to_host(card_r, client_w, &shared, &session, &room)
         })
     };
     let replies = match replies {
@@ -621,7 +677,7 @@ fn host_session(client: TcpStream, card: TcpStream, shared: &Arc<Shared>, id: u6
             return;
         }
     };
-    requests_to_card(client, card_w, shared, &session, last_active_ms);
+    requests_to_card(client, card_w, shared, &session, &room, last_active_ms);
     let _ = card.shutdown(Shutdown::Write);
     let _ = replies.join();
     lock(&session).finish(shared);
@@ -636,6 +692,7 @@ fn requests_to_card(
     mut card: TcpStream,
     shared: &Shared,
     session: &Mutex<Session>,
+    room: &Condvar,
     last_active_ms: &AtomicU64,
 ) {
     let mut reader = BufReader::new(client);
@@ -661,6 +718,39 @@ fn requests_to_card(
             // The request joins the session's queue before it is forwarded, so that its reply
             // always finds it there.
             let mut s = lock(session);
+            // A full queue: a host that pipelines waits here (it is not read meanwhile) while
+            // a card that answers drains it to half (one wake-up per half a queue, not one per
+            // reply); a card silent on the oldest request for half the silence, with a host
+            // that does not wait, closes the session instead.
+            let full = s.waiting_bytes >= WAITING_BYTES_MAX;
+            while full && s.waiting_bytes > WAITING_BYTES_MAX / 2 {
+                let silent = s.waiting.front().is_some_and(|a| !a.answered())
+                    && s.clock_from.elapsed() >= shared.options.silence / 2;
+                if silent || shared.stopping.load(Ordering::SeqCst) {
+                    // The note goes with the first of the waiting requests, which `finish`
+                    // writes as silent.
+                    let waited = (shared.options.silence / 2).as_millis();
+                    let (n, bytes) = (s.waiting.len(), s.waiting_bytes);
+                    shared.record(|r| {
+                        r.capture_note(format!(
+                            "{n} requests of a host session ({bytes} bytes, at most {WAITING_BYTES_MAX}) were \
+                             waiting for their replies, the oldest \
+                             {waited} ms without a reply byte (a silent card, a host that does not wait), when \
+                             it sent another: session closed, the waiting ones recorded as silent"
+                        ));
+                        Ok(())
+                    });
+                    s.finish(shared);
+                    shared.log(&format!("a session had {n} requests waiting for a silent card: closed"));
+                    drop(s);
+                    let _ = reader.get_ref().shutdown(Shutdown::Both);
+                    let _ = card.shutdown(Shutdown::Both);
+                    return;
+                }
+                s.host_waits = true;
+                s = room.wait_timeout(s, Duration::from_millis(10)).unwrap_or_else(|e| e.into_inner()).0;
+            }
+            s.host_waits = false;
             let code = h.request;
             let not_recorded = |shared: &Shared| {
                 shared.record(|r| {
@@ -722,7 +812,20 @@ fn requests_to_card(
     }
 }
 
-fn replies_to_host(mut card: TcpStream, mut client: TcpStream, shared: &Shared, session: &Mutex<Session>) {
+fn replies_to_host(
+    mut card: TcpStream,
+    mut client: TcpStream,
+    shared: &Shared,
+    session: &Mutex<Session>,
+    room: &Condvar,
+) {
+    // Wakes the requests' thread when it waits for the queue to drain to half.
+    let drained = |s: &mut Session| {
+        if s.host_waits && s.waiting_bytes <= WAITING_BYTES_MAX / 2 {
+            s.host_waits = false;
+            room.notify_one();
+        }
+    };
     let silence = shared.options.silence;
     let _ = card.set_read_timeout(Some(Duration::from_millis(20).min(silence)));
     let mut buf = [0u8; 4096];
@@ -732,13 +835,19 @@ fn replies_to_host(mut card: TcpStream, mut client: TcpStream, shared: &Shared, 
             Ok(n) => {
                 // Recorded first, then forwarded: the host cannot send its next request
                 // before this reply is in the capture.
-                lock(session).reply_bytes(shared, &buf[..n]);
+                {
+                    let mut s = lock(session);
+                    s.reply_bytes(shared, &buf[..n]);
+                    drained(&mut s);
+                }
                 if client.write_all(&buf[..n]).is_err() {
                     break;
                 }
             }
             Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => {
-                lock(session).check_silence(shared, silence);
+                let mut s = lock(session);
+                s.check_silence(shared, silence);
+                drained(&mut s);
             }
             Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
             Err(_) => break,
@@ -754,6 +863,10 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
             return;
         }
         let Some(client) = accepted(client, &shared.accept_errors) else { continue };
+        if let Err(e) = room_for_a_thread(shared.options.thread_stack_bytes) {
+            shared.spawn_failures.report(&format!("a control session: cannot start its thread: {e}"));
+            continue;
+        }
         let (id, last_active_ms, evicted) = match shared.controls.admit(&client, shared.now_ms()) {
             Ok(admitted) => admitted,
             Err(e) => {
@@ -837,7 +950,14 @@ fn control_session(client: TcpStream, card: TcpStream, shared: &Shared, last_act
         // cannot reach the capture ahead of this event.
         let text = String::from_utf8_lossy(&reply);
         if let Some(json) = text.trim_end().strip_prefix("ok {").map(|rest| format!("{{{rest}")) {
-            match serde_json::from_str::<Step>(&json) {
+            // `{"servo":N}` past what one trace step takes is the emulator's answer to a long
+            // `servo N`; the step reader refuses it, so it is read here and split when written.
+            let long_servo = serde_json::from_str::<serde_json::Value>(&json).ok().and_then(|v| {
+                let m = v.as_object().filter(|m| m.len() == 1)?;
+                let cycles = u32::try_from(m.get("servo")?.as_u64()?).ok()?;
+                Some(Step { event: TraceEvent::Model(Event::Servo { cycles }), expect: Expect::default(), note: None })
+            });
+            match long_servo.map_or_else(|| serde_json::from_str::<Step>(&json), Ok) {
                 Ok(step) => shared.record(|r| r.event(at, step)),
                 Err(e) => shared.record(|r| {
                     r.capture_note(format!("control reply `{json}` not understood: {e}"));

@@ -10,22 +10,25 @@
 //! a new one (half-open connections are never the ones in use). The card's lock is held for
 //! at most [`CYCLES_PER_HOLD_MAX`] servo cycles at a time.
 
-use crate::bounded::{accepted, spawn, CountedLog, Table};
+use crate::bounded::{accepted, room_for_a_thread, spawn, CountedLog, Table};
 use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
 use crate::control::{read_line_max, Control, CONTROL_LINE_BYTES_MAX};
 use crate::framing::BEL;
 use crate::listen::bind;
-/// The byte a flush is acknowledged with (see `Request::Flush` in `serve_connection`).
-pub const FLUSH_ACK: u8 = crate::protocol::DOWNLOAD;
-
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
 use pmacwd_specs::grammar::Addressing;
+use pmacwd_specs::vocab::event::Event;
+use pmacwd_trace::jsonl::step_line;
+use pmacwd_trace::{Expect, Step, TraceEvent, STEP_CYCLES_MAX};
 use std::io::{self, BufReader, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread;
 use std::time::{Duration, Instant};
+
+/// The byte a flush is acknowledged with (see `Request::Flush` in `serve_connection`).
+pub const FLUSH_ACK: u8 = crate::protocol::DOWNLOAD;
 
 /// A reply that cannot be written in this time closes the connection.
 pub const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
@@ -266,6 +269,12 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
             return;
         }
         let Some(stream) = accepted(stream, &shared.accept_errors) else { continue };
+        if let Err(e) = room_for_a_thread(shared.options.thread_stack_bytes) {
+            // Before the table or the thread allocate anything for it: closed, counted.
+            shared.stats.spawn_failures.fetch_add(1, Ordering::Relaxed);
+            shared.spawn_failures.report(&format!("a host connection: cannot start its thread: {e}"));
+            continue;
+        }
         let (id, last_active_ms, evicted) = match shared.hosts.admit(&stream, shared.now_ms()) {
             Ok(admitted) => admitted,
             Err(e) => {
@@ -401,6 +410,11 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
             return;
         }
         let Some(stream) = accepted(stream, &shared.accept_errors) else { continue };
+        if let Err(e) = room_for_a_thread(shared.options.thread_stack_bytes) {
+            shared.stats.spawn_failures.fetch_add(1, Ordering::Relaxed);
+            shared.spawn_failures.report(&format!("a control connection: cannot start its thread: {e}"));
+            continue;
+        }
         let (id, last_active_ms, evicted) = match shared.controls.admit(&stream, shared.now_ms()) {
             Ok(admitted) => admitted,
             Err(e) => {
@@ -452,11 +466,40 @@ fn control_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU6
         }
         let reply = match Control::parse(text) {
             Ok(Control::Step { cycles }) => step_in_chunks(shared, cycles, last_active_ms),
+            Ok(Control::Servo { cycles }) => servo_in_steps(shared, cycles),
             Ok(c) => shared.card_now().control(c),
             Err(e) => format!("error: {e}"),
         };
         writeln!(writer, "{reply}")?;
     }
+}
+
+/// `servo N` applied at most [`STEP_CYCLES_MAX`] cycles at a time, so that the card's own
+/// capture (`serve --record`) writes each part as a `servo` step a trace reader takes: one
+/// `servo 4294967295` was written as one step, which the capture's own `replay` refused (exit
+/// 2). A servo run with no background is the core's closed form, so each part is one short
+/// lock hold. `servo 0` runs nothing and writes nothing (a reader refuses a step of 0 cycles).
+/// The reply is the whole step's, as if it had run at once.
+fn servo_in_steps(shared: &Shared, cycles: u32) -> String {
+    let whole = || {
+        let step = Step { event: TraceEvent::Model(Event::Servo { cycles }), expect: Expect::default(), note: None };
+        format!("ok {}", step_line(&step))
+    };
+    if cycles == 0 {
+        // As `step 0`: refused on the wall clock, nothing to run otherwise.
+        let reply = shared.card_now().control(Control::Step { cycles: 0 });
+        return if reply.starts_with("ok") { whole() } else { reply };
+    }
+    let mut done = 0u32;
+    while done < cycles {
+        let n = (cycles - done).min(STEP_CYCLES_MAX);
+        let reply = shared.card_now().control(Control::Servo { cycles: n });
+        if !reply.starts_with("ok") || n == cycles {
+            return reply;
+        }
+        done += n;
+    }
+    whole()
 }
 
 /// `step N` run [`CYCLES_PER_HOLD_MAX`] cycles per lock hold, so that hosts keep getting

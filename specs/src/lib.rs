@@ -98,9 +98,11 @@ pub struct Spec {
 }
 
 impl Spec {
-    /// The spec compiled into the binary: the `specs/` directory of this source tree.
+    /// The spec compiled into the binary: the `specs/` directory of this source tree. Parsed
+    /// once per process, on first use; later calls clone it.
     pub fn embedded() -> Result<Spec, SpecError> {
-        Self::from_named_texts(Path::new("specs"), &FILES)
+        static EMBEDDED: std::sync::OnceLock<Result<Spec, SpecError>> = std::sync::OnceLock::new();
+        EMBEDDED.get_or_init(|| Self::from_named_texts(Path::new("specs"), &FILES)).clone()
     }
 
     /// Loads spec files held in memory, as (file name, text) pairs, as if they were the files
@@ -148,26 +150,41 @@ impl Spec {
             let text = read(name)?;
             yaml::parse(&dir.join(name), &text)
         }
-        let (variables, m) = load::<variables::Variables>(dir, "variables.yaml", &read)?;
-        variables.validate(&m)?;
-        let (watchdog, m) = load::<facts::Watchdog>(dir, "watchdog.yaml", &read)?;
-        watchdog.validate(&m)?;
-        let (status, m) = load::<status::Status>(dir, "status.yaml", &read)?;
-        status.validate(&m)?;
-        let (checksums, m) = load::<facts::Checksums>(dir, "checksums.yaml", &read)?;
-        checksums.validate(&m)?;
-        let (stop_commands, m) = load::<facts::StopCommands>(dir, "stop_commands.yaml", &read)?;
-        stop_commands.validate(&m)?;
-        let (scheduling, m) = load::<facts::Scheduling>(dir, "scheduling.yaml", &read)?;
-        scheduling.validate(&m)?;
-        let (profiles, m) = load::<profiles::Profiles>(dir, "profiles.yaml", &read)?;
-        profiles.validate(&m)?;
+        // Each file is parsed once; its source map is kept for the requirements' references.
+        let (variables, variables_map) = load::<variables::Variables>(dir, "variables.yaml", &read)?;
+        variables.validate(&variables_map)?;
+        let (watchdog, watchdog_map) = load::<facts::Watchdog>(dir, "watchdog.yaml", &read)?;
+        watchdog.validate(&watchdog_map)?;
+        let (status, status_map) = load::<status::Status>(dir, "status.yaml", &read)?;
+        status.validate(&status_map)?;
+        let (checksums, checksums_map) = load::<facts::Checksums>(dir, "checksums.yaml", &read)?;
+        checksums.validate(&checksums_map)?;
+        let (stop_commands, stop_commands_map) = load::<facts::StopCommands>(dir, "stop_commands.yaml", &read)?;
+        stop_commands.validate(&stop_commands_map)?;
+        let (scheduling, scheduling_map) = load::<facts::Scheduling>(dir, "scheduling.yaml", &read)?;
+        scheduling.validate(&scheduling_map)?;
+        let (profiles, profiles_map) = load::<profiles::Profiles>(dir, "profiles.yaml", &read)?;
+        profiles.validate(&profiles_map)?;
         let (check, check_map) = load::<check::Check>(dir, "check.yaml", &read)?;
         let names: Vec<String> = profiles.profiles.keys().cloned().collect();
         check.validate(&check_map, &names, &scheduling.servo_clock_hz_range)?;
         let (requirements, m) = load::<requirements::Requirements>(dir, "requirements.yaml", &read)?;
-        let others: Vec<&str> = FILES.iter().map(|(n, _)| *n).filter(|n| *n != "requirements.yaml").collect();
-        requirements.validate(&m, &others, &read)?;
+        // In FILES' order, every file but requirements.yaml itself.
+        let others = [
+            ("variables.yaml", &variables_map),
+            ("watchdog.yaml", &watchdog_map),
+            ("status.yaml", &status_map),
+            ("checksums.yaml", &checksums_map),
+            ("stop_commands.yaml", &stop_commands_map),
+            ("scheduling.yaml", &scheduling_map),
+            ("profiles.yaml", &profiles_map),
+            ("check.yaml", &check_map),
+        ];
+        debug_assert!(others
+            .iter()
+            .map(|(n, _)| *n)
+            .eq(FILES.iter().map(|(n, _)| *n).filter(|n| *n != "requirements.yaml")));
+        requirements.validate(&m, &others)?;
         Ok(Spec {
             dir: dir.to_path_buf(),
             variables,

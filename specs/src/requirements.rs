@@ -266,15 +266,10 @@ impl Requirements {
     }
 
     /// Checks the shape of every statement, and that every `spec` reference resolves in the
-    /// spec file it names (`read` gives a spec file's text by name).
-    pub(crate) fn validate(
-        &self,
-        map: &SourceMap,
-        spec_files: &[&str],
-        read: &impl Fn(&str) -> Result<String, SpecError>,
-    ) -> Result<(), SpecError> {
+    /// spec file it names: `spec_files` are the other files' names with the source maps their
+    /// one parse built.
+    pub(crate) fn validate(&self, map: &SourceMap, spec_files: &[(&str, &SourceMap)]) -> Result<(), SpecError> {
         let mut ids = HashSet::new();
-        let mut texts: Vec<(String, String)> = Vec::new();
         for (i, s) in self.statements.iter().enumerate() {
             let at = format!("statements.{i}");
             if !is_identifier(&s.id) {
@@ -344,21 +339,14 @@ impl Requirements {
                 let Some((file, path)) = target.split_once('#') else {
                     return Err(map.error(&at, format!("spec reference `{target}`: write FILE.yaml#dotted.path")));
                 };
-                if !spec_files.contains(&file) {
+                let Some((_, file_map)) = spec_files.iter().find(|(n, _)| *n == file) else {
+                    let names: Vec<&str> = spec_files.iter().map(|(n, _)| *n).collect();
                     return Err(map.error(
                         &at,
-                        format!("spec reference `{target}`: no spec file `{file}` (files: {})", spec_files.join(", ")),
+                        format!("spec reference `{target}`: no spec file `{file}` (files: {})", names.join(", ")),
                     ));
-                }
-                let text = match texts.iter().find(|(n, _)| n == file) {
-                    Some((_, t)) => t.clone(),
-                    None => {
-                        let t = read(file)?;
-                        texts.push((file.to_string(), t.clone()));
-                        t
-                    }
                 };
-                if !crate::yaml::has_path(&text, path) {
+                if !file_map.has_path(path) {
                     return Err(map.error(&at, format!("spec reference `{target}`: `{path}` is not a key of {file}")));
                 }
             }

@@ -30,6 +30,36 @@ pub struct SourceMap {
     file: PathBuf,
     /// (parent node, key or item index) -> (node, position). Node 0 is the document root.
     children: HashMap<(u32, Box<str>), (u32, Position)>,
+    /// (sequence node, the scalar `id`, `name`, `command` or `number` of an item that is a
+    /// mapping) -> the items so named, for [`SourceMap::has_path`].
+    names: HashMap<(u32, Box<str>), Vec<u32>>,
+}
+
+/// The most nodes (scalars, mappings and sequences: keys, values and list items) one spec or
+/// trace file may have. Memory grows with the nodes, not the bytes: each costs about 250 bytes
+/// between the source map and serde_yaml's event list, so a flow collection written wide
+/// (`[1,1,1,...]`, 2 bytes a node) took 130 times its size (a 16 MB file 2.1 GB, and a YAML
+/// trace may have 64 MiB). The shipped files have at most a few thousand nodes; a longer trace
+/// is JSON Lines, which is read a step at a time.
+pub const NODES_MAX: usize = 250_000;
+
+/// The keys that name a list item in a dotted path (`rules.counter_reset`).
+const NAMING_KEYS: [&str; 4] = ["id", "name", "command", "number"];
+
+thread_local! {
+    /// YAML documents parsed on this thread, for the test that pins one parse per spec file.
+    static DOCUMENTS_PARSED: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// How many YAML documents this thread has parsed so far (every parse of a spec or trace file
+/// goes through this module). Not part of the API: the loader's test compares two readings.
+#[doc(hidden)]
+pub fn documents_parsed() -> u64 {
+    DOCUMENTS_PARSED.with(|c| c.get())
+}
+
+fn count_document() {
+    DOCUMENTS_PARSED.with(|c| c.set(c.get() + 1));
 }
 
 /// The document root's node id.
@@ -38,8 +68,16 @@ const ROOT: u32 = 0;
 impl SourceMap {
     /// Walks the events of `text`; fails on a syntax error or a duplicated mapping key.
     pub fn build(file: &Path, text: &str) -> Result<SourceMap, SpecError> {
-        let mut walker =
-            Walker { file: file.to_path_buf(), stack: Vec::new(), children: HashMap::new(), error: None, documents: 0 };
+        count_document();
+        let mut walker = Walker {
+            file: file.to_path_buf(),
+            stack: Vec::new(),
+            children: HashMap::new(),
+            names: HashMap::new(),
+            error: None,
+            documents: 0,
+            nodes: 0,
+        };
         let mut parser = Parser::new_from_str(text);
         // All documents are walked, so that a second one is an error with its position.
         if let Err(e) = parser.load(&mut walker, true) {
@@ -50,7 +88,7 @@ impl SourceMap {
             e.position = e.position.map(|p| within(text, p));
             return Err(e);
         }
-        Ok(SourceMap { file: file.to_path_buf(), children: walker.children })
+        Ok(SourceMap { file: file.to_path_buf(), children: walker.children, names: walker.names })
     }
 
     /// A map of the top-level keys and items given, each at its position (`steps.3` at line
@@ -72,7 +110,7 @@ impl SourceMap {
                 node = entry.0;
             }
         }
-        SourceMap { file: file.to_path_buf(), children }
+        SourceMap { file: file.to_path_buf(), children, names: HashMap::new() }
     }
 
     pub fn file(&self) -> &Path {
@@ -100,6 +138,32 @@ impl SourceMap {
             break;
         }
         found
+    }
+
+    /// Whether `path` (dotted) names a node of the file. In a mapping a component is a key (a
+    /// key containing dots is found by its whole name); in a sequence it is an item whose `id`,
+    /// `name`, `command` or `number` is the component, or the item's index. Resolved on this
+    /// map, built by the one parse of the file: the requirements' 125 `spec` references used
+    /// to parse their file again each (84% of every command's start-up).
+    pub fn has_path(&self, path: &str) -> bool {
+        fn below(map: &SourceMap, node: u32, parts: &[&str]) -> bool {
+            if parts.is_empty() {
+                return true;
+            }
+            let by_key = (1..=parts.len()).rev().any(|j| {
+                let key = parts[..j].join(".");
+                match map.children.get(&(node, key.into_boxed_str())) {
+                    Some((child, _)) => below(map, *child, &parts[j..]),
+                    None => false,
+                }
+            });
+            by_key
+                || map
+                    .names
+                    .get(&(node, parts[0].into()))
+                    .is_some_and(|items| items.iter().any(|item| below(map, *item, &parts[1..])))
+        }
+        !path.is_empty() && below(self, ROOT, &path.split('.').collect::<Vec<_>>())
     }
 
     /// Sorts dotted paths into the order they appear in the file, so that "the second one"
@@ -147,16 +211,30 @@ fn within(text: &str, p: Position) -> Position {
 }
 
 enum Frame {
-    Map { node: u32, key: Option<u32>, keys: HashSet<Box<str>> },
-    Seq { node: u32, index: usize },
+    /// `item_of`: the sequence this mapping is an item of; `naming`: the pending key is one of
+    /// [`NAMING_KEYS`].
+    Map {
+        node: u32,
+        key: Option<u32>,
+        keys: HashSet<Box<str>>,
+        item_of: Option<u32>,
+        naming: bool,
+    },
+    Seq {
+        node: u32,
+        index: usize,
+    },
 }
 
 struct Walker {
     file: PathBuf,
     stack: Vec<Frame>,
     children: HashMap<(u32, Box<str>), (u32, Position)>,
+    names: HashMap<(u32, Box<str>), Vec<u32>>,
     error: Option<SpecError>,
     documents: u32,
+    /// Nodes met so far, at most [`NODES_MAX`].
+    nodes: usize,
 }
 
 impl Walker {
@@ -179,8 +257,14 @@ impl Walker {
                 *index += 1;
                 Some(self.add(parent, &i.to_string(), pos))
             }
-            Some(Frame::Map { node, key, keys }) => match key.take() {
-                Some(k) => Some(k),
+            Some(Frame::Map { node, key, keys, item_of, naming }) => match key.take() {
+                Some(k) => {
+                    if let (Some(seq), Some(name), true) = (*item_of, scalar, *naming) {
+                        let item = *node;
+                        self.names.entry((seq, name.into())).or_default().push(item);
+                    }
+                    Some(k)
+                }
                 None => {
                     let parent = *node;
                     let Some(k) = scalar else {
@@ -197,8 +281,9 @@ impl Walker {
                         ));
                     }
                     let id = self.add(parent, k, pos);
-                    if let Some(Frame::Map { key, .. }) = self.stack.last_mut() {
+                    if let Some(Frame::Map { key, naming, .. }) = self.stack.last_mut() {
                         *key = Some(id);
+                        *naming = NAMING_KEYS.contains(&k);
                     }
                     None
                 }
@@ -211,6 +296,20 @@ impl MarkedEventReceiver for Walker {
     fn on_event(&mut self, ev: Event, mark: Marker) {
         if self.error.is_some() {
             return;
+        }
+        if matches!(ev, Event::Scalar(..) | Event::Alias(_) | Event::MappingStart(..) | Event::SequenceStart(..)) {
+            self.nodes += 1;
+            if self.nodes > NODES_MAX {
+                self.error = Some(SpecError::at(
+                    &self.file,
+                    position_of(&mark),
+                    format!(
+                        "more than {NODES_MAX} YAML nodes (keys, values and list items), the most a spec or trace file \
+                         may have: write a longer trace as JSON Lines"
+                    ),
+                ));
+                return;
+            }
         }
         match ev {
             Event::DocumentStart => {
@@ -236,8 +335,12 @@ impl MarkedEventReceiver for Walker {
                 ));
             }
             Event::MappingStart(..) => {
+                let item_of = match self.stack.last() {
+                    Some(Frame::Seq { node, .. }) => Some(*node),
+                    _ => None,
+                };
                 let node = self.node(None, mark).unwrap_or(ROOT);
-                self.stack.push(Frame::Map { node, key: None, keys: HashSet::new() });
+                self.stack.push(Frame::Map { node, key: None, keys: HashSet::new(), item_of, naming: false });
             }
             Event::SequenceStart(..) => {
                 let node = self.node(None, mark).unwrap_or(ROOT);
@@ -251,6 +354,23 @@ impl MarkedEventReceiver for Walker {
     }
 }
 
+/// The nodes of `text` as [`NODES_MAX`] counts them (scalars, aliases, mappings and
+/// sequences), or `None` when it is not YAML: for a writer that must stay within what the
+/// readers take (`pmacwd import --yaml`).
+pub fn node_count(text: &str) -> Option<usize> {
+    struct Count(usize);
+    impl MarkedEventReceiver for Count {
+        fn on_event(&mut self, ev: Event, _: Marker) {
+            if matches!(ev, Event::Scalar(..) | Event::Alias(_) | Event::MappingStart(..) | Event::SequenceStart(..)) {
+                self.0 += 1;
+            }
+        }
+    }
+    let mut count = Count(0);
+    Parser::new_from_str(text).load(&mut count, true).ok()?;
+    Some(count.0)
+}
+
 /// Parses one file strictly into `T`, returning the source map for later checks.
 pub fn parse<T: DeserializeOwned>(file: &Path, text: &str) -> Result<(T, SourceMap), SpecError> {
     let map = SourceMap::build(file, text)?;
@@ -261,43 +381,6 @@ pub fn parse<T: DeserializeOwned>(file: &Path, text: &str) -> Result<(T, SourceM
         None => SpecError::whole_file(file, e.to_string()),
     })?;
     Ok((value, map))
-}
-
-/// Whether `path` (dotted) names a node of the YAML `text`. In a mapping a component is a key
-/// (a key containing dots is found by its whole name); in a sequence it is an item whose `id`,
-/// `name` or `command` is the component, or the item's index. False when `text` does not parse.
-pub fn has_path(text: &str, path: &str) -> bool {
-    fn scalar(v: &serde_yaml::Value) -> Option<String> {
-        match v {
-            serde_yaml::Value::String(s) => Some(s.clone()),
-            serde_yaml::Value::Number(n) => Some(n.to_string()),
-            serde_yaml::Value::Bool(b) => Some(b.to_string()),
-            _ => None,
-        }
-    }
-    fn walk(v: &serde_yaml::Value, parts: &[&str]) -> bool {
-        if parts.is_empty() {
-            return true;
-        }
-        match v {
-            serde_yaml::Value::Mapping(m) => (1..=parts.len()).rev().any(|j| {
-                let key = parts[..j].join(".");
-                m.iter().any(|(k, child)| scalar(k).as_deref() == Some(key.as_str()) && walk(child, &parts[j..]))
-            }),
-            serde_yaml::Value::Sequence(items) => items.iter().enumerate().any(|(i, item)| {
-                let named = ["id", "name", "command", "number"]
-                    .iter()
-                    .any(|f| item.get(f).and_then(scalar).as_deref() == Some(parts[0]));
-                (named || i.to_string() == parts[0]) && walk(item, &parts[1..])
-            }),
-            _ => false,
-        }
-    }
-    if path.is_empty() {
-        return false;
-    }
-    let Ok(value) = serde_yaml::from_str::<serde_yaml::Value>(text) else { return false };
-    walk(&value, &path.split('.').collect::<Vec<_>>())
 }
 
 /// serde_yaml appends " at line L column C" to its messages; we print the position up front.
@@ -313,6 +396,10 @@ fn strip_location(e: &serde_yaml::Error) -> String {
 mod tests {
     use super::*;
 
+    fn has_path(text: &str, path: &str) -> bool {
+        SourceMap::build(Path::new("t.yaml"), text).is_ok_and(|m| m.has_path(path))
+    }
+
     #[test]
     fn has_path_finds_keys_list_items_by_id_and_keys_with_dots() {
         let text = "rules:\n  - id: a\n    x: 1\nbits:\n  22: {name: b}\nv:\n  1.947: {a: 1}\n";
@@ -323,6 +410,15 @@ mod tests {
             assert!(!has_path(text, p), "{p}");
         }
         assert!(!has_path("a: [", "a"));
+        // Items named by each naming key, numbers too; a name nested deeper names nothing, and
+        // neither does the value of a key that names nothing.
+        let text = "l:\n  - name: n\n  - command: \"#1K\"\n  - number: 7\n  - {x: {id: deep}}\n  - other: o\n";
+        for p in ["l.n", "l.#1K", "l.7", "l.3.x.id", "l.4.other"] {
+            assert!(has_path(text, p), "{p}");
+        }
+        for p in ["l.deep", "l.o", "l.5"] {
+            assert!(!has_path(text, p), "{p}");
+        }
     }
 
     #[test]
@@ -373,6 +469,24 @@ mod tests {
         let stored: usize = map.children.keys().map(|(_, k)| k.len()).sum();
         assert!(stored <= text.len(), "{stored} key bytes kept for a {}-byte file", text.len());
         assert_eq!(map.position(&format!("{long_key}.c9999")), Position { line: 10_002, column: 3 });
+    }
+
+    #[test]
+    fn a_file_past_the_node_limit_is_refused_at_the_first_node_beyond_it() {
+        // Issue 33: a flow collection written wide (`[1,1,1,...]`, 2 bytes a node) took 130
+        // times its size in memory (4 MB: 538 MB), whatever the file was for. The walk now
+        // stops at the first node past NODES_MAX, before serde_yaml holds any of it.
+        let wide = |items: usize| format!("a: 1\nb: [{}1]\n", "1,".repeat(items - 1));
+        // `a`, 1, `b`, the sequence: 4 nodes besides the items; the root mapping is the 5th.
+        let at_limit = wide(NODES_MAX - 5);
+        assert!(SourceMap::build(Path::new("w.yaml"), &at_limit).is_ok());
+        let e = SourceMap::build(Path::new("w.yaml"), &wide(NODES_MAX - 4)).unwrap_err();
+        let column = 5 + 2 * (NODES_MAX - 5);
+        assert_eq!(e.position, Some(Position { line: 2, column }), "{e}");
+        assert!(e.message.contains(&format!("more than {NODES_MAX} YAML nodes")), "{e}");
+        // parse refuses it before deserializing.
+        let e = parse::<serde_yaml::Value>(Path::new("w.yaml"), &wide(3 * NODES_MAX)).unwrap_err();
+        assert_eq!(e.position, Some(Position { line: 2, column }), "{e}");
     }
 
     #[test]
