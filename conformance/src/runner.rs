@@ -167,21 +167,27 @@ impl ModelLane {
                 tripped.to_string(),
             ));
         }
-        // The trip-derived observations follow the windowed verdict.
-        let mut rest = expect.clone();
-        for field in [
-            &mut rest.tripped,
-            &mut rest.led_red,
-            &mut rest.fefco_on,
-            &mut rest.relay_tripped,
-            &mut rest.outputs_forced_off,
-        ] {
-            if *field == Some(want) {
-                *field = None;
-            }
-        }
-        Ok(1 + compare(spec, &rest, &obs)?)
+        Ok(1 + compare(spec, &without_trip(expect, want), &obs)?)
     }
+}
+
+/// `expect` without the trip and the observations that follow from it (LED, FEFCO/, relay,
+/// outputs) where they say `want`: what is left to compare once a timing window has decided
+/// the trip.
+pub fn without_trip(expect: &Expect, want: bool) -> Expect {
+    let mut rest = expect.clone();
+    for field in [
+        &mut rest.tripped,
+        &mut rest.led_red,
+        &mut rest.fefco_on,
+        &mut rest.relay_tripped,
+        &mut rest.outputs_forced_off,
+    ] {
+        if *field == Some(want) {
+            *field = None;
+        }
+    }
+    rest
 }
 
 /// How many recent events a divergence report shows.
