@@ -413,3 +413,17 @@ fn the_diagnosis_calls_seen_only_what_the_log_shows() {
     assert!(cut.len() + 6 <= lines.len(), "three reads of bit 22 cut");
     assert!(!said(&(cut.join("\n") + "\n")).contains(shown));
 }
+
+#[test]
+fn a_real_card_s_checksums_are_its_own_and_not_compared_with_the_model_s_tokens() {
+    // Issue 36: `RHX:$1080` (and CHECKSUM, X:$1090) was compared with the model's token, so no
+    // real running checksum was accepted.
+    let r = replay_log(
+        "checksums",
+        "> $$$\n<\n> RHX:$1080 CHECKSUM RHX:$1090 ???\n< 3A7F21 00C0FFEE 001234 000000000000\n",
+    );
+    assert!(r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    let t = pmacwd_conformance::import::import(Path::new("s.log"), "> RHX:$1080\n< 3A7F21\n", "i40-zero").unwrap();
+    assert_eq!(t.trace.steps[0].expect.tripped, Some(false), "the answer shows the card running");
+    assert_eq!(t.trace.steps[0].expect.reply, None);
+}
