@@ -843,8 +843,12 @@ impl Importer {
                         self.err(ex.reply_line, 3, format!("X:$0 reply `{reply}` is not a 24-bit hex word"))
                     })?;
                 steps.extend(self.counter_read(ex, value)?);
-                note = Some(format!("the card's X:$0 read {reply} (used for timing, not compared)"));
-                expect = Expect::default();
+                note = Some(format!(
+                    "the card's X:$0 read {reply} (used for timing, its value not compared; the answer shows the card running)"
+                ));
+                // An answer is evidence that the card was running (UM p.215: a tripped card
+                // does not communicate): no explanation may have it tripped here (issue 36).
+                expect = Expect { tripped: Some(false), ..Expect::default() };
             } else if c.command == HostCommand::ReadHex(Register::ServoCycles) && c.answer == Answer::Ack {
                 return Err(self.err(ex.reply_line, 1, "X:$0 reply `` is not a 24-bit hex word".into()));
             }

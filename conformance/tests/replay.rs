@@ -427,3 +427,18 @@ fn a_real_card_s_checksums_are_its_own_and_not_compared_with_the_model_s_tokens(
     assert_eq!(t.trace.steps[0].expect.tripped, Some(false), "the answer shows the card running");
     assert_eq!(t.trace.steps[0].expect.reply, None);
 }
+
+#[test]
+fn a_card_silent_at_one_poll_cannot_answer_its_uninterrupted_servo_count_at_the_next() {
+    // Issue 36: X:$0 reads were not compared, so an explanation could trip the card at the
+    // timeout and still let it answer RHX:$0 with the count of a card that never stopped; no
+    // restart allows that (the count would start again from 0). Every answer shows the card
+    // running.
+    let log = "12:00:00.000 > $$$\n12:00:00.000 <\n12:00:01.000 > RHX:$0\n12:00:01.000 < 0008CA\n\
+               12:00:01.500 > ???\n12:00:01.500 < (timeout)\n12:00:11.000 > RHX:$0\n12:00:11.000 < 0060AE\n";
+    let r = replay_log("tripped-answers", log);
+    assert!(!r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    // With a count that starts again after the silence, a restart explains it.
+    let r = replay_log("tripped-restarts", &log.replace("< 0060AE", "< 000100"));
+    assert!(r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+}
