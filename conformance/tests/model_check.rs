@@ -50,6 +50,9 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     // The literal reading of the clear logic never clears a latched loss: fewer states.
     ("encoder-loss", "um-215-literal-plc", 11_064),
     ("encoder-loss", "um-215-m83", 14_680),
+    // Two motors in two coordinate systems: the PLC's CMD^K kills both (UM p.214-215).
+    ("encoder-loss-2", "um-215", 74_688),
+    ("encoder-loss-2", "um-215-literal-plc", 65_984),
 ];
 
 #[test]

@@ -462,15 +462,17 @@ pub const MONITORS: &[Monitor] = &[
     },
     // ------------------------------------------------------------ the encoder-loss PLC (UM p.214-215)
     Monitor {
-        name: "a closed-loop motor whose encoder is lost is killed at the next background cycle, its loss latched",
+        name: "a closed-loop motor whose encoder is lost has every motor killed at the next background cycle, its loss latched",
         cite: "UM p.214-215",
-        sentence: "the encoder-loss PLC kills a motor when its feedback is lost (a compiled background PLC, which scans once per background cycle).",
+        sentence: "IF (Mtr1OpenLoop=0 AND Enc1LossIn=Lost) CMD^K ; Kill all motors / Mtr1EncLossStatus=1 (a compiled background PLC, which scans once per background cycle).",
         check: Check::Event(|_, prev, ev, _, next| {
+            let fires = |m: &crate::motion::Motor| m.state != MotorState::Killed && m.encoder_lost;
             !matches!(ev, Event::Background)
                 || !prev.background_possible()
-                || prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| {
-                    implies(p.state != MotorState::Killed && p.encoder_lost, n.state == MotorState::Killed && n.loss_status)
-                })
+                || !prev.axes.motors().iter().any(fires)
+                || (next.axes.motors().iter().all(|n| n.state == MotorState::Killed)
+                    && next.axes.programs().iter().all(|p| !p.executing())
+                    && prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| implies(fires(p), n.loss_status)))
         }),
     },
     Monitor {
@@ -1239,7 +1241,7 @@ mod tests {
         // closed-loop motor whose encoder-loss input reports loss and latches the loss.
         let (cfg, mut prev) = encoder_card("um-215");
         let check = event_check(
-            "a closed-loop motor whose encoder is lost is killed at the next background cycle, its loss latched",
+            "a closed-loop motor whose encoder is lost has every motor killed at the next background cycle, its loss latched",
         );
         prev.axes.motors_mut()[0].encoder_lost = true;
         let ev = Event::Background;
@@ -1267,6 +1269,29 @@ mod tests {
         let (next, reply) = step(&cfg, &prev, &ev);
         assert_eq!(next.axes.motors()[0].state, MotorState::Closed);
         assert!(check(&cfg, &prev, &ev, reply, &next), "a healthy motor's scan holds");
+    }
+
+    #[test]
+    fn sentence_um_214_the_plc_s_cmd_k_kills_every_motor_and_latches_only_the_lost_one() {
+        // UM p.214-215: "CMD^K ; Kill all motors": motor 1's lost encoder kills motor 2 too,
+        // jogging in another coordinate system (encoder-loss-2: motor 1 in &1, motor 2 in &2).
+        let spec = Spec::embedded().unwrap();
+        let cfg = ModelConfig::from_spec(&spec, "encoder-loss-2", &spec.profiles.get("um-215").unwrap()).unwrap();
+        let mut prev = card_after(&cfg, &["#1J/", "#2J/", "#2J+"]);
+        prev.background_credit = u32::from(prev.load.background_units);
+        prev.axes.motors_mut()[0].encoder_lost = true;
+        assert_eq!(prev.axes.motors()[1].state, MotorState::Jogging);
+        let check = event_check(
+            "a closed-loop motor whose encoder is lost has every motor killed at the next background cycle, its loss latched",
+        );
+        let ev = Event::Background;
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert!(next.axes.motors().iter().all(|m| m.state == MotorState::Killed), "every motor killed");
+        assert_eq!((next.axes.motors()[0].loss_status, next.axes.motors()[1].loss_status), (true, false));
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's scan holds");
+        let mut jogging = next.clone();
+        jogging.axes.motors_mut()[1] = prev.axes.motors()[1];
+        assert!(!check(&cfg, &prev, &ev, reply, &jogging), "motor 2 left jogging fires (the rule before issue 35)");
     }
 
     #[test]
