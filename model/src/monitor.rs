@@ -169,6 +169,25 @@ pub const MONITORS: &[Monitor] = &[
         }),
     },
     Monitor {
+        name: "an I-variable write takes effect exactly when the I41 bit of its range in SRM p.57's table is clear",
+        cite: "SRM p.57",
+        sentence: "I41 Bit # 0 (1): I100-I4899 Motor Setup; 1 (2): I5100-I6699 Coordinate System Setup; 2 (4): I6800-I7999 MACRO/Servo IC Setup; 3 (8): I8000-I8191 Conversion Table Setup.",
+        // The table as the page prints it, not `variables.yaml`'s copy that the rule reads:
+        // a bit swapped in the data (or in the rule) breaks this and nothing else.
+        check: Check::Event(|_, prev, ev, reply, next| match ev {
+            Event::Command(HostCommand::WriteI(n, v)) if running(prev) && reply == Reply::Ack && *n != 41 => {
+                const PRINTED: [(u8, u16, u16); 4] = [(1, 100, 4899), (2, 5100, 6699), (4, 6800, 7999), (8, 8000, 8191)];
+                let locked = PRINTED.iter().any(|(value, first, last)| prev.i41 & value != 0 && (*first..=*last).contains(n));
+                if locked {
+                    next.i_variable(*n) == prev.i_variable(*n)
+                } else {
+                    next.i_variable(*n) == *v
+                }
+            }
+            _ => true,
+        }),
+    },
+    Monitor {
         name: "an M-variable assignment or a memory write changes an I-variable whatever I41 holds",
         cite: "SRM p.57",
         sentence: "I41 does not prevent changes to an I-variable by means of an M-variable assignment or a direct memory write command.",
