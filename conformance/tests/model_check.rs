@@ -40,6 +40,9 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     // I41 bits 2 and 3 each alone (issue 35), apart from `lockout` (check.yaml says why).
     ("lockout-ic", "um-215", 1_224),
     ("lockout-ic", "srm-57", 1_512),
+    // The supply and servo-work edges (issue 35).
+    ("edges", "um-215", 1_780),
+    ("edges", "srm-57", 2_236),
     ("i40-zero", "um-215", 3_578),
     ("i40-zero", "srm-57", 17_840),
     ("i40-zero", "um-215-4095", 3_668),

@@ -133,6 +133,29 @@ pub const MONITORS: &[Monitor] = &[
         }),
     },
     Monitor {
+        name: "a supply change trips a running card exactly when it falls below 4.75 V",
+        cite: "UM p.215",
+        sentence: "it must see a DC voltage greater than approximately 4.75V. If the supply voltage is below this value, the circuit's relay will trip and the card will shut down.",
+        // The figure as printed, not `watchdog.yaml`'s copy the rule reads: a threshold moved
+        // in the data (or the rule) breaks this where a configuration offers a supply at the
+        // edge (check.yaml `edges`: 4,750 and 4,749 mV).
+        check: Check::Event(|_, prev, ev, _, next| match ev {
+            Event::Supply { millivolts } if running(prev) => next.tripped() == (*millivolts < 4_750),
+            _ => true,
+        }),
+    },
+    Monitor {
+        name: "CLOSE stores the user program's checksum as it stands in X:$1090",
+        cite: "UM p.217",
+        sentence: "it compares this value to the checksum value that was computed the last time one of these buffers was closed, stored in X:$001090.",
+        check: Check::Event(|_, prev, ev, _, next| match ev {
+            Event::Command(HostCommand::Close) if running(prev) => {
+                next.checksum.program_reference == prev.checksum.program
+            }
+            _ => true,
+        }),
+    },
+    Monitor {
         name: "a locked I-variable never changes through an I-variable write",
         cite: "SRM p.57",
         sentence: "If the bit of I41 is set to 1, the corresponding I-variables cannot be changed with an {I-variable}={value} command.",
@@ -234,6 +257,17 @@ pub const MONITORS: &[Monitor] = &[
         check: Check::Cycle(|cfg, _, report, next| {
             let (x, _) = next.status_words(cfg);
             !report.rti_overrun || (bit(x, cfg.layout.rti_reentry.1) && bit(x, cfg.layout.rti_warning.1))
+        }),
+    },
+    Monitor {
+        name: "bit 20 is set after a servo cycle exactly when the servo work is more than the cycle holds",
+        cite: "SRM p.289",
+        sentence: "Bit 20 Servo Error: This bit is 1 if Turbo PMAC could not properly complete its servo routines. ... It is 0 if the servo operations have been completing properly.",
+        // Work that fills the cycle exactly still completes: a configuration with such a load
+        // (check.yaml `edges`) tells `>` from `>=`.
+        check: Check::Cycle(|cfg, prev, _, next| {
+            let work = u32::from(prev.load.motors) * u32::from(cfg.cpu.servo_units_per_motor);
+            !running(prev) || next.status.servo_error == (work > u32::from(cfg.cpu.cycle_units))
         }),
     },
     Monitor {
