@@ -792,6 +792,15 @@ impl Card {
         self.line(&[c])
     }
 
+    /// A host's write of 0 to bit 22 (SRM p.289), from `card/memory_access.rs`: the core's event,
+    /// recorded in a capture as a control port's `clear_rti_reentry` is.
+    fn host_clears_rti_reentry(&mut self) {
+        let event = Event::ClearRtiReentry;
+        self.core.apply(&self.cfg, core_event(&event), &mut self.store);
+        let step = Step { event: TraceEvent::Model(event), expect: Expect::default(), note: None };
+        self.captured(|c| c.event(step));
+    }
+
     /// A control-interface command; the reply line without its newline.
     pub fn control(&mut self, c: Control) -> String {
         self.catch_up();
@@ -1008,6 +1017,34 @@ mod tests {
         assert!(lines[2].starts_with("running again"), "{}", lines[2]);
         assert!(lines[3].starts_with("$$$ from a host"), "{}", lines[3]);
         assert!(lines[4].contains("the logic supply fell to 4500 mV"), "{}", lines[4]);
+    }
+
+    /// SRM p.289: bit 22 stays set "until the card is reset, or until this bit is manually
+    /// changed to 0": an M-variable on X:$6 bit 22 and a direct memory write both clear it;
+    /// a write that leaves it 1, or another bit of the word, changes nothing. (Before issue 35
+    /// both writes were acknowledged and bit 22 stayed set.)
+    #[test]
+    fn a_host_write_of_0_to_bit_22_clears_it() {
+        let first_char = |c: &mut Card| values(&c.line(b"???").unwrap())[0].chars().next().unwrap();
+        let overrun = |c: &mut Card| {
+            // PLC 0 outlasting its RTI period (UM p.236) sets bits 22 and 9; then a light load.
+            c.control(Control::Load { motors: Some(8), plc0_units: Some(1000), background_units: None });
+            c.control(Control::Step { cycles: 6 });
+            c.control(Control::Load { motors: Some(8), plc0_units: Some(30), background_units: None });
+            c.control(Control::Step { cycles: 6 });
+        };
+        let mut c = card();
+        overrun(&mut c);
+        assert_eq!(first_char(&mut c), '4', "bit 22 set by the overrun");
+        c.line(b"M1->X:$6,22,1").unwrap();
+        c.line(b"M1=1").unwrap();
+        assert_eq!(first_char(&mut c), '4', "writing 1 leaves it set");
+        c.line(b"M1=0").unwrap();
+        assert_eq!(first_char(&mut c), '0', "M1=0 clears it");
+        overrun(&mut c);
+        assert_eq!(first_char(&mut c), '4');
+        c.line(b"WX:$6,0").unwrap();
+        assert_eq!(first_char(&mut c), '0', "a direct memory write of 0 clears it");
     }
 
     #[test]

@@ -659,7 +659,8 @@ impl Core {
         self.status_y = 0;
         self.servo_error_shown = 0;
         self.position = 0;
-        self.tokens = 0;
+        // MODEL, as the reference model: a reset does not rewrite PROM or flash, so the
+        // contents and references (`tokens`) keep any corruption; the engine starts over.
         self.servo_cycles = 0;
         // UM p.215: a reset restores "normal functioning"; the motors start as at power-up.
         self.motion.restart();

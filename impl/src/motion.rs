@@ -507,19 +507,7 @@ impl Motion {
             }
             MotionCommand::CoordinateSystem(cs, c) => self.cs_command(cfg, cs, c, decel),
             MotionCommand::Global(g) => match g {
-                GlobalCommand::KillAll => {
-                    // UM p.319: <CTRL-K> "disables all motors ... by opening the servo loops,
-                    // forcing zero-value command outputs, and disabling the amplifiers", and
-                    // the lookahead is discarded; only K is restricted during a program.
-                    for k in 0..cfg.count() {
-                        self.kill(k);
-                    }
-                    for cs in 1..=COORDINATE_SYSTEMS_MAX {
-                        if self.program(cs).executing() {
-                            self.set_program(cs, Program::Lost);
-                        }
-                    }
-                }
+                GlobalCommand::KillAll => self.kill_all(cfg),
                 // UM p.217: the control characters act on every coordinate system (SRM p.260
                 // for <CTRL-O>: "equivalent to issuing the H command to each").
                 GlobalCommand::AbortAll => self.every_cs(cfg, CsCommand::Abort, decel),
@@ -716,13 +704,29 @@ impl Motion {
         self.encoder_lost = if lost { self.encoder_lost | bit } else { self.encoder_lost & !bit };
     }
 
+    /// UM p.319: <CTRL-K> "disables all motors ... by opening the servo loops, forcing
+    /// zero-value command outputs, and disabling the amplifiers", and the lookahead is
+    /// discarded; only K is restricted during a program.
+    #[inline(never)]
+    fn kill_all(&mut self, cfg: &MotionConfig) {
+        for k in 0..cfg.count() {
+            self.kill(k);
+        }
+        for cs in 1..=COORDINATE_SYSTEMS_MAX {
+            if self.program(cs).executing() {
+                self.set_program(cs, Program::Lost);
+            }
+        }
+    }
+
     /// The encoder-loss PLC of UM p.214-215, one scan per background cycle (UM p.215: safety
     /// PLCs are "best implemented in a compiled background PLC program, which scans ... once
-    /// per background cycle"), over all motors at once as bit masks.
+    /// per background cycle"), over all motors at once as bit masks: one copy of the listing
+    /// per motor ("easy to duplicate for multiple axes").
     ///
-    /// The model scans motor by motor; the masks give the same result because a scan changes
-    /// no input of another motor's branch: the kill touches only its motor, and the abort it
-    /// starts leaves every motor's killed-ness as it was.
+    /// The masks give the model's result because every copy reads the motors as they were
+    /// at the start of the scan: the PLC's `CMD^K` is a command, processed in background
+    /// after the scan (UM p.236; MODEL, as the reference model).
     pub fn encoder_loss_plc(&mut self, cfg: &MotionConfig, intended_clear: bool) {
         let closed = self.amplifiers;
         // UM p.215, "Logic to clear fault status": IF (Mtr1OpenLoop=0 AND Enc1LossIn=OK AND
@@ -731,30 +735,15 @@ impl Motion {
         if intended_clear {
             self.loss_status &= !(closed & !self.encoder_lost);
         }
+        // UM p.214-215, "Logic to disable and set fault status": IF (Mtr1OpenLoop=0 AND
+        // Enc1LossIn=Lost) CMD^K ("Kill all motors") and Mtr1EncLossStatus=1. Every motor is
+        // killed, not only the one whose encoder was lost (UM p.213's "the offending motor is
+        // killed" is the firmware's own fault rule, a different mechanism).
         let hit = closed & self.encoder_lost;
         if hit != 0 {
-            self.encoder_lost_kill(cfg, hit);
+            self.loss_status |= hit;
+            self.kill_all(cfg);
         }
-    }
-
-    /// UM p.214-215: a closed-loop motor whose encoder-loss input reports loss is killed and
-    /// the loss latched. MODEL, as the reference model: the kill acts as the firmware's own
-    /// fault kills do (UM p.213, "the offending motor is killed"), even while its C.S. runs a
-    /// program, and that program is aborted (its lookahead lost), the abort decelerating the
-    /// other motors of the C.S. for one servo cycle.
-    #[inline(never)]
-    fn encoder_lost_kill(&mut self, cfg: &MotionConfig, hit: u8) {
-        for cs in 1..=COORDINATE_SYSTEMS_MAX {
-            if cfg.members(cs) & hit != 0 && self.program(cs).executing() {
-                self.cs_command(cfg, cs, CsCommand::Abort, 1);
-            }
-        }
-        for k in 0..MOTORS_MAX {
-            if hit & (1 << k) != 0 {
-                self.kill(k);
-            }
-        }
-        self.loss_status |= hit;
     }
 }
 

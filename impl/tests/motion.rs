@@ -229,27 +229,35 @@ fn the_encoder_loss_plc_kills_and_latches_and_only_the_intended_reading_clears()
     }
 }
 
-/// MODEL, as the reference model: the PLC's kill aborts the program of the killed motor's
-/// C.S., and the abort brings its other motors to rest in one servo cycle.
+/// UM p.214-215: the PLC answers a lost encoder with CMD^K, "Kill all motors": motor 1's loss
+/// kills motor 2 too, in another coordinate system, and the program running there loses its
+/// lookahead (UM p.319); only motor 1's loss is latched. (Before issue 35 the core killed
+/// motor 1 alone and aborted only its own C.S.: motor 2 kept moving.)
 #[test]
-fn the_encoder_loss_kill_aborts_the_program_of_its_coordinate_system() {
+fn the_encoder_loss_plc_kills_every_motor_in_every_coordinate_system() {
     let cfg = Config {
-        motion: MotionConfig { motors: 2, coordinate_systems: [1, 1, 1, 1, 1, 1, 1, 1], decel_cycles: 3 },
+        motion: MotionConfig { motors: 3, coordinate_systems: [1, 2, 2, 1, 1, 1, 1, 1], decel_cycles: 3 },
         ..config()
     };
     let mut c = Card::new(cfg);
-    c.motor(1, MotorCommand::JogStop);
-    c.motor(2, MotorCommand::JogStop);
-    c.cs(1, CsCommand::Begin);
-    c.cs(1, CsCommand::Run);
+    for m in 1..=3 {
+        c.motor(m, MotorCommand::JogStop);
+    }
+    c.cs(2, CsCommand::Begin);
+    c.cs(2, CsCommand::Run);
     c.core.apply(&c.cfg, Event::EncoderInput { motor: 1, lost: true }, &mut c.store);
     while !c.core.background_possible() {
         c.servo(1);
     }
+    assert_eq!(c.core.motor(&c.cfg, 2).unwrap().state, MotorState::Program);
     c.core.background_cycle(&c.cfg);
-    let (one, two) = (c.core.motor(&c.cfg, 1).unwrap(), c.core.motor(&c.cfg, 2).unwrap());
-    assert_eq!((one.state, one.program), (MotorState::Killed, Program::Lost));
-    assert_eq!((two.state, two.stop), (MotorState::Decelerating, Some((Stop::Abort, 1))));
+    for m in 1..=3 {
+        let s = c.core.motor(&c.cfg, m).unwrap();
+        assert_eq!((s.state, s.amplifier_enabled), (MotorState::Killed, false), "motor {m}");
+        assert_eq!(s.encoder_loss_status, m == 1, "motor {m}: only the lost encoder's status is latched");
+    }
+    assert_eq!(c.core.motor(&c.cfg, 2).unwrap().program, Program::Lost);
+    assert!(c.core.motion().consistent());
 }
 
 /// A reset brings every motor and program back to power-up; the encoder input, hardware,

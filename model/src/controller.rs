@@ -704,9 +704,15 @@ impl Controller {
         // other driven bit starts clear (bit 22 "until the card is reset").
         self.status =
             StatusFlags { dpram_error: reset.dpram_fault, flash_error: reset.flash_fault, ..StatusFlags::default() };
-        // MODEL: the reset reloads firmware and user program from flash, so an injected fault
-        // (a corruption in RAM) is gone and the checksum engine starts over.
-        self.checksum = ChecksumEngine::fresh();
+        // MODEL: an injected fault corrupts the stored firmware or user program, which a reset
+        // does not rewrite (no reset reprograms PROM or flash): the contents and references
+        // keep the corruption and only the engine starts over, at a firmware pass with no
+        // error, so the next pass over the corrupted area finds it again. This is what makes
+        // the diagnosis "after the reset, look at the checksum" meaningful (issue 35; before,
+        // a reset wiped the corruption and the check always came back clean).
+        let ChecksumEngine { firmware, firmware_reference, program, program_reference, .. } = self.checksum;
+        self.checksum =
+            ChecksumEngine { firmware, firmware_reference, program, program_reference, ..ChecksumEngine::fresh() };
         self.servo_cycles = 0;
         // UM p.215: a reset restores "normal functioning": the LED, FEFCO/ and the relay return
         // to normal and the ICs leave reset; the motors start as at power-up.

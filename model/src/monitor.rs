@@ -133,6 +133,29 @@ pub const MONITORS: &[Monitor] = &[
         }),
     },
     Monitor {
+        name: "a supply change trips a running card exactly when it falls below 4.75 V",
+        cite: "UM p.215",
+        sentence: "it must see a DC voltage greater than approximately 4.75V. If the supply voltage is below this value, the circuit's relay will trip and the card will shut down.",
+        // The figure as printed, not `watchdog.yaml`'s copy the rule reads: a threshold moved
+        // in the data (or the rule) breaks this where a configuration offers a supply at the
+        // edge (check.yaml `edges`: 4,750 and 4,749 mV).
+        check: Check::Event(|_, prev, ev, _, next| match ev {
+            Event::Supply { millivolts } if running(prev) => next.tripped() == (*millivolts < 4_750),
+            _ => true,
+        }),
+    },
+    Monitor {
+        name: "CLOSE stores the user program's checksum as it stands in X:$1090",
+        cite: "UM p.217",
+        sentence: "it compares this value to the checksum value that was computed the last time one of these buffers was closed, stored in X:$001090.",
+        check: Check::Event(|_, prev, ev, _, next| match ev {
+            Event::Command(HostCommand::Close) if running(prev) => {
+                next.checksum.program_reference == prev.checksum.program
+            }
+            _ => true,
+        }),
+    },
+    Monitor {
         name: "a locked I-variable never changes through an I-variable write",
         cite: "SRM p.57",
         sentence: "If the bit of I41 is set to 1, the corresponding I-variables cannot be changed with an {I-variable}={value} command.",
@@ -165,6 +188,25 @@ pub const MONITORS: &[Monitor] = &[
         sentence: "each bit independently controls access to a set of I-variables.",
         check: Check::Event(|cfg, prev, ev, reply, next| match ev {
             Event::Command(HostCommand::WriteI(n, v)) if running(prev) && !locked(cfg, prev, *n) && reply == Reply::Ack => next.i_variable(*n) == Some(*v),
+            _ => true,
+        }),
+    },
+    Monitor {
+        name: "an I-variable write takes effect exactly when the I41 bit of its range in SRM p.57's table is clear",
+        cite: "SRM p.57",
+        sentence: "I41 Bit # 0 (1): I100-I4899 Motor Setup; 1 (2): I5100-I6699 Coordinate System Setup; 2 (4): I6800-I7999 MACRO/Servo IC Setup; 3 (8): I8000-I8191 Conversion Table Setup.",
+        // The table as the page prints it, not `variables.yaml`'s copy that the rule reads:
+        // a bit swapped in the data (or in the rule) breaks this and nothing else.
+        check: Check::Event(|_, prev, ev, reply, next| match ev {
+            Event::Command(HostCommand::WriteI(n, v)) if running(prev) && reply == Reply::Ack && *n != 41 => {
+                const PRINTED: [(u8, u16, u16); 4] = [(1, 100, 4899), (2, 5100, 6699), (4, 6800, 7999), (8, 8000, 8191)];
+                let locked = PRINTED.iter().any(|(value, first, last)| prev.i41 & value != 0 && (*first..=*last).contains(n));
+                if locked {
+                    next.i_variable(*n) == prev.i_variable(*n)
+                } else {
+                    next.i_variable(*n) == Some(*v)
+                }
+            }
             _ => true,
         }),
     },
@@ -215,6 +257,17 @@ pub const MONITORS: &[Monitor] = &[
         check: Check::Cycle(|cfg, _, report, next| {
             let (x, _) = next.status_words(cfg);
             !report.rti_overrun || (bit(x, cfg.layout.rti_reentry.1) && bit(x, cfg.layout.rti_warning.1))
+        }),
+    },
+    Monitor {
+        name: "bit 20 is set after a servo cycle exactly when the servo work is more than the cycle holds",
+        cite: "SRM p.289",
+        sentence: "Bit 20 Servo Error: This bit is 1 if Turbo PMAC could not properly complete its servo routines. ... It is 0 if the servo operations have been completing properly.",
+        // Work that fills the cycle exactly still completes: a configuration with such a load
+        // (check.yaml `edges`) tells `>` from `>=`.
+        check: Check::Cycle(|cfg, prev, _, next| {
+            let work = u32::from(prev.load.motors) * u32::from(cfg.cpu.servo_units_per_motor);
+            !running(prev) || next.status.servo_error == (work > u32::from(cfg.cpu.cycle_units))
         }),
     },
     Monitor {
@@ -462,15 +515,17 @@ pub const MONITORS: &[Monitor] = &[
     },
     // ------------------------------------------------------------ the encoder-loss PLC (UM p.214-215)
     Monitor {
-        name: "a closed-loop motor whose encoder is lost is killed at the next background cycle, its loss latched",
+        name: "a closed-loop motor whose encoder is lost has every motor killed at the next background cycle, its loss latched",
         cite: "UM p.214-215",
-        sentence: "the encoder-loss PLC kills a motor when its feedback is lost (a compiled background PLC, which scans once per background cycle).",
+        sentence: "IF (Mtr1OpenLoop=0 AND Enc1LossIn=Lost) CMD^K ; Kill all motors / Mtr1EncLossStatus=1 (a compiled background PLC, which scans once per background cycle).",
         check: Check::Event(|_, prev, ev, _, next| {
+            let fires = |m: &crate::motion::Motor| m.state != MotorState::Killed && m.encoder_lost;
             !matches!(ev, Event::Background)
                 || !prev.background_possible()
-                || prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| {
-                    implies(p.state != MotorState::Killed && p.encoder_lost, n.state == MotorState::Killed && n.loss_status)
-                })
+                || !prev.axes.motors().iter().any(fires)
+                || (next.axes.motors().iter().all(|n| n.state == MotorState::Killed)
+                    && next.axes.programs().iter().all(|p| !p.executing())
+                    && prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| implies(fires(p), n.loss_status)))
         }),
     },
     Monitor {
@@ -1239,7 +1294,7 @@ mod tests {
         // closed-loop motor whose encoder-loss input reports loss and latches the loss.
         let (cfg, mut prev) = encoder_card("um-215");
         let check = event_check(
-            "a closed-loop motor whose encoder is lost is killed at the next background cycle, its loss latched",
+            "a closed-loop motor whose encoder is lost has every motor killed at the next background cycle, its loss latched",
         );
         prev.axes.motors_mut()[0].encoder_lost = true;
         let ev = Event::Background;
@@ -1267,6 +1322,29 @@ mod tests {
         let (next, reply) = step(&cfg, &prev, &ev);
         assert_eq!(next.axes.motors()[0].state, MotorState::Closed);
         assert!(check(&cfg, &prev, &ev, reply, &next), "a healthy motor's scan holds");
+    }
+
+    #[test]
+    fn sentence_um_214_the_plc_s_cmd_k_kills_every_motor_and_latches_only_the_lost_one() {
+        // UM p.214-215: "CMD^K ; Kill all motors": motor 1's lost encoder kills motor 2 too,
+        // jogging in another coordinate system (encoder-loss-2: motor 1 in &1, motor 2 in &2).
+        let spec = Spec::embedded().unwrap();
+        let cfg = ModelConfig::from_spec(&spec, "encoder-loss-2", &spec.profiles.get("um-215").unwrap()).unwrap();
+        let mut prev = card_after(&cfg, &["#1J/", "#2J/", "#2J+"]);
+        prev.background_credit = u32::from(prev.load.background_units);
+        prev.axes.motors_mut()[0].encoder_lost = true;
+        assert_eq!(prev.axes.motors()[1].state, MotorState::Jogging);
+        let check = event_check(
+            "a closed-loop motor whose encoder is lost has every motor killed at the next background cycle, its loss latched",
+        );
+        let ev = Event::Background;
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert!(next.axes.motors().iter().all(|m| m.state == MotorState::Killed), "every motor killed");
+        assert_eq!((next.axes.motors()[0].loss_status, next.axes.motors()[1].loss_status), (true, false));
+        assert!(check(&cfg, &prev, &ev, reply, &next), "the model's scan holds");
+        let mut jogging = next.clone();
+        jogging.axes.motors_mut()[1] = prev.axes.motors()[1];
+        assert!(!check(&cfg, &prev, &ev, reply, &jogging), "motor 2 left jogging fires (the rule before issue 35)");
     }
 
     #[test]

@@ -445,21 +445,7 @@ impl Axes {
                 // system (SRM p.260 for <CTRL-O>: "equivalent to issuing the H command to each
                 // coordinate system").
                 match g {
-                    GlobalCommand::KillAll => {
-                        // UM p.319: <CTRL-K> "breaks into the executing trajectory immediately,
-                        // and disables all motors ... by opening the servo loops, forcing
-                        // zero-value command outputs, and disabling the amplifiers"; the
-                        // lookahead segments "are discarded". MODEL: the "Must stop program first"
-                        // note of its row is read as about restarting; UM p.319 restricts only K.
-                        for m in self.motors_mut() {
-                            m.kill();
-                        }
-                        for p in self.programs_mut() {
-                            if p.executing() {
-                                *p = Program::Lost;
-                            }
-                        }
-                    }
+                    GlobalCommand::KillAll => self.kill_all(),
                     GlobalCommand::AbortAll => self.every_cs(setup, CsCommand::Abort, decel),
                     GlobalCommand::QuitAll => self.every_cs(setup, CsCommand::Quit, decel),
                     GlobalCommand::HoldAll => self.every_cs(setup, CsCommand::Hold, decel),
@@ -584,6 +570,22 @@ impl Axes {
         }
     }
 
+    /// UM p.319: <CTRL-K> "breaks into the executing trajectory immediately, and disables all
+    /// motors ... by opening the servo loops, forcing zero-value command outputs, and
+    /// disabling the amplifiers"; the lookahead segments "are discarded". MODEL: the "Must stop
+    /// program first" note of its row (UM p.217) is read as about restarting; UM p.319
+    /// restricts only K.
+    fn kill_all(&mut self) {
+        for m in self.motors_mut() {
+            m.kill();
+        }
+        for p in self.programs_mut() {
+            if p.executing() {
+                *p = Program::Lost;
+            }
+        }
+    }
+
     // ------------------------------------------------------------------ inputs and PLCs
 
     pub fn encoder_input(&mut self, motor: u8, lost: bool) {
@@ -600,24 +602,24 @@ impl Axes {
     /// scan would be one more function called here, reading the motors and acting through the
     /// same kill.
     pub fn encoder_loss_plc(&mut self, cfg: &ModelConfig) {
-        let setup = &cfg.motion;
+        // UM p.214-215: the listing is for motor 1 and "easy to duplicate for multiple axes";
+        // the model runs one copy per motor. MODEL: the PLC's CMD^K is a command like a host's,
+        // and command processing is a background task (UM p.236), so it takes effect when the
+        // scan is over: every copy reads the motors as they were at the start of the scan.
+        let mut kill_all = false;
         for k in 0..self.motors().len() {
             let open_loop = self.motor_slots[k].state == MotorState::Killed;
             let lost = self.motor_slots[k].encoder_lost;
-            // UM p.214-215: a closed-loop motor whose encoder-loss input reports loss is killed
-            // and the loss latched in Mtr1EncLossStatus. (The seed excerpt starts at the clear
-            // logic; the detection branch is read from the program's purpose as UM p.215 states
-            // it, "monitoring encoder loss", and its clear branch's variables: MODEL for its
-            // exact condition, closed loop and loss.) MODEL: the kill acts as the firmware's
-            // own fault kills do (UM p.213, "the offending motor is killed"), even while its
-            // C.S. runs a program, and that program is then aborted (its lookahead lost).
+            // UM p.214-215, "Logic to disable and set fault status":
+            //   IF (Mtr1OpenLoop=0 AND Enc1LossIn=Lost)
+            //    CMD^K                  ; Kill all motors
+            //    Mtr1EncLossStatus=1    ; Indicate encoder loss
+            // (the same listing in the Brick hardware reference). The firmware's own fault
+            // kill (UM p.213, "the offending motor is killed") is a different mechanism: this
+            // PLC kills every motor, in every coordinate system, as <CTRL-K> does (UM p.319).
             if !open_loop && lost {
-                self.motor_slots[k].kill();
+                kill_all = true;
                 self.motor_slots[k].loss_status = true;
-                let cs = setup.coordinate_system(k as u8 + 1);
-                if self.program(cs).executing() {
-                    self.cs_command(setup, cs, CsCommand::Abort, 1);
-                }
                 continue;
             }
             // UM p.215, "Logic to clear fault status":
@@ -638,6 +640,9 @@ impl Axes {
                     self.ghost_healthy_latched_scans |= if self.motor_slots[k].loss_status { 2 } else { 1 };
                 }
             }
+        }
+        if kill_all {
+            self.kill_all();
         }
     }
 }

@@ -147,6 +147,30 @@ fn i41_bit_0_makes_a_motor_setup_write_a_silent_no_op_while_i5100_and_i41_stay_w
     assert_eq!(cmd(&mut card, &cfg, "I130"), Reply::Value(9));
 }
 
+/// SRM p.57's table, as printed, over every value of I41 (0..15) and both edges of every range
+/// and the variables just outside them: a write is ignored exactly when the bit of its range
+/// is set. (Issue 35: swapping bits 2 and 3 passed every check, the only scenario setting both
+/// at once.)
+#[test]
+fn every_i41_value_locks_exactly_the_ranges_of_its_bits_at_every_edge() {
+    const PRINTED: [(u8, u16, u16); 4] = [(1, 100, 4899), (2, 5100, 6699), (4, 6800, 7999), (8, 8000, 8191)];
+    let edges = [99u16, 100, 4899, 4900, 5099, 5100, 6699, 6700, 6799, 6800, 7999, 8000, 8191];
+    let cfg = config("lockout", "um-215");
+    for i41 in 0u8..16 {
+        let mut card = Controller::power_on(&cfg);
+        for n in edges {
+            assert_eq!(cmd(&mut card, &cfg, &format!("I{n}=0")), Reply::Ack);
+        }
+        assert_eq!(cmd(&mut card, &cfg, &format!("I41={i41}")), Reply::Ack);
+        for n in edges {
+            let locked = PRINTED.iter().any(|(bit, first, last)| i41 & bit != 0 && (*first..=*last).contains(&n));
+            assert_eq!(cmd(&mut card, &cfg, &format!("I{n}=1")), Reply::Ack, "I41={i41}, I{n}: no error");
+            let want = if locked { 0 } else { 1 };
+            assert_eq!(cmd(&mut card, &cfg, &format!("I{n}")), Reply::Value(want), "I41={i41}, I{n}");
+        }
+    }
+}
+
 #[test]
 fn a_firmware_checksum_fault_sets_bits_12_and_13_and_freezes_x1080() {
     let cfg = config("status", "um-215");

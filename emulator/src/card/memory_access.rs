@@ -115,6 +115,32 @@ impl Card {
             Definition::Fixed { address, .. } | Definition::Float { address, .. } => (address, &[Space::X, Space::Y]),
         };
         if let Some(r) = spaces.iter().find_map(|s| Register::at(*s, address)) {
+            // SRM p.289: bit 22 of X:$000006 stays set "until the card is reset, or until this
+            // bit is manually changed to 0": a host write that leaves it 0 clears it, through
+            // the core's own event (recorded in a capture as the event it is). The word's other
+            // bits stay the firmware's (MODEL).
+            if r == Register::StatusX {
+                let written = match d {
+                    Definition::Word { offset, width, format, .. } => {
+                        mvar::with_field(self.word_at(Space::X, address), offset, width, format, mvar::whole(value))
+                    }
+                    Definition::Fixed { dual_ported, .. } => {
+                        let v = mvar::whole(value);
+                        if dual_ported {
+                            mvar::split32(v).0
+                        } else {
+                            mvar::split48(v).0
+                        }
+                    }
+                    Definition::Float { .. } | Definition::SelfReferenced => self.word_at(Space::X, address),
+                };
+                if written & core::bits::RTI_REENTRY == 0
+                    && self.word_at(Space::X, address) & core::bits::RTI_REENTRY != 0
+                {
+                    self.host_clears_rti_reentry();
+                }
+                return Answer::Nothing;
+            }
             if !std::mem::replace(&mut self.register_write_said, true) {
                 let line = format!(
                     "a host wrote to {r:?}'s register at {}: not applied, the firmware owns it (MODEL; said once)",
