@@ -190,3 +190,25 @@ pub fn listen_address(text: &str) -> Result<std::net::SocketAddr, String> {
         .copied()
         .ok_or_else(|| format!("`{text}` names no address; {usage}"))
 }
+
+/// `--format` of `pmacwd import` (`--log-format` of `pmacwd replay`): the kind of log.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum LogFormatArg {
+    /// `> command` / `< reply` lines.
+    HostLog,
+    /// An EPICS IOC's asyn trace of the pmac driver's port.
+    Asyn,
+    /// A pcap or pcapng capture of the Ethernet protocol (TCP port 1025).
+    Pcap,
+}
+
+impl From<LogFormatArg> for pmacwd_conformance::import::LogFormat {
+    fn from(f: LogFormatArg) -> Self {
+        use pmacwd_conformance::import::LogFormat;
+        match f {
+            LogFormatArg::HostLog => LogFormat::HostLog,
+            LogFormatArg::Asyn => LogFormat::Asyn,
+            LogFormatArg::Pcap => LogFormat::Pcap,
+        }
+    }
+}
