@@ -470,6 +470,10 @@ impl PcapRecords {
                     return Ok(true);
                 }
                 Err(PcapError::Eof) => return Ok(false),
+                Err(PcapError::UnexpectedEof) => {
+                    self.packet += 1;
+                    return Err(self.err("the capture ends in the middle of this packet (a cut file)"));
+                }
                 Err(PcapError::Incomplete(_)) => {
                     if self.reader.reader_exhausted() {
                         self.packet += 1;
