@@ -39,7 +39,7 @@ impl Source {
         let configuration = import.configuration;
         let format = match import.format {
             Some(f) => Some(f),
-            None => crate::import::detect_format(path)?,
+            None => crate::import::looks_like(path)?,
         };
         if let Some(format) = format {
             let name = configuration.unwrap_or(crate::import::DEFAULT_CONFIGURATION);

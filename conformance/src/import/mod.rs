@@ -1208,6 +1208,14 @@ pub fn open_records(path: &Path, format: LogFormat) -> Result<Box<dyn Records>, 
 /// format: the error alone would say why the file is not what it was taken for.
 pub fn with_format_hint(e: SpecError, path: &Path, format: LogFormat) -> SpecError {
     match looks_like(path) {
+        Ok(None) if !e.message.contains("--format") => SpecError {
+            message: format!(
+                "{}; this looks like no log pmacwd reads (a host log, an EPICS asyn trace, a pcap or pcapng \
+                 capture: docs/capturing.md)",
+                e.message
+            ),
+            ..e
+        },
         Ok(Some(other)) if other != format && !e.message.contains("--format") => SpecError {
             message: format!("{}; this looks like {}: use --format {}", e.message, other.describe(), other.name()),
             ..e
@@ -1248,16 +1256,11 @@ impl ImportStream {
         format: Option<LogFormat>,
     ) -> Result<ImportStream, SpecError> {
         let config_hz = configuration_servo_hz(spec, configuration).map_err(|e| SpecError::whole_file(path, e))?;
+        // A file that looks like none of the formats is read as a host log (the first format,
+        // whose errors name a line), its errors saying what else it could have been.
         let format = match format {
             Some(f) => f,
-            None => detect_format(path)?.ok_or_else(|| {
-                SpecError::whole_file(
-                    path,
-                    "not a log pmacwd can read: neither a host log (`> command` lines), an EPICS asyn trace \
-                     (`pmacMessageBroker::lowLevelWriteRead: command:` lines) nor a pcap or pcapng capture; name \
-                     the format with --format host-log|asyn|pcap",
-                )
-            })?,
+            None => looks_like(path)?.unwrap_or(LogFormat::HostLog),
         };
         let hint = |e: SpecError| with_format_hint(e, path, format);
         let mut scan = CardScan::new(path);
