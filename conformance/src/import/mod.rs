@@ -393,6 +393,9 @@ impl LogParser {
 
     /// The commands of line `line` with their answers from the reply `reply` (on
     /// `reply_line`, starting at `reply_column`).
+    // The command's place and text, the reply's place and text, and what was cut off it: each
+    // where an error may point, so none is bundled away.
+    #[allow(clippy::too_many_arguments)]
     fn split(
         &mut self,
         line: usize,

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""The host side of `emulator-session.pcapng`: polls `pmacwd serve` on 127.0.0.1:1025 as the
+"""The host side of `emulator-session.pcap`: polls `pmacwd serve` on 127.0.0.1:1025 as the
 pmac driver and dls-pmaclib do (a FLUSH, then a GETRESPONSE with the command line), starves the
 card's background through the control port so that it trips and falls silent, and brings it back
 with INIT/. Run it while `pmacwd serve --configuration host-log` and
-`tcpdump -i lo -w emulator-session.pcapng --time-stamp-precision=micro 'tcp port 1025'` run
+`tcpdump -i lo -w emulator-session.pcap --time-stamp-precision=micro 'tcp port 1025'` run
 (README.md in this folder)."""
 import socket, struct, subprocess, time
 
