@@ -597,3 +597,20 @@ fn a_capture_cut_short_or_missing_a_segment_is_refused_at_its_packet() {
     assert!(e.message.contains("bytes of the TCP stream from port"), "{e}");
     assert!(e.message.contains("(the capture dropped packets)"), "{e}");
 }
+
+#[test]
+fn an_asyn_trace_without_stamps_or_with_a_prompt_run_into_a_line_is_read_all_the_same() {
+    // asynSetTraceInfoMask without the time: the lines start with the port or the driver.
+    let bare: String =
+        ASYN.lines().map(|l| l.strip_prefix("2026/11/26 14:47:10.820 ").unwrap_or(l)).collect::<Vec<_>>().join("\n");
+    let bare = Scratch::new("bare.txt", format!("epics> {bare}\n").as_bytes());
+    let (steps, s) = stream(&bare.0, None).unwrap();
+    assert_eq!(steps.len(), 1);
+    assert_eq!(steps[0].1.expect.reply.as_deref(), Some("15"));
+    assert!(!s.summary().unwrap().stamped);
+    assert!(
+        s.passed_over().join("\n").contains("1 driver lines with other output run into them"),
+        "{:?}",
+        s.passed_over()
+    );
+}

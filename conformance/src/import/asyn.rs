@@ -60,9 +60,10 @@ pub fn is_asyn_line(line: &str) -> bool {
 
 /// An asyn I/O line (`[stamp] PORT write N` or `read N`): whether it is a write, and N.
 fn io_line(line: &str) -> Option<(bool, usize)> {
+    // Without a stamp (asynSetTraceInfoMask without the time) the line starts with the port,
+    // which may start with a digit (`127.0.0.1:1025`).
     let rest = match parse_stamp(line) {
         Ok((_, off)) => &line[off..],
-        Err(_) if line.starts_with(|c: char| c.is_ascii_digit()) => return None,
         Err(_) => line,
     };
     let mut words = rest.split(' ');
@@ -199,6 +200,10 @@ impl<R: BufRead> AsynRecords<R> {
         // The time is the last word; a date `YYYY/MM/DD` (10 characters) and a space may come
         // before it.
         let time_start = before.rfind(' ').map_or(0, |i| i + 1);
+        if !before[time_start..].starts_with(|c: char| c.is_ascii_digit()) {
+            // No stamp (a trace without the time), only other output run into the line.
+            return Ok((None, true));
+        }
         let dated = time_start >= 11
             && before.as_bytes()[time_start - 1] == b' '
             && matches!(before.as_bytes()[time_start - 7], b'/' | b'-');

@@ -1274,7 +1274,12 @@ impl ImportStream {
         let from_log = scan.finish(spec).map_err(hint)?;
         let servo_hz = from_log.card.servo_hz.unwrap_or(config_hz);
         let mut header = header(path, configuration);
-        header.description = format!("imported from {} {}", format.describe(), path.display());
+        let noun = match format {
+            LogFormat::HostLog => "the host log",
+            LogFormat::Asyn => "the EPICS asyn trace",
+            LogFormat::Pcap => "the packet capture",
+        };
+        header.description = format!("imported from {noun} {}", path.display());
         Ok(ImportStream {
             header,
             card: (!from_log.card.is_empty()).then_some(from_log.card),
