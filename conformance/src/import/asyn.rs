@@ -17,7 +17,7 @@
 //!
 //! The command line is the driver's `command:` line (asyn cuts a `write N` line's data at its
 //! truncate size, 80 bytes by default); the request headers are decoded as the emulator decodes
-//! them ([`pmacwd_emulator::protocol::Header`]), and the GETRESPONSE's data is checked against
+//! them ([`pmacwd_specs::protocol::Header`]), and the GETRESPONSE's data is checked against
 //! the `command:` line. The answer is the card's byte stream after the GETRESPONSE (every
 //! `read N` until the `response:` line, in order), up to its ACK or the CR ending an error, as
 //! the recording proxy reads it: the driver's own `response:` line drops the CRs between
@@ -34,8 +34,8 @@
 //! bytes, the request headers' and CRs included, so a data line cannot be told from the next.
 
 use super::{parse_stamp, Cut, Record, Records, Stamp};
-use pmacwd_emulator::protocol::{trim_line, Header, Request, HEADER_BYTES};
 use pmacwd_specs::input::Lines;
+use pmacwd_specs::protocol::{trim_line, Header, Request, HEADER_BYTES};
 use pmacwd_specs::{Position, SpecError};
 use std::collections::VecDeque;
 use std::io::BufRead;

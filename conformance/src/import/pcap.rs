@@ -2,7 +2,7 @@
 //! Ethernet protocol on TCP port 1025, read as the exchanges a host log carries
 //! (`docs/capturing.md`, "Packet captures"). The file format is read by the `pcap-parser`
 //! crate, the link, IP and TCP headers by `etherparse`, and the requests by the emulator's own
-//! header decoding ([`pmacwd_emulator::protocol::Header`]).
+//! header decoding ([`pmacwd_specs::protocol::Header`]).
 //!
 //! Each TCP connection to port 1025 is put back together in sequence order (a retransmitted
 //! segment is read once; a missing one is an error: the capture dropped packets). The host's
@@ -22,7 +22,7 @@ use super::{Record, Records, Stamp};
 use etherparse::{NetSlice, SlicedPacket, TransportSlice};
 use pcap_parser::traits::PcapReaderIterator;
 use pcap_parser::{create_reader, Block, PcapBlockOwned, PcapError};
-use pmacwd_emulator::protocol::{trim_line, Header, Request, HEADER_BYTES};
+use pmacwd_specs::protocol::{trim_line, Header, Request, HEADER_BYTES};
 use pmacwd_specs::{Position, SpecError};
 use std::collections::{HashMap, VecDeque};
 use std::net::IpAddr;
@@ -354,7 +354,7 @@ impl PcapRecords {
                 }
                 conn.awaiting.push_back(Awaiting { end, command, bytes: Vec::new(), cut: false, in_error: false });
             }
-            if conn.request.len() > HEADER_BYTES + pmacwd_emulator::protocol::DATA_BYTES_MAX {
+            if conn.request.len() > HEADER_BYTES + pmacwd_specs::protocol::DATA_BYTES_MAX {
                 return Err(self.err("a request longer than the protocol allows"));
             }
             Ok(())
