@@ -226,3 +226,25 @@ pub fn threads_flag(text: &str) -> Result<usize, String> {
         Err(_) => Err(format!("give 1 to {cores} (the cores of this machine)")),
     }
 }
+
+/// `--format` of `pmacwd import` (`--log-format` of `pmacwd replay`): the kind of log.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum LogFormatArg {
+    /// `> command` / `< reply` lines.
+    HostLog,
+    /// An EPICS IOC's asyn trace of the pmac driver's port.
+    Asyn,
+    /// A pcap or pcapng capture of the Ethernet protocol (TCP port 1025).
+    Pcap,
+}
+
+impl From<LogFormatArg> for pmacwd_conformance::import::LogFormat {
+    fn from(f: LogFormatArg) -> Self {
+        use pmacwd_conformance::import::LogFormat;
+        match f {
+            LogFormatArg::HostLog => LogFormat::HostLog,
+            LogFormatArg::Asyn => LogFormat::Asyn,
+            LogFormatArg::Pcap => LogFormat::Pcap,
+        }
+    }
+}

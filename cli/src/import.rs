@@ -42,7 +42,13 @@ impl Form {
     }
 }
 
-pub fn import_log(log: &Path, out: Option<PathBuf>, configuration: &str, yaml: bool) -> ExitCode {
+pub fn import_log(
+    log: &Path,
+    out: Option<PathBuf>,
+    configuration: &str,
+    yaml: bool,
+    format: Option<pmacwd_conformance::import::LogFormat>,
+) -> ExitCode {
     let spec = match Spec::embedded() {
         Ok(spec) => spec,
         Err(e) => return unusable(e),
@@ -54,7 +60,7 @@ pub fn import_log(log: &Path, out: Option<PathBuf>, configuration: &str, yaml: b
     }
     // The first pass (what the log says about the card) reads the whole log before anything
     // is written: its errors leave no output at all.
-    let mut stream = match ImportStream::open(&spec, log, configuration) {
+    let mut stream = match ImportStream::open_as(&spec, log, configuration, format) {
         Ok(s) => s,
         Err(e) => return unusable(e),
     };
@@ -121,10 +127,13 @@ fn summarize(stream: &ImportStream, configuration: &str) {
     if !from_config.is_empty() {
         eprintln!("pmacwd: from configuration `{configuration}`: {}", from_config.join(", "));
     }
+    for passed in stream.passed_over() {
+        eprintln!("pmacwd: passed over ({}): {passed}", stream.format.name());
+    }
     let Some(s) = stream.summary() else { return };
     eprintln!(
         "pmacwd: {} on {}, {}, {}, {} timed by the host clock, {} answered from the card's own state \
-         (not compared with the model's values), {} the grammar cannot read (kept without an expectation){}",
+         (not compared with the model's values), {} the grammar cannot read (kept without an expectation){}{}",
         plural(s.commands, "command", "commands"),
         plural(s.exchanges, "line", "lines"),
         plural(s.counter_reads, "X:$0 read", "X:$0 reads"),
@@ -132,6 +141,11 @@ fn summarize(stream: &ImportStream, configuration: &str) {
         plural(s.silent_gaps, "silent gap", "silent gaps"),
         s.card_own,
         s.not_modelled,
+        if s.unseen > 0 {
+            format!(", {} answered but not shown in full (kept without an expectation)", s.unseen)
+        } else {
+            String::new()
+        },
         if s.stamped { format!(", host time at {} Hz", stream.servo_hz) } else { String::new() }
     );
     if let Some(w) = s.timing_warning() {

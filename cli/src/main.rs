@@ -158,6 +158,10 @@ enum Command {
         /// what the log itself reads (I8, I40, I41, I10) overrides it.
         #[arg(long, value_name = "NAME")]
         configuration: Option<String>,
+        /// Read FILE as this kind of log (default: by its content). `--format` is the report's
+        /// own format here, so the log's is `--log-format` (docs/capturing.md).
+        #[arg(long, value_enum, value_name = "FORMAT")]
+        log_format: Option<common::LogFormatArg>,
         /// Write the explanation as a trace: the capture with every unseen gap replaced by the
         /// model events the search chose. JSON Lines, or YAML if FILE ends in .yaml (which
         /// `pmacwd run FILE` replays on the model).
@@ -240,13 +244,14 @@ enum Command {
         #[arg(long, value_name = "DIR")]
         specs: Option<PathBuf>,
     },
-    /// Turn a plain host log (commands, replies, X:$0 read alongside) into a trace.
+    /// Turn a log (a host log, an EPICS asyn trace, a pcap capture) into a trace.
     ///
     /// The log format and how to capture one from a real controller: docs/capturing.md. Writes
     /// JSON Lines (or YAML with --yaml) to --out, or to standard output.
     #[command(after_help = "Exit codes: 0 imported, 2 unusable input (the log's file, line and column say where).")]
     Import {
-        /// The host log: `> command` and `< reply` lines (docs/capturing.md).
+        /// The log: `> command` and `< reply` lines, an EPICS asyn trace or a pcap/pcapng
+        /// capture (docs/capturing.md).
         #[arg(value_name = "LOG")]
         log: PathBuf,
         /// Where to write the trace (default: standard output).
@@ -258,6 +263,10 @@ enum Command {
         /// Write YAML instead of JSON Lines.
         #[arg(long)]
         yaml: bool,
+        /// Read LOG as this kind of log (default: by its content): a host log, an EPICS asyn
+        /// trace of the pmac driver, or a pcap/pcapng capture of port 1025 (docs/capturing.md).
+        #[arg(long, alias = "log-format", value_enum, value_name = "FORMAT")]
+        format: Option<common::LogFormatArg>,
     },
 }
 
@@ -280,15 +289,17 @@ fn main() -> ExitCode {
         Command::Control { commands, address } => control::control(control::ControlArgs { address, commands }),
         Command::Record(args) => record::record(args),
         Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
-        Command::Replay { file, format, specs, configuration, witness } => {
-            replay::replay_file(&file, format, specs, configuration, witness)
+        Command::Replay { file, format, specs, configuration, log_format, witness } => {
+            replay::replay_file(&file, format, specs, configuration, log_format.map(Into::into), witness)
         }
         Command::Margin(args) => margin::margin(args),
         Command::Timeline { trace, format, output, profile, specs } => {
             timeline::timeline(timeline::TimelineArgs { trace, format, output, profile, specs })
         }
         Command::Requirements { format, specs } => requirements::requirements(&format, specs),
-        Command::Import { log, out, configuration, yaml } => import::import_log(&log, out, &configuration, yaml),
+        Command::Import { log, out, configuration, yaml, format } => {
+            import::import_log(&log, out, &configuration, yaml, format.map(Into::into))
+        }
         Command::Check { specs, profile, configuration, witnesses, save, threads, no_conformance, format } => {
             check::check(check::CheckArgs {
                 specs,

@@ -15,6 +15,7 @@ pub fn replay_file(
     format: Format,
     specs: Option<PathBuf>,
     configuration: Option<String>,
+    log_format: Option<pmacwd_conformance::import::LogFormat>,
     witness: Option<PathBuf>,
 ) -> ExitCode {
     let spec = match load_spec(&specs) {
@@ -28,7 +29,8 @@ pub fn replay_file(
         let line = pmacwd_conformance::explain::search::LINE_REACHED.load(std::sync::atomic::Ordering::Relaxed);
         (0, format!("searching at line {}", crate::progress::thousands(line as u64)))
     });
-    let explained = report::explain(&spec, file, configuration.as_deref());
+    let import = pmacwd_conformance::replay::ImportAs { configuration: configuration.as_deref(), format: log_format };
+    let explained = report::explain_as(&spec, file, import);
     ticker.finish();
     match explained {
         Ok(report) => {

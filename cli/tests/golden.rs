@@ -228,6 +228,16 @@ const REPLAY: &[Case] = &[
     // A host log is imported on the fly and replayed with the log's own line numbers. Until
     // the replay search judges `elapsed` steps, the deterministic replay stops at the first.
     case("replay_of_a_host_log_imports_it_on_the_fly", &["replay", "specs/captures/host-session.log"]),
+    // The EPICS IOC's trace has host stamps but no X:$0 read: every command is one instant,
+    // and bit 12 of `???` changing between polls is more than a card does in no time.
+    case(
+        "replay_of_the_epics_asyn_trace_without_counter_reads_finds_no_card",
+        &["replay", "specs/captures/field/epics-asyn-trace.txt"],
+    ),
+    case(
+        "replay_of_the_tcpdump_capture_explains_the_trip_and_the_init",
+        &["replay", "specs/captures/field/emulator-session.pcap", "--log-format", "pcap"],
+    ),
     case(
         "replay_of_a_host_log_as_json_imports_it_on_the_fly",
         &["replay", "specs/captures/host-session.log", "--format", "json"],
@@ -266,6 +276,19 @@ const IMPORT: &[Case] = &[
     case("import_of_a_file_that_is_not_a_host_log_exits_2", &["import", "specs/captures/README.md"]),
     // A file that does not exist: exit 2.
     case("import_of_a_missing_log_exits_2", &["import", "no-such-session.log"]),
+    // The field's own records (specs/captures/field/README.md), each detected by its content.
+    case(
+        "import_of_an_epics_asyn_trace_reads_the_driver_s_exchanges_and_counts_what_it_passes_over",
+        &["import", "specs/captures/field/epics-asyn-trace.txt", "--out", "<tmp>/asyn.jsonl"],
+    ),
+    case(
+        "import_of_a_tcpdump_capture_of_port_1025_reads_each_getresponse",
+        &["import", "specs/captures/field/emulator-session.pcap", "--out", "<tmp>/pcap.jsonl"],
+    ),
+    case(
+        "import_of_an_asyn_trace_as_a_host_log_says_to_use_format_asyn",
+        &["import", "specs/captures/field/epics-asyn-trace.txt", "--format", "host-log"],
+    ),
 ];
 
 /// Only the refusals: each of these exits before listening on any port.

@@ -9,6 +9,20 @@ use pmacwd_trace::{parse_yaml, Step, Trace};
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 
+/// How a log given to `pmacwd replay` is imported: under which configuration (default
+/// [`crate::import::DEFAULT_CONFIGURATION`]) and read in which format (default: by its content).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ImportAs<'a> {
+    pub configuration: Option<&'a str>,
+    pub format: Option<crate::import::LogFormat>,
+}
+
+impl<'a> From<Option<&'a str>> for ImportAs<'a> {
+    fn from(configuration: Option<&'a str>) -> ImportAs<'a> {
+        ImportAs { configuration, format: None }
+    }
+}
+
 /// Where steps come from: a YAML trace (short, read whole), a JSON Lines capture (streamed),
 /// or a host log imported on the fly (streamed through the importer, `docs/capturing.md`).
 pub enum Source {
@@ -21,10 +35,20 @@ impl Source {
     /// Opens `path` as [`Source::open`] does, and a host log as [`Source::HostLog`], imported
     /// under `configuration` (default [`crate::import::DEFAULT_CONFIGURATION`]). A
     /// configuration given for a trace is an error: a trace names its own.
-    pub fn open_with(spec: &Spec, path: &Path, configuration: Option<&str>) -> Result<Source, SpecError> {
-        if crate::import::is_host_log(path)? {
+    pub fn open_with(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Source, SpecError> {
+        let configuration = import.configuration;
+        let format = match import.format {
+            Some(f) => Some(f),
+            None => crate::import::looks_like(path)?,
+        };
+        if let Some(format) = format {
             let name = configuration.unwrap_or(crate::import::DEFAULT_CONFIGURATION);
-            return Ok(Source::HostLog(Box::new(crate::import::ImportStream::open(spec, path, name)?)));
+            return Ok(Source::HostLog(Box::new(crate::import::ImportStream::open_as(
+                spec,
+                path,
+                name,
+                Some(format),
+            )?)));
         }
         if let Some(name) = configuration {
             return Err(SpecError::whole_file(

@@ -83,10 +83,10 @@ fn signals(cfg: &ModelConfig, card: &Controller, cycle: u64, strobe: bool, backg
 /// Opens the trace at `path`, resolves its configuration under `profile` (default: the trace's
 /// first profile, the default profile when it lists `all`), and returns the header.
 fn open(spec: &Spec, path: &Path, profile: Option<&str>) -> Result<(Source, ModelConfig, Header), SpecError> {
-    if crate::import::is_host_log(path)? {
+    if crate::import::detect_format(path)?.is_some() {
         return Err(SpecError::whole_file(
             path,
-            "a host log says only what the host saw; `pmacwd replay LOG --witness W.jsonl` finds a behaviour \
+            "a log says only what the host saw; `pmacwd replay LOG --witness W.jsonl` finds a behaviour \
              that produces it, and `pmacwd timeline W.jsonl` draws that",
         ));
     }

@@ -190,14 +190,14 @@ proptest! {
         let text = generate(&spec, &cfg, cpu, &gaps);
         let path = temp_file(&format!("complete-{bits}-{cpu}.jsonl"), &text);
         let started = std::time::Instant::now();
-        let (lanes, _) = search::search(&spec, &path, None, vec![def.clone()], false).unwrap();
+        let (lanes, _) = search::search(&spec, &path, Default::default(), vec![def.clone()], false).unwrap();
         if started.elapsed().as_secs_f64() > 1.0 {
             eprintln!("slow case ({:.1} s, peak {} candidates):\n{text}", started.elapsed().as_secs_f64(), lanes[0].peak);
         }
         prop_assert!(lanes[0].death.is_none(), "not explained: {:?}\n{text}", lanes[0].death);
         // The explanation printed is checked on the model before it is called one (how often
         // it reproduces every observation is measured by the rate test below: docs/replay.md).
-        let (_, w) = report::witness_for(&spec, &path, None, def, lanes[0].tolerances).unwrap();
+        let (_, w) = report::witness_for(&spec, &path, Default::default(), def, lanes[0].tolerances).unwrap();
         prop_assert_eq!(w.checked.clone(), Some(witness::reproduces(&spec, &cfg, &w)));
     }
 }
@@ -222,10 +222,10 @@ fn nearly_every_generated_capture_is_explained_and_its_witness_reproduces_it() {
         let (def, cfg) = lane_for(&spec, bits);
         let text = generate(&spec, &cfg, cpu, &gaps);
         let path = temp_file(&format!("rate-{i}.jsonl"), &text);
-        let (lanes, _) = search::search(&spec, &path, None, vec![def.clone()], false).unwrap();
+        let (lanes, _) = search::search(&spec, &path, Default::default(), vec![def.clone()], false).unwrap();
         if lanes[0].death.is_none() {
             explained += 1;
-            let (_, w) = report::witness_for(&spec, &path, None, def, lanes[0].tolerances).unwrap();
+            let (_, w) = report::witness_for(&spec, &path, Default::default(), def, lanes[0].tolerances).unwrap();
             if matches!(w.checked, Some(Ok(_))) {
                 reproduced += 1;
             } else if std::env::var_os("PMACWD_SHOW_MISSES").is_some() {
@@ -363,15 +363,22 @@ fn for_debugging_one_capture_is_searched_on_one_lane_and_where_it_dies_is_printe
     let path = PathBuf::from(std::env::var("PMACWD_CAPTURE").unwrap());
     let bits: usize = std::env::var("PMACWD_READINGS").unwrap().parse().unwrap();
     let (def, _) = lane_for(&spec, bits);
-    let (lanes, _) = search::search(&spec, &path, None, vec![def], false).unwrap();
+    let (lanes, _) = search::search(&spec, &path, Default::default(), vec![def], false).unwrap();
     println!("{:?} peak {}", lanes[0].death, lanes[0].peak);
     for c in lanes[0].cands.iter().take(5) {
         println!("Y:$25 {}..={} X:$25 {}..={}", c.counter_lo, c.card.counter, c.min_lo, c.card.counter_min);
     }
     // With PMACWD_WITNESS set: the histories the recording search kept, and the witness.
     if std::env::var_os("PMACWD_WITNESS").is_some() {
-        let (lanes, _, _) =
-            search::search_once(&spec, &path, None, std::iter::once((lanes[0].def.clone(), None)), true, true).unwrap();
+        let (lanes, _, _) = search::search_once(
+            &spec,
+            &path,
+            Default::default(),
+            std::iter::once((lanes[0].def.clone(), None)),
+            true,
+            true,
+        )
+        .unwrap();
         for c in lanes[0].cands.iter().take(3) {
             for n in pmacwd_conformance::explain::history::chain(c.node.as_ref().unwrap()) {
                 match &n.kind {
@@ -382,7 +389,9 @@ fn for_debugging_one_capture_is_searched_on_one_lane_and_where_it_dies_is_printe
                     k => println!("  event {}: {k:?}", n.event),
                 }
             }
-            let (_, w) = report::witness_for(&spec, &path, None, lanes[0].def.clone(), lanes[0].tolerances).unwrap();
+            let (_, w) =
+                report::witness_for(&spec, &path, Default::default(), lanes[0].def.clone(), lanes[0].tolerances)
+                    .unwrap();
             println!("witness: {:?}\n{}", w.checked, w.story.join("\n"));
             for (i, st) in w.steps.iter().enumerate() {
                 println!("    step {}: {} {:?}", i + 1, st.event(), st.expect().and_then(|e| e.reply.as_ref()));

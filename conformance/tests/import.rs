@@ -372,3 +372,268 @@ fn a_reply_no_card_sends_is_unusable_input_not_a_verdict() {
     // `BOOTSTRAP PROM` is one `???` answer (SRM p.289), spaces and all.
     assert_eq!(ok("> ???\n< BOOTSTRAP PROM\n").trace.steps[0].expect.reply.as_deref(), Some("BOOTSTRAP PROM"));
 }
+
+// ---- Tolerant stamps and the field's own formats (docs/capturing.md) ----
+
+use pmacwd_conformance::import::{ImportStream, LogFormat};
+use pmacwd_specs::Spec;
+
+fn field(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../specs/captures/field").join(name)
+}
+
+/// A file of the test's own, removed when dropped.
+struct Scratch(std::path::PathBuf);
+
+impl Scratch {
+    fn new(name: &str, bytes: &[u8]) -> Scratch {
+        let dir = std::env::temp_dir().join(format!("pmacwd-import-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        Scratch(path)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+/// Every step of the log at `path` read as `format` (by content when `None`), with the line
+/// (or packet) it comes from, and the stream for its summary.
+fn stream(path: &Path, format: Option<LogFormat>) -> Result<(Vec<(usize, Step)>, ImportStream), SpecError> {
+    let spec = Spec::embedded().unwrap();
+    let mut s = ImportStream::open_as(&spec, path, "host-log", format)?;
+    let mut steps = Vec::new();
+    while let Some(step) = s.next_step()? {
+        steps.push(step);
+    }
+    Ok((steps, s))
+}
+
+fn reply_of(steps: &[(usize, Step)], line: usize, text: &str) -> Option<String> {
+    steps
+        .iter()
+        .find(|(l, s)| *l == line && s.event == command(text))
+        .unwrap_or_else(|| panic!("no `{text}` at line {line}"))
+        .1
+        .expect
+        .reply
+        .clone()
+}
+
+#[test]
+fn slash_dates_and_a_tab_after_the_stamp_read_as_the_dashed_form_does() {
+    let dashed = "2026-11-26 14:47:10.820 > I10\n2026-11-26 14:47:10.821 < 8388607\n\
+                  2026-11-26 14:47:10.822 > RHX:$0\n2026-11-26 14:47:10.823 < 000010\n\
+                  2026-11-26 14:47:11.822 > RHX:$0\n2026-11-26 14:47:11.823 < 0003F8\n";
+    let slashed = dashed.replace('-', "/").replace(" > ", "\t> ").replace(" < ", "\t< ");
+    assert!(slashed.contains("2026/11/26 14:47:10.820\t> I10"));
+    assert_eq!(ok(&slashed).trace.steps, ok(dashed).trace.steps);
+    // The two forms are one form for the rule "one form throughout": both are dated.
+    let mixed = "2026-11-26 14:47:10.820 > I10\n2026/11/26 14:47:10.821 < 8388607\n";
+    assert_eq!(ok(mixed).trace.steps.len(), 1);
+    // A slash date with a dash in it is neither.
+    let e = err("2026/11-26 14:47:10.820 > I10\n< 1\n");
+    assert_eq!(at(&e), (1, 1));
+    assert!(e.message.contains("`YYYY/MM/DD HH:MM:SS(.fff)`"), "{e}");
+}
+
+#[test]
+fn the_epics_asyn_trace_of_the_field_imports_every_exchange_with_the_driver_s_command_and_the_card_s_answer() {
+    let path = field("epics-asyn-trace.txt");
+    let (steps, s) = stream(&path, None).unwrap();
+    assert_eq!(s.format, LogFormat::Asyn);
+    let sum = s.summary().unwrap();
+    assert_eq!((sum.exchanges, sum.commands, sum.unseen), (1314, 16979, 0));
+    assert!(sum.stamped);
+    // The trace's I10 (3713707) sets the servo clock: 2259 Hz.
+    assert_eq!(s.servo_hz, 2259);
+    // Line 111: the 18-command poll, whose `write 88` and `read 85` data lines asyn cut at 80
+    // bytes: the command is the driver's `command:` line, the answer its `response:` line
+    // (raw, with its CRs), so all 18 commands get their value, `i224` the last.
+    let line = 241;
+    assert_eq!(reply_of(&steps, line, "???").as_deref(), Some("001000000000"));
+    assert_eq!(reply_of(&steps, line, "i224").as_deref(), Some("$0"));
+    assert_eq!(steps.iter().filter(|(l, _)| *l == line).count(), 18);
+    // Line 7107: `M4034` answered late (after a READREADY); the driver's `response:` line on
+    // 7122 is empty, the card's bytes say `0`.
+    assert_eq!(reply_of(&steps, 7122, "M4034").as_deref(), Some("0"));
+    // Line 10043: `M4034` after the trip at 14:48:49: nothing came (`pmacFlush failed`,
+    // `pmacReadReady failed`): silence.
+    assert_eq!(reply_of(&steps, 10051, "M4034").as_deref(), Some("(silence)"));
+    // An error keeps its number: `cpu` is ERR003 on this card.
+    assert_eq!(reply_of(&steps, 30, "cpu").as_deref(), Some("ERR003"));
+    // What is not an exchange is counted, not dropped silently.
+    let passed = s.passed_over().join("\n");
+    assert!(passed.contains("330 lines of other output"), "{passed}");
+    assert!(
+        passed.contains("6 empty command lines (the driver's connection checks: 4 answered, 2 silent)"),
+        "{passed}"
+    );
+}
+
+/// A few exchanges of the asyn trace, as the driver writes them.
+const ASYN: &str = "2026/11/26 14:47:10.820 pmacMessageBroker::lowLevelWriteRead: command: I68
+2026/11/26 14:47:10.820 127.0.0.1:45459 write 8
+@\\xb3\\x00\\x00\\x00\\x00\\x00\\x00
+2026/11/26 14:47:10.820 127.0.0.1:45459 read 1
+\\x18
+2026/11/26 14:47:10.820 127.0.0.1:45459 write 12
+@\\xbf\\x00\\x00\\x00\\x00\\x00\\x04I68\\n
+2026/11/26 14:47:10.820 127.0.0.1:45459 read 4
+15\\r\\x06
+2026/11/26 14:47:10.820 pmacMessageBroker::lowLevelWriteRead: response: 15
+";
+
+#[test]
+fn an_asyn_trace_whose_request_carries_another_command_or_whose_data_is_not_escaped_is_refused_at_its_line() {
+    let good = Scratch::new("good.txt", ASYN.as_bytes());
+    let (steps, _) = stream(&good.0, None).unwrap();
+    assert_eq!(steps.len(), 1);
+    assert_eq!(steps[0].1.expect.reply.as_deref(), Some("15"));
+    // The GETRESPONSE on line 7 carries `I69`, the `command:` line says `I68`.
+    let other = Scratch::new("other.txt", ASYN.replace("04I68", "04I69").as_bytes());
+    let e = stream(&other.0, None).err().unwrap();
+    assert_eq!(at(&e), (7, 1));
+    assert!(e.message.contains("carries `I69`, not the command `I68` of line 1"), "{e}");
+    // The ASCII form (asynSetTraceIOMask 1) writes raw bytes: refused with what to do.
+    let ascii = Scratch::new("ascii.txt", ASYN.replace("\\x18", "\x18").as_bytes());
+    let e = stream(&ascii.0, None).err().unwrap();
+    assert_eq!(at(&e), (5, 1));
+    assert!(e.message.contains("asynSetTraceIOMask(port, 0, 2)"), "{e}");
+    // A command without its response at the end of the trace.
+    let cut = Scratch::new("cut.txt", ASYN.lines().take(9).collect::<Vec<_>>().join("\n").as_bytes());
+    let e = stream(&cut.0, None).err().unwrap();
+    assert_eq!(at(&e), (1, 72));
+    assert!(e.message.contains("no `response:` line"), "{e}");
+}
+
+#[test]
+fn a_log_read_in_the_wrong_format_says_which_format_it_looks_like() {
+    // Read as a host log, the first line's stamp is one (a slash date), then no `>` follows.
+    let e = stream(&field("epics-asyn-trace.txt"), Some(LogFormat::HostLog)).err().unwrap();
+    assert_eq!(at(&e), (1, 25));
+    assert!(e.message.ends_with("this looks like an EPICS asyn trace: use --format asyn"), "{e}");
+    let e = stream(&field("emulator-session.pcap"), Some(LogFormat::Asyn)).err().unwrap();
+    assert!(e.message.contains("this looks like a packet capture (pcap or pcapng): use --format pcap"), "{e}");
+    let host = Scratch::new("host.log", b"> I10\n< 8388607\n");
+    let e = stream(&host.0, Some(LogFormat::Pcap)).err().unwrap();
+    assert!(e.message.contains("this looks like a host log: use --format host-log"), "{e}");
+}
+
+#[test]
+fn a_tcpdump_capture_of_an_emulator_session_imports_each_getresponse_with_the_answer_on_its_stream() {
+    let path = field("emulator-session.pcap");
+    let (steps, s) = stream(&path, None).unwrap();
+    assert_eq!(s.format, LogFormat::Pcap);
+    let sum = s.summary().unwrap();
+    assert_eq!((sum.exchanges, sum.commands, sum.counter_reads, sum.restarts), (60, 193, 23, 1));
+    assert!(sum.silent_gaps > 0 && sum.stamped);
+    // Packet numbers stand where a log's lines do: the first GETRESPONSE (`I8`) is packet 8,
+    // after the handshake and the FLUSH with its CTRL-X.
+    assert_eq!(steps[0].0, 8);
+    assert_eq!(steps[0].1.expect.reply.as_deref(), Some("2"));
+    assert_eq!(reply_of(&steps, steps[6].0, "cpu").as_deref(), Some("DSP56303"));
+    let passed = s.passed_over().join("\n");
+    assert!(passed.contains("60 FLUSH requests that are not commands"), "{passed}");
+}
+
+/// The pcap sample's packets rewritten as pcapng (section header, one interface, enhanced
+/// packet blocks with microsecond stamps), as Wireshark and dumpcap write them.
+fn as_pcapng(pcap: &[u8]) -> Vec<u8> {
+    let le32 = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
+    assert_eq!(le32(pcap, 0), 0xA1B2_C3D4, "a little-endian microsecond pcap");
+    let block = |kind: u32, body: &[u8]| -> Vec<u8> {
+        let mut body = body.to_vec();
+        while body.len() % 4 != 0 {
+            body.push(0);
+        }
+        let len = (12 + body.len()) as u32;
+        let mut b = Vec::new();
+        b.extend_from_slice(&kind.to_le_bytes());
+        b.extend_from_slice(&len.to_le_bytes());
+        b.extend_from_slice(&body);
+        b.extend_from_slice(&len.to_le_bytes());
+        b
+    };
+    let mut out = Vec::new();
+    let mut shb = Vec::new();
+    shb.extend_from_slice(&0x1A2B_3C4Du32.to_le_bytes());
+    shb.extend_from_slice(&1u16.to_le_bytes());
+    shb.extend_from_slice(&0u16.to_le_bytes());
+    shb.extend_from_slice(&u64::MAX.to_le_bytes());
+    out.extend(block(0x0A0D_0D0A, &shb));
+    let mut idb = Vec::new();
+    idb.extend_from_slice(&(le32(pcap, 20) as u16).to_le_bytes());
+    idb.extend_from_slice(&0u16.to_le_bytes());
+    idb.extend_from_slice(&le32(pcap, 16).to_le_bytes());
+    out.extend(block(1, &idb));
+    let mut at = 24;
+    while at < pcap.len() {
+        let (sec, usec, caplen, origlen) =
+            (le32(pcap, at), le32(pcap, at + 4), le32(pcap, at + 8), le32(pcap, at + 12));
+        let ticks = u64::from(sec) * 1_000_000 + u64::from(usec);
+        let mut epb = Vec::new();
+        epb.extend_from_slice(&0u32.to_le_bytes());
+        epb.extend_from_slice(&((ticks >> 32) as u32).to_le_bytes());
+        epb.extend_from_slice(&(ticks as u32).to_le_bytes());
+        epb.extend_from_slice(&caplen.to_le_bytes());
+        epb.extend_from_slice(&origlen.to_le_bytes());
+        epb.extend_from_slice(&pcap[at + 16..at + 16 + caplen as usize]);
+        out.extend(block(6, &epb));
+        at += 16 + caplen as usize;
+    }
+    out
+}
+
+#[test]
+fn the_same_capture_as_pcapng_imports_to_the_same_steps() {
+    let pcap = std::fs::read(field("emulator-session.pcap")).unwrap();
+    let ng = Scratch::new("session.pcapng", &as_pcapng(&pcap));
+    let (from_ng, s) = stream(&ng.0, None).unwrap();
+    assert_eq!(s.format, LogFormat::Pcap);
+    let (from_pcap, _) = stream(&field("emulator-session.pcap"), None).unwrap();
+    assert_eq!(from_ng, from_pcap);
+}
+
+#[test]
+fn a_capture_cut_short_or_missing_a_segment_is_refused_at_its_packet() {
+    let pcap = std::fs::read(field("emulator-session.pcap")).unwrap();
+    // Cut in the middle of a packet's record.
+    let cut = Scratch::new("cut.pcap", &pcap[..pcap.len() - 10]);
+    let e = stream(&cut.0, None).err().unwrap();
+    assert!(e.message.contains("the capture ends in the middle of this packet"), "{e}");
+    // Packet 8 (the first GETRESPONSE) left out: the stream to the card misses its bytes.
+    let le32 = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap()) as usize;
+    let mut at = 24;
+    for _ in 1..8 {
+        at += 16 + le32(&pcap, at + 8);
+    }
+    let end = at + 16 + le32(&pcap, at + 8);
+    let mut dropped = pcap[..at].to_vec();
+    dropped.extend_from_slice(&pcap[end..]);
+    let gap = Scratch::new("gap.pcap", &dropped);
+    let e = stream(&gap.0, None).err().unwrap();
+    assert!(e.message.contains("bytes of the TCP stream from port"), "{e}");
+    assert!(e.message.contains("(the capture dropped packets)"), "{e}");
+}
+
+#[test]
+fn an_asyn_trace_without_stamps_or_with_a_prompt_run_into_a_line_is_read_all_the_same() {
+    // asynSetTraceInfoMask without the time: the lines start with the port or the driver.
+    let bare: String =
+        ASYN.lines().map(|l| l.strip_prefix("2026/11/26 14:47:10.820 ").unwrap_or(l)).collect::<Vec<_>>().join("\n");
+    let bare = Scratch::new("bare.txt", format!("epics> {bare}\n").as_bytes());
+    let (steps, s) = stream(&bare.0, None).unwrap();
+    assert_eq!(steps.len(), 1);
+    assert_eq!(steps[0].1.expect.reply.as_deref(), Some("15"));
+    assert!(!s.summary().unwrap().stamped);
+    assert!(
+        s.passed_over().join("\n").contains("1 driver lines with other output run into them"),
+        "{:?}",
+        s.passed_over()
+    );
+}

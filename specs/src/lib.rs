@@ -51,6 +51,7 @@ pub mod facts;
 pub mod grammar;
 pub mod input;
 pub mod profiles;
+pub mod protocol;
 pub mod requirements;
 pub mod scenarios {
     //! The scenario library of `specs/scenarios/`, compiled in (see `build.rs`).

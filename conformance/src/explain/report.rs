@@ -4,6 +4,7 @@
 use super::lanes::{self, LaneDef, READINGS};
 use super::search::{self, Death, Lane, Tolerances};
 use super::witness::{self, Witness};
+use crate::replay::ImportAs;
 use crate::replay::Source;
 use pmacwd_model::controller::TripCause;
 use pmacwd_specs::{Position, Spec, SpecError};
@@ -81,6 +82,12 @@ const UNDERVOLTAGE: &str = "the logic supply dipped below its minimum, about 4.7
 /// Judges the capture at `path`; a host log is imported under `import_configuration` (a
 /// trace names its own configuration).
 pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> Result<Report, SpecError> {
+    explain_as(spec, path, import_configuration.into())
+}
+
+/// Judges the capture at `path`; a log is imported as `import_configuration` says (its
+/// configuration and format).
+pub fn explain_as(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> Result<Report, SpecError> {
     let source = Source::open_with(spec, path, import_configuration)?;
     let configuration = source.configuration().to_string();
     let description = source.description().to_string();
@@ -218,7 +225,7 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
 pub fn witness_for(
     spec: &Spec,
     path: &Path,
-    import_configuration: Option<&str>,
+    import_configuration: ImportAs<'_>,
     def: LaneDef,
     tolerances: Tolerances,
 ) -> Result<(String, Witness), SpecError> {

@@ -661,7 +661,7 @@ pub static LINE_REACHED: std::sync::atomic::AtomicUsize = std::sync::atomic::Ato
 pub fn search(
     spec: &Spec,
     path: &Path,
-    configuration: Option<&str>,
+    configuration: crate::replay::ImportAs<'_>,
     defs: Vec<LaneDef>,
     record: bool,
 ) -> Result<(Vec<Lane>, u64), SpecError> {
@@ -703,7 +703,7 @@ pub fn search(
 pub fn search_once(
     spec: &Spec,
     path: &Path,
-    configuration: Option<&str>,
+    configuration: crate::replay::ImportAs<'_>,
     defs: impl Iterator<Item = (LaneDef, Option<Tolerances>)>,
     record: bool,
     to_end: bool,

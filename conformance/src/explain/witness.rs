@@ -157,7 +157,7 @@ pub fn build(
     spec: &pmacwd_specs::Spec,
     cfg: &ModelConfig,
     path: &Path,
-    import_configuration: Option<&str>,
+    import_configuration: crate::replay::ImportAs<'_>,
     last: &Arc<Node>,
 ) -> Result<Witness, SpecError> {
     let nodes = chain(last);

@@ -33,6 +33,9 @@ use std::collections::VecDeque;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
+pub mod asyn;
+pub mod pcap;
+
 /// The configuration a log is imported under when none is named (`--configuration`).
 pub const DEFAULT_CONFIGURATION: &str = "host-log";
 
@@ -55,10 +58,18 @@ const DAY_NS: i128 = 86_400 * NS_PER_S;
 /// A host timestamp: nanoseconds since midnight (time only) or since 1970-01-01 (with a date),
 /// and its resolution (a stamp with 3 fraction digits is true to 1 ms).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Stamp {
+pub struct Stamp {
     dated: bool,
     ns: i128,
     resolution_ns: i128,
+}
+
+impl Stamp {
+    /// A dated stamp `ns` nanoseconds after 1970-01-01 00:00 UTC, true to `resolution_ns`
+    /// (a packet capture's timestamps).
+    pub fn since_epoch(ns: i128, resolution_ns: i128) -> Stamp {
+        Stamp { dated: true, ns, resolution_ns: resolution_ns.max(1) }
+    }
 }
 
 /// Days since 1970-01-01 of a civil date (H. Hinnant's `days_from_civil`).
@@ -77,21 +88,22 @@ fn digits(b: &[u8], at: usize, n: usize) -> Option<i64> {
     s.iter().all(u8::is_ascii_digit).then(|| s.iter().fold(0i64, |v, c| v * 10 + i64::from(c - b'0')))
 }
 
-/// A timestamp at the start of `l` (`HH:MM:SS(.f+)`, `YYYY-MM-DD HH:MM:SS(.f+)` or with `T`,
-/// optionally in square brackets) and the byte offset just past it and its one space; `Err`
-/// with the column of what is wrong.
-fn parse_stamp(l: &str) -> Result<(Stamp, usize), (usize, String)> {
-    const FORMS: &str = "`HH:MM:SS`, `HH:MM:SS.fff`, `YYYY-MM-DD HH:MM:SS(.fff)` or \
-                         `YYYY-MM-DDTHH:MM:SS(.fff)`, optionally in [brackets], then a space";
+/// A timestamp at the start of `l` (`HH:MM:SS(.f+)`, `YYYY-MM-DD HH:MM:SS(.f+)`, with `T`
+/// instead of the space, or with slashes `YYYY/MM/DD` as EPICS and many loggers write it;
+/// optionally in square brackets) and the byte offset just past it and the spaces or tabs
+/// after it; `Err` with the column of what is wrong.
+pub(crate) fn parse_stamp(l: &str) -> Result<(Stamp, usize), (usize, String)> {
+    const FORMS: &str = "`HH:MM:SS`, `HH:MM:SS.fff`, `YYYY-MM-DD HH:MM:SS(.fff)`, `YYYY/MM/DD HH:MM:SS(.fff)` \
+                         or `YYYY-MM-DDTHH:MM:SS(.fff)`, optionally in [brackets], then a space or a tab";
     let b = l.as_bytes();
     let bad = |at: usize| Err((at + 1, format!("expected a timestamp ({FORMS}) before `>` or `<`")));
     let mut i = usize::from(b.first() == Some(&b'['));
     let mut day_ns = None;
-    if b.get(i + 4) == Some(&b'-') {
+    if let Some(&sep @ (b'-' | b'/')) = b.get(i + 4) {
         let (Some(y), Some(m), Some(d)) = (digits(b, i, 4), digits(b, i + 5, 2), digits(b, i + 8, 2)) else {
             return bad(i);
         };
-        if b.get(i + 7) != Some(&b'-') || !(1..=12).contains(&m) || !(1..=31).contains(&d) {
+        if b.get(i + 7) != Some(&sep) || !(1..=12).contains(&m) || !(1..=31).contains(&d) {
             return bad(i);
         }
         if !matches!(b.get(i + 10), Some(b' ' | b'T')) {
@@ -130,10 +142,13 @@ fn parse_stamp(l: &str) -> Result<(Stamp, usize), (usize, String)> {
         }
         i += 1;
     }
-    if b.get(i) != Some(&b' ') {
+    if !matches!(b.get(i), Some(b' ' | b'\t')) {
         return bad(i);
     }
-    Ok((Stamp { dated: day_ns.is_some(), ns: ns + day_ns.unwrap_or(0), resolution_ns }, i + 1))
+    while matches!(b.get(i), Some(b' ' | b'\t')) {
+        i += 1;
+    }
+    Ok((Stamp { dated: day_ns.is_some(), ns: ns + day_ns.unwrap_or(0), resolution_ns }, i))
 }
 
 /// What the card answered one command of a line.
@@ -145,6 +160,62 @@ pub enum Answer {
     Ack,
     /// A reply value as logged.
     Value(String),
+    /// The card answered, but the record does not show what (an asyn trace cut the data line
+    /// and the driver's `response:` line cannot be split): kept without an expectation.
+    Unseen(String),
+}
+
+/// A reply whose end the record does not show: `rest` is what the record says the values not
+/// seen add up to (the asyn driver's `response:` line with the values seen taken off), and
+/// `why` says where the reply was cut.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Cut {
+    pub rest: String,
+    pub why: String,
+}
+
+/// One element of a log, whatever its format: a command line sent or the reply that came, with
+/// its line (or packet) and column in the file and its host time.
+#[derive(Clone, Debug)]
+pub enum Record {
+    Command {
+        line: usize,
+        column: usize,
+        stamp: Option<Stamp>,
+        text: String,
+    },
+    /// `text` in the host log's reply syntax (values separated by whitespace or a written `\r`,
+    /// `(timeout)` for silence); `cut` when the reply's end was not recorded.
+    Reply {
+        line: usize,
+        column: usize,
+        stamp: Option<Stamp>,
+        text: String,
+        cut: Option<Cut>,
+    },
+}
+
+/// Line `line` of a host log as a [`Record`]; `None` for a blank or comment line.
+pub fn host_log_record(file: &Path, line: usize, raw: &str) -> Result<Option<Record>, SpecError> {
+    let err = |column: usize, msg: String| SpecError::at(file, Position { line, column }, msg);
+    let l = raw.trim_end();
+    if l.trim().is_empty() || l.trim_start().starts_with('#') {
+        return Ok(None);
+    }
+    let (stamp, off) = if l.starts_with(|c: char| c.is_ascii_digit() || c == '[') {
+        let (s, off) = parse_stamp(l).map_err(|(col, m)| err(col, m))?;
+        (Some(s), off)
+    } else {
+        (None, 0)
+    };
+    let rest = &l[off..];
+    if let Some(cmd) = rest.strip_prefix("> ") {
+        return Ok(Some(Record::Command { line, column: off + 3, stamp, text: cmd.to_string() }));
+    }
+    let Some(reply) = rest.strip_prefix("< ").or_else(|| (rest == "<").then_some("")) else {
+        return Err(err(off + 1, "expected `> command`, `< reply`, a `#` comment or a blank line".into()));
+    };
+    Ok(Some(Record::Reply { line, column: off + 3, stamp, text: reply.to_string(), cut: None }))
 }
 
 /// One command of a log line and what it got.
@@ -257,66 +328,74 @@ impl LogParser {
 
     /// Reads line `line` of the log; an [`Exchange`] when it is the reply line completing one.
     pub fn line(&mut self, line: usize, raw: &str) -> Result<Option<Exchange>, SpecError> {
-        let l = raw.trim_end();
-        if l.trim().is_empty() || l.trim_start().starts_with('#') {
-            return Ok(None);
+        match host_log_record(&self.file, line, raw)? {
+            Some(record) => self.record(record),
+            None => Ok(None),
         }
-        let (stamp, off) = if l.starts_with(|c: char| c.is_ascii_digit() || c == '[') {
-            let (s, off) = parse_stamp(l).map_err(|(col, m)| self.err(line, col, m))?;
-            (Some(s), off)
-        } else {
-            (None, 0)
-        };
-        let rest = &l[off..];
-        let time = match stamp {
-            Some(s) => Some((self.place(line, s)?, s.resolution_ns)),
-            None => None,
-        };
-        if let Some(cmd) = rest.strip_prefix("> ") {
-            if let Some((at, _, text, _)) = &self.pending {
-                return Err(self.err(*at, 1, format!("`{text}` has no reply line (`< ...`) before the next command")));
+    }
+
+    /// Takes one record (a command line sent, or the reply to it), from a host log or from a
+    /// foreign format's reader; an [`Exchange`] when it is the reply completing one.
+    pub fn record(&mut self, record: Record) -> Result<Option<Exchange>, SpecError> {
+        let placed = |me: &mut LogParser, line: usize, stamp: Option<Stamp>| -> Result<Option<HostTime>, SpecError> {
+            match stamp {
+                Some(s) => Ok(Some((me.place(line, s)?, s.resolution_ns))),
+                None => Ok(None),
             }
-            match self.stamped {
-                None => self.stamped = Some(time.is_some()),
-                Some(s) if s != time.is_some() => {
+        };
+        match record {
+            Record::Command { line, column, stamp, text } => {
+                let time = placed(self, line, stamp)?;
+                if let Some((at, _, text, _)) = &self.pending {
                     return Err(self.err(
-                        line,
+                        *at,
                         1,
-                        if s {
-                            "this command line has no timestamp, the ones before it have: stamp every command line or none"
-                                .to_string()
-                        } else {
-                            "this command line has a timestamp, the ones before it have none: stamp every command line or none"
-                                .to_string()
-                        },
+                        format!("`{text}` has no reply line (`< ...`) before the next command"),
                     ));
                 }
-                Some(_) => {}
+                match self.stamped {
+                    None => self.stamped = Some(time.is_some()),
+                    Some(s) if s != time.is_some() => {
+                        return Err(self.err(
+                            line,
+                            1,
+                            if s {
+                                "this command line has no timestamp, the ones before it have: stamp every command \
+                                 line or none"
+                                    .to_string()
+                            } else {
+                                "this command line has a timestamp, the ones before it have none: stamp every \
+                                 command line or none"
+                                    .to_string()
+                            },
+                        ));
+                    }
+                    Some(_) => {}
+                }
+                let at = time.map(|(t, res)| (t, t + res));
+                self.pending = Some((line, column, text, at));
+                Ok(None)
             }
-            let at = time.map(|(t, res)| (t, t + res));
-            self.pending = Some((line, off + 3, cmd.to_string(), at));
-            return Ok(None);
+            Record::Reply { line, column, stamp, text, cut } => {
+                let time = placed(self, line, stamp)?;
+                let Some((cmd_line, cmd_column, cmd_text, mut at)) = self.pending.take() else {
+                    return Err(self.err(line, column, "a reply line without a command before it".into()));
+                };
+                if let (Some((lo, hi)), Some((t, res))) = (at, time) {
+                    at = Some((lo, hi.max(t + res)));
+                }
+                self.commands += 1;
+                let commands = self.split(cmd_line, cmd_column, &cmd_text, line, column, &text, cut.as_ref())?;
+                Ok(Some(Exchange { line: cmd_line, reply_line: line, at, commands }))
+            }
         }
-        let Some(reply) = rest.strip_prefix("< ").or_else(|| (rest == "<").then_some("")) else {
-            return Err(self.err(
-                line,
-                off + 1,
-                "expected `> command`, `< reply`, a `#` comment or a blank line".into(),
-            ));
-        };
-        let Some((cmd_line, column, text, mut at)) = self.pending.take() else {
-            return Err(self.err(line, off + 1, "a reply line without a command before it".into()));
-        };
-        if let (Some((lo, hi)), Some((t, res))) = (at, time) {
-            at = Some((lo, hi.max(t + res)));
-        }
-        self.commands += 1;
-        let commands = self.split(cmd_line, column, &text, line, off + 3, reply)?;
-        Ok(Some(Exchange { line: cmd_line, reply_line: line, at, commands }))
     }
 
     /// The commands of line `line` with their answers from the reply `reply` (on
     /// `reply_line`, starting at `reply_column`).
+    // The command's place and text, the reply's place and text, and what was cut off it: each
+    // where an error may point, so none is bundled away.
+    #[allow(clippy::too_many_arguments)]
     fn split(
         &mut self,
         line: usize,
@@ -325,6 +404,7 @@ impl LogParser {
         reply_line: usize,
         reply_column: usize,
         reply: &str,
+        cut: Option<&Cut>,
     ) -> Result<Vec<Exchanged>, SpecError> {
         let reply = reply.trim();
         let mut parsed: Vec<Exchanged> = Vec::new();
@@ -353,6 +433,9 @@ impl LogParser {
                 c.answer = Answer::Timeout;
             }
             return Ok(parsed);
+        }
+        if let Some(cut) = cut {
+            return self.split_cut(parsed, line, reply_line, reply_column, reply, cut);
         }
         // What the card sent, without its framing: a reply that still holds the ACK, BEL or
         // another control byte (raw or written as an escape) was logged with its framing, and
@@ -504,6 +587,61 @@ impl LogParser {
         Ok(parsed)
     }
 
+    /// The answers of a reply whose end the record could not see (an asyn trace cuts its data
+    /// lines): the values seen go to the commands in order (one to a command the grammar
+    /// cannot count), the one value left when exactly one answering command remains is
+    /// `cut.rest`, and any others are [`Answer::Unseen`].
+    fn split_cut(
+        &self,
+        mut parsed: Vec<Exchanged>,
+        line: usize,
+        reply_line: usize,
+        reply_column: usize,
+        reply: &str,
+        cut: &Cut,
+    ) -> Result<Vec<Exchanged>, SpecError> {
+        let spaced = reply.replace("\\r", "\r");
+        let mut values = spaced.split('\r').filter(|v| !v.is_empty());
+        let mut k = 0;
+        while k < parsed.len() {
+            let want = parsed[k].values.unwrap_or(1);
+            if want == 0 {
+                k += 1;
+                continue;
+            }
+            let mine: Vec<&str> = values.by_ref().take(want).collect();
+            if mine.len() < want {
+                break;
+            }
+            parsed[k].answer = Answer::Value(mine.join(" "));
+            if mine.last().is_some_and(|v| is_error_reply(v)) {
+                // An error ends the line: the commands after it were never run.
+                parsed.truncate(k + 1);
+                return Ok(parsed);
+            }
+            k += 1;
+        }
+        if values.next().is_some() {
+            return Err(self.err(
+                reply_line,
+                reply_column,
+                format!("this reply holds more values than the commands of line {line} answer"),
+            ));
+        }
+        let left: Vec<usize> = (k..parsed.len()).filter(|&j| parsed[j].values.unwrap_or(1) > 0).collect();
+        match left.as_slice() {
+            [one] if parsed[*one].values.unwrap_or(1) == 1 && !cut.rest.is_empty() => {
+                parsed[*one].answer = Answer::Value(cut.rest.clone());
+            }
+            _ => {
+                for j in left {
+                    parsed[j].answer = Answer::Unseen(cut.why.clone());
+                }
+            }
+        }
+        Ok(parsed)
+    }
+
     /// The end of the log: a command left without its reply, or a log without commands, is an
     /// error.
     pub fn finish(&self) -> Result<(), SpecError> {
@@ -561,7 +699,15 @@ impl CardScan {
     }
 
     pub fn line(&mut self, line: usize, raw: &str) -> Result<(), SpecError> {
-        let Some(ex) = self.parser.line(line, raw)? else { return Ok(()) };
+        match host_log_record(&self.parser.file, line, raw)? {
+            Some(record) => self.record(record),
+            None => Ok(()),
+        }
+    }
+
+    /// Takes one record of the log (any format).
+    pub fn record(&mut self, record: Record) -> Result<(), SpecError> {
+        let Some(ex) = self.parser.record(record)? else { return Ok(()) };
         for c in &ex.commands {
             let (n, write) = match c.command {
                 HostCommand::ReadI(n) => (n, false),
@@ -658,6 +804,9 @@ pub struct Summary {
     pub silent_gaps: u64,
     /// Whether the log has host timestamps.
     pub stamped: bool,
+    /// Commands whose answer the log does not show ([`Answer::Unseen`]), kept without an
+    /// expectation.
+    pub unseen: u64,
 }
 
 impl Summary {
@@ -775,6 +924,14 @@ impl Importer {
         }
     }
 
+    /// Takes one record of the log (any format); returns the steps it completes.
+    pub fn record(&mut self, record: Record) -> Result<Vec<Step>, SpecError> {
+        match self.parser.record(record)? {
+            Some(ex) => self.exchange(&ex),
+            None => Ok(Vec::new()),
+        }
+    }
+
     fn is_counter_read(c: &Exchanged) -> bool {
         c.command == HostCommand::ReadHex(Register::ServoCycles) && matches!(c.answer, Answer::Value(_))
     }
@@ -811,6 +968,7 @@ impl Importer {
                 Answer::Timeout => "(silence)".to_string(),
                 Answer::Ack => "(ack)".to_string(),
                 Answer::Value(r) => r.to_ascii_uppercase(),
+                Answer::Unseen(_) => String::new(),
             };
             let mut note = None;
             let mut expect = Expect { reply: Some(expected), ..Expect::default() };
@@ -832,6 +990,11 @@ impl Importer {
                     expect = Expect { tripped: Some(false), ..Expect::default() };
                     self.summary.card_own += 1;
                 }
+            }
+            if let Answer::Unseen(why) = &c.answer {
+                self.summary.unseen += 1;
+                note = Some(format!("the card answered, the log does not show what: {why}"));
+                expect = Expect::default();
             }
             if let (HostCommand::ReadHex(Register::ServoCycles), Answer::Value(reply)) = (&c.command, &c.answer) {
                 // Hex digits only: `from_str_radix` would also take a sign (`+10`).
@@ -864,6 +1027,7 @@ impl Importer {
                     Answer::Value(r) => r.as_str(),
                     Answer::Ack => "",
                     Answer::Timeout => "(timeout)",
+                    Answer::Unseen(_) => "(not shown)",
                 };
                 note = Some(format!("reply `{shown}` not compared: the card resets"));
                 expect = Expect::default();
@@ -1045,58 +1209,188 @@ pub fn import(file: &Path, text: &str, configuration: &str) -> Result<Imported, 
     Ok(Imported { trace, card, from_log, summary })
 }
 
-/// A host log on disk, imported one step at a time: the first pass ([`CardScan`]) is done when
-/// it opens, then [`ImportStream::next_step`] reads the log again line by line. For
-/// `pmacwd import` and for `pmacwd replay` of a host log.
+/// The formats a log can be imported from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LogFormat {
+    /// `> command` / `< reply` lines (`docs/capturing.md`).
+    HostLog,
+    /// An EPICS IOC's asyn trace of the pmac driver's port ([`asyn`]).
+    Asyn,
+    /// A pcap or pcapng capture of the Ethernet protocol ([`pcap`]).
+    Pcap,
+}
+
+impl LogFormat {
+    /// The name `--format` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            LogFormat::HostLog => "host-log",
+            LogFormat::Asyn => "asyn",
+            LogFormat::Pcap => "pcap",
+        }
+    }
+
+    /// What the file is, in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            LogFormat::HostLog => "a host log",
+            LogFormat::Asyn => "an EPICS asyn trace",
+            LogFormat::Pcap => "a packet capture (pcap or pcapng)",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<LogFormat> {
+        [LogFormat::HostLog, LogFormat::Asyn, LogFormat::Pcap].into_iter().find(|f| f.name() == name)
+    }
+}
+
+/// A log read as [`Record`]s, whatever its format. Bounded: each reader holds at most one
+/// exchange in progress.
+pub trait Records {
+    /// The next record and the line (or packet) it is reported at; `None` at the end.
+    fn next_record(&mut self) -> Result<Option<Record>, SpecError>;
+    /// What the reader passed over that is not an exchange, in words, for the summary (nothing
+    /// the file holds is dropped without being counted there).
+    fn passed_over(&self) -> Vec<String> {
+        Vec::new()
+    }
+}
+
+/// A host log's records, line by line.
+struct HostLogRecords {
+    file: PathBuf,
+    lines: Lines<BufReader<std::fs::File>>,
+}
+
+impl Records for HostLogRecords {
+    fn next_record(&mut self) -> Result<Option<Record>, SpecError> {
+        while let Some((n, text)) = self.lines.next()? {
+            if let Some(r) = host_log_record(&self.file, n, &text)? {
+                return Ok(Some(r));
+            }
+        }
+        Ok(None)
+    }
+}
+
+/// Opens the log `path` in format `format`.
+pub fn open_records(path: &Path, format: LogFormat) -> Result<Box<dyn Records>, SpecError> {
+    let file = pmacwd_specs::input::open_regular(path)?;
+    Ok(match format {
+        LogFormat::HostLog => {
+            Box::new(HostLogRecords { file: path.to_path_buf(), lines: Lines::new(path, BufReader::new(file)) })
+        }
+        LogFormat::Asyn => Box::new(asyn::AsynRecords::new(path, BufReader::new(file))),
+        LogFormat::Pcap => Box::new(pcap::PcapRecords::new(path, file)?),
+    })
+}
+
+/// An error met reading `path` as `format`, with a hint when the file looks like another
+/// format: the error alone would say why the file is not what it was taken for.
+pub fn with_format_hint(e: SpecError, path: &Path, format: LogFormat) -> SpecError {
+    match looks_like(path) {
+        Ok(None) if !e.message.contains("--format") => SpecError {
+            message: format!(
+                "{}; this looks like no log pmacwd reads (a host log, an EPICS asyn trace, a pcap or pcapng \
+                 capture: docs/capturing.md)",
+                e.message
+            ),
+            ..e
+        },
+        Ok(Some(other)) if other != format && !e.message.contains("--format") => SpecError {
+            message: format!("{}; this looks like {}: use --format {}", e.message, other.describe(), other.name()),
+            ..e
+        },
+        _ => e,
+    }
+}
+
+/// A log on disk, imported one step at a time: the first pass ([`CardScan`]) is done when it
+/// opens, then [`ImportStream::next_step`] reads the log again record by record. For `pmacwd
+/// import` and for `pmacwd replay` of a log.
 pub struct ImportStream {
     pub header: Trace,
     pub card: Option<CardConfig>,
     pub from_log: CardFromLog,
     /// The servo clock host time is converted with (the log's I10, else the configuration's).
     pub servo_hz: u32,
-    lines: Lines<BufReader<std::fs::File>>,
+    /// The format the log is read in.
+    pub format: LogFormat,
+    records: Box<dyn Records>,
     importer: Option<Importer>,
     summary: Option<Summary>,
     queue: VecDeque<(usize, Step)>,
+    path: PathBuf,
 }
 
 impl ImportStream {
     /// Opens the host log `path` to be imported under configuration `configuration` of `spec`.
     pub fn open(spec: &Spec, path: &Path, configuration: &str) -> Result<ImportStream, SpecError> {
+        ImportStream::open_as(spec, path, configuration, None)
+    }
+
+    /// Opens the log `path` in format `format` (by its content when `None`).
+    pub fn open_as(
+        spec: &Spec,
+        path: &Path,
+        configuration: &str,
+        format: Option<LogFormat>,
+    ) -> Result<ImportStream, SpecError> {
         let config_hz = configuration_servo_hz(spec, configuration).map_err(|e| SpecError::whole_file(path, e))?;
-        let file = pmacwd_specs::input::open_regular(path)?;
+        // A file that looks like none of the formats is read as a host log (the first format,
+        // whose errors name a line), its errors saying what else it could have been.
+        let format = match format {
+            Some(f) => f,
+            None => looks_like(path)?.unwrap_or(LogFormat::HostLog),
+        };
+        let hint = |e: SpecError| with_format_hint(e, path, format);
         let mut scan = CardScan::new(path);
-        let mut lines = Lines::new(path, BufReader::new(file));
-        while let Some((n, text)) = lines.next()? {
-            scan.line(n, &text)?;
+        let mut records = open_records(path, format).map_err(hint)?;
+        while let Some(r) = records.next_record().map_err(hint)? {
+            scan.record(r).map_err(hint)?;
         }
-        let from_log = scan.finish(spec)?;
+        let from_log = scan.finish(spec).map_err(hint)?;
         let servo_hz = from_log.card.servo_hz.unwrap_or(config_hz);
-        let file = pmacwd_specs::input::open_regular(path)?;
+        let mut header = header(path, configuration);
+        let noun = match format {
+            LogFormat::HostLog => "the host log",
+            LogFormat::Asyn => "the EPICS asyn trace",
+            LogFormat::Pcap => "the packet capture",
+        };
+        header.description = format!("imported from {noun} {}", path.display());
         Ok(ImportStream {
-            header: header(path, configuration),
+            header,
             card: (!from_log.card.is_empty()).then_some(from_log.card),
             from_log,
             servo_hz,
-            lines: Lines::new(path, BufReader::new(file)),
+            format,
+            records: open_records(path, format)?,
             importer: Some(Importer::new(path, servo_hz)),
             summary: None,
             queue: VecDeque::new(),
+            path: path.to_path_buf(),
         })
     }
 
-    /// The next step and the log line it comes from; `None` at the end of the log.
+    /// The next step and the log line (or packet) it comes from; `None` at the end of the log.
     pub fn next_step(&mut self) -> Result<Option<(usize, Step)>, SpecError> {
+        let (path, format) = (self.path.clone(), self.format);
+        let hint = |e: SpecError| with_format_hint(e, &path, format);
         loop {
             if let Some(s) = self.queue.pop_front() {
                 return Ok(Some(s));
             }
             let Some(importer) = self.importer.as_mut() else { return Ok(None) };
-            match self.lines.next()? {
-                Some((n, text)) => self.queue.extend(importer.line(n, &text)?.into_iter().map(|s| (n, s))),
+            match self.records.next_record().map_err(hint)? {
+                Some(r) => {
+                    let n = match &r {
+                        Record::Command { line, .. } | Record::Reply { line, .. } => *line,
+                    };
+                    self.queue.extend(importer.record(r).map_err(hint)?.into_iter().map(|s| (n, s)));
+                }
                 None => {
                     let importer = self.importer.take().expect("checked above");
-                    self.summary = Some(importer.finish()?);
+                    self.summary = Some(importer.finish().map_err(hint)?);
                 }
             }
         }
@@ -1106,6 +1400,61 @@ impl ImportStream {
     pub fn summary(&self) -> Option<&Summary> {
         self.summary.as_ref()
     }
+
+    /// What the reader passed over that is not an exchange (an IOC's own output, a driver's
+    /// empty connection checks, packets of other connections), in words.
+    pub fn passed_over(&self) -> Vec<String> {
+        self.records.passed_over()
+    }
+}
+
+/// The format of the log at `path` by its content: pcap and pcapng by their magic numbers, an
+/// asyn trace by the pmac driver's `lowLevelWriteRead: command:` lines or asyn's `HOST:PORT
+/// write N` lines among its first lines, a host log by a first line that is a `> command`.
+/// `None` when it is none of them (a trace, or something else). Reads at most 64 KiB.
+pub fn detect_format(path: &Path) -> Result<Option<LogFormat>, SpecError> {
+    let head = read_head(path)?;
+    if pcap::is_capture(&head) {
+        return Ok(Some(LogFormat::Pcap));
+    }
+    let text = String::from_utf8_lossy(&head);
+    for line in text.lines().take(1000) {
+        if asyn::is_asyn_line(line) {
+            return Ok(Some(LogFormat::Asyn));
+        }
+    }
+    for line in text.lines() {
+        let t = line.trim_start_matches('\u{feff}').trim();
+        if t.is_empty() || t.starts_with('#') {
+            continue;
+        }
+        return Ok(starts_as_host_log(t).then_some(LogFormat::HostLog));
+    }
+    Ok(None)
+}
+
+/// What the file at `path` looks like, more loosely than [`detect_format`] (a host log whose
+/// first line is a reply or a bad stamp still looks like one), for the hint after an error.
+pub fn looks_like(path: &Path) -> Result<Option<LogFormat>, SpecError> {
+    if let Some(f) = detect_format(path)? {
+        return Ok(Some(f));
+    }
+    let head = read_head(path)?;
+    let text = String::from_utf8_lossy(&head);
+    let host = text.lines().take(1000).any(|l| {
+        let l = l.trim();
+        l.starts_with("> ") || l.contains(" > ") || l.contains("\t> ")
+    });
+    Ok(host.then_some(LogFormat::HostLog))
+}
+
+/// The first 64 KiB of the file at `path`.
+fn read_head(path: &Path) -> Result<Vec<u8>, SpecError> {
+    use std::io::Read;
+    let file = pmacwd_specs::input::open_regular(path)?;
+    let mut head = Vec::new();
+    file.take(64 << 10).read_to_end(&mut head).map_err(|e| SpecError::whole_file(path, format!("cannot read: {e}")))?;
+    Ok(head)
 }
 
 /// Whether the file at `path` is a host log: its first line that is not blank or a `#`
