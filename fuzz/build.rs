@@ -25,6 +25,14 @@ fn item(file: &str, text: &str, start: &str) -> String {
     lines[first..=end].join("\n")
 }
 
+/// The one line of `text` that starts with `start` (a constant the definitions name).
+fn line(file: &str, text: &str, start: &str) -> String {
+    text.lines()
+        .find(|l| l.starts_with(start))
+        .unwrap_or_else(|| panic!("{file}: no line starting with `{start}`: update fuzz/build.rs"))
+        .to_string()
+}
+
 fn main() {
     let cli = Path::new(env!("CARGO_MANIFEST_DIR")).join("../cli/src");
     let read = |name: &str| {
@@ -50,16 +58,37 @@ fn main() {
          pub mod margin {{\n#![allow(unused_imports)]\nuse std::path::PathBuf;\n{}\n}}\n\
          pub mod conform {{\n#![allow(unused_imports)]\nuse std::path::PathBuf;\nuse super::replay::Format;\n{}\n}}\n\
          use clap::{{Parser, Subcommand}};\nuse replay::Format;\nuse std::path::PathBuf;\n{}\n{}\n",
-        item("common.rs", &common, "pub fn listen_address("),
-        item("serve.rs", &serve, "pub struct ServeArgs {"),
+        [
+            item("common.rs", &common, "pub fn listen_address("),
+            item("common.rs", &common, "pub fn ranged<T>("),
+            item("common.rs", &common, "pub fn servo_hz("),
+            item("common.rs", &common, "pub fn threads_flag("),
+            item("common.rs", &common, "pub enum LogFormatArg {"),
+        ]
+        .join("\n"),
+        [
+            line("serve.rs", &serve, "const CLIENTS_MAX_MAX"),
+            line("serve.rs", &serve, "const TIMEOUT_SECONDS_MAX"),
+            line("serve.rs", &serve, "const TIMEOUT_WHY"),
+            item("serve.rs", &serve, "pub struct ServeArgs {"),
+        ]
+        .join("\n"),
         item("record.rs", &record, "pub struct RecordArgs {"),
         item("replay.rs", &replay, "pub enum Format {"),
         item("timeline/mod.rs", &timeline, "pub enum TimelineFormat {"),
         item("margin.rs", &margin, "pub struct MarginArgs {"),
-        item("conform.rs", &conform, "pub struct ConformArgs {"),
+        [
+            line("conform.rs", &conform, "const MAX_LEN_MAX"),
+            line("conform.rs", &conform, "const MAX_LEN_WHY"),
+            item("conform.rs", &conform, "pub struct ConformArgs {"),
+        ]
+        .join("\n"),
         item("main.rs", &main, "struct Cli {"),
         item("main.rs", &main, "enum Command {"),
     );
     let dest = Path::new(&std::env::var("OUT_DIR").expect("OUT_DIR")).join("cli_grammar.rs");
+    // The definitions name the cli's value parsers as `crate::common::...`; here `common` is a
+    // sibling module of theirs.
+    let out = out.replace("crate::common::", "super::common::");
     std::fs::write(&dest, out).unwrap_or_else(|e| panic!("{}: {e}", dest.display()));
 }

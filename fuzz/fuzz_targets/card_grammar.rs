@@ -30,7 +30,8 @@ fuzz_target!(|data: &[u8]| {
         let printed = c.to_string();
         let again = parse_line(printed.as_bytes(), &mut Addressing::default());
         assert_eq!(again.len(), 1, "`{}` reads as {} commands", printed.escape_debug(), again.len());
-        let again = again[0].as_ref().unwrap_or_else(|e| panic!("`{}` does not read back: {e:?}", printed.escape_debug()));
+        let again =
+            again[0].as_ref().unwrap_or_else(|e| panic!("`{}` does not read back: {e:?}", printed.escape_debug()));
         assert_eq!(again.to_string(), printed, "the printed form is not canonical");
     }
 
@@ -42,7 +43,8 @@ fuzz_target!(|data: &[u8]| {
             // After an OPEN the rest of the line is program text for the buffer (UM p.46), which
             // the card stores and acknowledges even where it is no on-line command (`X10`):
             // only what comes before the first OPEN is read as on-line commands.
-            let mut online = commands.iter().take_while(|c| !matches!(c, Ok(Command::OpenPlc(_) | Command::OpenProgram(_))));
+            let mut online =
+                commands.iter().take_while(|c| !matches!(c, Ok(Command::OpenPlc(_) | Command::OpenProgram(_))));
             let failed = online.any(Result::is_err) || data.iter().any(|b| *b > 127);
             if !failed && parsed.acknowledged {
                 return;

@@ -1,9 +1,8 @@
 //! Command lines and reply framing, `pmacwd_emulator::framing`.
 //!
-//! Invariants, on the same input three ways:
-//! - `split_commands` (the bytes as text): no empty command, no control character in any;
-//!   only `OPEN` keeps words (at most two more, single spaces between); splitting the commands
-//!   joined by spaces gives them again; no character other than separators is lost or added;
+//! (Command lines are read by the card's grammar, fuzzed by `card_grammar`.)
+//!
+//! Invariants, on the same input two ways:
 //! - `parse_reply` (the bytes as a reply): no panic; a message holds no CR; an error number
 //!   was written as three digits (`ERRnnn`); an error ends the reply, so a reply with one is
 //!   not acknowledged, and an acknowledged reply ends with ACK or LF;
@@ -13,27 +12,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use pmacwd_emulator::framing::{parse_reply, split_commands, Answer, Framing, ReadAnswer};
-
-fn is_separator(c: char) -> bool {
-    c.is_whitespace() || c.is_control()
-}
+use pmacwd_emulator::framing::{parse_reply, Answer, Framing, ReadAnswer};
 
 fuzz_target!(|data: &[u8]| {
-    // split_commands.
-    let line = String::from_utf8_lossy(data);
-    let commands = split_commands(&line);
-    for c in &commands {
-        assert!(!c.is_empty(), "an empty command");
-        assert!(!c.chars().any(|ch| ch.is_control()), "a control character in {c:?}");
-        let words: Vec<&str> = c.split(' ').collect();
-        assert!(words.iter().all(|w| !w.is_empty() && !w.chars().any(is_separator)), "{c:?}");
-        assert!(words.len() == 1 || (words[0].eq_ignore_ascii_case("OPEN") && words.len() <= 3), "{c:?}");
-    }
-    assert_eq!(split_commands(&commands.join(" ")), commands, "splitting is not stable");
-    let kept: String = line.chars().filter(|&c| !is_separator(c)).collect();
-    assert_eq!(commands.concat().replace(' ', ""), kept, "characters lost or added");
-
     // parse_reply on the raw bytes.
     match parse_reply(data) {
         Ok(reply) => {
