@@ -290,9 +290,34 @@ impl fmt::Display for Expr {
                 Index::Number(n) => write!(f, "{kind:?}{n}"),
                 Index::Computed(e) => write!(f, "{kind:?}({e})"),
             },
-            // Parenthesised so that printing and reading again give the same tree.
-            Expr::Neg(e) => write!(f, "-({e})"),
-            Expr::Bin(op, a, b) => write!(f, "({a}{}{b})", op.symbol()),
+            // Parentheses only where the priorities need them, so that printing and reading
+            // again give the same tree, no deeper than the text it was read from.
+            Expr::Neg(e) => match e.as_ref() {
+                Expr::Bin(..) => write!(f, "-({e})"),
+                _ => write!(f, "-{e}"),
+            },
+            Expr::Bin(op, a, b) => {
+                // Left to right within a priority: a left operand needs parentheses only when
+                // it binds looser than `op`, a right one also when it binds as loosely.
+                let looser = |x: &Expr, or_equal: bool| match x {
+                    Expr::Bin(inner, ..) => {
+                        (op.binds_tight() && !inner.binds_tight())
+                            || (or_equal && op.binds_tight() == inner.binds_tight())
+                    }
+                    _ => false,
+                };
+                if looser(a, false) {
+                    write!(f, "({a})")?;
+                } else {
+                    write!(f, "{a}")?;
+                }
+                write!(f, "{}", op.symbol())?;
+                if looser(b, true) {
+                    write!(f, "({b})")
+                } else {
+                    write!(f, "{b}")
+                }
+            }
             Expr::Call(func, e) => write!(f, "{}({e})", func.name()),
         }
     }
@@ -605,7 +630,20 @@ mod tests {
 
     #[test]
     fn printing_and_reading_again_give_the_same_tree() {
-        for text in ["1+2*3", "I(P1*100+20)&$FF", "-Q81", "ATAN2(-1.5)", "3%-2.5", "M162/4096"] {
+        for text in [
+            "1+2*3",
+            "(1+2)*3",
+            "1-(2-3)",
+            "1-2-3",
+            "2*(3*4)",
+            "-(1+2)",
+            "--Q1",
+            "I(P1*100+20)&$FF",
+            "-Q81",
+            "ATAN2(-1.5)",
+            "3%-2.5",
+            "M162/4096",
+        ] {
             let mut i = 0;
             let e = parse(text.as_bytes(), &mut i, 1).unwrap();
             let printed = e.to_string();
@@ -613,6 +651,20 @@ mod tests {
             let again = parse(printed.as_bytes(), &mut j, 1).unwrap();
             assert_eq!(e, again, "{text} -> {printed}");
         }
+    }
+
+    #[test]
+    fn a_long_chain_prints_no_deeper_than_it_was_written() {
+        // Found by the fuzz target host_command: a chain of 12 subtractions and 32 minus signs
+        // printed with a parenthesis per operation, past the nesting bound, so the printed
+        // form did not read back.
+        let text = format!("{}{}I400", "1-".repeat(100), "-".repeat(32));
+        let mut i = 0;
+        let e = parse(text.as_bytes(), &mut i, 1).unwrap();
+        let printed = e.to_string();
+        let mut j = 0;
+        assert_eq!(parse(printed.as_bytes(), &mut j, 1), Some(e), "{printed}");
+        assert_eq!(j, printed.len());
     }
 
     #[test]

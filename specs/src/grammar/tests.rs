@@ -152,15 +152,15 @@ fn the_issue_s_lines_read_as_the_manual_writes_them() {
     assert!(parse("I8000,4,100").last().unwrap().is_err(), "past I8191");
     // Expressions (UM p.248).
     let c = &ok("I130=1.25*I130")[0];
-    assert_eq!(c.to_string(), "I130=(1.25*I130)");
-    assert_eq!(ok("M162=1000/0.0009765625")[0].to_string(), "M162=(1000/0.0009765625)");
+    assert_eq!(c.to_string(), "I130=1.25*I130");
+    assert_eq!(ok("M162=1000/0.0009765625")[0].to_string(), "M162=1000/0.0009765625");
     assert_eq!(ok("I222=0.5"), [write(VarKind::I, 222, 0.5, 1)]);
     assert_eq!(
         ok("I130=*"),
         [Command::Write { kind: VarKind::I, vars: Vars::Numbers(VarRange::one(130)), value: Assigned::Default, cs: 1 }]
     );
     assert!(parse("P1=*").last().unwrap().is_err(), "only I-variables have a factory default");
-    assert_eq!(ok("I(P1*100+20)=10")[0].to_string(), "I(((P1*100)+20))=10");
+    assert_eq!(ok("I(P1*100+20)=10")[0].to_string(), "I(P1*100+20)=10");
     assert_eq!(ok("&1A Q71=Q81")[1].to_string(), "&1Q71=Q81");
     assert_eq!(ok("cpu"), [Command::Cpu]);
     // The EPICS driver's axis definitions and their report (`&n#m->,`, every poll).

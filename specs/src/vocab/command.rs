@@ -506,7 +506,7 @@ mod tests {
         // A write the model cannot compute makes the variable the card's own.
         assert_eq!(
             HostCommand::parse("I130=1.25*I130").unwrap(),
-            HostCommand::Card { text: "I130=(1.25*I130)".into(), forgets: Some(VarRange::one(130)) }
+            HostCommand::Card { text: "I130=1.25*I130".into(), forgets: Some(VarRange::one(130)) }
         );
         assert_eq!(
             HostCommand::parse("I222=0.5").unwrap(),
