@@ -28,6 +28,7 @@
 
 pub mod definition;
 pub mod expr;
+mod host_command;
 
 use crate::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand, Space, COORDINATE_SYSTEM_MAX, MOTOR_MAX};
 use definition::{parse_address, Definition, Format};
@@ -60,48 +61,7 @@ pub enum VarKind {
 /// The highest number of an I-, M-, P- or Q-variable (UM p.243).
 pub const VARIABLE_MAX: u16 = 8191;
 
-/// Numbered variables of one kind: `I130` (one), `I20..23` (a run), `I130,4,100` (four,
-/// 100 apart: I130, I230, I330, I430; SRM on-line commands, `I{constant}[,{constant}[,{constant}]]`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct VarRange {
-    pub first: u16,
-    pub count: u16,
-    pub step: u16,
-}
-
-impl VarRange {
-    pub fn one(n: u16) -> VarRange {
-        VarRange { first: n, count: 1, step: 1 }
-    }
-
-    /// `first..last`.
-    pub fn run(first: u16, last: u16) -> VarRange {
-        VarRange { first, count: last - first + 1, step: 1 }
-    }
-
-    pub fn numbers(self) -> impl Iterator<Item = u16> {
-        (0..self.count).map(move |k| self.first + k * self.step)
-    }
-
-    pub fn last(self) -> u16 {
-        self.first + (self.count - 1) * self.step
-    }
-
-    /// The run `first..last` this is, if its step is 1.
-    pub fn as_run(self) -> Option<(u16, u16)> {
-        (self.step == 1).then(|| (self.first, self.last()))
-    }
-}
-
-impl fmt::Display for VarRange {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match (self.count, self.step) {
-            (1, _) => write!(f, "{}", self.first),
-            (_, 1) => write!(f, "{}..{}", self.first, self.last()),
-            _ => write!(f, "{},{},{}", self.first, self.count, self.step),
-        }
-    }
-}
+pub use crate::vocab::command::VarRange;
 
 /// Which variables a read or an assignment names.
 #[derive(Clone, Debug, PartialEq)]
