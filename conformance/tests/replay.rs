@@ -442,3 +442,17 @@ fn a_card_silent_at_one_poll_cannot_answer_its_uninterrupted_servo_count_at_the_
     let r = replay_log("tripped-restarts", &log.replace("< 0060AE", "< 000100"));
     assert!(r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
 }
+
+#[test]
+fn a_log_that_cannot_be_timed_and_that_no_explanation_at_one_instant_fits_is_undecided_not_impossible() {
+    // Issue 36: a log without X:$0 reads places every command at one instant; a real EPICS
+    // IOC's asyn trace (the driver never reads X:$0) was "no correct card" because a status bit
+    // changed between polls 0.4 s apart. Without timing that is no verdict.
+    let spec = Spec::embedded().unwrap();
+    let r = explain(&spec, &capture("field/epics-asyn-trace.txt"), None).unwrap();
+    assert!(r.undecided(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    assert!(pmacwd_conformance::explain::report::to_text(&r).contains("verdict: undecided"));
+    // A log with its counter reads keeps its verdict: X:$25 rising without a reset is impossible.
+    let r = explain(&spec, &capture("x25-rising.log"), None).unwrap();
+    assert!(!r.explained() && !r.undecided());
+}

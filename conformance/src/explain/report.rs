@@ -66,11 +66,20 @@ pub struct Report {
     pub witness_profiles: Vec<String>,
     pub card: Option<pmacwd_specs::config::CardConfig>,
     pub diagnosis: Option<Diagnosis>,
+    /// The importer's warning when the log cannot be timed (no X:$0 reads to place its
+    /// commands in time): then every command is at one instant, and a capture that no card
+    /// explains so is undecided, not impossible (issue 36).
+    pub untimed: Option<String>,
 }
 
 impl Report {
     pub fn explained(&self) -> bool {
         self.lanes.iter().any(|l| l.death.is_none())
+    }
+
+    /// Not explained, but only because the log cannot be timed: no verdict either way.
+    pub fn undecided(&self) -> bool {
+        !self.explained() && self.untimed.is_some()
     }
 }
 
@@ -93,7 +102,7 @@ pub fn explain_as(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
     let description = source.description().to_string();
     let profiles = source.profiles(spec, path)?;
     let card = source.card();
-    let observed = observed_rti_reentry(spec, source)?;
+    let (observed, untimed) = scan(spec, source)?;
     if !spec.check.configurations.contains_key(&configuration) {
         return Err(SpecError::at(
             path,
@@ -218,6 +227,7 @@ pub fn explain_as(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
         witness_profiles,
         card,
         diagnosis,
+        untimed,
     })
 }
 
@@ -260,26 +270,31 @@ pub fn witness_for(
 const WITNESS_TRIES: usize = 16;
 
 /// When some explaining card is tripped at the end: every cause that remains possible.
-/// Whether a `???` reply of the capture itself shows RTI re-entry (bit 22, SRM p.289): what the
-/// diagnosis may call observed, as against what the search chose in the unseen gaps.
-fn observed_rti_reentry(spec: &Spec, mut source: Source) -> Result<bool, SpecError> {
+/// What the capture itself shows, read once before the search: whether a `???` reply shows RTI
+/// re-entry (bit 22, SRM p.289), which the diagnosis may call observed, as against what the
+/// search chose in the unseen gaps; and, for a host log, the importer's timing warning.
+fn scan(spec: &Spec, mut source: Source) -> Result<(bool, Option<String>), SpecError> {
     use pmacwd_specs::status::WordId;
     use pmacwd_specs::vocab::reply_text::{self, StatusReply};
-    let Some((word, bit)) = spec.status.bit("rti_reentry") else { return Ok(false) };
+    let bit22 = spec.status.bit("rti_reentry");
+    let mut seen = false;
     while let Some((_, step)) = source.next_step()? {
-        if let Some(Ok(StatusReply::Words { x, y })) = step.expect.reply.as_deref().map(reply_text::decode) {
+        seen |= step.expect.status_set.iter().any(|n| n == "rti_reentry");
+        if let (Some((word, bit)), Some(Ok(StatusReply::Words { x, y }))) =
+            (bit22, step.expect.reply.as_deref().map(reply_text::decode))
+        {
             let w = match word {
                 WordId::X => x,
                 WordId::Y => y,
             };
-            if w & (1 << bit) != 0 || step.expect.status_set.iter().any(|n| n == "rti_reentry") {
-                return Ok(true);
-            }
-        } else if step.expect.status_set.iter().any(|n| n == "rti_reentry") {
-            return Ok(true);
+            seen |= w & (1 << bit) != 0;
         }
     }
-    Ok(false)
+    let untimed = match &source {
+        Source::HostLog(stream) => stream.summary().and_then(|s| s.timing_warning()),
+        _ => None,
+    };
+    Ok((seen, untimed))
 }
 
 fn diagnose(lanes: &[Lane], rti_reentry_observed: bool) -> Option<Diagnosis> {
@@ -351,6 +366,9 @@ pub fn to_text(r: &Report) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     let _ = writeln!(s, "replay {}: {} events, configuration {}", r.file.display(), r.events, r.configuration);
+    if let Some(w) = &r.untimed {
+        let _ = writeln!(s, "  {w}");
+    }
     let _ = writeln!(s, "  {}", r.description.split_whitespace().collect::<Vec<_>>().join(" "));
     let alive = r.lanes.iter().filter(|l| l.death.is_none()).count();
     let _ = writeln!(
@@ -459,7 +477,11 @@ pub fn to_text(r: &Report) -> String {
     let _ = writeln!(
         s,
         "verdict: {}",
-        if alive == 0 {
+        if alive == 0 && r.untimed.is_some() {
+            "undecided: no explanation places every command at one instant, and the log has no servo counter \
+             reads (X:$0) to place them in time; read RHX:$0 in every poll (docs/capturing.md)"
+                .to_string()
+        } else if alive == 0 {
             "no correct card explains this capture, under any combination of readings".to_string()
         } else {
             "explained: a correct card can produce this capture".to_string()
@@ -510,7 +532,7 @@ pub fn to_json(r: &Report) -> String {
         r.profiles.iter().map(|(n, d, e)| serde_json::json!({"profile": n, "default": d, "explains": e})).collect();
     serde_json::json!({
         "file": r.file.display().to_string(), "events": r.events, "configuration": r.configuration,
-        "explained": r.explained(), "readings": readings, "lanes": lanes, "profiles": profiles,
+        "explained": r.explained(), "undecided": r.undecided(), "readings": readings, "lanes": lanes, "profiles": profiles,
         "explanation": r.witness.as_ref().map(|(label, w)| serde_json::json!({
             "readings": label, "cpu_type": w.cpu, "cpu_type_decided": w.cpu_decided, "story": w.story,
             "trace_steps": w.steps.len(),
