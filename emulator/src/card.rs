@@ -591,7 +591,8 @@ impl Card {
             Command::ReportMotor => out.push(data(format!("#{}", addressing.motor))),
             Command::ReportCs => out.push(data(format!("&{}", addressing.cs))),
             Command::FeedRead(cs) => out.push(data(format_value(self.memory.feed(cs)))),
-            Command::Read { kind, vars, cs } => {
+            // MODEL: one table of Q-variables for every C.S. (`memory.rs`), so the C.S. is not used.
+            Command::Read { kind, vars, cs: _ } => {
                 let Some(numbers) = self.numbers(&vars) else {
                     out.push(Answer::Error(3));
                     return;
@@ -602,7 +603,6 @@ impl Card {
                         VarKind::M => self.read_m(n, n, out),
                         VarKind::P | VarKind::Q => out.push(data(format_value(self.memory.read(kind, n)))),
                     }
-                    let _ = cs;
                 }
             }
             Command::Write { kind, vars, value, .. } => {

@@ -374,21 +374,14 @@ impl<R: BufRead> AsynRecords<R> {
                 _ => {}
             }
         }
-        let values = |bytes: &[u8]| -> Vec<String> {
-            bytes
-                .split(|b| *b == CR)
-                .map(|v| String::from_utf8_lossy(v).chars().filter(|c| !c.is_control()).collect::<String>())
-                .filter(|v| !v.is_empty())
-                .collect()
-        };
-        let response_values = values(response.as_bytes());
+        let response_values = super::reply_values(response.as_bytes());
         let (text, cut) = match (end, pending.hole) {
             // The driver's `response:` line is the answer as it read it, raw (CRs and the BEL of
             // an error kept), without the ACK: whole even where asyn cut a data line. The reads
             // that show the answer's end must agree with it.
             _ if !response.is_empty() => {
                 if let Some(e) = end {
-                    if values(&s[..e]) != response_values {
+                    if super::reply_values(&s[..e]) != response_values {
                         return Err(self.err(
                             n,
                             column,
@@ -396,7 +389,7 @@ impl<R: BufRead> AsynRecords<R> {
                                 "the `response:` line is not what the reads after the GETRESPONSE (line {}) show: \
                                  `{}`",
                                 pending.sent.unwrap_or(0),
-                                values(&s[..e]).join("\\r")
+                                super::reply_values(&s[..e]).join("\\r")
                             ),
                         ));
                     }
@@ -405,10 +398,10 @@ impl<R: BufRead> AsynRecords<R> {
             }
             // No `response:`: the driver lost an answer that came late (after a READREADY), or
             // the answer was only an ACK, or nothing came.
-            (Some(e), _) => (values(&s[..e]).join("\\r"), None),
+            (Some(e), _) => (super::reply_values(&s[..e]).join("\\r"), None),
             (None, Some(hole)) => {
                 let whole = match s.iter().rposition(|b| *b == CR) {
-                    Some(i) => values(&s[..i]),
+                    Some(i) => super::reply_values(&s[..i]),
                     None => Vec::new(),
                 };
                 let why = format!(
@@ -418,7 +411,7 @@ impl<R: BufRead> AsynRecords<R> {
                 (whole.join("\\r"), Some(Cut { rest: String::new(), why }))
             }
             (None, None) if s.iter().all(|b| *b == 0) => ("(timeout)".to_string(), None),
-            (None, None) => (values(s).join("\\r"), None),
+            (None, None) => (super::reply_values(s).join("\\r"), None),
         };
         if pending.text.trim().is_empty() {
             // The driver's connection check: an empty line, not a command of the card's

@@ -242,6 +242,16 @@ pub struct Exchange {
     pub commands: Vec<Exchanged>,
 }
 
+/// The values of a card's raw answer bytes: the pieces between CRs, control bytes (ACK, BEL)
+/// dropped, empty pieces left out; as the asyn and pcap readers both hand them on.
+fn reply_values(bytes: &[u8]) -> Vec<String> {
+    bytes
+        .split(|b| *b == b'\r')
+        .map(|v| String::from_utf8_lossy(v).chars().filter(|c| !c.is_control()).collect::<String>())
+        .filter(|v| !v.is_empty())
+        .collect()
+}
+
 fn is_error_reply(r: &str) -> bool {
     let r = r.as_bytes();
     r.len() == 6 && r[..3].eq_ignore_ascii_case(b"ERR") && r[3..].iter().all(u8::is_ascii_digit)

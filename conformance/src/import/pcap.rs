@@ -385,24 +385,17 @@ impl PcapRecords {
     /// answers a command.
     fn finish_answer(&mut self, a: Awaiting, ended: Option<Stamp>) {
         let Some(sent) = a.command else { return };
-        let values = |bytes: &[u8]| -> Vec<String> {
-            bytes
-                .split(|b| *b == CR)
-                .map(|v| String::from_utf8_lossy(v).chars().filter(|c| !c.is_control()).collect::<String>())
-                .filter(|v| !v.is_empty())
-                .collect()
-        };
         let (text, cut) = if a.bytes.is_empty() {
             ("(timeout)".to_string(), None)
         } else if a.cut {
             let kept = match a.bytes.iter().rposition(|b| *b == CR) {
-                Some(i) => values(&a.bytes[..i]),
+                Some(i) => super::reply_values(&a.bytes[..i]),
                 None => Vec::new(),
             };
             let why = format!("an answer longer than {ANSWER_BYTES_MAX} bytes, kept only so far");
             (kept.join("\\r"), Some(super::Cut { rest: String::new(), why }))
         } else {
-            (values(&a.bytes).join("\\r"), None)
+            (super::reply_values(&a.bytes).join("\\r"), None)
         };
         self.queue.push_back(Record::Command {
             line: sent.packet,
