@@ -238,9 +238,9 @@ pub enum LogFormatArg {
     Pcap,
 }
 
-impl From<LogFormatArg> for pmacwd_conformance::import::LogFormat {
+impl From<LogFormatArg> for pmacwd_capture::import::LogFormat {
     fn from(f: LogFormatArg) -> Self {
-        use pmacwd_conformance::import::LogFormat;
+        use pmacwd_capture::import::LogFormat;
         match f {
             LogFormatArg::HostLog => LogFormat::HostLog,
             LogFormatArg::Asyn => LogFormat::Asyn,

@@ -9,13 +9,13 @@ pub fn decode_reply(reply: &str, json: bool, specs: Option<PathBuf>) -> ExitCode
         Ok(s) => s,
         Err(code) => return code,
     };
-    match pmacwd_conformance::decode::explain(&spec, reply) {
+    match pmacwd_capture::decode::explain(&spec, reply) {
         Ok(d) if json => {
-            println!("{}", pmacwd_conformance::decode::to_json(&d));
+            println!("{}", pmacwd_capture::decode::to_json(&d));
             ExitCode::SUCCESS
         }
         Ok(d) => {
-            print!("{}", pmacwd_conformance::decode::to_text(&d));
+            print!("{}", pmacwd_capture::decode::to_text(&d));
             ExitCode::SUCCESS
         }
         Err(e) => {

@@ -8,7 +8,7 @@
 //! the trace is incomplete.
 
 use crate::common::{plural, unusable};
-use pmacwd_conformance::import::{configuration_servo_hz, ImportStream};
+use pmacwd_capture::import::{configuration_servo_hz, ImportStream};
 use pmacwd_specs::Spec;
 use pmacwd_trace::{CardConfig, Step};
 use std::io::{BufWriter, Write};
@@ -47,7 +47,7 @@ pub fn import_log(
     out: Option<PathBuf>,
     configuration: &str,
     yaml: bool,
-    format: Option<pmacwd_conformance::import::LogFormat>,
+    format: Option<pmacwd_capture::import::LogFormat>,
 ) -> ExitCode {
     let spec = match Spec::embedded() {
         Ok(spec) => spec,

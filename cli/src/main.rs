@@ -258,7 +258,7 @@ enum Command {
         #[arg(long, value_name = "FILE")]
         out: Option<PathBuf>,
         /// The check.yaml configuration the trace names (CPU costs, hardware delay, I-variables).
-        #[arg(long, value_name = "NAME", default_value = pmacwd_conformance::import::DEFAULT_CONFIGURATION)]
+        #[arg(long, value_name = "NAME", default_value = pmacwd_capture::import::DEFAULT_CONFIGURATION)]
         configuration: String,
         /// Write YAML instead of JSON Lines.
         #[arg(long)]

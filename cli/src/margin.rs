@@ -1,9 +1,9 @@
 //! `pmacwd margin`: how close a configuration runs to a watchdog trip, under each profile,
-//! measured on the model (`pmacwd_conformance::margin`), as text, JSON, or a plot of the margin
+//! measured on the model (`pmacwd_capture::margin`), as text, JSON, or a plot of the margin
 //! against PLC 0 load.
 
 use crate::common::load_spec;
-use pmacwd_conformance::margin::{self, Margin, ReadingMargin};
+use pmacwd_capture::margin::{self, Margin, ReadingMargin};
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::{servo_hz_of_i10, CardConfig, ModelConfig};
 use pmacwd_specs::profiles::Profile;

@@ -15,21 +15,21 @@ pub fn replay_file(
     format: Format,
     specs: Option<PathBuf>,
     configuration: Option<String>,
-    log_format: Option<pmacwd_conformance::import::LogFormat>,
+    log_format: Option<pmacwd_capture::import::LogFormat>,
     witness: Option<PathBuf>,
 ) -> ExitCode {
     let spec = match load_spec(&specs) {
         Ok(s) => s,
         Err(code) => return code,
     };
-    use pmacwd_conformance::explain::report;
+    use pmacwd_capture::explain::report;
     // A capture of millions of lines, or one step of millions of servo cycles, takes minutes:
     // say how far the search has come.
     let ticker = crate::progress::Ticker::start("replay", 1, "captures", || {
-        let line = pmacwd_conformance::explain::search::LINE_REACHED.load(std::sync::atomic::Ordering::Relaxed);
+        let line = pmacwd_capture::explain::search::LINE_REACHED.load(std::sync::atomic::Ordering::Relaxed);
         (0, format!("searching at line {}", crate::progress::thousands(line as u64)))
     });
-    let import = pmacwd_conformance::replay::ImportAs { configuration: configuration.as_deref(), format: log_format };
+    let import = pmacwd_capture::replay::ImportAs { configuration: configuration.as_deref(), format: log_format };
     let explained = report::explain_as(&spec, file, import);
     ticker.finish();
     match explained {
@@ -37,12 +37,12 @@ pub fn replay_file(
             if let (Some(out), Some((readings, w))) = (&witness, &report.witness) {
                 let written = std::fs::File::create(out).and_then(|f| {
                     let mut f = std::io::BufWriter::new(f);
-                    pmacwd_conformance::explain::witness::write_trace(
+                    pmacwd_capture::explain::witness::write_trace(
                         &spec,
                         &mut f,
                         out.extension().is_some_and(|e| e == "yaml" || e == "yml"),
                         w,
-                        pmacwd_conformance::explain::witness::WitnessHeader {
+                        pmacwd_capture::explain::witness::WitnessHeader {
                             configuration: &report.configuration,
                             card: report.card.as_ref(),
                             readings,

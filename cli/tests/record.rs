@@ -86,7 +86,7 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
 
 /// `pmacwd replay` finds the capture explained under the default profile's readings.
 fn assert_explained_by_default(spec: &pmacwd_specs::Spec, path: &std::path::Path) {
-    use pmacwd_conformance::explain::report;
+    use pmacwd_capture::explain::report;
     let r = report::explain(spec, path, None).unwrap();
     let default = spec.profiles.default_profile().name;
     assert!(r.profiles.iter().any(|(name, _, explains)| *name == default && *explains), "{}", report::to_text(&r));

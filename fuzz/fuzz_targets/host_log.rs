@@ -1,4 +1,4 @@
-//! Host-log import, `pmacwd_conformance::import::import` (the `Importer`, line by line).
+//! Host-log import, `pmacwd_capture::import::import` (the `Importer`, line by line).
 //!
 //! Invariants:
 //! - no panic; an error names the log, at a 1-based line inside it;
@@ -9,7 +9,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use pmacwd_conformance::import::import;
+use pmacwd_capture::import::import;
 use pmacwd_fuzz::{check_error, newline_lines};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_trace::{jsonl, parse_yaml, to_yaml, TraceEvent};

@@ -10,6 +10,7 @@
 //! emulator's captures and the command line all read and write traces through it, and a
 //! simulator author can use it without the model or the emulator.
 
+pub mod compare;
 pub mod jsonl;
 
 use pmacwd_specs::check::{ChecksumTarget, Load, ProfileSelection, ResetEvent};

@@ -1,7 +1,7 @@
 //! The timeline as CSV: a header line, then one line per change of any signal.
 
 use super::Sink;
-use pmacwd_conformance::timeline::{Header, Item};
+use pmacwd_capture::timeline::{Header, Item};
 use std::io::Write;
 
 pub struct Csv {

@@ -7,7 +7,7 @@ mod svg;
 mod vcd;
 
 use crate::common::load_spec;
-use pmacwd_conformance::timeline::{self, Header, Item};
+use pmacwd_capture::timeline::{self, Header, Item};
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -5,7 +5,7 @@
 
 use super::Sink;
 use plotters::prelude::*;
-use pmacwd_conformance::timeline::{Header, Item, Signals};
+use pmacwd_capture::timeline::{Header, Item, Signals};
 use pmacwd_specs::vocab::command::Register;
 use std::io::Write;
 

@@ -4,7 +4,7 @@
 //! left out (the CSV form lists them).
 
 use super::Sink;
-use pmacwd_conformance::timeline::{Header, Item, Signals};
+use pmacwd_capture::timeline::{Header, Item, Signals};
 use pmacwd_specs::status::WordId;
 use std::io::Write;
 

@@ -1,7 +1,7 @@
 //! `pmacwd replay` on the sample captures of `specs/captures/`: each gives the verdict its
 //! README documents, and a malformed capture is refused with its line.
 
-use pmacwd_conformance::explain::report::{explain, OptionVerdict, Report};
+use pmacwd_capture::explain::report::{explain, OptionVerdict, Report};
 use pmacwd_specs::Spec;
 use pmacwd_trace::TraceEvent;
 use std::path::{Path, PathBuf};
@@ -61,7 +61,7 @@ fn an_imported_host_log_keeps_its_timing_as_elapsed_steps_and_the_search_settles
     // run-down of 3 or 4 cycles both fit), but bit 12 without bit 13 rules out M83.
     let log = capture("host-session.log");
     let text = std::fs::read_to_string(&log).unwrap();
-    let imported = pmacwd_conformance::import::import(&log, &text, "host-log").unwrap();
+    let imported = pmacwd_capture::import::import(&log, &text, "host-log").unwrap();
     assert_eq!(imported.card.and_then(|c| c.i40), Some(0), "the session reads I40 before writing it");
     let elapsed: Vec<TraceEvent> = imported
         .trace
@@ -83,7 +83,7 @@ fn an_imported_host_log_keeps_its_timing_as_elapsed_steps_and_the_search_settles
 
 #[test]
 fn a_host_log_with_a_command_but_no_reply_or_a_stray_line_is_refused_with_its_line() {
-    use pmacwd_conformance::import::import;
+    use pmacwd_capture::import::import;
     let err = import(Path::new("s.log"), "> ???\n> I40\n< 0\n", "i40-zero").unwrap_err();
     assert_eq!(err.position.map(|p| p.line), Some(1), "{err}");
     assert!(err.message.contains("no reply line"), "{err}");
@@ -104,7 +104,7 @@ fn a_host_log_whose_command_holds_control_characters_imports_to_a_trace_that_rea
                > RHX:$0\n< 01A2B3\n> I130=5\n<\n> ???\n< 000000000000\n> ???\n< 000000000000\n> OPEN 0\n\
                < 01Ats and blank lines are allowets and blank lines are allo2B3\n> I130\x01\0\0\0=5\n< 0 ERR003\n\
                > ???\n< (timeout)\n";
-    let trace = pmacwd_conformance::import::import(Path::new("s.log"), log, "i40-zero").unwrap().trace;
+    let trace = pmacwd_capture::import::import(Path::new("s.log"), log, "i40-zero").unwrap().trace;
     let yaml = pmacwd_trace::to_yaml(&trace);
     let again = pmacwd_trace::parse_yaml(Path::new("s.yaml"), &yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}")).trace;
     assert_eq!(format!("{trace:?}"), format!("{again:?}"));
@@ -113,7 +113,7 @@ fn a_host_log_whose_command_holds_control_characters_imports_to_a_trace_that_rea
 #[test]
 fn the_time_between_two_servo_counter_reads_is_elapsed_across_the_wrap_only_when_host_time_says_so() {
     use pmacwd_trace::TraceEvent;
-    let import = |log: &str| pmacwd_conformance::import::import(Path::new("s.log"), log, "i40-zero").unwrap().trace;
+    let import = |log: &str| pmacwd_capture::import::import(Path::new("s.log"), log, "i40-zero").unwrap().trace;
     // Stamped 14 ms apart at the configuration's 2250 Hz: about 32 cycles, the wrap.
     let t = import("12:00:00.000 > RHX:$0\n< FFFFF0\n12:00:00.014 > RHX:$0\n< 000010\n");
     assert_eq!(t.steps[2].event, TraceEvent::Elapsed { cycles_min: 0x20, cycles_max: Some(0x20) });
@@ -312,7 +312,7 @@ fn a_card_answering_57_cycles_after_its_strobe_stopped_is_beyond_every_delay_the
 }
 
 fn report_text(r: &Report) -> String {
-    pmacwd_conformance::explain::report::to_text(r)
+    pmacwd_capture::explain::report::to_text(r)
 }
 
 /// The card is read after its supply was set to `millivolts`.
@@ -352,16 +352,16 @@ fn reads_of_variables_no_rule_fixes_are_the_card_s_own_and_never_compared_with_a
     // correct card"; so were the usual values of I5, I15, I130, I3, I6, I24, an M-variable and
     // a memory word, and an M-variable's own write read back.
     let r = replay_log("i10", "> I10\n< 3713707\n> ???\n< 000000000000\n");
-    assert!(r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
     let r = replay_log(
         "usual",
         "> $$$\n<\n> I5 I15 I130 I3 I6 I24 M70 RHX:$78F00 CPU cid\n< 2 0 1000 2 1 $800000 1234 00A000 DSP56321 603382\n\
          > M1=5 M1\n< 5\n> WX:$2082,7\n<\n> ???\n< 000000000000\n",
     );
-    assert!(r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
     // A variable the log wrote is known from then on: a read of another value is no correct card.
     let r = replay_log("written", "> $$$\n<\n> I130=5\n<\n> I130\n< 6\n");
-    assert!(!r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    assert!(!r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
 }
 
 #[test]
@@ -379,7 +379,7 @@ fn a_trip_expected_within_a_window_is_found_by_replay_as_by_run() {
     let path = std::env::temp_dir().join(format!("pmacwd-window-{}.yaml", std::process::id()));
     std::fs::write(&path, trace(100)).unwrap();
     let r = explain(&Spec::embedded().unwrap(), &path, None).unwrap();
-    assert!(r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
     std::fs::write(&path, trace(10)).unwrap();
     let r = explain(&Spec::embedded().unwrap(), &path, None).unwrap();
     assert!(!r.explained(), "the trip is 40 cycles away: outside a window of 10");
@@ -394,7 +394,7 @@ fn the_diagnosis_calls_seen_only_what_the_log_shows() {
     let said = |text: &str| {
         let r = replay_log("diagnosis", text);
         assert!(r.explained());
-        pmacwd_conformance::explain::report::to_text(&r)
+        pmacwd_capture::explain::report::to_text(&r)
     };
     let shown = "the log's `???` replies show RTI overruns (bit 22)";
     assert!(said(&text).contains(shown));
@@ -422,8 +422,8 @@ fn a_real_card_s_checksums_are_its_own_and_not_compared_with_the_model_s_tokens(
         "checksums",
         "> $$$\n<\n> RHX:$1080 CHECKSUM RHX:$1090 ???\n< 3A7F21 00C0FFEE 001234 000000000000\n",
     );
-    assert!(r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
-    let t = pmacwd_conformance::import::import(Path::new("s.log"), "> RHX:$1080\n< 3A7F21\n", "i40-zero").unwrap();
+    assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+    let t = pmacwd_capture::import::import(Path::new("s.log"), "> RHX:$1080\n< 3A7F21\n", "i40-zero").unwrap();
     assert_eq!(t.trace.steps[0].expect.tripped, Some(false), "the answer shows the card running");
     assert_eq!(t.trace.steps[0].expect.reply, None);
 }
@@ -437,10 +437,10 @@ fn a_card_silent_at_one_poll_cannot_answer_its_uninterrupted_servo_count_at_the_
     let log = "12:00:00.000 > $$$\n12:00:00.000 <\n12:00:01.000 > RHX:$0\n12:00:01.000 < 0008CA\n\
                12:00:01.500 > ???\n12:00:01.500 < (timeout)\n12:00:11.000 > RHX:$0\n12:00:11.000 < 0060AE\n";
     let r = replay_log("tripped-answers", log);
-    assert!(!r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    assert!(!r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
     // With a count that starts again after the silence, a restart explains it.
     let r = replay_log("tripped-restarts", &log.replace("< 0060AE", "< 000100"));
-    assert!(r.explained(), "{}", pmacwd_conformance::explain::report::to_text(&r));
+    assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
 }
 
 #[test]
@@ -450,8 +450,8 @@ fn a_log_that_cannot_be_timed_and_that_no_explanation_at_one_instant_fits_is_und
     // changed between polls 0.4 s apart. Without timing that is no verdict.
     let spec = Spec::embedded().unwrap();
     let r = explain(&spec, &capture("field/epics-asyn-trace.txt"), None).unwrap();
-    assert!(r.undecided(), "{}", pmacwd_conformance::explain::report::to_text(&r));
-    assert!(pmacwd_conformance::explain::report::to_text(&r).contains("verdict: undecided"));
+    assert!(r.undecided(), "{}", pmacwd_capture::explain::report::to_text(&r));
+    assert!(pmacwd_capture::explain::report::to_text(&r).contains("verdict: undecided"));
     // A log with its counter reads keeps its verdict: X:$25 rising without a reset is impossible.
     let r = explain(&spec, &capture("x25-rising.log"), None).unwrap();
     assert!(!r.explained() && !r.undecided());

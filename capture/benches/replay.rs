@@ -4,11 +4,11 @@
 //! by `samples::healthy_day` below from a small simulation of a card whose background cycle
 //! completes every 9 to 13 servo cycles.
 //!
-//! Run: `cargo bench -p pmacwd-conformance --bench replay`. For peak memory, write the log with
+//! Run: `cargo bench -p pmacwd-capture --bench replay`. For peak memory, write the log with
 //! `PMACWD_BENCH_KEEP=1` and time `pmacwd replay` on it with `/usr/bin/time -v` (docs/replay.md).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use pmacwd_conformance::explain::report::explain;
+use pmacwd_capture::explain::report::explain;
 use pmacwd_specs::Spec;
 use std::io::Write;
 

@@ -1,7 +1,7 @@
 //! `pmacwd margin`'s figures are where the model itself trips: checked here against a trace
 //! run on the model and against the scenario library.
 
-use pmacwd_conformance::margin;
+use pmacwd_capture::margin;
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;

@@ -443,14 +443,16 @@ pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> 
         let obs = observation(spec, cfg, &card, w.cpu, reply);
         match super::search::compare_windowed(spec, cfg, step.expect().unwrap_or(&nothing), &card, &obs) {
             Ok(n) => checked += n,
-            Err(crate::runner::Mismatch::Field(what, expected, observed)) => {
+            Err(pmacwd_trace::compare::Mismatch::Field(what, expected, observed)) => {
                 return Err(format!(
                     "witness step {} (`{}`): {what}: expected {expected}, observed {observed}",
                     i + 1,
                     step.event()
                 ))
             }
-            Err(crate::runner::Mismatch::UnknownBit(_, _, name)) => return Err(format!("unknown status bit `{name}`")),
+            Err(pmacwd_trace::compare::Mismatch::UnknownBit(_, _, name)) => {
+                return Err(format!("unknown status bit `{name}`"))
+            }
         }
     }
     Ok(checked)

@@ -7,10 +7,10 @@
 //! - sound: a capture with one observation no correct card can show is explained under no
 //!   combination of readings at all.
 
-use pmacwd_conformance::explain::lanes::{self, LaneDef};
-use pmacwd_conformance::explain::observe::with_cpu;
-use pmacwd_conformance::explain::search;
-use pmacwd_conformance::explain::{report, witness};
+use pmacwd_capture::explain::lanes::{self, LaneDef};
+use pmacwd_capture::explain::observe::with_cpu;
+use pmacwd_capture::explain::search;
+use pmacwd_capture::explain::{report, witness};
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::{ChecksumTarget, Load, ResetEvent, ResetKind};
 use pmacwd_specs::config::ModelConfig;
@@ -380,9 +380,9 @@ fn for_debugging_one_capture_is_searched_on_one_lane_and_where_it_dies_is_printe
         )
         .unwrap();
         for c in lanes[0].cands.iter().take(3) {
-            for n in pmacwd_conformance::explain::history::chain(c.node.as_ref().unwrap()) {
+            for n in pmacwd_capture::explain::history::chain(c.node.as_ref().unwrap()) {
                 match &n.kind {
-                    pmacwd_conformance::explain::history::NodeKind::Gap { plan_hi, plan_lo, lo, end } => println!(
+                    pmacwd_capture::explain::history::NodeKind::Gap { plan_hi, plan_lo, lo, end } => println!(
                         "  event {}: gap hi {plan_hi:?} lo {plan_lo:?} X:$25 from {lo}, ends Y {} X {}",
                         n.event, end.counter, end.counter_min
                     ),

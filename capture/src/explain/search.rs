@@ -7,7 +7,6 @@ use super::observe::observation;
 use super::sim::Sim;
 use super::{normalize, CANDIDATES_MAX};
 use crate::replay::Source;
-use crate::runner::{compare, Mismatch};
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::{ResetEvent, ResetKind};
 use pmacwd_specs::config::ModelConfig;
@@ -17,6 +16,7 @@ use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::{Event, Reply};
 use pmacwd_specs::vocab::reply_text::{self, StatusReply};
 use pmacwd_specs::{Position, Spec, SpecError};
+use pmacwd_trace::compare::{compare, Mismatch};
 use pmacwd_trace::{Expect, Step, TraceEvent};
 use std::collections::{HashMap, VecDeque};
 use std::path::Path;
@@ -350,7 +350,7 @@ pub(super) fn compare_windowed(
         return Err(Mismatch::Field("tripped", format!("true within {window} servo cycles"), "false".into()));
     }
     // The trip-derived observations follow the windowed verdict.
-    Ok(1 + compare(spec, &crate::runner::without_trip(expect, true), obs)?)
+    Ok(1 + compare(spec, &pmacwd_trace::compare::without_trip(expect, true), obs)?)
 }
 
 /// The Y:$25 value a step reads, if it reads one.

@@ -10,7 +10,6 @@
 //! `pmacwd replay --witness` turns a capture into a trace this can draw.
 
 use crate::replay::Source;
-use crate::runner::deterministic;
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::Profile;
@@ -18,6 +17,7 @@ use pmacwd_specs::status::WordId;
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::{Spec, SpecError};
+use pmacwd_trace::compare::deterministic;
 use pmacwd_trace::TraceEvent;
 use std::path::Path;
 

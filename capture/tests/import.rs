@@ -1,7 +1,7 @@
 //! `pmacwd import`: what each situation in a host log becomes (docs/capturing.md), and that
 //! every malformed log is refused with its file, line and column rather than guessed at.
 
-use pmacwd_conformance::import::{import, Imported};
+use pmacwd_capture::import::{import, Imported};
 use pmacwd_specs::vocab::command::HostCommand;
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::SpecError;
@@ -375,7 +375,7 @@ fn a_reply_no_card_sends_is_unusable_input_not_a_verdict() {
 
 // ---- Tolerant stamps and the field's own formats (docs/capturing.md) ----
 
-use pmacwd_conformance::import::{ImportStream, LogFormat};
+use pmacwd_capture::import::{ImportStream, LogFormat};
 use pmacwd_specs::Spec;
 
 fn field(name: &str) -> std::path::PathBuf {
