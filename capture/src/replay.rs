@@ -15,11 +15,25 @@ use std::path::Path;
 pub struct ImportAs<'a> {
     pub configuration: Option<&'a str>,
     pub format: Option<crate::import::LogFormat>,
+    /// Where the commands between X:$0 reads go (`pmacwd replay` tries host time when the
+    /// reads' instants do not explain a stamped log).
+    pub placement: crate::import::Placement,
+    /// How long the search placing a log by host time may take before the verdict is
+    /// undecided (`None`: no limit).
+    pub host_time_limit: Option<std::time::Duration>,
+    /// When the search must stop (set from `host_time_limit` for the host-time pass).
+    pub deadline: Option<std::time::Instant>,
 }
 
 impl<'a> From<Option<&'a str>> for ImportAs<'a> {
     fn from(configuration: Option<&'a str>) -> ImportAs<'a> {
-        ImportAs { configuration, format: None }
+        ImportAs {
+            configuration,
+            format: None,
+            placement: crate::import::Placement::AtReads,
+            host_time_limit: None,
+            deadline: None,
+        }
     }
 }
 
@@ -43,11 +57,12 @@ impl Source {
         };
         if let Some(format) = format {
             let name = configuration.unwrap_or(crate::import::DEFAULT_CONFIGURATION);
-            return Ok(Source::HostLog(Box::new(crate::import::ImportStream::open_as(
+            return Ok(Source::HostLog(Box::new(crate::import::ImportStream::open_placed(
                 spec,
                 path,
                 name,
                 Some(format),
+                import.placement,
             )?)));
         }
         if let Some(name) = configuration {

@@ -2,6 +2,7 @@
 //! README documents, and a malformed capture is refused with its line.
 
 use pmacwd_capture::explain::report::{explain, OptionVerdict, Report};
+use pmacwd_capture::replay::ImportAs;
 use pmacwd_specs::Spec;
 use pmacwd_trace::TraceEvent;
 use std::path::{Path, PathBuf};
@@ -448,11 +449,70 @@ fn a_log_that_cannot_be_timed_and_that_no_explanation_at_one_instant_fits_is_und
     // Issue 36: a log without X:$0 reads places every command at one instant; a real EPICS
     // IOC's asyn trace (the driver never reads X:$0) was "no correct card" because a status bit
     // changed between polls 0.4 s apart. Without timing that is no verdict.
+    // Placed by host time, the search is given 2 s here (the asyn trace takes minutes so): it
+    // stays undecided either way, with both placements said.
     let spec = Spec::embedded().unwrap();
-    let r = explain(&spec, &capture("field/epics-asyn-trace.txt"), None).unwrap();
+    let import = pmacwd_capture::replay::ImportAs {
+        host_time_limit: Some(std::time::Duration::from_secs(2)),
+        ..ImportAs::from(None)
+    };
+    let r = pmacwd_capture::explain::report::explain_as(&spec, &capture("field/epics-asyn-trace.txt"), import).unwrap();
     assert!(r.undecided(), "{}", pmacwd_capture::explain::report::to_text(&r));
     assert!(pmacwd_capture::explain::report::to_text(&r).contains("verdict: undecided"));
     // A log with its counter reads keeps its verdict: X:$25 rising without a reset is impossible.
     let r = explain(&spec, &capture("x25-rising.log"), None).unwrap();
     assert!(!r.explained() && !r.undecided());
+}
+
+#[test]
+fn a_status_poll_spread_between_x0_reads_is_explained_once_each_exchange_is_placed_at_its_host_time() {
+    // Issue 36: `???` at 10 Hz with X:$0 read once a second. At the reads' instants every
+    // command of the second happens at once, and bit 12 flipping between two polls 0.1 s apart
+    // is "no correct card"; 225 servo cycles pass between them, ample for background cycles.
+    use pmacwd_capture::import::Placement;
+    let spec = Spec::embedded().unwrap();
+    let log = capture("status-10hz-x0-each-second.log");
+    let by_host_time = pmacwd_capture::explain::report::explain_as(
+        &spec,
+        &log,
+        ImportAs { placement: Placement::HostTime, ..ImportAs::from(None) },
+    )
+    .unwrap();
+    assert!(by_host_time.explained(), "{}", pmacwd_capture::explain::report::to_text(&by_host_time));
+    // `replay` itself: the reads' instants first, host time after; the report says both.
+    let r = explain(&spec, &log, None).unwrap();
+    let text = pmacwd_capture::explain::report::to_text(&r);
+    assert!(r.explained(), "{text}");
+    assert_eq!(r.placement, Placement::HostTime);
+    assert!(r.at_reads_failed.as_deref().is_some_and(|f| f.starts_with("line 15:")), "{text}");
+    assert!(text.contains("placed by host time"), "{text}");
+    // Placed by host time, an impossible log stays impossible: X:$25 rising without a reset.
+    let r = explain(&spec, &capture("x25-rising.log"), None).unwrap();
+    assert!(!r.explained() && !r.undecided(), "{}", pmacwd_capture::explain::report::to_text(&r));
+    assert_eq!(r.placement, Placement::HostTime);
+}
+
+#[test]
+fn placed_by_host_time_the_reads_of_one_poll_still_aim_the_gap_before_it() {
+    // The commands of one poll a millisecond apart become gaps of a few servo cycles; the
+    // Y:$25 and X:$25 reads after them still aim the plans of the long gap before (the
+    // sample's 120 polls took 228 s on the release build before they did, 73 s in the test profile after).
+    use pmacwd_capture::import::Placement;
+    let spec = Spec::embedded().unwrap();
+    let import = ImportAs { placement: Placement::HostTime, ..ImportAs::from(None) };
+    // The sample's first 12 polls.
+    let text = std::fs::read_to_string(capture("healthy-dsp56321.log")).unwrap();
+    let cut: Vec<&str> = text.lines().take(2 + 2 + 12 * 8).collect();
+    let dir = std::env::temp_dir().join(format!("pmacwd-aim-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("healthy-12-polls.log");
+    std::fs::write(&log, cut.join("\n") + "\n").unwrap();
+    let r = pmacwd_capture::explain::report::explain_as(&spec, &log, import).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+    assert!(
+        r.lanes.iter().all(|l| l.candidates_peak < 1000),
+        "peaks {:?}",
+        r.lanes.iter().map(|l| l.candidates_peak).collect::<Vec<_>>()
+    );
 }

@@ -167,6 +167,11 @@ enum Command {
         /// `pmacwd run FILE` replays on the model).
         #[arg(long, value_name = "FILE")]
         witness: Option<PathBuf>,
+        /// For a stamped log that no card explains with the commands between X:$0 reads at the
+        /// reads' instants: how long the search placing every exchange at its own host time may
+        /// take before the verdict is undecided (0: no limit).
+        #[arg(long, value_name = "SECONDS", default_value_t = 300)]
+        host_time_seconds: u64,
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
@@ -289,8 +294,16 @@ fn main() -> ExitCode {
         Command::Control { commands, address } => control::control(control::ControlArgs { address, commands }),
         Command::Record(args) => record::record(args),
         Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
-        Command::Replay { file, format, specs, configuration, log_format, witness } => {
-            replay::replay_file(&file, format, specs, configuration, log_format.map(Into::into), witness)
+        Command::Replay { file, format, specs, configuration, log_format, witness, host_time_seconds } => {
+            replay::replay_file(
+                &file,
+                format,
+                specs,
+                configuration,
+                log_format.map(Into::into),
+                witness,
+                host_time_seconds,
+            )
         }
         Command::Margin(args) => margin::margin(args),
         Command::Timeline { trace, format, output, profile, specs } => {

@@ -17,6 +17,7 @@ pub fn replay_file(
     configuration: Option<String>,
     log_format: Option<pmacwd_capture::import::LogFormat>,
     witness: Option<PathBuf>,
+    host_time_seconds: u64,
 ) -> ExitCode {
     let spec = match load_spec(&specs) {
         Ok(s) => s,
@@ -29,7 +30,13 @@ pub fn replay_file(
         let line = pmacwd_capture::explain::search::LINE_REACHED.load(std::sync::atomic::Ordering::Relaxed);
         (0, format!("searching at line {}", crate::progress::thousands(line as u64)))
     });
-    let import = pmacwd_capture::replay::ImportAs { configuration: configuration.as_deref(), format: log_format };
+    let import = pmacwd_capture::replay::ImportAs {
+        configuration: configuration.as_deref(),
+        format: log_format,
+        placement: pmacwd_capture::import::Placement::AtReads,
+        host_time_limit: (host_time_seconds > 0).then(|| std::time::Duration::from_secs(host_time_seconds)),
+        deadline: None,
+    };
     let explained = report::explain_as(&spec, file, import);
     ticker.finish();
     match explained {

@@ -232,7 +232,7 @@ const REPLAY: &[Case] = &[
     // and bit 12 of `???` changing between polls is more than a card does in no time.
     case(
         "replay_of_the_epics_asyn_trace_without_counter_reads_is_undecided",
-        &["replay", "specs/captures/field/epics-asyn-trace.txt"],
+        &["replay", "specs/captures/field/epics-asyn-trace.txt", "--host-time-seconds", "1"],
     ),
     case(
         "replay_of_the_tcpdump_capture_explains_the_trip_and_the_init",

@@ -111,6 +111,17 @@ def recovery(card, out, t):
         poll(out, card, t)
 
 
+def spread(card, out, t, seconds=2):
+    """`???` every 0.1 s, X:$0 once a second: the commands between two reads are spread over
+    the second, and bit 12 flips between polls 0.1 s apart."""
+    for i in range(seconds * 10):
+        t += 0.1
+        card.run(225)
+        if i % 10 == 0:
+            out += [f"{stamp(t)} > RHX:$0", f"{stamp(t)} < {card.x0:06X}"]
+        out += [f"{stamp(t)} > ???", f"{stamp(t)} < {card.status()}"]
+
+
 def impossible(card, out, t):
     for i in range(6):
         t += 0.5
@@ -132,6 +143,10 @@ if __name__ == "__main__":
         "a card that fell silent and came back",
         "after INIT/ at the front panel; the host sees only X:$0 start again from a small value.",
         "replay: explained; the explanation names the trip and the reset between the polls."], recovery)
+    session("status-10hz-x0-each-second.log", 5, 0, [
+        "`???` at 10 Hz, X:$0 read once a",
+        "second: bit 12 flips between polls 0.1 s apart. replay: explained once every exchange is",
+        "placed at its own host time (at the reads' instants it is not)."], spread)
     session("x25-rising.log", 4, 0, [
         "X:$25, the lowest value of the",
         "watchdog counter since reset (SRM p.57), goes up from one poll to the next with no reset",

@@ -30,7 +30,7 @@ use std::collections::HashMap;
 /// What the steps right after a gap observe, before anything changes the card: the search
 /// aims its plans at these. (Hints only narrow what is tried; every successor is still
 /// checked against the steps themselves.)
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Hints {
     /// Whether the first command after the gap got no reply.
     pub silent: Option<bool>,
@@ -44,6 +44,10 @@ pub struct Hints {
     pub rti_warning_seen: bool,
     /// A status read shows bit 13 set.
     pub checksum_error_seen: bool,
+    /// Servo cycles of short gaps (at most this many in all) between the end of this gap and
+    /// the reads above: a log placed by host time has a few cycles between the commands of
+    /// one poll, and the reads still aim the plans, each value shifted by up to this many.
+    pub shift: u32,
 }
 
 /// How a gap begins, before background cycles follow whenever the load allows.
@@ -201,6 +205,39 @@ pub struct Outcome {
     pub start_hi: i32,
 }
 
+/// What a lane has worked out once and asks again on every gap of a long capture: the servo
+/// cycles each card it met takes to trip without a background cycle. A healthy log meets the
+/// same few cards over and over (X:$0, which no rule reads, is cleared in the search's cards),
+/// and running a card down cycle by cycle to its trip was most of a stamped log's time. Bounded:
+/// cleared when full, so memory stays flat whatever the log's length.
+#[derive(Default)]
+pub struct Memo {
+    trip: HashMap<(Controller, u64), u64>,
+    /// Whole gaps: a healthy poll asks for the same card, the same cycles and the same hints
+    /// again and again.
+    gaps: HashMap<(Controller, i32, u32, Hints), Vec<Outcome>>,
+}
+
+impl Memo {
+    /// The most cards remembered before the memo starts again.
+    const ENTRIES_MAX: usize = 4096;
+    /// The most gaps remembered (each holds a few cards): about 1 MB a lane.
+    const GAPS_MAX: usize = 512;
+
+    fn cycles_to_trip(&mut self, cfg: &ModelConfig, card: &Controller, max: u64) -> u64 {
+        let key = (card.clone(), max);
+        if let Some(n) = self.trip.get(&key) {
+            return *n;
+        }
+        let n = cycles_to_trip(cfg, card, max);
+        if self.trip.len() >= Self::ENTRIES_MAX {
+            self.trip.clear();
+        }
+        self.trip.insert(key, n);
+        n
+    }
+}
+
 /// Servo cycles from `card` without a background cycle until it trips (at most `max`).
 fn cycles_to_trip(cfg: &ModelConfig, card: &Controller, max: u64) -> u64 {
     let mut probe = card.clone();
@@ -219,7 +256,34 @@ fn cycles_to_trip(cfg: &ModelConfig, card: &Controller, max: u64) -> u64 {
 /// Every card the search keeps after `cycles` unseen servo cycles from a card whose Y:$25 is
 /// anywhere in `counter_lo..=card.counter`, grouped so that cards differing only in X:$25 (and,
 /// when the steps after the gap do not read it, Y:$25) are one outcome with intervals.
-pub fn successors(cfg: &ModelConfig, card: &Controller, counter_lo: i32, cycles: u32, hints: &Hints) -> Vec<Outcome> {
+pub fn successors(
+    cfg: &ModelConfig,
+    memo: &mut Memo,
+    card: &Controller,
+    counter_lo: i32,
+    cycles: u32,
+    hints: &Hints,
+) -> Vec<Outcome> {
+    let key = (card.clone(), counter_lo, cycles, hints.clone());
+    if let Some(out) = memo.gaps.get(&key) {
+        return out.clone();
+    }
+    let out = successors_uncached(cfg, memo, card, counter_lo, cycles, hints);
+    if memo.gaps.len() >= Memo::GAPS_MAX {
+        memo.gaps.clear();
+    }
+    memo.gaps.insert(key, out.clone());
+    out
+}
+
+fn successors_uncached(
+    cfg: &ModelConfig,
+    memo: &mut Memo,
+    card: &Controller,
+    counter_lo: i32,
+    cycles: u32,
+    hints: &Hints,
+) -> Vec<Outcome> {
     let mut runs: Vec<(Controller, Plan)> = Vec::new();
     let mut starts = vec![card.clone()];
     if counter_lo < card.counter {
@@ -237,15 +301,17 @@ pub fn successors(cfg: &ModelConfig, card: &Controller, counter_lo: i32, cycles:
         }
     }
     for start in starts {
-        for plan in plans_for(cfg, &start, cycles, hints) {
+        for plan in plans_for(cfg, memo, &start, cycles, hints) {
             runs.push((start.clone(), plan));
         }
     }
-    group(cfg, runs, hints.counter.is_none())
+    // Y:$25 read after short gaps says less of this gap's end than one read right after it:
+    // the outcome keeps it as an interval, which the read then narrows.
+    group(cfg, runs, hints.counter.is_none() || hints.shift > 0)
 }
 
 /// The plans tried from `card`.
-fn plans_for(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -> Vec<Plan> {
+fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32, hints: &Hints) -> Vec<Plan> {
     let mut plans: Vec<Plan> = Vec::new();
     if card.tripped() || card.bootstrap {
         plans.push(Plan::Idle { cycles });
@@ -255,7 +321,10 @@ fn plans_for(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -
         let may_be_silent = hints.silent != Some(false);
         // No background cycle at all: the counter runs down from where it is.
         let starved_counter = super::run_down(cfg, card.counter, cycles);
-        if may_be_silent || hints.counter.is_none_or(|c| i64::from(c) == starved_counter) {
+        // Whether Y:$25 as read can follow from `v` at the end of this gap.
+        let shift = i64::from(hints.shift);
+        let counter_fits = |v: i64| hints.counter.is_none_or(|c| (v - shift..=v).contains(&i64::from(c)));
+        if may_be_silent || counter_fits(starved_counter) {
             plans.push(Plan::Starved { cycles, heavy: 0 });
         }
         // After the starved plans: where both end in the same tripped card, the explanation
@@ -267,34 +336,36 @@ fn plans_for(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -
         let tail_max = u64::from(cycles.saturating_sub(1)).min((i64::from(r) + delay + 2).max(0) as u64) as u32;
         let tails: Vec<u32> = match hints.counter {
             Some(c) if hints.silent == Some(false) || hints.silent.is_none() => {
-                let mut t = Vec::new();
+                let mut t = std::collections::BTreeSet::new();
                 let k = i64::from(r) - i64::from(c);
                 if c == 0 && cfg.profile.choices.strobe_stop == StrobeStop::AtZero {
                     // At zero the counter stays: any tail from R on, until the trip.
                     t.extend((r.max(0) as u32)..=tail_max);
-                } else if (0..=i64::from(tail_max)).contains(&k) {
-                    t.push(k as u32);
                 }
-                t
+                // The short gaps after this one ran the counter down by up to `shift` more.
+                for s in 0..=shift {
+                    if (0..=i64::from(tail_max)).contains(&(k - s)) {
+                        t.insert((k - s) as u32);
+                    }
+                }
+                if k <= shift {
+                    // A background cycle may have come in the short gaps, reloading the
+                    // counter: this gap's tail is then free, as if Y:$25 were not read.
+                    t.extend(unread_tails(card, r, tail_max));
+                }
+                t.into_iter().collect()
             }
             // Y:$25 not read: every tail is possible. Tails while the counter stays well above
             // zero lead to the same card but for Y:$25 (and the checksum area, which `skip`
             // covers), so a few stand for all of them and the outcome keeps Y:$25 as an
             // interval; near zero, where the strobe stops, every tail is tried.
-            _ => {
-                let risky_from = (i64::from(r) - i64::from(card.i8) - 3).max(0) as u32;
-                let safe_top = tail_max.min(risky_from.saturating_sub(1));
-                let mut t: std::collections::BTreeSet<u32> =
-                    [0, 1, 2, safe_top.saturating_sub(1), safe_top].into_iter().collect();
-                t.extend(risky_from..=tail_max);
-                t.into_iter().filter(|k| *k <= tail_max).collect()
-            }
+            _ => unread_tails(card, r, tail_max).into_iter().collect(),
         };
         let overrun_wanted = (hints.rti_reentry_seen && !card.status.rti_reentry) || hints.rti_warning_seen;
         if overrun_wanted || may_be_silent {
             plans.push(Plan::Starved { cycles, heavy: cycles });
         }
-        if overrun_wanted && hints.counter.is_none_or(|c| i64::from(c) == starved_counter) {
+        if overrun_wanted && counter_fits(starved_counter) {
             for heavy in 1..(3 * (u32::from(card.i8) + 1) + 3).min(cycles) {
                 plans.push(Plan::Starved { cycles, heavy });
             }
@@ -312,12 +383,15 @@ fn plans_for(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -
             let mut leads = vec![Lead::Steady];
             match hints.counter_min {
                 Some(m) => {
-                    let m = i64::from(m);
-                    if c0 - m >= 1 {
-                        leads.push(Lead::FirstAfter((c0 - m) as u32));
-                    }
-                    if i64::from(r) - m >= 1 {
-                        leads.push(Lead::Stretch((i64::from(r) - m) as u32));
+                    // X:$25 as read, less what the short gaps after this one may have run down.
+                    for s in 0..=shift {
+                        let m = i64::from(m) + s;
+                        if c0 - m >= 1 && !leads.contains(&Lead::FirstAfter((c0 - m) as u32)) {
+                            leads.push(Lead::FirstAfter((c0 - m) as u32));
+                        }
+                        if i64::from(r) - m >= 1 && !leads.contains(&Lead::Stretch((i64::from(r) - m) as u32)) {
+                            leads.push(Lead::Stretch((i64::from(r) - m) as u32));
+                        }
                     }
                 }
                 None => {
@@ -329,13 +403,14 @@ fn plans_for(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -
                         start.servo(heavy);
                         start.event(Event::Load(sim::light_load()));
                     }
-                    let first = cycles_to_trip(cfg, &start.card, bound).saturating_sub(1).min(u64::from(room));
+                    let first = memo.cycles_to_trip(cfg, &start.card, bound).saturating_sub(1).min(u64::from(room));
                     if first >= 1 {
                         leads.push(Lead::FirstAfter(first as u32));
                     }
                     start.servo(1);
                     if start.background() {
-                        let stretch = cycles_to_trip(cfg, &start.card, bound).saturating_sub(1).min(u64::from(room));
+                        let stretch =
+                            memo.cycles_to_trip(cfg, &start.card, bound).saturating_sub(1).min(u64::from(room));
                         if stretch >= 1 {
                             leads.push(Lead::Stretch(stretch as u32));
                         }
@@ -368,6 +443,18 @@ fn plans_for(cfg: &ModelConfig, card: &Controller, cycles: u32, hints: &Hints) -
         }
     }
     plans
+}
+
+/// The tails tried when Y:$25 is not read after the gap: every tail is possible. Tails while
+/// the counter stays well above zero lead to the same card but for Y:$25 (and the checksum
+/// area, which `skip` covers), so a few stand for all of them and the outcome keeps Y:$25 as
+/// an interval; near zero, where the strobe stops, every tail is tried.
+fn unread_tails(card: &Controller, r: i32, tail_max: u32) -> std::collections::BTreeSet<u32> {
+    let risky_from = (i64::from(r) - i64::from(card.i8) - 3).max(0) as u32;
+    let safe_top = tail_max.min(risky_from.saturating_sub(1));
+    let mut t: std::collections::BTreeSet<u32> = [0, 1, 2, safe_top.saturating_sub(1), safe_top].into_iter().collect();
+    t.extend(risky_from..=tail_max);
+    t.into_iter().filter(|k| *k <= tail_max).collect()
 }
 
 /// Runs every plan and merges the results that differ only in X:$25 into intervals; with

@@ -31,6 +31,10 @@ pub const CANDIDATES_MAX: usize = 200_000;
 /// Clears what no rule reads (the ghost bookkeeping), so that equal cards are one candidate.
 pub fn normalize(card: &mut Controller) {
     card.ghost = Ghost { cycles_since_background: 0, last_reload: 0, recovered_by: None };
+    // X:$0: no rule reads it and the search does not compare it (the importer turns its
+    // reads into `elapsed` steps); cleared so that the same card after gaps of different
+    // lengths is one candidate.
+    card.servo_cycles = 0;
 }
 
 /// Whether two cards are the same but for Y:$25, X:$25 and the background's CPU credit: what

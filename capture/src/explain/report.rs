@@ -70,6 +70,15 @@ pub struct Report {
     /// commands in time): then every command is at one instant, and a capture that no card
     /// explains so is undecided, not impossible (issue 36).
     pub untimed: Option<String>,
+    /// Where the commands between X:$0 reads were placed for this verdict.
+    pub placement: crate::import::Placement,
+    /// When placing them at the reads' instants explained nothing and host time was tried:
+    /// where the first placement failed, in words.
+    pub at_reads_failed: Option<String>,
+    /// Whether the capture is a host log with host timestamps (which host time can place).
+    pub stamped_log: bool,
+    /// The search placing the log by host time ran past its limit: the verdict is undecided.
+    pub host_time_unfinished: bool,
 }
 
 impl Report {
@@ -96,13 +105,61 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
 
 /// Judges the capture at `path`; a log is imported as `import_configuration` says (its
 /// configuration and format).
+///
+/// A stamped log is judged first with the commands between X:$0 reads at the reads' instants
+/// (fast). If no correct card explains it so, it is judged again with every exchange at its
+/// own host time, and that verdict stands: a poll spread between reads (bit 12 flipping
+/// between two `???` 0.1 s apart) is not called impossible for want of time the log shows
+/// passed (issue 36).
 pub fn explain_as(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> Result<Report, SpecError> {
+    use crate::import::Placement;
+    let first = explain_placed(spec, path, import_configuration)?;
+    if first.explained() || import_configuration.placement == Placement::HostTime || !first.stamped_log {
+        return Ok(first);
+    }
+    let failed = first
+        .lanes
+        .iter()
+        .filter_map(|l| l.death.as_ref())
+        .max_by_key(|d| d.event)
+        .map(|d| format!("line {}: {}: expected {}, observed {}", d.line, d.what, d.expected, d.observed))
+        .unwrap_or_default();
+    let deadline = import_configuration.host_time_limit.map(|l| std::time::Instant::now() + l);
+    let second =
+        explain_placed(spec, path, ImportAs { placement: Placement::HostTime, deadline, ..import_configuration });
+    let mut second = match second {
+        Err(e) if e.message.starts_with(search::OUT_OF_TIME) => {
+            // No verdict either way: at the reads' instants it fails, by host time it did not
+            // finish. Undecided, with both said.
+            let mut first = first;
+            first.untimed = Some(format!(
+                "warning: with the commands between X:$0 reads at the reads' instants no card fits ({failed}); {} \
+                 after {} s: placed so, the log is not judged (raise --host-time-seconds)",
+                e.message,
+                import_configuration.host_time_limit.map_or(0, |l| l.as_secs())
+            ));
+            first.at_reads_failed = Some(failed);
+            first.host_time_unfinished = true;
+            return Ok(first);
+        }
+        other => other?,
+    };
+    second.at_reads_failed = Some(failed);
+    // Without two X:$0 reads a restart cannot be seen: a log host time alone cannot explain
+    // stays undecided, as it was with its commands at one instant.
+    if second.untimed.is_none() && !second.explained() {
+        second.untimed = first.untimed;
+    }
+    Ok(second)
+}
+
+fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> Result<Report, SpecError> {
     let source = Source::open_with(spec, path, import_configuration)?;
     let configuration = source.configuration().to_string();
     let description = source.description().to_string();
     let profiles = source.profiles(spec, path)?;
     let card = source.card();
-    let (observed, untimed) = scan(spec, source)?;
+    let (observed, untimed, stamped_log) = scan(spec, source)?;
     if !spec.check.configurations.contains_key(&configuration) {
         return Err(SpecError::at(
             path,
@@ -228,6 +285,10 @@ pub fn explain_as(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
         card,
         diagnosis,
         untimed,
+        placement: import_configuration.placement,
+        at_reads_failed: None,
+        stamped_log,
+        host_time_unfinished: false,
     })
 }
 
@@ -273,7 +334,9 @@ const WITNESS_TRIES: usize = 16;
 /// What the capture itself shows, read once before the search: whether a `???` reply shows RTI
 /// re-entry (bit 22, SRM p.289), which the diagnosis may call observed, as against what the
 /// search chose in the unseen gaps; and, for a host log, the importer's timing warning.
-fn scan(spec: &Spec, mut source: Source) -> Result<(bool, Option<String>), SpecError> {
+/// Reads the whole capture once: whether a `???` reply shows bit 22, the importer's timing
+/// warning, and whether it is a stamped host log.
+fn scan(spec: &Spec, mut source: Source) -> Result<(bool, Option<String>, bool), SpecError> {
     use pmacwd_specs::status::WordId;
     use pmacwd_specs::vocab::reply_text::{self, StatusReply};
     let bit22 = spec.status.bit("rti_reentry");
@@ -290,11 +353,13 @@ fn scan(spec: &Spec, mut source: Source) -> Result<(bool, Option<String>), SpecE
             seen |= w & (1 << bit) != 0;
         }
     }
-    let untimed = match &source {
-        Source::HostLog(stream) => stream.summary().and_then(|s| s.timing_warning()),
-        _ => None,
+    let (untimed, stamped) = match &source {
+        Source::HostLog(stream) => {
+            (stream.summary().and_then(|s| s.timing_warning()), stream.summary().is_some_and(|s| s.stamped))
+        }
+        _ => (None, false),
     };
-    Ok((seen, untimed))
+    Ok((seen, untimed, stamped))
 }
 
 fn diagnose(lanes: &[Lane], rti_reentry_observed: bool) -> Option<Diagnosis> {
@@ -368,6 +433,13 @@ pub fn to_text(r: &Report) -> String {
     let _ = writeln!(s, "replay {}: {} events, configuration {}", r.file.display(), r.events, r.configuration);
     if let Some(w) = &r.untimed {
         let _ = writeln!(s, "  {w}");
+    }
+    if let (Some(failed), false) = (&r.at_reads_failed, r.host_time_unfinished) {
+        let _ = writeln!(
+            s,
+            "  placed by host time: with the commands between X:$0 reads at the reads' instants no card fit \
+             ({failed}); each exchange is placed at its own host time below"
+        );
     }
     let _ = writeln!(s, "  {}", r.description.split_whitespace().collect::<Vec<_>>().join(" "));
     let alive = r.lanes.iter().filter(|l| l.death.is_none()).count();
@@ -477,7 +549,11 @@ pub fn to_text(r: &Report) -> String {
     let _ = writeln!(
         s,
         "verdict: {}",
-        if alive == 0 && r.untimed.is_some() {
+        if alive == 0 && r.host_time_unfinished {
+            "undecided: no explanation places the commands between X:$0 reads at the reads' instants, and the \
+             search placing them by host time did not finish in its time limit (--host-time-seconds)"
+                .to_string()
+        } else if alive == 0 && r.untimed.is_some() {
             "undecided: no explanation places every command at one instant, and the log has no servo counter \
              reads (X:$0) to place them in time; read RHX:$0 in every poll (docs/capturing.md)"
                 .to_string()
@@ -532,7 +608,9 @@ pub fn to_json(r: &Report) -> String {
         r.profiles.iter().map(|(n, d, e)| serde_json::json!({"profile": n, "default": d, "explains": e})).collect();
     serde_json::json!({
         "file": r.file.display().to_string(), "events": r.events, "configuration": r.configuration,
-        "explained": r.explained(), "undecided": r.undecided(), "readings": readings, "lanes": lanes, "profiles": profiles,
+        "explained": r.explained(), "undecided": r.undecided(),
+        "placement": match r.placement { crate::import::Placement::AtReads => "at_reads", crate::import::Placement::HostTime => "host_time" },
+        "at_reads_failed": r.at_reads_failed, "readings": readings, "lanes": lanes, "profiles": profiles,
         "explanation": r.witness.as_ref().map(|(label, w)| serde_json::json!({
             "readings": label, "cpu_type": w.cpu, "cpu_type_decided": w.cpu_decided, "story": w.story,
             "trace_steps": w.steps.len(),

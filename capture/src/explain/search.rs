@@ -26,6 +26,9 @@ use std::sync::Arc;
 const LOOKAHEAD_STEPS: usize = 32;
 /// How far it looks for the next status read, whose sticky bits an earlier gap may have set.
 const LOOKAHEAD_STICKY_STEPS: usize = 512;
+/// The most servo cycles of short gaps the reads after a gap may be behind it and still aim its
+/// plans (the commands of one poll, placed by host time a few milliseconds apart).
+const SHIFT_MAX_CYCLES: u32 = 24;
 /// Servo cycles of later gaps beyond which a sticky bit seen later is left to them: an RTI
 /// overrun or a checksum fault fits in far fewer (an overrun needs about 3(I8+1) cycles).
 const STICKY_ROOM_CYCLES: u32 = 1024;
@@ -120,6 +123,12 @@ pub struct Lane {
     pub cands: Vec<Cand>,
     pub death: Option<Death>,
     pub peak: usize,
+    /// What this lane's gaps have worked out once (bounded).
+    pub memo: gap::Memo,
+    /// Whether any card the search made had its strobe stopped for longer than the shortest
+    /// hardware delay of the band: if none did, every card of the band behaves alike (the
+    /// model reads the delay only there, UM p.215) and the others need not be searched.
+    pub delay_mattered: bool,
 }
 
 /// The capture's steps with a window to look ahead.
@@ -190,11 +199,18 @@ impl Reader {
                 if resets {
                     break;
                 }
-                if let TraceEvent::Elapsed { cycles_min, .. } = step.event {
+                if let TraceEvent::Elapsed { cycles_min, cycles_max } = step.event {
                     later_cycles = later_cycles.saturating_add(cycles_min);
                     if later_cycles >= STICKY_ROOM_CYCLES {
                         // A later gap has room to set the bit: this one need not try.
                         break;
+                    }
+                    // A short gap (the commands of one poll placed by host time) keeps the
+                    // window open: the reads after it still aim this gap's plans, shifted.
+                    let short = cycles_max.map(|m| h.shift.saturating_add(m)).filter(|s| *s <= SHIFT_MAX_CYCLES);
+                    if let (true, Some(s)) = (in_window, short) {
+                        h.shift = s;
+                        continue;
                     }
                 }
                 in_window = false;
@@ -204,21 +220,30 @@ impl Reader {
             let reply = step.expect.reply.as_deref();
             if in_window {
                 if h.silent.is_none() {
-                    h.silent = reply.map(|r| r == "(silence)");
+                    // An answer the log does not compare (X:$0, a checksum) still shows the card
+                    // running: `tripped: false` is what the importer expects of it.
+                    h.silent =
+                        reply.map(|r| r == "(silence)").or((step.expect.tripped == Some(false)).then_some(false));
                 }
-                if let Some(c) = step.expect.counter {
+                // Past a short gap, a read only fills what the reads before it left open: the
+                // first value read after this gap aims it best.
+                if let Some(c) = step.expect.counter.filter(|_| h.shift == 0 || h.counter.is_none()) {
                     h.counter = Some(c);
                 }
-                if let Some(m) = step.expect.counter_min {
+                if let Some(m) = step.expect.counter_min.filter(|_| h.shift == 0 || h.counter_min.is_none()) {
                     h.counter_min = Some(m);
                 }
             }
             let mut status_read = false;
             match (cmd, reply) {
-                (HostCommand::ReadHex(Register::WatchdogCounter), Some(r)) if in_window => {
+                (HostCommand::ReadHex(Register::WatchdogCounter), Some(r))
+                    if in_window && (h.shift == 0 || h.counter.is_none()) =>
+                {
                     h.counter = signed_word(r).or(h.counter)
                 }
-                (HostCommand::ReadHex(Register::WatchdogMinimum), Some(r)) if in_window => {
+                (HostCommand::ReadHex(Register::WatchdogMinimum), Some(r))
+                    if in_window && (h.shift == 0 || h.counter_min.is_none()) =>
+                {
                     h.counter_min = signed_word(r).or(h.counter_min)
                 }
                 (HostCommand::GlobalStatus, Some(r)) => {
@@ -429,6 +454,8 @@ impl Lane {
             cands,
             death: None,
             peak: 4,
+            memo: gap::Memo::default(),
+            delay_mattered: false,
         })
     }
 
@@ -467,11 +494,11 @@ impl Lane {
             // candidate keeps the history of the wider interval; a value only the other history
             // reaches would show up as an explanation that does not reproduce (checked before
             // one is printed).
-            // With witnesses recorded, only equal intervals merge, so that every history keeps
-            // the values it reaches.
+            // With witnesses recorded, an interval merges only into one that holds it (or that
+            // it holds), so that the history kept reaches every value of the merged interval.
             let meets = |o: &Cand| {
                 if record {
-                    lo == o.min_lo && hi == o.card.counter_min
+                    (o.min_lo <= lo && hi <= o.card.counter_min) || (lo <= o.min_lo && o.card.counter_min <= hi)
                 } else {
                     lo <= o.card.counter_min.saturating_add(1) && o.min_lo <= hi.saturating_add(1)
                 }
@@ -509,7 +536,7 @@ impl Lane {
             match &step.event {
                 TraceEvent::Elapsed { cycles_min, cycles_max } => {
                     for n in cycle_set(*cycles_min, *cycles_max, &cand.card, cfg) {
-                        for o in gap::successors(cfg, &cand.card, cand.counter_lo, n, hints) {
+                        for o in gap::successors(cfg, &mut self.memo, &cand.card, cand.counter_lo, n, hints) {
                             let node = cand.node.as_ref().filter(|_| record).map(|p| {
                                 // A plan run from lower in the Y:$25 interval: the gap before
                                 // must end there, a pin for the explanation to meet.
@@ -619,6 +646,11 @@ impl Lane {
                 }
             }
             for (c, reply) in results {
+                // A strobe stopped longer than the band's shortest delay: a card of the band
+                // could have judged this differently (see `search`).
+                if c.card.cycles_since_strobe > self.cfg.hardware_delay_band.0 {
+                    self.delay_mattered = true;
+                }
                 let obs = observation(spec, cfg, &c.card, c.cpu, reply);
                 match compare_windowed(spec, cfg, &step.expect, &c.card, &obs) {
                     Ok(_) => insert(c, &mut next)?,
@@ -649,6 +681,9 @@ impl Lane {
     }
 }
 
+/// The start of the error a search past its deadline returns.
+pub const OUT_OF_TIME: &str = "the search placing the log by host time ran past its time limit";
+
 /// The line of the capture the search last reached (any thread, any pass): what `pmacwd
 /// replay` shows as progress while a long capture, or one long step, is searched.
 pub static LINE_REACHED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
@@ -670,9 +705,23 @@ pub fn search(
     if lanes.iter().all(Lane::alive) {
         return Ok((lanes, events));
     }
-    let variants: Vec<Vec<Tolerances>> = lanes.iter().map(|l| Tolerances::variants(&l.cfg, &levels)).collect();
+    // A lane in which no strobe stopped long enough for the delay to count is judged alike by
+    // every card of the delay band: only its supply variants (if any) are searched.
+    let variants: Vec<Vec<Tolerances>> = lanes
+        .iter()
+        .map(|l| {
+            let mut v = Tolerances::variants(&l.cfg, &levels);
+            if !l.delay_mattered {
+                let stated = l.tolerances.hardware_delay_cycles;
+                v.retain(|t| t.hardware_delay_cycles == stated);
+            }
+            v
+        })
+        .collect();
     for (l, v) in lanes.iter_mut().zip(&variants) {
-        l.tolerances_admitted = v.len();
+        // The cards the bands admit, all judged: those searched, and those the search showed
+        // alike (no strobe stopped long enough for their delays to differ).
+        l.tolerances_admitted = Tolerances::variants(&l.cfg, &levels).len().max(v.len());
     }
     for k in 1.. {
         let retry: Vec<usize> = (0..lanes.len()).filter(|i| !lanes[*i].alive() && variants[*i].len() > k).collect();
@@ -684,7 +733,7 @@ pub fn search(
         let (found, _, _) = search_once(spec, path, configuration, again, record, false)?;
         for (i, mut l) in retry.into_iter().zip(found) {
             l.tolerances_tried = k + 1;
-            l.tolerances_admitted = variants[i].len();
+            l.tolerances_admitted = lanes[i].tolerances_admitted;
             let latest = |l: &Lane| l.death.as_ref().map(|d| d.event);
             if l.alive() || latest(&l) > latest(&lanes[i]) {
                 lanes[i] = l;
@@ -719,6 +768,9 @@ pub fn search_once(
     let mut levels = std::collections::BTreeSet::new();
     while let Some((line, step)) = reader.next_step()? {
         LINE_REACHED.store(line, std::sync::atomic::Ordering::Relaxed);
+        if configuration.deadline.is_some_and(|d| std::time::Instant::now() > d) {
+            return Err(SpecError::whole_file(path, OUT_OF_TIME));
+        }
         let event_no = reader.events;
         if let TraceEvent::Model(Event::Supply { millivolts }) = step.event {
             levels.insert(millivolts);

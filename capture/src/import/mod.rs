@@ -812,6 +812,9 @@ pub struct Summary {
     pub card_own: u64,
     /// `elapsed` steps bounded by host time alone, while the card was silent.
     pub silent_gaps: u64,
+    /// `elapsed` steps bounded by host time alone before answered commands
+    /// ([`Placement::HostTime`]).
+    pub placed_by_host_time: u64,
     /// Whether the log has host timestamps.
     pub stamped: bool,
     /// Commands whose answer the log does not show ([`Answer::Unseen`]), kept without an
@@ -823,7 +826,7 @@ impl Summary {
     /// A warning when the log gives no timing at all: without two X:$0 reads (or host time
     /// over a silent card) every command happens at one instant.
     pub fn timing_warning(&self) -> Option<String> {
-        (self.counter_reads < 2 && self.silent_gaps == 0).then(|| {
+        (self.counter_reads < 2 && self.silent_gaps == 0 && self.placed_by_host_time == 0).then(|| {
             format!(
                 "warning: the log has {} X:$0 read{}: no timing can be derived, every command is placed at \
                  one instant (read RHX:$0 alongside the other commands, docs/capturing.md)",
@@ -832,6 +835,23 @@ impl Summary {
             )
         })
     }
+}
+
+/// Where the commands between two X:$0 reads of a stamped log are placed in time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Placement {
+    /// At the instant of the read before them: the card runs no servo cycle between them. Fast,
+    /// and exact for a poll whose commands follow each other within a few servo cycles; a log
+    /// whose commands are spread between reads (a 10 Hz `???` with X:$0 once a second) can be
+    /// judged impossible by it when bit 12 flips between two of them (issue 36).
+    #[default]
+    AtReads,
+    /// Each exchange at its own host time: `elapsed` steps bounded by the host clock between
+    /// it and the one before (±[`CLOCK_TOLERANCE_PERCENT`] and the stamps' resolution), the
+    /// cycles they take subtracted from the next read's count. MODEL (import): the search
+    /// takes each bound on its own, so the cycles between two reads may differ from X:$0's
+    /// count by up to the sum of the bounds' widths (docs/replay.md).
+    HostTime,
 }
 
 /// `elapsed` steps for between `min` and `max` (unbounded if `None`) servo cycles, split into
@@ -900,17 +920,27 @@ pub struct Importer {
     /// A reply timed out since the last read: the card fell silent, and host time alone places
     /// the commands that follow.
     silent: bool,
-    /// The host time the model's clock is at (the last read, `$$$` or silent-gap step).
+    /// The host time the model's clock is at (the last read, `$$$` or a step placed by host
+    /// time).
     anchor: Option<(i128, i128)>,
+    /// Where commands between reads go.
+    placement: Placement,
     /// Cycles already given to silent-gap steps since the last read or `$$$`: (min, max).
     gap: (u64, u64),
     summary: Summary,
 }
 
 impl Importer {
-    /// An importer whose host time becomes servo cycles at `servo_hz`.
+    /// An importer whose host time becomes servo cycles at `servo_hz`, placing commands
+    /// between reads at the read before them.
     pub fn new(file: &Path, servo_hz: u32) -> Importer {
+        Importer::placing(file, servo_hz, Placement::AtReads)
+    }
+
+    /// An importer placing the commands between reads as `placement` says.
+    pub fn placing(file: &Path, servo_hz: u32, placement: Placement) -> Importer {
         Importer {
+            placement,
             parser: LogParser::new(file),
             servo_hz: servo_hz.max(1),
             last_read: None,
@@ -953,20 +983,40 @@ impl Importer {
         if ex.commands.iter().any(|c| c.answer == Answer::Timeout) {
             self.silent = true;
         }
-        if self.silent && !ex.commands.iter().any(Self::is_counter_read) {
+        let reads_counter = ex.commands.iter().any(Self::is_counter_read);
+        let first = self.summary.exchanges == 1;
+        let resets = ex.commands.iter().any(|c| c.command == HostCommand::Reset);
+        if first && self.placement == Placement::HostTime && ex.at.is_some() && !reads_counter && !resets {
+            // Placed by host time from the first exchange on; the card ran an unknown time
+            // before the log starts (as before a first X:$0 read), not from power-on.
+            self.anchor = ex.at;
+            steps.extend(elapsed_steps(
+                0,
+                None,
+                Some("the card has run an unknown time before the log starts".to_string()),
+            ));
+        }
+        let by_host_time = self.silent || self.placement == Placement::HostTime;
+        if by_host_time && !reads_counter {
             if let (Some(now), Some(anchor)) = (ex.at, self.anchor) {
-                // The card is silent: no counter places this command, the host's clock does.
+                // The card is silent, or the log is placed by host time: no counter places
+                // this command, the host's clock does.
                 let lo = cycles_in(now.0 - anchor.1, self.servo_hz, false);
                 let hi = cycles_in(now.1 - anchor.0, self.servo_hz, true);
                 self.gap = (self.gap.0.saturating_add(lo), self.gap.1.saturating_add(hi));
                 self.anchor = Some(now);
-                self.summary.silent_gaps += 1;
+                if self.silent {
+                    self.summary.silent_gaps += 1;
+                } else {
+                    self.summary.placed_by_host_time += 1;
+                }
                 steps.extend(elapsed_steps(
                     lo,
                     Some(hi),
                     Some(format!(
-                        "the card is silent: host time since the last placed command gives {lo} to {hi} servo \
-                         cycles at {} Hz ±{CLOCK_TOLERANCE_PERCENT}%",
+                        "{}: host time since the last placed command gives {lo} to {hi} servo cycles at {} Hz \
+                         ±{CLOCK_TOLERANCE_PERCENT}%",
+                        if self.silent { "the card is silent" } else { "placed by host time" },
                         self.servo_hz
                     )),
                 ));
@@ -1337,6 +1387,19 @@ impl ImportStream {
     /// Opens the host log `path` to be imported under configuration `configuration` of `spec`.
     pub fn open(spec: &Spec, path: &Path, configuration: &str) -> Result<ImportStream, SpecError> {
         ImportStream::open_as(spec, path, configuration, None)
+    }
+
+    /// Opens the log `path` in format `format`, placing its commands as `placement` says.
+    pub fn open_placed(
+        spec: &Spec,
+        path: &Path,
+        configuration: &str,
+        format: Option<LogFormat>,
+        placement: Placement,
+    ) -> Result<ImportStream, SpecError> {
+        let mut stream = ImportStream::open_as(spec, path, configuration, format)?;
+        stream.importer = Some(Importer::placing(path, stream.servo_hz, placement));
+        Ok(stream)
     }
 
     /// Opens the log `path` in format `format` (by its content when `None`).
