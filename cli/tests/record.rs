@@ -480,7 +480,7 @@ fn the_emulator_s_capture_of_the_grammar_s_new_commands_replays_as_consistent() 
         assert_eq!(ask(&mut c, "I130=1.25*I130 I130"), b"1250\r\x06");
         assert_eq!(ask(&mut c, "M162=1000/0.0009765625 M162"), b"1024000\r\x06");
         assert_eq!(ask(&mut c, "I222=0.5 I222"), b"0.5\r\x06");
-        assert_eq!(ask(&mut c, "I130=* I130"), b"0\r\x06");
+        assert_eq!(ask(&mut c, "I130=* I130"), b"2000\r\x06", "the factory default (variables.yaml)");
         assert_eq!(ask(&mut c, "&1#1->1000X &1#1->, #2->"), b"1000X\r0\r\x06");
         assert_eq!(ask(&mut c, "&1%100.000000 &1%"), b"100\r\x06");
         assert_eq!(ask(&mut c, "&1A Q81=7 Q71=Q81 Q71"), b"7\r\x06");
