@@ -243,9 +243,16 @@ impl Card {
                 Some(m) if active => match m.state {
                     MotorState::Jogging => {}
                     MotorState::Decelerating => {
-                        if !matches!(axis.goal, Goal::Stop { .. } | Goal::Hold) {
-                            let left = m.stop.map_or(1, |(_, cycles)| cycles);
-                            axis.stop_within(f64::from(left) * dt);
+                        // At rest exactly when the core's stop ends: a new stop (J/ becoming
+                        // an abort, say) starts the deceleration over for the cycles it has.
+                        let ms = f64::from(m.stop.map_or(1, |(_, cycles)| cycles)) * dt;
+                        let needs = match axis.goal {
+                            Goal::Hold => None,
+                            Goal::Stop { rate } => Some(axis.stop_time(rate)),
+                            Goal::Velocity { .. } | Goal::Position { .. } => Some(f64::INFINITY),
+                        };
+                        if needs.is_some_and(|t| (t - ms).abs() > dt / 2.0) {
+                            axis.stop_within(ms);
                         }
                     }
                     MotorState::Killed | MotorState::Closed | MotorState::Holding | MotorState::Program => {
@@ -467,6 +474,28 @@ mod tests {
         step(&mut c, 1);
         assert!(done(&mut c, 4) && status(&mut c, 4).0 & (1 << 13) != 0);
         assert_eq!(c.core.motor(&c.cfg, 4).unwrap().state, pmacwd_core::motion::MotorState::Closed);
+    }
+
+    #[test]
+    fn an_abort_after_j_slash_ends_the_motion_when_the_core_ends_the_abort() {
+        // The EPICS driver's stop: `#1 J/ M140=1`, then `&1A Q71=Q81`. The abort restarts the
+        // stop at Ixx15 (UM p.319); the trajectory follows the core's new stop length.
+        let mut c = card();
+        values(&mut c, "#1J/ I122=5 I120=100 #1J+");
+        step(&mut c, cycles(500.0));
+        values(&mut c, "#1 J/ M140=1");
+        step(&mut c, 5);
+        values(&mut c, "&1A Q71=Q81");
+        let left = c.core.motor(&c.cfg, 1).unwrap().stop.unwrap().1;
+        step(&mut c, u32::from(left) - 1);
+        assert_eq!(status(&mut c, 1).0 & (1 << 13), 0, "one cycle before the abort's end it moves");
+        let v: f64 = values(&mut c, "#1V")[0].parse().unwrap();
+        assert!(v <= 0.1, "slowed at Ixx15 to almost nothing, not cut off at speed: {v} counts/cycle");
+        step(&mut c, 1);
+        assert!(done(&mut c, 1) && status(&mut c, 1).0 & (1 << 13) != 0);
+        let at = position(&mut c, 1);
+        step(&mut c, 1000);
+        assert_eq!(position(&mut c, 1), at);
     }
 
     #[test]
