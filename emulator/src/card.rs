@@ -901,6 +901,7 @@ impl Card {
             Control::State => return format!("ok {}", self.state()),
             Control::HomeFlag { motor, at } => return self.place_home_flag(motor, at),
             Control::FollowingError { motor, counts } => return self.inject_following_error(motor, counts),
+            Control::Limit { motor, plus, on } => return self.set_limit_input(motor, plus, on),
             Control::Help => return format!("ok {HELP}"),
         };
         self.core.apply(&self.cfg, core_event(&event), &mut self.store);

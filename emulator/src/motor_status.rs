@@ -17,6 +17,10 @@ pub const OPEN_LOOP: u32 = 1 << 18;
 pub const INTEGRATION_MODE: u32 = 1 << 16;
 /// A move with a definite end point is under way (a jog to a position, a homing search).
 pub const MOVE_TIMER: u32 = 1 << 17;
+/// Past the positive / negative end of travel: a software limit or a limit switch (SRM p.283,
+/// bits 21 and 22; the EPICS driver's high and low limit).
+pub const POSITIVE_LIMIT: u32 = 1 << 21;
+pub const NEGATIVE_LIMIT: u32 = 1 << 22;
 /// A homing search is under way (SRM p.283, bit 10).
 pub const HOME_SEARCH: u32 = 1 << 10;
 pub const DESIRED_VELOCITY_ZERO: u32 = 1 << 13;
@@ -27,6 +31,8 @@ pub const ABORT_DECELERATION: u32 = 1 << 12;
 pub const ASSIGNED_TO_CS: u32 = 1 << 15;
 /// A homing search has completed since power-up or reset (SRM p.284, bit 10).
 pub const HOME_COMPLETE: u32 = 1 << 10;
+/// The last move stopped on a position limit (SRM p.284, bit 11).
+pub const STOPPED_ON_LIMIT: u32 = 1 << 11;
 pub const CS_NUMBER_SHIFT: u32 = 20;
 pub const IN_POSITION: u32 = 1 << 0;
 
@@ -47,6 +53,11 @@ pub struct MotionBits {
     pub home_complete: bool,
     /// The following error is within the in-position band Ixx28.
     pub within_band: bool,
+    /// Past the positive / negative end: software limit or limit switch (bits 21, 22).
+    pub plus_limit: bool,
+    pub minus_limit: bool,
+    /// The last move stopped on a limit (second word bit 11).
+    pub limit_stop: bool,
 }
 
 impl Default for MotionBits {
@@ -60,6 +71,9 @@ impl Default for MotionBits {
             homing: false,
             home_complete: false,
             within_band: true,
+            plus_limit: false,
+            minus_limit: false,
+            limit_stop: false,
         }
     }
 }
@@ -93,6 +107,15 @@ pub fn motor_words(status: Option<&MotorStatus>, motion: &MotionBits) -> (u32, u
     }
     if motion.home_complete {
         y |= HOME_COMPLETE;
+    }
+    if motion.plus_limit {
+        x |= POSITIVE_LIMIT;
+    }
+    if motion.minus_limit {
+        x |= NEGATIVE_LIMIT;
+    }
+    if motion.limit_stop {
+        y |= STOPPED_ON_LIMIT;
     }
     // SRM p.284, second word bit 0: in position when the loop is closed, the desired velocity
     // is zero, no move timer runs and the following error is within Ixx28.

@@ -64,6 +64,21 @@ pub struct Axis {
     pub pre_jog: f64,
     /// A following error the control port injected, counts (0: none).
     pub following_error: f64,
+    /// The last move ended on a position limit (SRM p.284, second word bit 11).
+    pub limit_stop: bool,
+}
+
+/// The limits a move must stop at: the software limits (counts from power-up; SRM p.95-97,
+/// Ixx13 and Ixx14, `None` when 0: none) and the rate of a limit stop (Ixx15, counts/ms²).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits {
+    pub plus: Option<f64>,
+    pub minus: Option<f64>,
+    pub decel: f64,
+}
+
+impl Limits {
+    pub const NONE: Limits = Limits { plus: None, minus: None, decel: 1.0 };
 }
 
 /// Below this, a velocity is zero (counts/ms): a millionth of a count per second.
@@ -88,6 +103,7 @@ impl Default for Axis {
             move_timer: false,
             pre_jog: 0.0,
             following_error: 0.0,
+            limit_stop: false,
         }
     }
 }
@@ -119,6 +135,7 @@ impl Axis {
         }
         self.accel = accel;
         self.homing = Homing::None;
+        self.limit_stop = false;
         match target {
             Some(t) => {
                 self.goal = Goal::Position { target: t, speed };
@@ -138,6 +155,19 @@ impl Axis {
         self.goal = Goal::Velocity { v: velocity };
         self.move_timer = true;
         self.home_complete = false;
+        self.limit_stop = false;
+    }
+
+    /// Decelerates to rest at `rate` because a limit was reached (SRM p.96: an abort at Ixx15).
+    pub fn limit(&mut self, rate: f64) {
+        self.homing = Homing::None;
+        self.move_timer = false;
+        self.limit_stop = true;
+        if self.vel.abs() <= VELOCITY_EPS {
+            self.halt();
+        } else {
+            self.goal = Goal::Stop { rate };
+        }
     }
 
     /// `HMZ`: the present position is the home position (zero), without moving.
@@ -170,12 +200,14 @@ impl Axis {
     /// Moves along the trajectory for `t` ms; `home_flag` is where this motor's home flag
     /// triggers (counts from power-up), and `home_offset` the offset of the home position from
     /// the trigger (counts).
-    pub fn advance(&mut self, t: f64, home_flag: Option<f64>, home_offset: f64) {
+    pub fn advance(&mut self, t: f64, home_flag: Option<f64>, home_offset: f64, limits: &Limits) {
         let mut t = if t.is_finite() { t.max(0.0) } else { 0.0 };
         for _ in 0..PIECES_PER_ADVANCE_MAX {
             if t <= 0.0 {
                 break;
             }
+            let (p0, v0, before) = (self.pos, self.vel, t);
+            let checked = !matches!(self.goal, Goal::Stop { .. } | Goal::Hold) && self.homing != Homing::Searching;
             match self.goal {
                 Goal::Hold => {
                     self.vel = 0.0;
@@ -218,6 +250,20 @@ impl Axis {
                     t = 0.0;
                 }
                 Goal::Position { target, speed } => t = self.towards(target, speed, t),
+            }
+            // SRM p.96-97: past a software limit the motor decelerates at Ixx15; during a
+            // homing search the limits are off until the trigger.
+            let used = before - t;
+            if checked && used > 0.0 {
+                let a = (self.vel - v0) / used;
+                let plus = limits.plus.filter(|l| p0 < *l).and_then(|l| crossing(p0, v0, a, l, used));
+                let minus = limits.minus.filter(|l| p0 > *l).and_then(|l| crossing(p0, v0, a, l, used));
+                if let Some(at) = [plus, minus].into_iter().flatten().reduce(f64::min) {
+                    (self.pos, self.vel) = (p0, v0);
+                    self.step(at, a);
+                    t = before - at;
+                    self.limit(limits.decel);
+                }
             }
         }
     }
@@ -337,7 +383,7 @@ mod tests {
         let mut out = Vec::new();
         let mut t = 0.0;
         while t < ms {
-            a.advance(step, None, 0.0);
+            a.advance(step, None, 0.0, &Limits::NONE);
             out.push((a.pos, a.vel));
             t += step;
         }
@@ -354,16 +400,16 @@ mod tests {
         assert!(!a.move_timer);
         let mut last = 0.0;
         for (p, v) in samples {
-            assert!(v <= 0.5 + 1e-9 && v >= -1e-12, "{v}");
+            assert!((-1e-12..=0.5 + 1e-9).contains(&v), "{v}");
             assert!(p + 1e-9 >= last, "never backwards: {p} after {last}");
             last = p;
         }
         // 2000 counts at 0.5 counts/ms, 100 ms to reach that speed: 4,100 ms in all.
         let mut b = Axis::default();
         b.jog(Some(2000.0), 1.0, 0.5, 0.005);
-        b.advance(4_099.0, None, 0.0);
+        b.advance(4_099.0, None, 0.0, &Limits::NONE);
         assert!(!b.at_rest(), "still moving at 4,099 ms: {b:?}");
-        b.advance(1.0 + 1e-6, None, 0.0);
+        b.advance(1.0 + 1e-6, None, 0.0, &Limits::NONE);
         assert!(b.at_rest() && b.pos == 2000.0, "{b:?}");
     }
 
@@ -372,9 +418,9 @@ mod tests {
         let mut one = Axis::default();
         one.jog(Some(-750.0), -1.0, 2.0, 0.01);
         let mut many = one;
-        one.advance(300.0, None, 0.0);
+        one.advance(300.0, None, 0.0, &Limits::NONE);
         for _ in 0..3000 {
-            many.advance(0.1, None, 0.0);
+            many.advance(0.1, None, 0.0, &Limits::NONE);
         }
         assert!((one.pos - many.pos).abs() < 1e-6, "{} {}", one.pos, many.pos);
         assert!((one.vel - many.vel).abs() < 1e-9);
@@ -384,12 +430,12 @@ mod tests {
     fn a_stop_within_a_time_ends_at_rest_then_and_not_before() {
         let mut a = Axis::default();
         a.jog(None, 1.0, 32.0, 0.15625);
-        a.advance(1000.0, None, 0.0);
+        a.advance(1000.0, None, 0.0, &Limits::NONE);
         assert_eq!(a.vel, 32.0);
         a.stop_within(10.0);
-        a.advance(9.9, None, 0.0);
+        a.advance(9.9, None, 0.0, &Limits::NONE);
         assert!(a.vel > 0.0);
-        a.advance(0.1 + 1e-9, None, 0.0);
+        a.advance(0.1 + 1e-9, None, 0.0, &Limits::NONE);
         assert!(a.at_rest(), "{a:?}");
     }
 
@@ -398,7 +444,7 @@ mod tests {
         let mut a = Axis::default();
         a.home(-4.0, 0.1);
         for _ in 0..1000 {
-            a.advance(5.0, Some(-300.0), 20.0);
+            a.advance(5.0, Some(-300.0), 20.0, &Limits::NONE);
         }
         assert!(a.home_complete && a.at_rest(), "{a:?}");
         assert!((a.pos - -280.0).abs() < 1e-9, "{}", a.pos);
@@ -406,7 +452,7 @@ mod tests {
         let mut never = Axis::default();
         never.home(4.0, 0.1);
         for _ in 0..1000 {
-            never.advance(5.0, Some(-300.0), 0.0);
+            never.advance(5.0, Some(-300.0), 0.0, &Limits::NONE);
         }
         assert!(!never.home_complete && never.vel == 4.0, "the flag lies behind it: it searches on");
     }
@@ -415,9 +461,9 @@ mod tests {
     fn a_reversal_comes_to_rest_first_and_arrives() {
         let mut a = Axis::default();
         a.jog(None, 1.0, 10.0, 0.1);
-        a.advance(200.0, None, 0.0);
+        a.advance(200.0, None, 0.0, &Limits::NONE);
         a.jog(Some(0.0), -1.0, 10.0, 0.1);
-        a.advance(10_000.0, None, 0.0);
+        a.advance(10_000.0, None, 0.0, &Limits::NONE);
         assert!(a.at_rest() && a.pos == 0.0, "{a:?}");
     }
 
@@ -425,9 +471,31 @@ mod tests {
     fn hostile_numbers_leave_it_finite() {
         let mut a = Axis::default();
         a.jog(Some(1e300), 1.0, 1e300, 1e300);
-        a.advance(f64::INFINITY, None, 0.0);
-        a.advance(f64::NAN, None, 0.0);
-        a.advance(1e12, None, 0.0);
+        a.advance(f64::INFINITY, None, 0.0, &Limits::NONE);
+        a.advance(f64::NAN, None, 0.0, &Limits::NONE);
+        a.advance(1e12, None, 0.0, &Limits::NONE);
         assert!(a.pos.is_finite() || a.pos == 1e300, "{a:?}");
+    }
+
+    #[test]
+    fn a_software_limit_stops_a_move_past_it_at_the_limit_rate_and_not_a_move_before_it() {
+        let limits = Limits { plus: Some(1000.0), minus: Some(-50.0), decel: 0.5 };
+        let mut a = Axis::default();
+        a.jog(Some(5000.0), 1.0, 10.0, 1.0);
+        for _ in 0..1000 {
+            a.advance(1.0, None, 0.0, &limits);
+        }
+        // Crossed at 1000 at 10 counts/ms, then 100 counts at 0.5 counts/ms².
+        assert!(a.at_rest() && a.limit_stop, "{a:?}");
+        assert!((a.pos - 1100.0).abs() < 1e-6, "{}", a.pos);
+        let mut b = Axis::default();
+        b.jog(Some(900.0), 1.0, 10.0, 1.0);
+        b.advance(1000.0, None, 0.0, &limits);
+        assert!(b.at_rest() && !b.limit_stop && b.pos == 900.0);
+        // A homing search ignores them until its trigger (SRM p.96).
+        let mut h = Axis::default();
+        h.home(-10.0, 1.0);
+        h.advance(100.0, Some(-500.0), 0.0, &limits);
+        assert!(!h.limit_stop && h.pos < -50.0, "{h:?}");
     }
 }

@@ -17,7 +17,7 @@
 
 use super::Card;
 use crate::framing::Answer;
-use crate::trajectory::{Axis, Goal, Homing};
+use crate::trajectory::{Axis, Goal, Homing, Limits};
 use pmacwd_core as core;
 use pmacwd_core::motion::{MotorState, MOTORS_MAX};
 use pmacwd_specs::grammar::Jog;
@@ -43,6 +43,9 @@ pub struct Motors {
     /// Where each motor's home flag triggers, counts from where the motor stood at power-up
     /// (the control port's `home-flag`); none: a homing search runs on until stopped.
     pub home_flags: [Option<f64>; MOTORS_MAX],
+    /// Each motor's limit switches (the control port's `limit`): `[plus, minus]`, true when
+    /// the switch at that end of travel is hit.
+    pub limit_inputs: [[bool; 2]; MOTORS_MAX],
 }
 
 impl Motors {
@@ -143,8 +146,41 @@ impl Card {
         self.core.motor(&self.cfg, motor)
     }
 
+    /// The software limits of motor `motor` in counts from power-up (Ixx13, Ixx14 from the
+    /// origin, SRM p.96: "referenced to the most recent power-up zero position or homing-move
+    /// zero position"; 0 is none) and the limit deceleration (Ixx15).
+    fn limits(&self, motor: u8) -> Limits {
+        let origin = self.axis(motor).map_or(0.0, |a| a.origin);
+        let at = |v: f64| (v != 0.0 && v.is_finite()).then(|| sane_position(v + origin));
+        Limits {
+            plus: at(self.motor_i(motor, 13)),
+            minus: at(self.motor_i(motor, 14)),
+            decel: sane_accel(self.motor_i(motor, 15)),
+        }
+    }
+
+    /// Whether motor `motor`'s limit switch at the end `direction` points to (> 0 plus) is hit
+    /// and used: Ixx24 bit 17 set makes the motor ignore its limit inputs (PMAC-SRM p.80).
+    fn hardware_limit(&self, motor: u8, direction: f64) -> bool {
+        let Some(k) = usize::from(motor).checked_sub(1).filter(|k| *k < MOTORS_MAX) else { return false };
+        let [plus, minus] = self.motors.limit_inputs[k];
+        let used = (self.motor_i(motor, 24) as i64) & 0x20000 == 0;
+        used && ((direction > 0.0 && plus) || (direction < 0.0 && minus))
+    }
+
+    /// Whether a limit forbids motion in `direction` (SRM p.96: "allows no further positive
+    /// position increments ... as long as the limit is exceeded").
+    fn limit_forbids(&self, motor: u8, direction: f64) -> bool {
+        let pos = self.axis(motor).map_or(0.0, |a| a.pos);
+        let l = self.limits(motor);
+        self.hardware_limit(motor, direction)
+            || (direction > 0.0 && l.plus.is_some_and(|p| pos >= p))
+            || (direction < 0.0 && l.minus.is_some_and(|m| pos <= m))
+    }
+
     /// `J+`, `J-`, `J=`, `J={v}`, `J^{v}`, `J:{v}` after the core has heard it: the trajectory
-    /// starts if the core's motor now jogs (SRM p.101: at Ixx22, accelerating by Ixx19-21).
+    /// starts if the core's motor now jogs (SRM p.101: at Ixx22, accelerating by Ixx19-21),
+    /// unless a limit forbids its direction.
     pub(super) fn start_jog(&mut self, motor: u8, jog: Jog) {
         if !self.may_move(motor) {
             return;
@@ -162,10 +198,18 @@ impl Card {
             Jog::To(Some(p)) => Some(sane_position(p) + origin),
             Jog::ByFromActual(d) | Jog::ByFromCommanded(d) => Some(sane_position(here + sane_position(d))),
         };
-        let direction = match jog {
-            Jog::Minus => -1.0,
+        let direction = match (jog, target) {
+            (Jog::Minus, _) => -1.0,
+            (_, Some(t)) => t - here,
             _ => 1.0,
         };
+        if self.limit_forbids(motor, direction) {
+            if let Some(axis) = self.axis_mut(motor) {
+                axis.limit_stop = true;
+            }
+            return;
+        }
+        let Some(axis) = self.axis_mut(motor) else { return };
         axis.jog(target.map(sane_position), direction, speed, accel);
     }
 
@@ -178,6 +222,9 @@ impl Card {
         let v = self.motor_i(motor, 23);
         let v = if v.is_finite() { v.clamp(-SPEED_MAX, SPEED_MAX) } else { 0.0 };
         let accel = self.jog_accel(motor, v);
+        if self.hardware_limit(motor, v) {
+            return;
+        }
         let Some(axis) = self.axis_mut(motor) else { return };
         if v == 0.0 {
             // MODEL: a home speed of 0 cannot search; the motor is homed where it stands.
@@ -241,7 +288,19 @@ impl Card {
             let Some(axis) = self.axis_mut(n) else { continue };
             match core {
                 Some(m) if active => match m.state {
-                    MotorState::Jogging => {}
+                    MotorState::Jogging => {
+                        let direction = match axis.goal {
+                            Goal::Velocity { v } => v,
+                            Goal::Position { target, .. } => target - axis.pos,
+                            Goal::Hold | Goal::Stop { .. } => 0.0,
+                        };
+                        if direction != 0.0 && self.hardware_limit(n, direction) {
+                            let rate = sane_accel(self.motor_i(n, 15));
+                            if let Some(axis) = self.axis_mut(n) {
+                                axis.limit(rate);
+                            }
+                        }
+                    }
                     MotorState::Decelerating => {
                         // At rest exactly when the core's stop ends: a new stop (J/ becoming
                         // an abort, say) starts the deceleration over for the cycles it has.
@@ -280,7 +339,8 @@ impl Card {
             let offset = self.motor_i(n, 26) / 16.0;
             let k = usize::from(n - 1);
             let flag = self.motors.home_flags[k];
-            self.motors.axes[k].advance(ms, flag, if offset.is_finite() { offset } else { 0.0 });
+            let limits = self.limits(n);
+            self.motors.axes[k].advance(ms, flag, if offset.is_finite() { offset } else { 0.0 }, &limits);
         }
     }
 
@@ -314,6 +374,16 @@ impl Card {
         "ok".into()
     }
 
+    /// The control port's `limit M plus|minus on|off`.
+    pub(super) fn set_limit_input(&mut self, motor: u8, plus: bool, on: bool) -> String {
+        let Some(k) = usize::from(motor).checked_sub(1).filter(|k| *k < MOTORS_MAX) else {
+            return format!("error: motor {motor}: the card's motors are 1..{MOTORS_MAX}");
+        };
+        self.motors.limit_inputs[k][usize::from(!plus)] = on;
+        self.sync_motion();
+        "ok".into()
+    }
+
     /// The control port's `following-error M COUNTS`.
     pub(super) fn inject_following_error(&mut self, motor: u8, counts: i64) -> String {
         let Some(k) = usize::from(motor).checked_sub(1).filter(|k| *k < MOTORS_MAX) else {
@@ -328,7 +398,11 @@ impl Card {
         let axis = self.axis(motor).copied().unwrap_or_default();
         // Ixx28 in 1/16 count (SRM p.284: following error below the in-position band).
         let band = self.motor_i(motor, 28) / 16.0;
+        let l = self.limits(motor);
         crate::motor_status::MotionBits {
+            plus_limit: self.hardware_limit(motor, 1.0) || l.plus.is_some_and(|p| axis.pos > p),
+            minus_limit: self.hardware_limit(motor, -1.0) || l.minus.is_some_and(|m| axis.pos < m),
+            limit_stop: axis.limit_stop,
             activated: self.activated(motor),
             integration_mode: self.motor_i(motor, 34) == 1.0,
             at_rest: axis.at_rest(),
@@ -524,6 +598,54 @@ mod tests {
         assert_eq!(position(&mut c, 2), 0.0);
         assert_eq!(status(&mut c, 2).1 & (1 << 10), 1 << 10);
         assert!(c.control(Control::parse("home-flag 9 0").unwrap()).starts_with("error: motor 9"));
+    }
+
+    #[test]
+    fn a_software_limit_stops_a_jog_past_it_and_forbids_going_further() {
+        // SRM p.96-97: past Ixx13 the motor decelerates at Ixx15 and moves no further that way.
+        let mut c = card();
+        values(&mut c, "#6J/ I613=1000 I615=1 I622=10 I620=1 I621=0 I619=100 #6J=5000");
+        step(&mut c, cycles(1000.0));
+        let (x, y) = status(&mut c, 6);
+        assert!(done(&mut c, 6));
+        assert_eq!((x & (1 << 21), y & (1 << 11)), (1 << 21, 1 << 11), "past the positive limit, stopped on it");
+        let p = position(&mut c, 6);
+        // 10 counts/ms at 1 count/ms²: 50 counts past the limit.
+        assert!((p - 1050.0).abs() < 1.0, "{p}");
+        values(&mut c, "#6J+");
+        step(&mut c, 100);
+        assert_eq!(position(&mut c, 6), p, "no further positive motion");
+        values(&mut c, "#6J=0");
+        step(&mut c, cycles(1000.0));
+        assert_eq!(position(&mut c, 6), 0.0, "back inside");
+        assert_eq!(status(&mut c, 6).0 & (1 << 21), 0);
+    }
+
+    #[test]
+    fn a_limit_switch_the_control_port_sets_stops_motion_towards_it_unless_ixx24_bit_17_is_set() {
+        let mut c = card();
+        values(&mut c, "#7J/ #7J+");
+        step(&mut c, cycles(300.0));
+        assert_eq!(c.control(Control::parse("limit 7 plus on").unwrap()), "ok");
+        assert_eq!(status(&mut c, 7).0 & (1 << 21), 1 << 21, "positive limit set");
+        step(&mut c, cycles(200.0));
+        assert!(done(&mut c, 7), "decelerated at Ixx15 and stopped");
+        let p = position(&mut c, 7);
+        values(&mut c, "#7J+");
+        step(&mut c, 100);
+        assert_eq!(position(&mut c, 7), p, "no motion into the limit");
+        values(&mut c, "#7J-");
+        step(&mut c, 100);
+        assert!(position(&mut c, 7) < p, "away from it is allowed");
+        // pmacAxis::home's `i<n>24=i<n>24|$20000`: limits off.
+        values(&mut c, "#7J/");
+        step(&mut c, 300);
+        values(&mut c, "I724=I724|$20000 #7J+");
+        assert_eq!(status(&mut c, 7).0 & (1 << 21), 0);
+        let q = position(&mut c, 7);
+        step(&mut c, 100);
+        assert!(position(&mut c, 7) > q);
+        assert!(Control::parse("limit 7 up on").unwrap_err().contains("plus or minus"));
     }
 
     #[test]
