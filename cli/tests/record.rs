@@ -495,6 +495,47 @@ fn the_emulator_s_capture_of_the_grammar_s_new_commands_replays_as_consistent() 
     std::fs::remove_file(&path).ok();
 }
 
+#[test]
+fn the_emulator_s_capture_of_motors_that_move_replays_as_consistent() {
+    // Issue 30: the trajectories are a layer within the core's motor states and send the core
+    // nothing a host did not send, so a session that moves, homes, stops and kills motors is
+    // still a capture the model explains: lockstep of the core and the model is kept.
+    use pmacwd_emulator::control::Control;
+    let spec = pmacwd_specs::Spec::embedded().unwrap();
+    let path = std::env::temp_dir().join(format!("pmacwd-record-motion-{}.jsonl", std::process::id()));
+    let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
+    let mut card = Card::default_card(Clock::Virtual);
+    card.record(CaptureWriter::new(out, "motion", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap());
+    let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
+    let step = |cycles: u32| assert!(server.with_card(|c| c.control(Control::Step { cycles })).starts_with("ok"));
+    {
+        let mut c = TcpStream::connect(server.local_addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        assert_eq!(ask(&mut c, "i6=1 i3=2 ver"), b"1.947\r\x06");
+        assert_eq!(ask(&mut c, "#1 J/ #2 J/"), b"\x06");
+        assert_eq!(ask(&mut c, "I122=2.000000 I120=100.000000 #1 J=2000.00 #2J+"), b"\x06");
+        step(1000);
+        assert_eq!(ask(&mut c, "#2 J/ M240=1"), b"\x06");
+        step(3000);
+        // Arrived: activated, amplifier on, integration mode, desired velocity zero; in position.
+        assert_eq!(ask(&mut c, "#1P #1?"), b"2000\r892000008001\r\x06");
+        assert!(
+            server.with_card(|c| c.control(Control::parse("home-flag 2 100000").unwrap())) == "ok",
+            "ahead of motor 2"
+        );
+        assert_eq!(ask(&mut c, "#2 HOME"), b"\x06");
+        step(10_000);
+        assert_eq!(ask(&mut c, "#2P"), b"0\r\x06");
+        assert_eq!(ask(&mut c, "#1J+ &1A"), b"\x06");
+        step(500);
+        assert_eq!(ask(&mut c, "#1K #2K ???").len(), 14);
+    }
+    assert!(server.with_card(|c| c.finish_recording()).is_empty());
+    server.stop();
+    assert_explained_by_default(&spec, &path);
+    std::fs::remove_file(&path).ok();
+}
+
 /// Sends one control line and reads its reply line.
 fn control_line(addr: std::net::SocketAddr, line: &str) -> String {
     use std::io::BufRead;
