@@ -340,7 +340,15 @@ impl Card {
             let k = usize::from(n - 1);
             let flag = self.motors.home_flags[k];
             let limits = self.limits(n);
-            self.motors.axes[k].advance(ms, flag, if offset.is_finite() { offset } else { 0.0 }, &limits);
+            let axis = &mut self.motors.axes[k];
+            axis.advance(ms, flag, if offset.is_finite() { offset } else { 0.0 }, &limits);
+            // MODEL: a motor stops at the end of its position range (+/-2^35 counts), however it
+            // got there (a jog without end, a homing search that never finds its flag).
+            if axis.pos.abs() > POSITION_MAX {
+                axis.pos = axis.pos.clamp(-POSITION_MAX, POSITION_MAX);
+                axis.halt();
+                axis.limit_stop = true;
+            }
         }
     }
 
@@ -702,5 +710,35 @@ mod tests {
         assert!(p > 1.0e6, "{p}");
         // The core's million cycles take a few ms; the trajectories add nothing per cycle.
         assert!(t.elapsed() < std::time::Duration::from_secs(5), "{:?}", t.elapsed());
+    }
+
+    #[test]
+    fn hostile_settings_and_targets_leave_every_answer_a_finite_number() {
+        // Bad input gets an answer, never a panic or a non-number: extreme speeds, rates,
+        // times, targets, servo periods, each followed by time passing.
+        let mut c = card();
+        let lines = [
+            "#1J/ I122=8999999999999999 I119=0.000000001 I120=0 I121=0 #1J=8999999999999999",
+            "#2J/ I222=-5 I219=-1 I220=-100 I221=-3 #2J^-8999999999999999",
+            "#3J/ I322=0 #3J+",
+            "#4J/ I410=1 I10=1 #4J-",
+            "I10=8999999999999999 #5J/ #5J+ #5HM",
+            "I10=-7 #6J/ I623=0 #6HM",
+            "#7J/ I713=-1 I714=1 I715=0 #7J=100",
+            "#8J/ I826=8999999999999999 I823=-8999999999999999 #8HM",
+        ];
+        for line in lines {
+            c.line(line.as_bytes()).expect("answered");
+            for cycles in [1, 255, 100_000, 10_000_000] {
+                step(&mut c, cycles);
+                for m in 1..=8u8 {
+                    for q in ["P", "V", "F"] {
+                        let v = values(&mut c, &format!("#{m}{q}"));
+                        let x: f64 = v[0].parse().unwrap_or_else(|_| panic!("#{m}{q} after `{line}`: {v:?}"));
+                        assert!(x.is_finite() && x.abs() <= 1e15, "#{m}{q} after `{line}`: {x}");
+                    }
+                }
+            }
+        }
     }
 }
