@@ -43,6 +43,15 @@ const PAGES_NOT_YET_IN_THE_MATRIX: &[(&str, &str)] = &[
     ("SRM p.286", "emulator: coordinate system status words (continued)"),
     ("SRM p.287", "emulator: coordinate system status words (continued)"),
     ("UM p.46", "emulator: commands stored in an open buffer instead of run"),
+    ("SRM p.95", "emulator motion (issue 30): Ixx12 units, Ixx13 the software limit"),
+    ("SRM p.96", "emulator motion: Ixx13 (continued): 0 is none, off during a homing search, from the home position"),
+    ("SRM p.97", "emulator motion: Ixx14, the negative software limit, decelerating at Ixx15"),
+    ("SRM p.98", "emulator motion: Ixx16's default (a motor I-variable default, variables.yaml)"),
+    ("SRM p.100", "emulator motion: Ixx19, the jog/home acceleration limit, and its default"),
+    ("SRM p.101", "emulator motion: Ixx20-Ixx23, jog acceleration time, S-curve, jog speed, home speed"),
+    ("SRM p.108", "emulator motion: Ixx27's default (variables.yaml)"),
+    ("SRM p.152", "emulator motion: Ixx92's default (variables.yaml)"),
+    ("SRM p.402", "emulator motion: V reports counts per servo cycle"),
 ];
 
 fn workspace_root() -> PathBuf {

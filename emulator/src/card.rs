@@ -9,13 +9,16 @@ use crate::framing::{framing_write_out_of_range, Answer, Framing};
 use crate::memory::{format_value, HostDefaults, Memory};
 use crate::motor_status::{cs_words, hex_words, motor_words};
 use crate::mvar::MemoryMap;
+use motion::Motors;
 use pmacwd_bridge::{core_command, core_event, spec_load};
 use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::grammar::{parse_commands, Addressing, Assigned, Command, Env, Gather, VarKind, Vars, VARIABLE_MAX};
-use pmacwd_specs::vocab::command::{HostCommand, Register};
+use pmacwd_specs::grammar::{
+    parse_commands, Addressing, Assigned, Command, Env, Gather, Jog, VarKind, Vars, VARIABLE_MAX,
+};
+use pmacwd_specs::vocab::command::{HostCommand, Motion, MotorCommand, Register};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::vocab::Buffer;
 use pmacwd_trace::jsonl::step_line;
@@ -24,6 +27,7 @@ use std::io::Write;
 use std::time::Instant;
 
 mod memory_access;
+mod motion;
 
 /// What `ver` and `cid` answer: a firmware version (dls-pmaclib checks `^\d+\.\d+`) and a card
 /// ID (603382 is the Geo Brick, one of the three dls-pmaclib knows).
@@ -95,25 +99,36 @@ pub struct FlashIVariables {
     /// store holds whole numbers, this the rest. Saved and restored with the others.
     fractions: std::collections::BTreeMap<u16, f64>,
     saved_fractions: std::collections::BTreeMap<u16, f64>,
+    /// The firmware defaults with a fraction (Ixx19 = 0.15625 counts/ms², SRM p.100).
+    factory_fractions: std::collections::BTreeMap<u16, f64>,
 }
 
 impl FlashIVariables {
-    /// `saved`: what flash holds; `factory`: the firmware's defaults.
-    pub fn new(saved: &[(u16, i64)], factory: &[(u16, i64)]) -> FlashIVariables {
-        let table = |values: &[(u16, i64)]| {
+    /// `saved`: what flash holds; `factory`: the firmware's defaults (a later value of one
+    /// I-variable overrides an earlier one).
+    pub fn new(saved: &[(u16, f64)], factory: &[(u16, f64)]) -> FlashIVariables {
+        let table = |values: &[(u16, f64)]| {
             let mut t = Box::<core::AllIVariables>::default();
+            let mut fractions = std::collections::BTreeMap::new();
             for &(n, v) in values {
-                t.write(n, v);
+                t.write(n, v.trunc() as i64);
+                if v.fract() == 0.0 {
+                    fractions.remove(&n);
+                } else {
+                    fractions.insert(n, v);
+                }
             }
-            t
+            (t, fractions)
         };
-        let flash = table(saved);
+        let (flash, saved_fractions) = table(saved);
+        let (factory, factory_fractions) = table(factory);
         FlashIVariables {
             values: flash.clone(),
             saved: flash,
-            factory: table(factory),
-            fractions: Default::default(),
-            saved_fractions: Default::default(),
+            factory,
+            fractions: saved_fractions.clone(),
+            saved_fractions,
+            factory_fractions,
         }
     }
 
@@ -136,7 +151,10 @@ impl FlashIVariables {
     pub fn restore_factory(&mut self, n: u16) {
         let v = self.factory.read(n).unwrap_or(0);
         self.values.write(n, v);
-        self.fractions.remove(&n);
+        match self.factory_fractions.get(&n) {
+            Some(f) => self.fractions.insert(n, *f),
+            None => self.fractions.remove(&n),
+        };
     }
 }
 
@@ -168,7 +186,7 @@ impl IVariableStore for FlashIVariables {
     /// the next reset (UM p.243).
     fn factory(&mut self) {
         self.values.0 = self.factory.0;
-        self.fractions.clear();
+        self.fractions = self.factory_fractions.clone();
     }
 }
 
@@ -224,6 +242,8 @@ pub struct Card {
     console: Option<Console>,
     /// Whether the console last saw the card tripped: a line is written when this changes.
     tripped_seen: bool,
+    /// Each motor's trajectory, and the home flags the control port placed (`card/motion.rs`).
+    motors: Motors,
 }
 
 impl Card {
@@ -243,9 +263,9 @@ impl Card {
         // What flash holds: the firmware defaults, then what was saved over them (UM p.243:
         // the last saved values are copied into active memory at power-up).
         let mut flash = defaults.i_defaults.clone();
-        flash.extend_from_slice(saved);
+        flash.extend(saved.iter().map(|&(n, v)| (n, v as f64)));
         let mut factory = defaults.i_defaults.clone();
-        factory.extend_from_slice(&FACTORY_FRAMING);
+        factory.extend(FACTORY_FRAMING.iter().map(|&(n, v)| (n, v as f64)));
         Card {
             core: core::Core::power_on(&cfg),
             cfg,
@@ -260,6 +280,7 @@ impl Card {
             addressing: Addressing::default(),
             console: None,
             tripped_seen: false,
+            motors: Motors::default(),
         }
     }
 
@@ -426,6 +447,10 @@ impl Card {
                 self.core.background_cycle(&self.cfg);
             }
         }
+        // The trajectories move for the cycles the card ran (up to a trip, which forces every
+        // output off, UM p.215), then stay within what the core says of each motor.
+        self.advance_motion(tripped_at.map_or(n, |c| c.saturating_sub(first)));
+        self.sync_motion();
         // The supply trips at its event, not in a servo cycle: a trip found here is the
         // watchdog's, its strobe stopped for want of a background cycle (UM p.215, SRM p.57).
         if let Some(cycle) = tripped_at {
@@ -571,21 +596,50 @@ impl Card {
                 out.push(self.grammar_answer(&c));
             }
             // Motion and stop commands, jogs to a target or by a distance, and homing: the
-            // core hears what the vocabulary makes of them (`HostCommand::from_grammar`).
-            Command::Motion(_) | Command::Jog(..) | Command::Home(_) => out.push(self.grammar_answer(&c)),
+            // core hears what the vocabulary makes of them (`HostCommand::from_grammar`), and
+            // the trajectories follow (`card/motion.rs`). A stop lasts the cycles its motors
+            // need at their rates (the core's stop length, chosen per command).
+            Command::Motion(m) => {
+                let usual = self.cfg.motion.decel_cycles;
+                if let Some(cycles) = self.stop_cycles(&m) {
+                    self.cfg.motion.decel_cycles = cycles;
+                }
+                out.push(self.grammar_answer(&c));
+                self.cfg.motion.decel_cycles = usual;
+                match m {
+                    Motion::Motor(n, MotorCommand::JogPlus) => self.start_jog(n, Jog::Plus),
+                    Motion::Motor(n, MotorCommand::JogMinus) => self.start_jog(n, Jog::Minus),
+                    _ => {}
+                }
+                self.sync_motion();
+            }
+            Command::Jog(n, jog) => {
+                out.push(self.grammar_answer(&c));
+                self.start_jog(n, jog);
+                self.sync_motion();
+            }
+            Command::Home(n) => {
+                out.push(self.grammar_answer(&c));
+                self.start_home(n);
+                self.sync_motion();
+            }
             Command::MotorStatus(n) => {
-                let (x, y) = motor_words(pmacwd_bridge::motor_status(&self.core, &self.cfg, n).as_ref());
+                let bits = self.motion_bits(n);
+                let (x, y) = motor_words(pmacwd_bridge::motor_status(&self.core, &self.cfg, n).as_ref(), &bits);
                 out.push(data(hex_words(&[x, y])));
             }
             Command::CsStatus(cs) => {
                 let (a, b, c) = cs_words(&self.members(cs));
                 out.push(data(hex_words(&[a, b, c])));
             }
-            // Positions, velocities and following errors: the emulated motors do not move
-            // (the core models motion as states, not trajectories): 0 counts, a documented
-            // constant. `HMZ` makes the present position zero, which it already is.
-            Command::Position(_) | Command::Velocity(_) | Command::FollowingError(_) => out.push(data("0".into())),
-            Command::HomeZero(_) => out.push(Answer::Nothing),
+            // Positions, velocities and following errors from the trajectories.
+            Command::Position(n) => out.push(self.position_answer(n)),
+            Command::Velocity(n) => out.push(self.velocity_answer(n)),
+            Command::FollowingError(n) => out.push(self.following_error_answer(n)),
+            Command::HomeZero(n) => {
+                self.home_zero(n);
+                out.push(Answer::Nothing)
+            }
             // Reported as `#1`, `&1` (SRM p.270: the motor "reported with the #{constant}
             // command").
             Command::ReportMotor => out.push(data(format!("#{}", addressing.motor))),
@@ -643,6 +697,10 @@ impl Card {
                     if failed {
                         return;
                     }
+                }
+                // A motor deactivated (Ixx00 = 0) stops at once (`card/motion.rs`).
+                if kind == VarKind::I {
+                    self.sync_motion();
                 }
             }
             // No MACRO ring on the emulated card (I20..I23 = $0): a station's variables read
@@ -767,6 +825,7 @@ impl Card {
         let reply = self.core.command(&self.cfg, core_command(command), &mut self.store);
         if matches!(command, HostCommand::Reset | HostCommand::Reinitialize) && reply != core::Reply::Silence {
             self.memory.reset();
+            self.motors.reset();
             match command {
                 HostCommand::Reinitialize => self.mvars.reinitialize(),
                 _ => self.mvars.reset(),
@@ -840,6 +899,9 @@ impl Card {
             }
             Control::Servo { cycles } => Event::Servo { cycles },
             Control::State => return format!("ok {}", self.state()),
+            Control::HomeFlag { motor, at } => return self.place_home_flag(motor, at),
+            Control::FollowingError { motor, counts } => return self.inject_following_error(motor, counts),
+            Control::Limit { motor, plus, on } => return self.set_limit_input(motor, plus, on),
             Control::Help => return format!("ok {HELP}"),
         };
         self.core.apply(&self.cfg, core_event(&event), &mut self.store);
@@ -851,6 +913,7 @@ impl Card {
                 // A power cycle or INIT/ restarts the card as `$$$` does: active memory is
                 // volatile and the saved values come back (UM p.243).
                 self.memory.reset();
+                self.motors.reset();
                 self.mvars.reset();
                 let faults: Vec<&str> =
                     [(r.dpram_fault, "DPRAM fault"), (r.flash_fault, "flash fault"), (r.bootstrap, "bootstrap mode")]
@@ -882,6 +945,7 @@ impl Card {
             other => format!("after the control event `{other}`"),
         };
         self.watch_trip(&cause);
+        self.sync_motion();
         let step = Step { event: TraceEvent::Model(event), expect: Expect::default(), note: None };
         let line = step_line(&step);
         self.captured(|c| c.event(step));
@@ -1154,7 +1218,7 @@ mod tests {
         c.line(b"I130=1000 I40=7 SAVE");
         c.line(b"$$$***");
         // I3 = 1 (SRM p.37, the factory framing): each answer LF DATA CR, the line ends in LF.
-        assert_eq!(c.line(b"I130 I40 I3 I10").unwrap(), b"\n0\r\n0\r\n1\r\n3713707\r\n");
+        assert_eq!(c.line(b"I130 I40 I3 I10").unwrap(), b"\n2000\r\n0\r\n1\r\n3713707\r\n", "I130's factory default");
         c.line(b"I3=2");
         c.line(b"$$$");
         assert_eq!(values(&c.line(b"I130 I3").unwrap()), ["1000", "2"], "the saved values, again");
@@ -1179,7 +1243,7 @@ mod tests {
         // SRM p.57: I41 locks the {I-variable}={value} command, not a memory write.
         let mut c = card();
         c.line(b"I41=1 I130=5");
-        assert_eq!(values(&c.line(b"I130").unwrap()), ["0"], "locked");
+        assert_eq!(values(&c.line(b"I130").unwrap()), ["2000"], "locked: the factory default stays");
         assert_eq!(c.line(b"<MEMORY-WRITE I130=5>").unwrap(), b"\x06");
         assert_eq!(values(&c.line(b"I130").unwrap()), ["5"], "written past I41");
         // UM p.217, SRM p.295: CHECKSUM and CHKS answer the reference (the model's token).
@@ -1193,7 +1257,7 @@ mod tests {
         // I130's storage at D:$002082 (variables.yaml, i_variable_storage: MODEL).
         let mut c = card();
         c.line(b"I41=1 I130=5");
-        assert_eq!(values(&c.line(b"I130").unwrap()), ["0"], "the on-line command is ignored");
+        assert_eq!(values(&c.line(b"I130").unwrap()), ["2000"], "the on-line command is ignored");
         assert_eq!(c.line(b"M100->D:$002082 M100=9").unwrap(), b"\x06");
         assert_eq!(values(&c.line(b"I130 M100").unwrap()), ["9", "9"], "the M-variable reached I130");
         assert_eq!(c.line(b"WD:$2082,11").unwrap(), b"\x06");

@@ -16,6 +16,9 @@
 //! step N                                                 virtual time: N servo cycles, background whenever possible
 //! servo N                                                virtual time: N servo cycles, no background
 //! state                                                  tripped, counter, minimum, status words, cycles, load
+//! home-flag M AT|none                                    motor M's home flag triggers at AT counts (as motor M's position reads now); none: no flag
+//! following-error M COUNTS                               motor M's following error reads COUNTS (0: none)
+//! limit M plus|minus on|off                              motor M's limit switch at that end of travel hit or clear
 //! help                                                   this list
 //! ```
 
@@ -69,12 +72,29 @@ pub enum Control {
         cycles: u32,
     },
     State,
+    /// Where motor `motor`'s home flag triggers, counts as its position reads now; `None`: no flag.
+    HomeFlag {
+        motor: u8,
+        at: Option<i64>,
+    },
+    /// Motor `motor`'s limit switch at the plus (or minus) end hit (`on`) or clear.
+    Limit {
+        motor: u8,
+        plus: bool,
+        on: bool,
+    },
+    /// A following error on motor `motor`, counts.
+    FollowingError {
+        motor: u8,
+        counts: i64,
+    },
     Help,
 }
 
 pub const HELP: &str = "commands: load [motors=M] [plc0_units=P] [background_units=B] | motors M | plc0 P | \
 background B | starve | supply MV | init | power [dpram_fault] [flash_fault] [bootstrap] | \
-checksum firmware|user_program | clear_rti_reentry | step N | servo N | state | help";
+checksum firmware|user_program | clear_rti_reentry | step N | servo N | state | home-flag M AT|none | \
+following-error M COUNTS | limit M plus|minus on|off | help";
 
 fn number<T: std::str::FromStr>(word: Option<&str>, what: &str) -> Result<T, String> {
     let w = word.ok_or_else(|| format!("missing {what}"))?;
@@ -148,6 +168,32 @@ impl Control {
             "step" => Control::Step { cycles: number(words.next(), "number of servo cycles (up to 4294967295)")? },
             "servo" => Control::Servo { cycles: number(words.next(), "number of servo cycles (up to 4294967295)")? },
             "state" => Control::State,
+            "home-flag" => {
+                let motor = number(words.next(), "motor number (1..8)")?;
+                let at = match words.next() {
+                    Some("none") => None,
+                    w => Some(number(w, "position in counts")?),
+                };
+                Control::HomeFlag { motor, at }
+            }
+            "limit" => {
+                let motor = number(words.next(), "motor number (1..8)")?;
+                let plus = match words.next() {
+                    Some("plus") => true,
+                    Some("minus") => false,
+                    _ => return Err("limit M plus|minus on|off: which end, plus or minus".into()),
+                };
+                let on = match words.next() {
+                    Some("on") => true,
+                    Some("off") => false,
+                    _ => return Err("limit M plus|minus on|off: on (hit) or off (clear)".into()),
+                };
+                Control::Limit { motor, plus, on }
+            }
+            "following-error" => Control::FollowingError {
+                motor: number(words.next(), "motor number (1..8)")?,
+                counts: number(words.next(), "following error in counts")?,
+            },
             "help" => Control::Help,
             other => return Err(format!("unknown command `{other}`; {HELP}")),
         };

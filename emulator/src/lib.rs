@@ -14,3 +14,4 @@ pub mod mvar;
 pub mod protocol;
 pub mod proxy;
 pub mod server;
+pub mod trajectory;

@@ -14,7 +14,7 @@ const COUNT: usize = VARIABLE_MAX as usize + 1;
 #[derive(Clone, Debug, Default)]
 pub struct HostDefaults {
     /// I-variable defaults, applied at power-on before the saved values.
-    pub i_defaults: Vec<(u16, i64)>,
+    pub i_defaults: Vec<(u16, f64)>,
     /// Address I-variables, printed `$...` when I9 bit 1 is set (SRM p.42).
     pub i_hex: Vec<u16>,
     /// M-variables with a defined value (documented constants).

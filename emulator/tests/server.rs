@@ -115,7 +115,7 @@ fn clients_that_leave_mid_request_or_mid_reply_do_not_disturb_others() {
         c.write_all(&[0x40, 0xBF, 0]).unwrap();
     }
     let mut c = connect(&s);
-    assert_eq!(ask(&mut c, "I130"), b"0\r\x06", "the half-sent write was never executed");
+    assert_eq!(ask(&mut c, "I130"), b"2000\r\x06", "the half-sent write was never executed: the factory default");
     assert_eq!(ask(&mut c, "???"), b"001000000000\r\x06");
 }
 
@@ -169,7 +169,11 @@ fn a_tripped_card_reads_requests_and_answers_none_until_init() {
         card.control(Control::parse("init").unwrap());
     });
     c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-    assert_eq!(ask(&mut c, "I130"), b"0\r\x06", "the write sent while tripped was never executed");
+    assert_eq!(
+        ask(&mut c, "I130"),
+        b"2000\r\x06",
+        "the write sent while tripped was never executed: the factory default"
+    );
 }
 
 #[test]

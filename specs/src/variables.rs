@@ -62,7 +62,8 @@ impl IVariableStorage {
 pub struct HostIVariable {
     /// `I10`, or `Ixx24` for one per motor.
     pub number: String,
-    pub default: i64,
+    /// The value, a fraction where the unit asks for one (Ixx19 = 0.15625 counts/ms²).
+    pub default: f64,
     /// An address I-variable, reported as `$...` when I9 is 2 or 3 (SRM p.42).
     pub hex: bool,
     pub title: String,
@@ -315,7 +316,7 @@ mod host_tests {
         let spec = crate::Spec::embedded().unwrap();
         let v = &spec.variables;
         let i10 = v.host_i_variables.iter().find(|h| h.number == "I10").unwrap();
-        assert_eq!(i10.default, 3_713_707, "SRM p.42-43");
+        assert_eq!(i10.default, 3_713_707.0, "SRM p.42-43");
         assert!(v.host_i_variables.iter().filter(|h| h.hex).any(|h| h.number == "I20"));
         assert!(v.host_m_variables.iter().any(|h| h.number == "Mxx90"));
     }

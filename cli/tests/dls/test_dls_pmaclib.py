@@ -142,7 +142,7 @@ class Session:
         self.control("plc0 30")
         self.control("init")
         t.assertRegex(self.ok("???"), STATUS_REPLY)
-        t.assertEqual(self.ok("I130"), "0\r\x06", "INIT/ restores the saved I-variables")
+        t.assertEqual(self.ok("I130"), "2000\r\x06", "INIT/ restores the saved I-variables: I130 as flash holds it, its factory default")
         self.step(100)
         t.assertRegex(self.ok("???"), STATUS_REPLY)
 

@@ -230,6 +230,56 @@ class DlsPmacControlAgainstTheEmulator(unittest.TestCase):
         print("screenshot:", shot(self.form.statusScreen, "motor1-status-after-kill-all.png"))
         print("screenshot:", shot(self.form, "main-window-after-kill-all.png"))
 
+    def motor1(self, since):
+        """Motor 1's status words, position and velocity in the first poll answered after `since`."""
+        _, reply = self.first_good_poll(since)
+        status, position, velocity = values(reply)[4:7]
+        return int(status[:6], 16), int(status[6:], 16), float(position), float(velocity)
+
+    def test_holding_jog_pos_moves_the_motor_on_screen_and_home_completes(self):
+        # The loop closed first (J/ on a killed motor closes it, as the EPICS driver's CNEN does).
+        reply, ok = self.form.pmac.sendCommand("#1J/")
+        self.assertEqual((reply, ok), ("\x06", True))
+        # "jog inc" off (checked by default, the buttons then jog by a distance), then hold
+        # "jog +" for 2 s: the GUI sends J+ when pressed and J/ when released.
+        self.form.chkJogInc.setChecked(False)
+        pressed = time.monotonic()
+        self.form.btnJogPos.pressed.emit()
+        pump(self.app, 2.0)
+        x, _, position, velocity = self.motor1(time.monotonic())
+        self.assertGreater(position, 10_000.0, "32 counts/ms (Ixx22) for most of 2 s")
+        self.assertGreater(velocity, 0.0)
+        self.assertEqual(x & (1 << 13), 0, "desired velocity not zero while jogging")
+        pump(self.app, 0.3)
+        self.assertGreater(float(self.form.lblPosition.text()), 10_000.0, "the jog ribbon shows it")
+        print("screenshot:", shot(self.form, "main-window-jogging.png"))
+        self.form.btnJogPos.released.emit()
+        sent = [c for t, c, _, _ in self.exchanges.log if t >= pressed and c.startswith("#1J")]
+        self.assertEqual(sent, ["#1J+", "#1J/"], "what the ribbon sent")
+        # J/ decelerates at the jog rate (Ixx19, 0.15625 counts/ms²: about 113 ms, the core's
+        # longest stop); then at rest, in position.
+        pump(self.app, 0.5)
+        x, y, stopped, velocity = self.motor1(time.monotonic())
+        self.assertEqual((velocity, x & (1 << 13), y & 1), (0.0, 1 << 13, 1), "at rest, in position")
+        pump(self.app, 0.3)
+        self.assertAlmostEqual(float(self.form.lblPosition.text()), stopped, delta=0.1, msg="the ribbon shows where it stopped, to a tenth")
+        # Home: the flag placed 1000 counts past where it stopped, in the search direction
+        # (Ixx23 = +32 counts/ms).
+        self.emulator.control(f"home-flag 1 {int(stopped) + 1000}")
+        self.form.btnHome.clicked.emit()
+        self.assertIn("#1HM", [c for _, c, _, _ in self.exchanges.log], "the ribbon's home command")
+        pump_until(
+            self.app,
+            lambda: self.motor1(time.monotonic())[1] & (1 << 10),
+            10,
+            "home complete (second word bit 10)",
+        )
+        x, y, position, velocity = self.motor1(time.monotonic())
+        self.assertEqual((position, velocity, y & 1), (0.0, 0.0, 1), "homed at 0, in position")
+        pump(self.app, 0.3)
+        self.assertEqual(float(self.form.lblPosition.text()), 0.0)
+        print("screenshot:", shot(self.form, "main-window-homed.png"))
+
     def test_a_watchdog_trip_is_lost_communication_and_init_brings_it_back(self):
         self.first_good_poll()
         # Starve the background: I40 = 0 trips after ~4096 servo cycles (UM p.215), ~2 s.

@@ -169,7 +169,7 @@ class EpicsPollLists(unittest.TestCase):
         self.assertEqual(self.ask(f"&{cs}#3->,"), ["0"], "a motor without one")
         self.assertEqual(self.ask(f"I{axis}22"), ["2"], "the last jog speed written")
         self.assertEqual(self.ask(f"I{axis}22=0.25 I{axis}22"), ["0.25"], "a fraction is kept")
-        self.assertEqual(self.ask(f"M{axis}61"), ["0"], "100*32*I108 with I108 = 0")
+        self.assertEqual(self.ask(f"M{axis}61"), ["307200"], "100*32*I108 with I108 = 96, its default")
         # pmacCSController::listKinematic: the listing loop ends at an empty reply.
         self.assertEqual(self.ask(f"&{cs} list forward,0,1"), [])
 
