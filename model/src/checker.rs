@@ -46,6 +46,11 @@ pub struct WatchdogModel {
     /// then paths that `pmacwd run` reproduces (`check --save`), at the price of the behaviours
     /// only a shorter deceleration shows.
     pub longest_decelerations_only: bool,
+    /// Give stateright every property separately under its own name (the sentence `pmacwd
+    /// check` prints) instead of a short id: what stateright's Explorer shows (`pmacwd
+    /// explore`). Slower to check (a lookup by name per property per state), and not what
+    /// [`WatchdogModel::check`] reads back, which goes by id.
+    pub named_properties: bool,
 }
 
 /// Deliberate bugs that the checker must catch (the canary tests).
@@ -119,7 +124,7 @@ pub fn signature(cfg: &ModelConfig, c: &Controller) -> impl PartialEq {
 
 impl WatchdogModel {
     pub fn new(cfg: ModelConfig) -> Self {
-        WatchdogModel { cfg, canary: None, detailed: false, longest_decelerations_only: false }
+        WatchdogModel { cfg, canary: None, detailed: false, longest_decelerations_only: false, named_properties: false }
     }
 
     /// Advances servo cycle by servo cycle up to the first cycle whose [`signature`] differs,
@@ -418,6 +423,18 @@ impl Model for WatchdogModel {
         Some(next)
     }
 
+    /// The Explorer's view of a state ([`crate::show::state_text`]): the card first.
+    fn format_state(&self, state: &State) -> String {
+        crate::show::state_text(&self.cfg, state)
+    }
+
+    /// The Explorer's "outcome" of an action: the concrete event (the servo cycles of a time
+    /// jump), the reply and the card after it, as `pmacwd check` prints a path's step.
+    fn format_step(&self, state: &State, action: Action) -> Option<String> {
+        let (event, reply, next) = self.perform(state, &action);
+        Some(crate::show::step_text(&self.cfg, &event, reply, &next.controller))
+    }
+
     fn format_action(&self, action: &Action) -> String {
         match action {
             Action::Do(e) => e.to_string(),
@@ -439,6 +456,18 @@ impl Model for WatchdogModel {
     /// it on every state, since it is never reached (13 of them at `timing`).
     fn properties(&self) -> Vec<Property<Self>> {
         let applies = |p: &StateProperty| p.expectation == Expectation::Always || (p.applies)(&self.cfg);
+        if self.named_properties {
+            // The same properties as in detail below, each under its sentence.
+            let mut v: Vec<Property<Self>> =
+                MONITORS.iter().enumerate().map(|(k, m)| Property::always(m.name, MONITOR_HOLDS[k])).collect();
+            for (k, p) in STATE_PROPERTIES.iter().enumerate().filter(|(_, p)| applies(p)) {
+                v.push(match p.expectation {
+                    Expectation::Always => Property::always(p.name, STATE_HOLDS[k]),
+                    Expectation::Sometimes => Property::sometimes(p.name, STATE_HOLDS[k]),
+                });
+            }
+            return v;
+        }
         if !self.detailed {
             let mut v: Vec<Property<Self>> = vec![
                 Property::always(PROPERTY_IDS[0], |_, s: &State| s.violations == 0),
@@ -749,8 +778,9 @@ impl WatchdogModel {
         if discoveries.contains_key(PROPERTY_IDS[0]) || discoveries.contains_key(PROPERTY_IDS[1]) {
             // Some `always` property fails: check each one on its own, for its verdict and its own
             // shortest counterexample.
-            let mut report = WatchdogModel { cfg, canary, detailed: true, longest_decelerations_only }
-                .check_detailed(threads, states_max, progress);
+            let mut report =
+                WatchdogModel { cfg, canary, detailed: true, longest_decelerations_only, named_properties: false }
+                    .check_detailed(threads, states_max, progress);
             report.duration += duration;
             return report;
         }
