@@ -380,7 +380,7 @@ fn mutate(
         (Canary::TripLeavesOutputsLive, _) if tripped_now => next.outputs.forced_off = false,
         (Canary::ResetLeavesLedLit, Event::Reset(_)) if prev.tripped() => next.outputs.led_red = true,
         (Canary::TrippedCardAnswers, Event::Command(_)) if prev.tripped() => *reply = Reply::Ack,
-        (Canary::TrippedCardCounts, Event::Servo { .. }) if prev.tripped() => next.counter -= 1,
+        (Canary::TrippedCardCounts, Event::Servo { .. }) if prev.tripped() && next.counter > 0 => next.counter -= 1,
         (Canary::TrippedCardTakesWrites, Event::Command(HostCommand::WriteI(41, v))) if prev.tripped() => {
             next.i41 = (*v & 0xF) as u8;
         }
@@ -643,6 +643,14 @@ impl Model for WatchdogModel {
             if cfg.clear_rti_reentry && c.status.rti_reentry {
                 actions.push(Action::Do(Event::ClearRtiReentry));
             }
+        }
+        // Time passes for a tripped card too. Its servo interrupt does nothing (UM p.215: "The
+        // processor stops operating"), so this adds no state, only the transition that lets
+        // "a tripped card changes no state until it is reset" check that (one servo cycle: a
+        // time jump would look for a change that never comes). Found by the hand mutation
+        // `TrippedCardCounts` (conformance/tests/mutations.rs), which no check caught before.
+        if c.tripped() {
+            actions.push(Action::Do(Event::Servo { cycles: 1 }));
         }
         // Commands reach a tripped card too: it must stay silent. A motion command is offered
         // once per deceleration length when it can start a deceleration on a running card.
