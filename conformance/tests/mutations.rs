@@ -11,6 +11,7 @@
 //! docs/requirements.md lists, from this table, which statements' checks caught a mutation and
 //! which statements were not tried; the last test holds the page to the table and the matrix.
 
+use pmacwd_conformance::runner::{profiles_of, run_on_model, Failure};
 use pmacwd_model::checker::{Canary, RunReport, WatchdogModel};
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::requirements::Category;
@@ -488,6 +489,187 @@ const MUTATIONS: &[Mutation] = &[
     },
 ];
 
+/// A mutation of a spec file's text: a constant of the manuals swapped in a copy of `specs/`,
+/// which the scenarios (run on the model, under the profiles each names) must notice.
+struct SpecMutation {
+    name: &'static str,
+    what: &'static str,
+    statements: &'static [&'static str],
+    file: &'static str,
+    /// Applied in order: after the one occurrence of the anchor, the first `from` becomes `to`.
+    edits: &'static [(&'static str, &'static str, &'static str)],
+    caught_by: Catch,
+}
+
+/// What must notice a spec mutation.
+enum Catch {
+    /// Each of these scenarios diverges under some profile it names.
+    Scenarios(&'static [&'static str]),
+    /// The model check of this configuration (default profile), on the mutated spec, fails
+    /// each of these properties.
+    Check(&'static str, &'static [&'static str]),
+}
+
+/// The edits that move status bit `a` (named) onto the position of bit `b` and back.
+macro_rules! swap_names {
+    ($a:literal, $b:literal) => {
+        &[
+            (concat!("name: ", $a, "\n"), concat!("name: ", $a), "name: swapped_for_the_mutation"),
+            (concat!("name: ", $b, "\n"), concat!("name: ", $b), concat!("name: ", $a)),
+            ("name: swapped_for_the_mutation", "name: swapped_for_the_mutation", concat!("name: ", $b)),
+        ]
+    };
+}
+
+const SPEC_MUTATIONS: &[SpecMutation] = &[
+    SpecMutation {
+        name: "UmReloadValuesSwapped",
+        what: "the reset values of um-215 and um-215-4095 swapped (the loader refuses two profiles alike)",
+        statements: &["um215_i40_zero_means_4096"],
+        file: "profiles.yaml",
+        edits: &[
+            ("  um-215:\n", "reset_value_when_i40_zero: \"4096\"", "reset_value_when_i40_zero: \"4095\""),
+            ("  um-215-4095:\n", "reset_value_when_i40_zero: \"4095\"", "reset_value_when_i40_zero: \"4096\""),
+        ],
+        caught_by: Catch::Scenarios(&["with-i40-zero-the-um-readings-reload-the-counter-to-4096"]),
+    },
+    SpecMutation {
+        name: "SrmProfileReloads4096",
+        what: "the SRM profile given UM p.215's 4096",
+        statements: &["srm57_i40_zero_means_4095", "srm57_i40_default"],
+        file: "profiles.yaml",
+        edits: &[("  srm-57:\n", "reset_value_when_i40_zero: \"4095\"", "reset_value_when_i40_zero: \"4096\"")],
+        caught_by: Catch::Scenarios(&["with-i40-zero-the-srm-readings-reload-the-counter-to-4095"]),
+    },
+    SpecMutation {
+        name: "I41DefaultOne",
+        what: "I41's factory default 1 instead of 0",
+        statements: &["srm57_i41_default", "um243_reinitialization_uses_factory_defaults"],
+        file: "variables.yaml",
+        edits: &[("  I41:\n", "default: 0", "default: 1")],
+        caught_by: Catch::Scenarios(&[
+            "dollar-dollar-dollar-star-star-star-reinitializes-and-a-reset-brings-the-saved-values-back",
+        ]),
+    },
+    SpecMutation {
+        name: "I41RangeThreeBits",
+        what: "I41's range 0..7 instead of 0..15 (a wider one the loader refuses: I41 holds 4 bits)",
+        statements: &["srm57_i41_range"],
+        file: "variables.yaml",
+        edits: &[("  I41:\n", "range: {min: 0, max: 15}", "range: {min: 0, max: 7}")],
+        caught_by: Catch::Scenarios(&[
+            "i41-bit-3-alone-locks-the-conversion-table-from-i8000-to-i8191-and-nothing-else",
+        ]),
+    },
+    SpecMutation {
+        name: "ServoErrorOnBit19",
+        what: "the servo error bit named at X19 instead of X20",
+        statements: &["srm289_x20_servo_error"],
+        file: "status.yaml",
+        edits: swap_names!("servo_error", "data_gathering_on"),
+        // The scenario of bit 20 names the bit (`status_set: [servo_error]`), so it moves with
+        // the name; the property reads X19 where SRM p.289 prints it.
+        caught_by: Catch::Check("timing", &[NOT_MODELLED_BITS]),
+    },
+    SpecMutation {
+        name: "ChecksumErrorOnBit14",
+        what: "the checksum error bit named at X14 instead of X13",
+        statements: &["srm289_x13_any_checksum_error", "srm289_bit_one_when_true", "um217_user_mismatch_sets_bit_13"],
+        file: "status.yaml",
+        edits: swap_names!("checksum_error", "leadscrew_compensation_on"),
+        caught_by: Catch::Check("status", &[NOT_MODELLED_BITS]),
+    },
+    SpecMutation {
+        name: "PromChecksumOnBit11",
+        what: "the PROM-checksum-active bit named at X11 instead of X12",
+        statements: &["srm289_x12_firmware", "srm289_x12_user_program", "um217_firmware_checksum_continual"],
+        file: "status.yaml",
+        edits: swap_names!("prom_checksum_active", "dpram_error"),
+        caught_by: Catch::Scenarios(&["bit-12-alternates-between-the-firmware-and-user-program-passes"]),
+    },
+    SpecMutation {
+        name: "CpuTypeBit1OnBit23",
+        what: "CPU type bit 1 named at X23 instead of X21",
+        statements: &["srm289_x21_cpu_type"],
+        file: "status.yaml",
+        edits: swap_names!("cpu_type_bit1", "reserved_x23"),
+        // The DSP56309 scenario has bit 1 clear, which moving it does not change.
+        caught_by: Catch::Scenarios(&["a-dsp56321-card-sets-both-cpu-type-bits-of-global-status"]),
+    },
+];
+
+/// A copy of the spec files of `specs/` with `m`'s edits, loaded.
+fn mutated_spec(m: &SpecMutation) -> Spec {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../specs");
+    let dir = std::env::temp_dir().join(format!("pmacwd-spec-mutation-{}-{}", std::process::id(), m.name));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for entry in std::fs::read_dir(&root).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "yaml") {
+            std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
+        }
+    }
+    let file = dir.join(m.file);
+    let mut text = std::fs::read_to_string(&file).unwrap();
+    for (anchor, from, to) in m.edits {
+        assert_eq!(text.matches(anchor).count(), 1, "{}: the anchor {anchor:?} occurs once in {}", m.name, m.file);
+        let at = text.find(anchor).unwrap();
+        let pos = at + text[at..].find(from).unwrap_or_else(|| panic!("{}: no {from:?} after {anchor:?}", m.name));
+        text.replace_range(pos..pos + from.len(), to);
+    }
+    std::fs::write(&file, text).unwrap();
+    let spec = Spec::load_dir(&dir).unwrap_or_else(|e| panic!("{}: the mutated spec does not load: {e}", m.name));
+    let _ = std::fs::remove_dir_all(&dir);
+    spec
+}
+
+/// Every spec mutation makes each scenario it names diverge (not fail to run) under some
+/// profile the scenario names, and every scenario it names holds on the real spec (the
+/// scenario test checks the whole library; here only the named ones, under the same runner).
+#[test]
+fn every_spec_mutation_is_caught_by_the_scenarios_it_names() {
+    let real = Spec::embedded().unwrap();
+    let mut missed = Vec::new();
+    for m in SPEC_MUTATIONS {
+        let spec = mutated_spec(m);
+        let scenarios = match m.caught_by {
+            Catch::Scenarios(stems) => stems,
+            Catch::Check(configuration, properties) => {
+                let cfg = ModelConfig::from_spec(&spec, configuration, &spec.profiles.default_profile()).unwrap();
+                let report = WatchdogModel::new(cfg).check(2);
+                assert!(report.complete, "{}: the run was cut short", m.name);
+                for name in properties {
+                    let p = report.properties.iter().find(|p| p.name == *name).unwrap();
+                    if p.holds {
+                        missed.push(format!("{} ({}): `{name}` still holds at {configuration}", m.name, m.what));
+                    }
+                }
+                &[]
+            }
+        };
+        for stem in scenarios {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../specs/scenarios/{stem}.yaml"));
+            let loaded = pmacwd_trace::load_yaml(&path).unwrap_or_else(|e| panic!("{}: {e}", m.name));
+            for profile in profiles_of(&real, &loaded).unwrap() {
+                assert!(run_on_model(&real, &loaded, &profile).is_ok(), "{stem} holds on the real spec");
+            }
+            let mut diverged = false;
+            for profile in profiles_of(&spec, &loaded).unwrap() {
+                match run_on_model(&spec, &loaded, &profile) {
+                    Ok(_) => {}
+                    Err(Failure::Diverged(_)) => diverged = true,
+                    Err(Failure::Unusable(e)) => panic!("{}: {stem} cannot run on the mutated spec: {e}", m.name),
+                }
+            }
+            if !diverged {
+                missed.push(format!("{} ({}): {stem} still holds", m.name, m.what));
+            }
+        }
+    }
+    assert!(missed.is_empty(), "spec mutations not caught:\n{}", missed.join("\n"));
+}
+
 fn run(m: &Mutation) -> RunReport {
     let spec = Spec::embedded().unwrap();
     let mut cfg = ModelConfig::from_spec(&spec, m.configuration, &spec.profiles.default_profile())
@@ -545,13 +727,15 @@ fn the_mutations_name_checked_statements_of_the_matrix() {
     let category: BTreeMap<&str, Category> =
         spec.requirements.statements.iter().map(|s| (s.id.as_str(), s.category())).collect();
     let mut names = BTreeSet::new();
-    for m in MUTATIONS {
-        assert!(names.insert(m.name), "two mutations are named {}", m.name);
-        for id in m.statements {
+    let all =
+        MUTATIONS.iter().map(|m| (m.name, m.statements)).chain(SPEC_MUTATIONS.iter().map(|m| (m.name, m.statements)));
+    for (name, statements) in all {
+        assert!(names.insert(name), "two mutations are named {name}");
+        for id in statements {
             match category.get(id) {
                 Some(Category::Checked) => {}
-                Some(c) => panic!("{}: statement {id} is {c:?}, not checked", m.name),
-                None => panic!("{}: no statement {id} in specs/requirements.yaml", m.name),
+                Some(c) => panic!("{name}: statement {id} is {c:?}, not checked"),
+                None => panic!("{name}: no statement {id} in specs/requirements.yaml"),
             }
         }
     }
@@ -579,13 +763,29 @@ fn docs_requirements_md_lists_every_mutation_and_every_statement_not_tried() {
         assert_eq!(ids, &want, "docs/requirements.md: the statements of {}", m.name);
         assert_eq!(*caught, m.caught, "docs/requirements.md: whether {} is caught", m.name);
     }
-    assert_eq!(rows.len(), MUTATIONS.len(), "docs/requirements.md has rows for mutations the table lacks");
+    for m in SPEC_MUTATIONS {
+        let (ids, caught) =
+            rows.get(m.name).unwrap_or_else(|| panic!("docs/requirements.md has no row for {}", m.name));
+        let want: BTreeSet<String> = m.statements.iter().map(|s| s.to_string()).collect();
+        assert_eq!(ids, &want, "docs/requirements.md: the statements of {}", m.name);
+        assert!(*caught, "docs/requirements.md: {} is caught", m.name);
+    }
+    assert_eq!(
+        rows.len(),
+        MUTATIONS.len() + SPEC_MUTATIONS.len(),
+        "docs/requirements.md has rows for mutations the tables lack"
+    );
     // The statements not tried: the section's backquoted ids.
     let section = page.split("## Checked statements no mutation was tried on").nth(1).expect("the not-tried section");
     let section = section.split("\n## ").next().unwrap();
     let not_tried: BTreeSet<String> =
         section.split('`').skip(1).step_by(2).filter(|w| w.contains('_')).map(String::from).collect();
-    let tried: BTreeSet<String> = MUTATIONS.iter().flat_map(|m| m.statements).map(|s| s.to_string()).collect();
+    let tried: BTreeSet<String> = MUTATIONS
+        .iter()
+        .flat_map(|m| m.statements)
+        .chain(SPEC_MUTATIONS.iter().flat_map(|m| m.statements))
+        .map(|s| s.to_string())
+        .collect();
     let spec = Spec::embedded().unwrap();
     let checked: BTreeSet<String> = spec
         .requirements
@@ -596,4 +796,18 @@ fn docs_requirements_md_lists_every_mutation_and_every_statement_not_tried() {
         .collect();
     let want: BTreeSet<String> = checked.difference(&tried).cloned().collect();
     assert_eq!(not_tried, want, "docs/requirements.md: the checked statements no mutation was tried on");
+    // The statements caught: the section's backquoted ids.
+    let section =
+        page.split("## Checked statements whose checks caught a mutation").nth(1).expect("the caught section");
+    let section = section.split("\n## ").next().unwrap();
+    let listed: BTreeSet<String> =
+        section.split('`').skip(1).step_by(2).filter(|w| w.contains('_')).map(String::from).collect();
+    let caught: BTreeSet<String> = MUTATIONS
+        .iter()
+        .filter(|m| m.caught)
+        .flat_map(|m| m.statements)
+        .chain(SPEC_MUTATIONS.iter().flat_map(|m| m.statements))
+        .map(|s| s.to_string())
+        .collect();
+    assert_eq!(listed, caught, "docs/requirements.md: the checked statements whose checks caught a mutation");
 }
