@@ -188,6 +188,22 @@ const MUTATIONS: &[Mutation] = &[
         &["under the at-zero reading the counter never goes below zero"],
     ),
     canary(
+        "CounterDropsByTwo",
+        "a servo cycle takes 2 off the counter",
+        &["srm57_decrement_by_one"],
+        "timing",
+        Canary::CounterDropsByTwo,
+        &["the watchdog counter drops by at most one per servo cycle"],
+    ),
+    canary(
+        "PlcRestartsOnOverrun",
+        "an RTI that finds the previous tasks still running starts PLC 0 again",
+        &["um236_plc0_every_rti_if_previous_done"],
+        "timing",
+        Canary::PlcRestartsOnOverrun,
+        &["PLC 0 starts only when the previous RTI tasks have completed"],
+    ),
+    canary(
         "BackgroundReloadsOneHigh",
         "a background cycle reloads the counter one above the reset value",
         &[
@@ -402,6 +418,14 @@ const MUTATIONS: &[Mutation] = &[
         "encoder-loss-2",
         Canary::EncoderLossKillsOnlyItsMotor,
         &[PLC_KILLS_ALL],
+    ),
+    canary(
+        "EncoderLossNeverClears",
+        "under the intended reading the encoder-loss PLC never clears a latched loss",
+        &["um215_encoder_loss_clear_logic"],
+        "encoder-loss",
+        Canary::EncoderLossNeverClears,
+        &["under the intended reading the PLC clears a latched loss once the motor is closed-loop with its encoder OK"],
     ),
     canary(
         "EncoderLossNotLatched",

@@ -134,6 +134,14 @@ pub enum Canary {
     AbortActsAsQuit,
     /// `CLOSE` leaves X:$1090 as it was (UM p.217: the checksum is stored at CLOSE).
     CloseKeepsOldReference,
+    /// A servo cycle that decrements the counter takes 2 off it (SRM p.57: by 1). Applied to
+    /// each servo cycle, so the cycle monitors see it.
+    CounterDropsByTwo,
+    /// An RTI that finds the previous task set still running starts PLC 0 again (UM p.236: only
+    /// when the previous tasks have completed). Applied to each servo cycle.
+    PlcRestartsOnOverrun,
+    /// Under the intended reading the encoder-loss PLC never clears a latched loss (UM p.215).
+    EncoderLossNeverClears,
     /// A write to an I-variable no bit of I41 locks is ignored while I41 is not 0 (SRM p.57:
     /// each bit controls its own set).
     UnlockedWriteIgnored,
@@ -234,7 +242,10 @@ impl WatchdogModel {
         let mut violations_before = state.violations;
         let mut cycles = JUMP_CYCLES_MAX;
         for n in 1..=JUMP_CYCLES_MAX {
-            let report = next.controller.servo_cycle(cfg);
+            let mut report = next.controller.servo_cycle(cfg);
+            if let Some(canary) = self.canary {
+                mutate_cycle(cfg, canary, &before, &mut report, &mut next.controller);
+            }
             next.violations |= cycle_violations(cfg, &before, report, &next.controller);
             if signature(cfg, &next.controller) != start {
                 cycles = n;
@@ -313,7 +324,10 @@ impl WatchdogModel {
                         later = Some(next.controller.clone());
                     }
                     let before = later.as_ref().unwrap_or(prev);
-                    let report = next.controller.servo_cycle(cfg);
+                    let mut report = next.controller.servo_cycle(cfg);
+                    if let Some(canary) = self.canary {
+                        mutate_cycle(cfg, canary, before, &mut report, &mut next.controller);
+                    }
                     next.violations |= cycle_violations(cfg, before, report, &next.controller);
                 }
                 Reply::None
@@ -356,6 +370,25 @@ impl WatchdogModel {
         }
         next.violations |= event_violations(cfg, prev, event, reply, &next.controller);
         reply
+    }
+}
+
+/// The mutations of [`Canary`] that act within one servo cycle, before the cycle monitors
+/// judge it: `after` and `report` as the cycle made them, changed as a broken rule would have.
+fn mutate_cycle(
+    cfg: &ModelConfig,
+    canary: Canary,
+    before: &Controller,
+    report: &mut CycleReport,
+    after: &mut Controller,
+) {
+    match canary {
+        Canary::CounterDropsByTwo if after.counter > 0 && after.counter < before.counter => after.counter -= 1,
+        Canary::PlcRestartsOnOverrun if report.rti_overrun => {
+            report.rti_started = true;
+            after.rti_remaining = u32::from(after.load.plc0_units) + u32::from(cfg.cpu.move_planning_units);
+        }
+        _ => {}
     }
 }
 
@@ -446,6 +479,11 @@ fn mutate(
                 if !p.encoder_lost {
                     *n = *p;
                 }
+            }
+        }
+        (Canary::EncoderLossNeverClears, Event::Background) => {
+            for (p, n) in prev.axes.motors().iter().zip(next.axes.motors_mut()) {
+                n.loss_status |= p.loss_status;
             }
         }
         (Canary::EncoderLossNotLatched, Event::Background) => {
