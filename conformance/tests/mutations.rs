@@ -220,10 +220,13 @@ const MUTATIONS: &[Mutation] = &[
     canary(
         "X25NotTracked",
         "X:$25 no longer follows the counter down",
-        &["srm57_x25_lowest_value", "um240_x25_lowest_since_reset"],
+        &["srm57_x25_lowest_value", "um240_x25_lowest_since_reset", "um240_x25_near_zero_is_a_near_miss"],
         "timing",
         Canary::X25NotTracked,
-        &["X:$25 is never above the watchdog counter Y:$25"],
+        &[
+            "X:$25 is never above the watchdog counter Y:$25",
+            "a near miss leaves X:$25 at the last strobing value on a running card",
+        ],
     ),
     canary(
         "Bit22ClearedByBackground",
@@ -300,6 +303,22 @@ const MUTATIONS: &[Mutation] = &[
         "status",
         Canary::ChecksumSwitchesAreaAfterError,
         &["a checksum error stops both checksums"],
+    ),
+    canary(
+        "ChecksumNeverMismatches",
+        "a checksum pass never finds a mismatch; it starts over",
+        &["um217_firmware_checksum_compared"],
+        "status",
+        Canary::ChecksumNeverMismatches,
+        &["a firmware checksum error can be found", "a user-program checksum error can be found"],
+    ),
+    canary(
+        "ChecksumErrorShutsDown",
+        "a checksum error shuts the card down",
+        &["um217_firmware_error_no_other_action", "um217_user_error_no_shutdown"],
+        "status",
+        Canary::ChecksumErrorShutsDown,
+        &["a firmware checksum error can be found", "a user-program checksum error can be found"],
     ),
     canary(
         "ChecksumStaysOnFirmware",

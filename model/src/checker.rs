@@ -142,6 +142,12 @@ pub enum Canary {
     PlcRestartsOnOverrun,
     /// Under the intended reading the encoder-loss PLC never clears a latched loss (UM p.215).
     EncoderLossNeverClears,
+    /// A checksum pass never finds a mismatch: it starts over instead (UM p.217: the checksum
+    /// is compared with its reference).
+    ChecksumNeverMismatches,
+    /// A checksum error shuts the card down (UM p.217: it takes no other action; a
+    /// user-program error does not shut the card down).
+    ChecksumErrorShutsDown,
     /// A write to an I-variable no bit of I41 locks is ignored while I41 is not 0 (SRM p.57:
     /// each bit controls its own set).
     UnlockedWriteIgnored,
@@ -480,6 +486,17 @@ fn mutate(
                     *n = *p;
                 }
             }
+        }
+        (Canary::ChecksumNeverMismatches, Event::Background)
+            if prev.checksum.error.is_none() && next.checksum.error.is_some() =>
+        {
+            next.checksum.error = None;
+            next.checksum.position = 0;
+        }
+        (Canary::ChecksumErrorShutsDown, Event::Background)
+            if prev.checksum.error.is_none() && next.checksum.error.is_some() =>
+        {
+            next.trip_now(crate::controller::TripCause::StrobeTimeout);
         }
         (Canary::EncoderLossNeverClears, Event::Background) => {
             for (p, n) in prev.axes.motors().iter().zip(next.axes.motors_mut()) {
