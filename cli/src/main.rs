@@ -6,6 +6,7 @@ mod common;
 mod conform;
 mod control;
 mod decode;
+mod explore;
 mod import;
 mod interrupt;
 mod margin;
@@ -99,6 +100,18 @@ enum Command {
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
     },
+    /// Serve stateright's Explorer over the model of one configuration and profile: a web page
+    /// to walk the states from power-up, action by action, with every property `pmacwd check`
+    /// names and the path to each discovery (docs/commands.md).
+    ///
+    /// Each state reads card first (the trip, Y:$25, X:$25, the ??? words, the outputs), then
+    /// the rest the rules read; each action's outcome is the concrete event, the reply and the
+    /// card after it, as `pmacwd check` prints a path's step. States are explored as the page
+    /// opens them, or all of them after "run to completion". Serves until stopped (Ctrl-C).
+    #[command(
+        after_help = "Examples:\n  pmacwd explore                        # timing, default profile, http://127.0.0.1:3000/\n  pmacwd explore --configuration motion --profile srm-57 --listen 127.0.0.1:8080\n\nExit codes: 0 stopped normally, 2 unusable input (a configuration or profile that does not exist, a spec directory) or an address that cannot be bound."
+    )]
+    Explore(explore::ExploreArgs),
     /// Run traces (YAML or JSON Lines, docs/trace-format.md) on the reference model and compare
     /// every expected observation, under each profile a trace names.
     ///
@@ -289,6 +302,7 @@ fn main() -> ExitCode {
     }
     match cli.command {
         Command::Conform(args) => conform::conform(args),
+        Command::Explore(args) => explore::explore(args),
         Command::Run { paths, specs, profile, format } => run::run_traces(paths, specs, profile, format),
         Command::Serve(args) => serve::serve(args),
         Command::Control { commands, address } => control::control(control::ControlArgs { address, commands }),

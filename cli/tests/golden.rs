@@ -94,6 +94,8 @@ const HELP: &[Case] = &[
     case("help_serve_describes_the_emulator_and_its_defaults", &["help", "serve"]),
     case("serve_dash_dash_help_describes_the_emulator_and_its_defaults", &["serve", "--help"]),
     case("help_record_describes_the_recording_proxy", &["help", "record"]),
+    case("help_explore_describes_the_explorer_and_its_defaults", &["help", "explore"]),
+    case("explore_dash_dash_help_describes_the_explorer_and_its_defaults", &["explore", "--help"]),
     case("record_dash_dash_help_describes_the_recording_proxy", &["record", "--help"]),
 ];
 
@@ -344,7 +346,20 @@ const SERVE_AND_RECORD: &[Case] = &[
     ),
 ];
 
-const ALL: &[&[Case]] = &[TOP_LEVEL, HELP, CHECK, RUN, CONFORM, DECODE, REPLAY, IMPORT, SERVE_AND_RECORD];
+/// `explore`'s refusals (a running Explorer is tested over HTTP in `cli/tests/explore.rs`).
+const EXPLORE: &[Case] = &[
+    case(
+        "explore_with_an_unknown_configuration_exits_2_naming_the_configurations",
+        &["explore", "--configuration", "nope", "--listen", "127.0.0.1:0"],
+    ),
+    case(
+        "explore_with_an_unknown_profile_exits_2_naming_the_profiles",
+        &["explore", "--profile", "nope", "--listen", "127.0.0.1:0"],
+    ),
+    case("explore_with_an_address_that_is_not_one_is_a_usage_error", &["explore", "--listen", "nowhere"]),
+];
+
+const ALL: &[&[Case]] = &[TOP_LEVEL, HELP, CHECK, RUN, CONFORM, DECODE, REPLAY, IMPORT, SERVE_AND_RECORD, EXPLORE];
 
 #[test]
 fn top_level() {
@@ -390,6 +405,11 @@ fn replay() {
 #[test]
 fn import() {
     verify("import", IMPORT, |_| {});
+}
+
+#[test]
+fn explore_refusals() {
+    verify("explore", EXPLORE, |_| {});
 }
 
 #[test]

@@ -40,6 +40,7 @@ fn a_divergence_comes_back_as_the_shortest_event_sequence_that_reaches_it() {
             canary: Some(Canary::LockoutIgnored),
             detailed: false,
             longest_decelerations_only: false,
+            named_properties: false,
         },
     };
     let r = check_product(product, 1);

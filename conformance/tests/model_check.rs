@@ -115,7 +115,14 @@ fn there_are_at_least_25_named_properties_each_with_a_citation() {
 fn canary(canary: Canary, configuration: &str) -> pmacwd_model::checker::RunReport {
     let spec = Spec::embedded().unwrap();
     let cfg = ModelConfig::from_spec(&spec, configuration, &spec.profiles.default_profile()).unwrap();
-    WatchdogModel { cfg, canary: Some(canary), detailed: false, longest_decelerations_only: false }.check(2)
+    WatchdogModel {
+        cfg,
+        canary: Some(canary),
+        detailed: false,
+        longest_decelerations_only: false,
+        named_properties: false,
+    }
+    .check(2)
 }
 
 #[test]
@@ -166,9 +173,22 @@ fn the_fast_check_with_conjoined_always_properties_agrees_with_the_detailed_one(
     let spec = Spec::embedded().unwrap();
     for name in ["status", "lockout"] {
         let cfg = ModelConfig::from_spec(&spec, name, &spec.profiles.default_profile()).unwrap();
-        let fast = WatchdogModel { cfg: cfg.clone(), canary: None, detailed: false, longest_decelerations_only: false }
-            .check(2);
-        let detailed = WatchdogModel { cfg, canary: None, detailed: true, longest_decelerations_only: false }.check(2);
+        let fast = WatchdogModel {
+            cfg: cfg.clone(),
+            canary: None,
+            detailed: false,
+            longest_decelerations_only: false,
+            named_properties: false,
+        }
+        .check(2);
+        let detailed = WatchdogModel {
+            cfg,
+            canary: None,
+            detailed: true,
+            longest_decelerations_only: false,
+            named_properties: false,
+        }
+        .check(2);
         assert_eq!(fast.states, detailed.states, "{name}");
         let verdicts = |r: &pmacwd_model::checker::RunReport| {
             r.properties.iter().map(|p| (p.name, p.holds, p.path.as_ref().map(Vec::len))).collect::<Vec<_>>()

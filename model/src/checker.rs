@@ -46,17 +46,124 @@ pub struct WatchdogModel {
     /// then paths that `pmacwd run` reproduces (`check --save`), at the price of the behaviours
     /// only a shorter deceleration shows.
     pub longest_decelerations_only: bool,
+    /// Give stateright every property separately under its own name (the sentence `pmacwd
+    /// check` prints) instead of a short id: what stateright's Explorer shows (`pmacwd
+    /// explore`). Slower to check (a lookup by name per property per state), and not what
+    /// [`WatchdogModel::check`] reads back, which goes by id.
+    pub named_properties: bool,
 }
 
-/// Deliberate bugs that the checker must catch (the canary tests).
+/// Deliberate bugs that the checker must catch: the canary tests, and the hand mutations of
+/// `conformance/tests/mutations.rs`, each of which breaks one rule of the manuals and names the
+/// statements of the requirements matrix that rule encodes (docs/requirements.md).
+///
+/// Each is applied after the event's own rule has run ([`WatchdogModel::check_event`]), as a
+/// change to the state it produced or to the reply it gave: the same state a model with that
+/// rule written wrong would reach. The cycle monitors run inside a servo event, before the
+/// mutation, so they do not see it; every other property and monitor does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Canary {
-    /// I41 lockout is ignored: locked writes take effect.
+    /// I41 lockout is ignored: locked writes take effect (SRM p.57).
     LockoutIgnored,
-    /// A restored supply undoes an undervoltage trip, as if the trip were not latched.
+    /// A restored supply undoes an undervoltage trip, as if the trip were not latched (UM p.215).
     SupplyRestoreUntrips,
-    /// A trip leaves the amplifiers that were enabled enabled (the Servo ICs not held in reset).
+    /// A trip leaves the amplifiers that were enabled enabled (the Servo ICs not held in reset,
+    /// UM p.215).
     TripLeavesAmplifiersOn,
+    /// A trip leaves the red LED dark (UM p.215).
+    TripLeavesLedDark,
+    /// A trip leaves FEFCO/ off (UM p.215).
+    TripLeavesFefcoOff,
+    /// A trip leaves the Turbo PMAC2's relay where it was (UM p.215).
+    TripLeavesRelay,
+    /// A trip leaves the discrete and proportional outputs live (UM p.215).
+    TripLeavesOutputsLive,
+    /// A reset of a tripped card leaves the red LED lit (UM p.215).
+    ResetLeavesLedLit,
+    /// A tripped card acknowledges a command instead of staying silent (UM p.215).
+    TrippedCardAnswers,
+    /// A tripped card's servo interrupt goes on decrementing the watchdog counter (UM p.215:
+    /// "The processor stops operating").
+    TrippedCardCounts,
+    /// A tripped card takes an I41 write (UM p.215: "The processor stops operating").
+    TrippedCardTakesWrites,
+    /// A supply below the minimum does not trip the card (UM p.215).
+    UndervoltageIgnored,
+    /// A strobe gap one cycle longer than the hardware delay does not trip the card yet (UM
+    /// p.215: the timer trips once the strobe has been missing for longer than its delay).
+    StrobeTimeoutIgnored,
+    /// A background cycle reloads the counter one above the reset value (UM p.215, SRM p.57).
+    BackgroundReloadsOneHigh,
+    /// X:$25 no longer follows the counter down in a servo event (SRM p.57).
+    X25NotTracked,
+    /// The running checksum X:$1080 moves on after a checksum error (UM p.217).
+    ChecksumRunsOnAfterError,
+    /// A background cycle clears bit 22 (SRM p.289: it stays until reset or a clear).
+    Bit22ClearedByBackground,
+    /// A write to I41 is ignored while I41 is not 0 (SRM p.57: I41 is never locked).
+    I41LocksItself,
+    /// A locked I-variable write answers ERR003 (SRM p.57: "no error is generated").
+    LockedWriteAnswersError,
+    /// A memory write honours I41 (SRM p.57: I41 does not prevent it).
+    MemoryWriteHonoursLock,
+    /// `$$$***` keeps the active I41 (UM p.243, SRM p.57: its default is 0).
+    ReinitializeKeepsI41,
+    /// `#nK` leaves the motor's amplifier enabled (UM p.319, SRM p.281).
+    KillLeavesAmplifierOn,
+    /// <CTRL-K> leaves motor 2 closed-loop at rest when it was (UM p.319: "Kill All").
+    KillAllSparesMotor2,
+    /// The encoder-loss PLC's CMD^K kills only the motor whose encoder is lost (UM p.214-215:
+    /// the listing kills every motor; the bug issue 35 fixed).
+    EncoderLossKillsOnlyItsMotor,
+    /// The encoder-loss PLC kills but does not latch the loss (UM p.214-215).
+    EncoderLossNotLatched,
+    /// `???` answers a first word with a 25th bit set, thirteen characters (SRM p.289).
+    StatusReplyTooWide,
+    /// A card in bootstrap mode answers `???` with status words (SRM p.289: `BOOTSTRAP PROM`).
+    BootstrapAnswersStatus,
+    /// A background cycle sets the DPRAM error bit (SRM p.289: a reset-time check).
+    DpramErrorSetByBackground,
+    /// A background cycle clears the flash error bit (SRM p.289: a reset-time check).
+    FlashErrorClearedByBackground,
+    /// `K` is accepted while its coordinate system executes a program (UM p.319).
+    KAcceptedDuringProgram,
+    /// <CTRL-O> leaves the program of C.S. 2 running (SRM p.260: every coordinate system).
+    HoldAllSparesCs2,
+    /// `&nA` acts as `&nQ`: the motors go on with their calculated moves (UM p.217: A begins
+    /// immediately).
+    AbortActsAsQuit,
+    /// `CLOSE` leaves X:$1090 as it was (UM p.217: the checksum is stored at CLOSE).
+    CloseKeepsOldReference,
+    /// A servo cycle that decrements the counter takes 2 off it (SRM p.57: by 1). Applied to
+    /// each servo cycle, so the cycle monitors see it.
+    CounterDropsByTwo,
+    /// An RTI that finds the previous task set still running starts PLC 0 again (UM p.236: only
+    /// when the previous tasks have completed). Applied to each servo cycle.
+    PlcRestartsOnOverrun,
+    /// Under the intended reading the encoder-loss PLC never clears a latched loss (UM p.215).
+    EncoderLossNeverClears,
+    /// A checksum pass never finds a mismatch: it starts over instead (UM p.217: the checksum
+    /// is compared with its reference).
+    ChecksumNeverMismatches,
+    /// A checksum error shuts the card down (UM p.217: it takes no other action; a
+    /// user-program error does not shut the card down).
+    ChecksumErrorShutsDown,
+    /// A write to an I-variable no bit of I41 locks is ignored while I41 is not 0 (SRM p.57:
+    /// each bit controls its own set).
+    UnlockedWriteIgnored,
+    /// The counter steps from 0 to -1 under the at-zero reading (UM p.215: "as long as the
+    /// counter is greater than zero").
+    CounterGoesBelowZero,
+    /// After a checksum error the engine moves on to the other area (UM p.217: it stops both).
+    ChecksumSwitchesAreaAfterError,
+    /// `CHECKSUM` answers the reference plus one (UM p.217, SRM p.295).
+    ChecksumCommandOffByOne,
+    /// Bit 9 is cleared after every servo event, so it is never seen set (SRM p.290).
+    Bit9NeverSet,
+    /// Bit 22 is cleared after every servo event, so it is never seen set (SRM p.289).
+    Bit22NeverSet,
+    /// The checksum engine never starts a user-program pass (UM p.217: it alternates).
+    ChecksumStaysOnFirmware,
 }
 
 /// The most states one run generates (every successor of every state explored, seen before or
@@ -119,7 +226,7 @@ pub fn signature(cfg: &ModelConfig, c: &Controller) -> impl PartialEq {
 
 impl WatchdogModel {
     pub fn new(cfg: ModelConfig) -> Self {
-        WatchdogModel { cfg, canary: None, detailed: false, longest_decelerations_only: false }
+        WatchdogModel { cfg, canary: None, detailed: false, longest_decelerations_only: false, named_properties: false }
     }
 
     /// Advances servo cycle by servo cycle up to the first cycle whose [`signature`] differs,
@@ -141,7 +248,10 @@ impl WatchdogModel {
         let mut violations_before = state.violations;
         let mut cycles = JUMP_CYCLES_MAX;
         for n in 1..=JUMP_CYCLES_MAX {
-            let report = next.controller.servo_cycle(cfg);
+            let mut report = next.controller.servo_cycle(cfg);
+            if let Some(canary) = self.canary {
+                mutate_cycle(cfg, canary, &before, &mut report, &mut next.controller);
+            }
             next.violations |= cycle_violations(cfg, &before, report, &next.controller);
             if signature(cfg, &next.controller) != start {
                 cycles = n;
@@ -220,21 +330,27 @@ impl WatchdogModel {
                         later = Some(next.controller.clone());
                     }
                     let before = later.as_ref().unwrap_or(prev);
-                    let report = next.controller.servo_cycle(cfg);
+                    let mut report = next.controller.servo_cycle(cfg);
+                    if let Some(canary) = self.canary {
+                        mutate_cycle(cfg, canary, before, &mut report, &mut next.controller);
+                    }
                     next.violations |= cycle_violations(cfg, before, report, &next.controller);
                 }
                 Reply::None
             }
             _ => next.controller.apply_with_decel(cfg, event, decel),
         };
-        self.check_event(prev, next, event, reply);
-        reply
+        self.check_event(prev, next, event, reply)
     }
 
     /// After `event` took `prev` to `next`: the canary's deliberate bug, then the event
-    /// monitors.
-    fn check_event(&self, prev: &Controller, next: &mut State, event: &Event, reply: Reply) {
+    /// monitors. Returns the reply, which a canary may change.
+    fn check_event(&self, prev: &Controller, next: &mut State, event: &Event, reply: Reply) -> Reply {
         let cfg = &self.cfg;
+        let mut reply = reply;
+        if let Some(canary) = self.canary {
+            mutate(cfg, canary, prev, &mut next.controller, event, &mut reply);
+        }
         match (self.canary, event) {
             (Some(Canary::LockoutIgnored), Event::Command(pmacwd_specs::vocab::command::HostCommand::WriteI(n, v)))
                 if !prev.tripped() && !prev.bootstrap =>
@@ -259,6 +375,210 @@ impl WatchdogModel {
             _ => {}
         }
         next.violations |= event_violations(cfg, prev, event, reply, &next.controller);
+        reply
+    }
+}
+
+/// The mutations of [`Canary`] that act within one servo cycle, before the cycle monitors
+/// judge it: `after` and `report` as the cycle made them, changed as a broken rule would have.
+fn mutate_cycle(
+    cfg: &ModelConfig,
+    canary: Canary,
+    before: &Controller,
+    report: &mut CycleReport,
+    after: &mut Controller,
+) {
+    match canary {
+        Canary::CounterDropsByTwo if after.counter > 0 && after.counter < before.counter => after.counter -= 1,
+        Canary::PlcRestartsOnOverrun if report.rti_overrun => {
+            report.rti_started = true;
+            after.rti_remaining = u32::from(after.load.plc0_units) + u32::from(cfg.cpu.move_planning_units);
+        }
+        _ => {}
+    }
+}
+
+/// The hand mutations of [`Canary`] beyond the first three (which [`WatchdogModel::check_event`]
+/// applies itself): `next` and `reply` as the event's rule made them, changed as a model with
+/// that rule broken would have made them.
+fn mutate(
+    cfg: &ModelConfig,
+    canary: Canary,
+    prev: &Controller,
+    next: &mut Controller,
+    event: &Event,
+    reply: &mut Reply,
+) {
+    use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, HostCommand, Motion, MotorCommand};
+    let tripped_now = !prev.tripped() && next.tripped();
+    let locked = |n: u16| cfg.lockout_bit(n).is_some_and(|bit| prev.i41 & (1 << bit) != 0);
+    match (canary, event) {
+        (Canary::TripLeavesLedDark, _) if tripped_now => next.outputs.led_red = false,
+        (Canary::TripLeavesFefcoOff, _) if tripped_now => next.outputs.fefco_on = false,
+        (Canary::TripLeavesRelay, _) if tripped_now => next.outputs.relay_tripped = false,
+        (Canary::TripLeavesOutputsLive, _) if tripped_now => next.outputs.forced_off = false,
+        (Canary::ResetLeavesLedLit, Event::Reset(_)) if prev.tripped() => next.outputs.led_red = true,
+        (Canary::TrippedCardAnswers, Event::Command(_)) if prev.tripped() => *reply = Reply::Ack,
+        (Canary::TrippedCardCounts, Event::Servo { .. }) if prev.tripped() && next.counter > 0 => next.counter -= 1,
+        (Canary::TrippedCardTakesWrites, Event::Command(HostCommand::WriteI(41, v))) if prev.tripped() => {
+            next.i41 = (*v & 0xF) as u8;
+        }
+        (Canary::UndervoltageIgnored, Event::Supply { .. })
+            if tripped_now && next.trip == Some(crate::controller::TripCause::Undervoltage) =>
+        {
+            next.trip = None;
+            next.outputs = prev.outputs;
+        }
+        // Off by one: the first cycle past the hardware delay does not trip (the next does, so
+        // the state space stays finite).
+        (Canary::StrobeTimeoutIgnored, Event::Servo { .. })
+            if tripped_now
+                && next.trip == Some(crate::controller::TripCause::StrobeTimeout)
+                && next.cycles_since_strobe == cfg.hardware_delay_cycles + 1 =>
+        {
+            next.trip = None;
+            next.outputs = prev.outputs;
+        }
+        (Canary::BackgroundReloadsOneHigh, Event::Background) if next.ghost.cycles_since_background == 0 => {
+            next.counter += 1;
+            next.ghost.last_reload = next.counter;
+        }
+        (Canary::X25NotTracked, Event::Servo { .. }) => next.counter_min = prev.counter_min,
+        (Canary::ChecksumRunsOnAfterError, Event::Background) if prev.checksum.error.is_some() => {
+            // Flips between two values, so that the state space stays as small as the model's.
+            next.checksum.position ^= 1;
+        }
+        (Canary::Bit22ClearedByBackground, Event::Background) => next.status.rti_reentry = false,
+        (Canary::I41LocksItself, Event::Command(HostCommand::WriteI(41, _))) if prev.i41 != 0 => next.i41 = prev.i41,
+        (Canary::LockedWriteAnswersError, Event::Command(HostCommand::WriteI(n, _)))
+            if !prev.tripped() && !prev.bootstrap && *n != 41 && locked(*n) =>
+        {
+            *reply = Reply::Error(3);
+        }
+        (Canary::MemoryWriteHonoursLock, Event::Command(HostCommand::WriteIMemory(n, _)))
+            if !prev.tripped() && *n != 41 && locked(*n) =>
+        {
+            next.other_i_variables.clone_from(&prev.other_i_variables);
+        }
+        (Canary::ReinitializeKeepsI41, Event::Command(HostCommand::Reinitialize)) if !prev.tripped() => {
+            next.i41 = prev.i41;
+        }
+        (Canary::KillLeavesAmplifierOn, Event::Command(HostCommand::Motion(Motion::Motor(m, MotorCommand::Kill)))) => {
+            let k = usize::from(*m).wrapping_sub(1);
+            if let (Some(p), Some(n)) = (prev.axes.motors().get(k), next.axes.motors_mut().get_mut(k)) {
+                if p.amplifier_enabled {
+                    n.amplifier_enabled = true;
+                }
+            }
+        }
+        (Canary::KillAllSparesMotor2, Event::Command(HostCommand::Motion(Motion::Global(GlobalCommand::KillAll)))) => {
+            // Only a motor at rest, closed-loop: a moving one left as it was runs on into states
+            // no rule of the model bounds.
+            if let (Some(p), Some(n)) = (prev.axes.motors().get(1), next.axes.motors_mut().get_mut(1)) {
+                if p.state == pmacwd_specs::vocab::MotorState::Closed {
+                    *n = *p;
+                }
+            }
+        }
+        (Canary::EncoderLossKillsOnlyItsMotor, Event::Background) => {
+            for (p, n) in prev.axes.motors().iter().zip(next.axes.motors_mut()) {
+                if !p.encoder_lost {
+                    *n = *p;
+                }
+            }
+        }
+        (Canary::ChecksumNeverMismatches, Event::Background)
+            if prev.checksum.error.is_none() && next.checksum.error.is_some() =>
+        {
+            next.checksum.error = None;
+            next.checksum.position = 0;
+        }
+        (Canary::ChecksumErrorShutsDown, Event::Background)
+            if prev.checksum.error.is_none() && next.checksum.error.is_some() =>
+        {
+            next.trip_now(crate::controller::TripCause::StrobeTimeout);
+        }
+        (Canary::EncoderLossNeverClears, Event::Background) => {
+            for (p, n) in prev.axes.motors().iter().zip(next.axes.motors_mut()) {
+                n.loss_status |= p.loss_status;
+            }
+        }
+        (Canary::EncoderLossNotLatched, Event::Background) => {
+            for (p, n) in prev.axes.motors().iter().zip(next.axes.motors_mut()) {
+                n.loss_status = p.loss_status;
+            }
+        }
+        (Canary::StatusReplyTooWide, Event::Command(HostCommand::GlobalStatus)) => {
+            if let Reply::Status { x, y } = *reply {
+                *reply = Reply::Status { x: x | (1 << 24), y };
+            }
+        }
+        (Canary::BootstrapAnswersStatus, Event::Command(HostCommand::GlobalStatus)) if *reply == Reply::Bootstrap => {
+            *reply = Reply::Status { x: 0, y: 0 };
+        }
+        (Canary::DpramErrorSetByBackground, Event::Background) => next.status.dpram_error = true,
+        (Canary::FlashErrorClearedByBackground, Event::Background) => next.status.flash_error = false,
+        (Canary::KAcceptedDuringProgram, Event::Command(HostCommand::Motion(Motion::Motor(_, MotorCommand::Kill))))
+            if matches!(reply, Reply::Error(_)) =>
+        {
+            *reply = Reply::Ack;
+        }
+        (Canary::HoldAllSparesCs2, Event::Command(HostCommand::Motion(Motion::Global(GlobalCommand::HoldAll)))) => {
+            if let (Some(p), Some(n)) = (prev.axes.programs().get(1), next.axes.programs_mut().get_mut(1)) {
+                *n = *p;
+            }
+            for (k, (p, n)) in prev.axes.motors().iter().zip(next.axes.motors_mut()).enumerate() {
+                if cfg.motion.coordinate_system(k as u8 + 1) == 2 {
+                    *n = *p;
+                }
+            }
+        }
+        // A acts as Q: the motors go on with their calculated moves (a state the model reaches
+        // by Q, so the state space stays the model's own).
+        (
+            Canary::AbortActsAsQuit,
+            Event::Command(HostCommand::Motion(Motion::CoordinateSystem(cs, CsCommand::Abort))),
+        ) => {
+            let mut quit = prev.clone();
+            *reply =
+                quit.apply(cfg, &Event::Command(HostCommand::Motion(Motion::CoordinateSystem(*cs, CsCommand::Quit))));
+            *next = quit;
+        }
+        (Canary::CloseKeepsOldReference, Event::Command(HostCommand::Close)) => {
+            next.checksum.program_reference = prev.checksum.program_reference;
+        }
+        (Canary::UnlockedWriteIgnored, Event::Command(HostCommand::WriteI(n, _)))
+            if prev.i41 != 0 && *n != 41 && !locked(*n) =>
+        {
+            next.clone_from(prev);
+        }
+        (Canary::CounterGoesBelowZero, Event::Servo { .. })
+            if cfg.profile.choices.strobe_stop == pmacwd_specs::profiles::StrobeStop::AtZero
+                && next.counter == 0
+                && !next.tripped() =>
+        {
+            next.counter = -1;
+        }
+        (Canary::ChecksumSwitchesAreaAfterError, Event::Background) if prev.checksum.error.is_some() => {
+            next.checksum.area = match prev.checksum.area {
+                pmacwd_specs::check::ChecksumTarget::Firmware => pmacwd_specs::check::ChecksumTarget::UserProgram,
+                pmacwd_specs::check::ChecksumTarget::UserProgram => pmacwd_specs::check::ChecksumTarget::Firmware,
+            };
+        }
+        (Canary::ChecksumCommandOffByOne, Event::Command(HostCommand::Checksum)) => {
+            if let Reply::Hex(v) = *reply {
+                *reply = Reply::Hex(v + 1);
+            }
+        }
+        (Canary::Bit9NeverSet, Event::Servo { .. }) => next.status.rti_warning = false,
+        (Canary::Bit22NeverSet, Event::Servo { .. }) => next.status.rti_reentry = false,
+        (Canary::ChecksumStaysOnFirmware, Event::Background)
+            if next.checksum.area == pmacwd_specs::check::ChecksumTarget::UserProgram
+                && prev.checksum.area == pmacwd_specs::check::ChecksumTarget::Firmware =>
+        {
+            next.checksum.area = pmacwd_specs::check::ChecksumTarget::Firmware;
+        }
+        _ => {}
     }
 }
 
@@ -379,6 +699,14 @@ impl Model for WatchdogModel {
                 actions.push(Action::Do(Event::ClearRtiReentry));
             }
         }
+        // Time passes for a tripped card too. Its servo interrupt does nothing (UM p.215: "The
+        // processor stops operating"), so this adds no state, only the transition that lets
+        // "a tripped card changes no state until it is reset" check that (one servo cycle: a
+        // time jump would look for a change that never comes). Found by the hand mutation
+        // `TrippedCardCounts` (conformance/tests/mutations.rs), which no check caught before.
+        if c.tripped() {
+            actions.push(Action::Do(Event::Servo { cycles: 1 }));
+        }
         // Commands reach a tripped card too: it must stay silent. A motion command is offered
         // once per deceleration length when it can start a deceleration on a running card.
         for cmd in &cfg.commands {
@@ -418,6 +746,18 @@ impl Model for WatchdogModel {
         Some(next)
     }
 
+    /// The Explorer's view of a state ([`crate::show::state_text`]): the card first.
+    fn format_state(&self, state: &State) -> String {
+        crate::show::state_text(&self.cfg, state)
+    }
+
+    /// The Explorer's "outcome" of an action: the concrete event (the servo cycles of a time
+    /// jump), the reply and the card after it, as `pmacwd check` prints a path's step.
+    fn format_step(&self, state: &State, action: Action) -> Option<String> {
+        let (event, reply, next) = self.perform(state, &action);
+        Some(crate::show::step_text(&self.cfg, &event, reply, &next.controller))
+    }
+
     fn format_action(&self, action: &Action) -> String {
         match action {
             Action::Do(e) => e.to_string(),
@@ -439,6 +779,18 @@ impl Model for WatchdogModel {
     /// it on every state, since it is never reached (13 of them at `timing`).
     fn properties(&self) -> Vec<Property<Self>> {
         let applies = |p: &StateProperty| p.expectation == Expectation::Always || (p.applies)(&self.cfg);
+        if self.named_properties {
+            // The same properties as in detail below, each under its sentence.
+            let mut v: Vec<Property<Self>> =
+                MONITORS.iter().enumerate().map(|(k, m)| Property::always(m.name, MONITOR_HOLDS[k])).collect();
+            for (k, p) in STATE_PROPERTIES.iter().enumerate().filter(|(_, p)| applies(p)) {
+                v.push(match p.expectation {
+                    Expectation::Always => Property::always(p.name, STATE_HOLDS[k]),
+                    Expectation::Sometimes => Property::sometimes(p.name, STATE_HOLDS[k]),
+                });
+            }
+            return v;
+        }
         if !self.detailed {
             let mut v: Vec<Property<Self>> = vec![
                 Property::always(PROPERTY_IDS[0], |_, s: &State| s.violations == 0),
@@ -749,8 +1101,9 @@ impl WatchdogModel {
         if discoveries.contains_key(PROPERTY_IDS[0]) || discoveries.contains_key(PROPERTY_IDS[1]) {
             // Some `always` property fails: check each one on its own, for its verdict and its own
             // shortest counterexample.
-            let mut report = WatchdogModel { cfg, canary, detailed: true, longest_decelerations_only }
-                .check_detailed(threads, states_max, progress);
+            let mut report =
+                WatchdogModel { cfg, canary, detailed: true, longest_decelerations_only, named_properties: false }
+                    .check_detailed(threads, states_max, progress);
             report.duration += duration;
             return report;
         }

@@ -648,7 +648,7 @@ impl Controller {
         }
     }
 
-    fn trip_now(&mut self, cause: TripCause) {
+    pub(crate) fn trip_now(&mut self, cause: TripCause) {
         // UM p.215: "the system is latched into a reset state, with a red LED indicating
         // watchdog failure"; "All Servo, MACRO, and I/O ICs are forced into their reset states,
         // which force discrete outputs off, and proportional outputs (DAC, PWM, PFM) to

@@ -24,4 +24,5 @@ pub mod monitor;
 pub mod motion;
 pub mod observe;
 pub mod properties;
+pub mod show;
 pub mod state;

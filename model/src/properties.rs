@@ -300,6 +300,22 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
             x_bit(cfg, s, cfg.layout.cpu_type_bit1) == bit1 && x_bit(cfg, s, cfg.layout.cpu_type_bit0) == bit0
         },
     },
+    StateProperty {
+        name: "bits X19, X17 and X14 of ??? stay 0: the card gathers no data and runs no leadscrew compensation",
+        expectation: Always,
+        applies: any,
+        needs: "",
+        cite: "SRM p.289",
+        sentence: "Bit 19 Data Gathering Function On : This bit is 1 when the data gathering function is active; it is 0 when the function is not active. ... Bit 17 Data Gather to Start on Trigger: ... It is 0 otherwise. ... Bit 14 Leadscrew Compensation On: ... It is 0 if the compensation is not active.",
+        // SRM p.289: the positions as the page prints them, not from status.yaml's layout, so
+        // that a driven bit placed on one of them (Y19, motion buffer open, put in the X word)
+        // is caught. MODEL: the model has neither function; no command of its own starts one
+        // (a host's `GAT` or `DEFINE GATHER` is the card's own, docs/grammar.md).
+        holds: |cfg, s| {
+            const NOT_MODELLED: u32 = (1 << 19) | (1 << 17) | (1 << 14);
+            s.controller.status_words(cfg).0 & NOT_MODELLED == 0
+        },
+    },
     // ------------------------------------------------------------ reachability
     StateProperty {
         name: "bit 22 (RTI re-entry) can be set",

@@ -590,3 +590,114 @@ fn a_second_q_while_the_calculated_moves_finish_does_not_postpone_the_stop() {
     assert!(!card.tripped());
     assert_eq!(cs1(&card), (Program::AtPoint, MotorState::Closed), "two cycles after the first Q");
 }
+
+/// SRM p.57: "Because I41 is typically set before any of the variables it controls, if it has
+/// a non-zero value in this list, some of the subsequent variables will not get set." A
+/// download of a saved list in the usual order (I41 first, then the rest): with I41 = 1 in the
+/// list, the motor setup variables after it keep their values, the others take the list's; the
+/// same list with I41 = 0 sets every one.
+#[test]
+fn a_download_that_sets_i41_first_leaves_the_variables_it_locks_unset() {
+    let cfg = config("lockout", "um-215");
+    let download = |i41: u8| {
+        let mut card = Controller::power_on(&cfg);
+        // What the card held before the download.
+        for line in ["I130=1", "I4899=1", "I5100=1", "I6800=1"] {
+            assert_eq!(cmd(&mut card, &cfg, line), Reply::Ack);
+        }
+        for line in [format!("I41={i41}"), "I130=9".into(), "I4899=9".into(), "I5100=9".into(), "I6800=9".into()] {
+            assert_eq!(cmd(&mut card, &cfg, &line), Reply::Ack, "SRM p.57: a locked write is no error: {line}");
+        }
+        ["I130", "I4899", "I5100", "I6800"].map(|n| cmd(&mut card, &cfg, n))
+    };
+    // I41 bit 0 locks I100..I4899 (SRM p.57's table): those two did not get set.
+    assert_eq!(download(1), [Reply::Value(1), Reply::Value(1), Reply::Value(9), Reply::Value(9)]);
+    assert_eq!(download(0), [Reply::Value(9); 4]);
+}
+
+/// UM p.236: "At the default, the servo update of each motor takes approximately 1% of Turbo
+/// PMAC's computational power." The configurations with the real counter run at the default
+/// servo clock and charge each motor that share of the cycle (the small ones charge 1 of 4
+/// units per motor to keep their state spaces small); the model charges it per motor, every
+/// servo cycle, before the RTI and the background get any.
+#[test]
+fn the_configurations_with_the_real_counter_charge_each_motor_s_servo_update_the_default_share_of_the_cycle() {
+    let spec = Spec::embedded().unwrap();
+    let percent = spec.scheduling.servo_cost_per_motor_percent.value;
+    let default_hz = spec.scheduling.servo_clock_hz.value;
+    for configuration in ["i40-zero", "host-log"] {
+        let cfg = config(configuration, "um-215");
+        assert_eq!(f64::from(cfg.servo_hz), default_hz, "{configuration} runs at the default servo clock");
+        let share = 100.0 * f64::from(cfg.cpu.servo_units_per_motor) / f64::from(cfg.cpu.cycle_units);
+        assert_eq!(share, percent, "{configuration}: the servo update of one motor takes {share}% of a cycle");
+        // The rule: with m motors the background gets the cycle less m shares (no RTI work).
+        for motors in [1u8, 8] {
+            let mut card = Controller::power_on(&cfg);
+            card.apply(&cfg, &Event::Load(Load { motors, plc0_units: 0, background_units: 1000 }));
+            servo(&mut card, &cfg, 1);
+            let expected =
+                u32::from(cfg.cpu.cycle_units) - u32::from(motors) * u32::from(cfg.cpu.servo_units_per_motor);
+            assert_eq!(card.background_credit, expected, "{configuration}, {motors} motors");
+        }
+    }
+}
+
+/// UM p.236: the servo update first, the RTI tasks ("the fourth highest priority", right after
+/// the servo update) next, and "the background tasks" with what is left. With a cycle of 4
+/// units, 1 motor at 1 unit and PLC 0 at 5 units, I8 = 1 (an RTI every 2 cycles, the first at
+/// the second cycle after power-on): the first cycle has no RTI and the background gets the 3
+/// units the servo update leaves; the second cycle's RTI takes those 3 and the background gets
+/// none; the third finishes PLC 0 with 2 units and the background gets the last 1.
+#[test]
+fn the_servo_update_runs_first_the_rti_tasks_next_and_the_background_gets_what_is_left() {
+    let cfg = config("timing", "um-215");
+    assert_eq!((cfg.cpu.cycle_units, cfg.cpu.servo_units_per_motor, cfg.saved.i8), (4, 1, 1));
+    let mut card = Controller::power_on(&cfg);
+    card.apply(&cfg, &Event::Load(Load { motors: 1, plc0_units: 5, background_units: 100 }));
+    servo(&mut card, &cfg, 1);
+    assert_eq!((card.rti_remaining, card.background_credit), (0, 3), "cycle 1: no RTI yet");
+    servo(&mut card, &cfg, 1);
+    assert_eq!(
+        (card.rti_remaining, card.background_credit),
+        (2, 3),
+        "cycle 2: the RTI takes all the servo update leaves"
+    );
+    servo(&mut card, &cfg, 1);
+    assert_eq!(
+        (card.rti_remaining, card.background_credit),
+        (0, 4),
+        "cycle 3: PLC 0 finishes, the background gets the rest"
+    );
+    // A servo update that takes the whole cycle leaves the RTI nothing (and the background
+    // nothing): the RTI's work waits.
+    let mut card = Controller::power_on(&cfg);
+    card.apply(&cfg, &Event::Load(Load { motors: 4, plc0_units: 1, background_units: 3 }));
+    servo(&mut card, &cfg, 2);
+    assert_eq!((card.rti_remaining, card.background_credit), (1, 0));
+}
+
+/// UM p.236: the background's tasks are command processing, the PLC programs and
+/// housekeeping, one PLC scan each background cycle with housekeeping between scans; UM p.240
+/// and p.215: the housekeeping reloads the watchdog counter. A completed background cycle
+/// reloads the counter and scans the encoder-loss PLC (which kills a closed-loop motor whose
+/// encoder is lost, UM p.214-215); servo cycles and host commands without one do neither.
+#[test]
+fn a_background_cycle_reloads_the_counter_and_scans_the_plc_and_nothing_else_does() {
+    let cfg = config("encoder-loss", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    assert_eq!(cmd(&mut card, &cfg, "#1J/"), Reply::Ack);
+    servo(&mut card, &cfg, 1);
+    let reload = card.counter + 1;
+    card.apply(&cfg, &Event::EncoderInput(pmacwd_specs::vocab::EncoderInput { motor: 1, lost: true }));
+    // Servo cycles and a command, no background cycle: no reload, no scan.
+    servo(&mut card, &cfg, 1);
+    let _ = cmd(&mut card, &cfg, "???");
+    assert_eq!(card.counter, reload - 2, "the counter only counts down between background cycles");
+    let m = card.axes.motors()[0];
+    assert!(m.state != pmacwd_specs::vocab::MotorState::Killed && !m.loss_status, "no scan yet: {m:?}");
+    assert!(card.background_possible(), "the load lets a background cycle complete");
+    card.apply(&cfg, &Event::Background);
+    assert_eq!(card.counter, reload, "the background cycle's housekeeping reloads the counter");
+    let m = card.axes.motors()[0];
+    assert!(m.state == pmacwd_specs::vocab::MotorState::Killed && m.loss_status, "the scan killed and latched: {m:?}");
+}

@@ -150,6 +150,21 @@ impl<M: Model> CheckerBuilder<M> {
         explorer::serve(self, addresses)
     }
 
+    /// PATCH (pmacwd): [`CheckerBuilder::serve`] on a listener the caller has bound, returning
+    /// an error instead of panicking when the server cannot be built on it. Like `serve`, it
+    /// blocks while the server runs.
+    pub fn serve_listener(
+        self,
+        listener: std::net::TcpListener,
+    ) -> Result<std::sync::Arc<impl Checker<M>>, Box<dyn std::error::Error + Send + Sync + 'static>>
+    where
+        M: 'static + Model + Send + Sync,
+        M::Action: Debug + Send + Sync,
+        M::State: Debug + Hash + Send + Sync,
+    {
+        explorer::serve_listener(self, listener)
+    }
+
     /// Spawns a breadth-first search model checker. This traversal strategy uses more memory than
     /// [`CheckerBuilder::spawn_dfs`] but will find the shortest [`Path`] to each discovery if
     /// checking is single threadeded (the default behavior, which [`CheckerBuilder::threads`]

@@ -189,6 +189,15 @@ pub trait Model: Sized {
             .map(|next_state| format!("{:#?}", next_state))
     }
 
+    /// PATCH (pmacwd): the text Explorer shows for a state (upstream always showed `{:#?}`,
+    /// which stays the default).
+    fn format_state(&self, state: &Self::State) -> String
+    where
+        Self::State: Debug,
+    {
+        format!("{:#?}", state)
+    }
+
     /// Returns an [SVG](https://developer.mozilla.org/en-US/docs/Web/SVG) representation of a
     /// [`Path`] for this model.
     fn as_svg(&self, _path: Path<Self::State, Self::Action>) -> Option<String> {

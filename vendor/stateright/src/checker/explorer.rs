@@ -3,7 +3,7 @@ use parking_lot::RwLock;
 use serde::ser::{SerializeStruct, Serializer};
 use serde::Serialize;
 use std::collections::VecDeque;
-use std::net::ToSocketAddrs;
+use std::net::{TcpListener, ToSocketAddrs};
 use std::sync::Arc;
 use std::thread::{sleep, spawn};
 use std::time::Duration;
@@ -28,6 +28,10 @@ struct StateView<State> {
     action: Option<String>,
     outcome: Option<String>,
     state: Option<State>,
+    /// PATCH (pmacwd): the state as [`Model::format_state`] shows it (upstream always printed
+    /// `{:#?}`, which is still the default). `None` only in this module's tests, which compare
+    /// the states themselves.
+    display: Option<String>,
     properties: Vec<Property>,
     svg: Option<String>,
 }
@@ -45,7 +49,10 @@ where
             out.serialize_field("outcome", outcome)?;
         }
         if let Some(ref state) = self.state {
-            out.serialize_field("state", &format!("{:#?}", state))?;
+            match self.display {
+                Some(ref display) => out.serialize_field("state", display)?,
+                None => out.serialize_field("state", &format!("{:#?}", state))?,
+            }
             out.serialize_field("fingerprint", &format!("{:?}", fingerprint(&state)))?;
         }
         if !self.properties.is_empty() {
@@ -95,13 +102,38 @@ where
     let checker = checker_builder
         .visitor(snapshot_for_visitor)
         .spawn_on_demand();
-    serve_checker(checker, snapshot_for_server, addresses)
+    let server = tiny_http::Server::http(addresses).unwrap();
+    serve_checker(checker, snapshot_for_server, server)
+}
+
+/// PATCH (pmacwd): [`serve`] on a listener the caller has bound (so that it can report a port
+/// in use as an error, and learn the port the system chose for port 0), with an error instead
+/// of a panic when the server cannot be built on it. Nothing is spawned before the server
+/// exists.
+pub(crate) fn serve_listener<M>(
+    checker_builder: CheckerBuilder<M>,
+    listener: TcpListener,
+) -> Result<Arc<impl Checker<M>>, Box<dyn std::error::Error + Send + Sync + 'static>>
+where
+    M: 'static + Model + Send + Sync,
+    M::Action: Debug + Send + Sync,
+    M::State: Debug + Hash + Send + Sync,
+{
+    let server = tiny_http::Server::from_listener(listener, None)?;
+    // No visitor: the on-demand checker rebuilds the whole path of every state it visits for
+    // a visitor (`reconstruct_path`, a replay from the initial state), before the visitor can
+    // say it wants one path every 4 s. On a model whose steps are long (pmacwd's time jumps of
+    // 4,096 servo cycles) that made a run to completion 10 times slower. The status then has
+    // no `recent_path`, which the page shows as empty.
+    let snapshot = Arc::new(RwLock::new(Snapshot(false, None)));
+    let checker = checker_builder.spawn_on_demand();
+    Ok(serve_checker(checker, snapshot, server))
 }
 
 fn serve_checker<M, C>(
     checker: C,
     snapshot: Arc<RwLock<Snapshot<M::Action>>>,
-    addresses: impl ToSocketAddrs,
+    server: tiny_http::Server,
 ) -> Arc<impl Checker<M>>
 where
     M: 'static + Model + Send + Sync,
@@ -110,8 +142,6 @@ where
     C: 'static + Checker<M> + Send + Sync,
 {
     let checker = Arc::new(checker);
-
-    let server = tiny_http::Server::http(addresses).unwrap();
 
     let server = Arc::new(server);
 
@@ -130,7 +160,16 @@ where
 
     let data = Arc::new((snapshot, Arc::clone(&checker)));
     let web_handle = std::thread::spawn(move || loop {
-        let rq = server.recv().unwrap();
+        // PATCH (pmacwd): a failed accept or a client gone before its answer is that client's
+        // problem, not the server's (upstream unwrapped both, so one closed browser tab could
+        // end the Explorer with a panic).
+        let rq = match server.recv() {
+            Ok(rq) => rq,
+            Err(err) => {
+                log::warn!("Explorer: a request failed: {}", err);
+                continue;
+            }
+        };
         let response = match (rq.method(), rq.url()) {
             (Method::Get, "/") => get_ui_file!("index.htm"),
             (Method::Get, "/app.css") => get_ui_file!("app.css"),
@@ -159,7 +198,9 @@ where
             }
             _ => Response::empty(StatusCode(404)).boxed(),
         };
-        rq.respond(response).unwrap();
+        if let Err(err) = rq.respond(response) {
+            log::warn!("Explorer: an answer could not be sent: {}", err);
+        }
     });
     web_handle.join().unwrap();
 
@@ -261,6 +302,7 @@ where
             results.push(StateView {
                 action: None,
                 outcome: None,
+                display: Some(model.format_state(&state)),
                 state: Some(state),
                 properties: get_properties(checker),
                 svg,
@@ -294,6 +336,7 @@ where
                 results.push(StateView {
                     action: Some(model.format_action(&action)),
                     outcome,
+                    display: Some(model.format_state(&state)),
                     state: Some(state),
                     properties: get_properties(checker),
                     svg,
@@ -304,6 +347,7 @@ where
                     action: Some(model.format_action(&action)),
                     outcome: None,
                     state: None,
+                    display: None,
                     properties: get_properties(checker),
                     svg: None,
                 });
@@ -337,6 +381,7 @@ mod test {
                     outcome: None,
                     state: Some(0),
                     properties: vec![(Expectation::Always, "in [0, 1]".to_owned(), None)],
+                    display: None,
                     svg: None
                 },
                 StateView {
@@ -344,6 +389,7 @@ mod test {
                     outcome: None,
                     state: Some(1),
                     properties: vec![(Expectation::Always, "in [0, 1]".to_owned(), None)],
+                    display: None,
                     svg: None
                 },
             ]
@@ -375,6 +421,7 @@ mod test {
                 outcome: Some("1".to_string()),
                 state: Some(1),
                 properties: vec![(Expectation::Always, "in [0, 1]".to_owned(), None)],
+                display: None,
                 svg: None,
             },]
         );
@@ -439,6 +486,7 @@ mod test {
                         (Expectation::Always, "#in <= #out".into(), None),
                         (Expectation::Eventually, "#out <= #in + 1".into(), None),
                     ],
+                    display: None,
                     svg: Some("<svg version=\'1.1\' baseProfile=\'full\' width=\'500\' height=\'30\' viewbox=\'-20 -20 520 50\' xmlns=\'http://www.w3.org/2000/svg\'><defs><marker class=\'svg-event-shape\' id=\'arrow\' markerWidth=\'12\' markerHeight=\'10\' refX=\'12\' refY=\'5\' orient=\'auto\'><polygon points=\'0 0, 12 5, 0 10\' /></marker></defs><line x1=\'0\' y1=\'0\' x2=\'0\' y2=\'30\' class=\'svg-actor-timeline\' />\n<text x=\'0\' y=\'0\' class=\'svg-actor-label\'>0</text>\n<line x1=\'100\' y1=\'0\' x2=\'100\' y2=\'30\' class=\'svg-actor-timeline\' />\n<text x=\'100\' y=\'0\' class=\'svg-actor-label\'>1</text>\n</svg>\n".to_string()),
                 },
             ]);
@@ -482,6 +530,7 @@ mod test {
                     (Expectation::Always, "#in <= #out".into(), None),
                     (Expectation::Eventually, "#out <= #in + 1".into(), None),
                 ],
+                display: None,
                 svg: Some("<svg version='1.1' baseProfile='full' width='500' height='60' viewbox='-20 -20 520 80' xmlns='http://www.w3.org/2000/svg'><defs><marker class='svg-event-shape' id='arrow' markerWidth='12' markerHeight='10' refX='12' refY='5' orient='auto'><polygon points='0 0, 12 5, 0 10' /></marker></defs><line x1='0' y1='0' x2='0' y2='60' class='svg-actor-timeline' />\n<text x='0' y='0' class='svg-actor-label'>0</text>\n<line x1='100' y1='0' x2='100' y2='60' class='svg-actor-timeline' />\n<text x='100' y='0' class='svg-actor-label'>1</text>\n</svg>\n".to_string()),
             });
         assert_eq!(
@@ -509,6 +558,7 @@ mod test {
                     (Expectation::Always, "#in <= #out".into(), None),
                     (Expectation::Eventually, "#out <= #in + 1".into(), None),
                 ],
+                display: None,
                 svg: Some("<svg version='1.1' baseProfile='full' width='500' height='60' viewbox='-20 -20 520 80' xmlns='http://www.w3.org/2000/svg'><defs><marker class='svg-event-shape' id='arrow' markerWidth='12' markerHeight='10' refX='12' refY='5' orient='auto'><polygon points='0 0, 12 5, 0 10' /></marker></defs><line x1='0' y1='0' x2='0' y2='60' class='svg-actor-timeline' />\n<text x='0' y='0' class='svg-actor-label'>0</text>\n<line x1='100' y1='0' x2='100' y2='60' class='svg-actor-timeline' />\n<text x='100' y='0' class='svg-actor-label'>1</text>\n<line x1='0' x2='100' y1='0' y2='30' marker-end='url(#arrow)' class='svg-event-line' />\n<text x='100' y='30' class='svg-event-label'>Ping(0)</text>\n</svg>\n".to_string()),
             });
     }
@@ -577,7 +627,13 @@ mod test {
     {
         let snapshot = Arc::new(RwLock::new(Snapshot(true, None)));
         let data = Arc::new((snapshot, checker));
-        states(path_name, data)
+        // The displays are the states' `{:#?}` here; the tests compare the states themselves.
+        states(path_name, data).map(|views| {
+            views
+                .into_iter()
+                .map(|view| StateView { display: None, ..view })
+                .collect()
+        })
     }
 
     fn get_status<M, C>(checker: Arc<C>, snapshot: Arc<RwLock<Snapshot<M::Action>>>) -> StatusView
