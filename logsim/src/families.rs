@@ -23,6 +23,7 @@ pub const FAMILIES: &[&str] = &[
     "status-10hz",
     "status-slow",
     "silence-unstamped",
+    "config-unread",
 ];
 
 pub const LONG_FAMILIES: &[&str] = &["healthy-week"];
@@ -79,7 +80,11 @@ fn setup(rng: &mut Rng, family: &str) -> Setup {
     let i8_choices: Vec<i64> =
         [0i64, 1, 2, 2, 3, 5, 7].into_iter().filter(|i8| (*i8 as u32 + 1) * 3 <= delay).collect();
     let i8 = rng.pick(&i8_choices);
-    let i40 = if family == "healthy-week" { 0 } else { rng.pick(&[0i64, 0, 0, 0, 1000, 2000, 4000, 8000]) };
+    let i40 = match family {
+        "healthy-week" => 0,
+        "config-unread" => rng.pick(&[1000i64, 2000, 8000]),
+        _ => rng.pick(&[0i64, 0, 0, 0, 1000, 2000, 4000, 8000]),
+    };
     let mut saved = BTreeMap::new();
     saved.insert(8, i8);
     saved.insert(40, i40);
@@ -140,9 +145,17 @@ fn standard_poll() -> Vec<Cmd> {
 /// The start every host does (docs/capturing.md "What to log"): a reset, then the
 /// configuration read once.
 fn opening(s: &mut Session, started_with_reset: bool, read_config: bool) {
+    opening_as(s, started_with_reset, read_config, true)
+}
+
+fn opening_as(s: &mut Session, started_with_reset: bool, read_config: bool, read_when_not_default: bool) {
     // A card off the default servo rate is read for I10 (docs/capturing.md asks for it: the
     // host clock is turned into servo cycles with it).
-    let read_config = read_config || s.card.spec.i10 != 3_713_707;
+    // So is one whose saved I8 or I40 differ from the defaults (I8 = 2, I40 = 0): the importer
+    // takes them from the log, as docs/capturing.md "What to log" asks. The family
+    // `config-unread` leaves them unread on purpose.
+    let defaults = s.card.spec.i10 == 3_713_707 && s.card.spec.saved[&8] == 2 && s.card.spec.saved[&40] == 0;
+    let read_config = read_config || (read_when_not_default && !defaults);
     if started_with_reset {
         s.send(vec![Cmd::Reset]);
         let t = s.t + 1.0;
@@ -187,6 +200,13 @@ fn scenario(family: &str, s: &mut Session, r: &mut Rng, started_with_reset: bool
             opening(s, started_with_reset, read_config);
             facts.notes.push(format!("poll every {poll_s} s for {duration} s"));
             poll_for(s, poll_s, duration, &poll);
+        }
+        "config-unread" => {
+            // A card whose saved I8, I40 or servo rate are not the defaults, polled by a host
+            // that never reads them (stamps or not).
+            opening_as(s, started_with_reset, false, false);
+            facts.notes.push("I8, I40 and I10 never read".into());
+            poll_for(s, 0.5, r.float(5.0, 30.0), &poll);
         }
         "healthy-week" => {
             opening(s, true, true);
@@ -455,6 +475,12 @@ fn enc24(v: i64) -> u32 {
 type Mutation = (&'static str, Vec<Exchange>, usize, String);
 
 /// One observation no correct card can show, put into a copy of a correct log.
+/// A position among the first few where a kind applies: an early impossible observation is
+/// judged before whatever a long log does after it.
+fn early(rng: &mut Rng, n: usize) -> usize {
+    rng.range(0, n.min(3) as u64 - 1) as usize
+}
+
 fn mutate(
     rng: &mut Rng,
     family: &str,
@@ -613,7 +639,7 @@ fn mutate(
     };
     let (index, why) = match kind {
         "x25-above-y25" => {
-            let (i, ci, y) = x25_above_y25[rng.range(0, x25_above_y25.len() as u64 - 1) as usize];
+            let (i, ci, y) = x25_above_y25[early(rng, x25_above_y25.len())];
             let v = y + rng.range(1, 20) as i64;
             set(&mut out, i, ci, Answer::Word(enc24(v)));
             (
@@ -624,30 +650,30 @@ fn mutate(
             )
         }
         "x25-rising" => {
-            let (i, ci, prev) = x25_rising[rng.range(0, x25_rising.len() as u64 - 1) as usize];
+            let (i, ci, prev) = x25_rising[early(rng, x25_rising.len())];
             let v = prev + rng.range(1, 30) as i64;
             set(&mut out, i, ci, Answer::Word(enc24(v)));
             (i, format!("X:$25 rises from {prev} to {v} with no reset (SRM p.57: lowest since reset)"))
         }
         "y25-above-reload" => {
-            let (i, ci, reload) = y25_above[rng.range(0, y25_above.len() as u64 - 1) as usize];
+            let (i, ci, reload) = y25_above[early(rng, y25_above.len())];
             let max = if reload == 4095 { 4096 } else { reload };
             let v = max + rng.range(1, 100) as i64;
             set(&mut out, i, ci, Answer::Word(enc24(v)));
             (i, format!("Y:$25 reads {v}, above any reload value ({max}; UM p.215, SRM p.57)"))
         }
         "bit22-cleared" => {
-            let (i, ci, x, y) = bit22_cleared[rng.range(0, bit22_cleared.len() as u64 - 1) as usize];
+            let (i, ci, x, y) = bit22_cleared[early(rng, bit22_cleared.len())];
             set(&mut out, i, ci, Answer::Status { x: x & !(1 << 22), y });
             (i, "bit 22 clears with no reset and no write (SRM p.289: it stays 1 until reset)".to_string())
         }
         "bit13-cleared" => {
-            let (i, ci, x, y) = bit13_cleared[rng.range(0, bit13_cleared.len() as u64 - 1) as usize];
+            let (i, ci, x, y) = bit13_cleared[early(rng, bit13_cleared.len())];
             set(&mut out, i, ci, Answer::Status { x: x & !(1 << 13), y });
             (i, "bit 13 clears after a checksum error with no reset (UM p.217: checksumming stops)".to_string())
         }
         "cpu-changed" => {
-            let (i, ci, x, y) = cpu_changed[rng.range(0, cpu_changed.len() as u64 - 1) as usize];
+            let (i, ci, x, y) = cpu_changed[early(rng, cpu_changed.len())];
             let flip = rng.range(1, 3) as u32;
             let x2 = if flip & 2 != 0 { x ^ (1 << 21) } else { x };
             let y2 = if flip & 1 != 0 { y ^ (1 << 21) } else { y };
@@ -655,18 +681,18 @@ fn mutate(
             (i, "the CPU type bits (21 of both words, SRM p.289) change".to_string())
         }
         "ivar-read-back-different" => {
-            let (i, ci, v) = readback[rng.range(0, readback.len() as u64 - 1) as usize];
+            let (i, ci, v) = readback[early(rng, readback.len())];
             let w = v + rng.range(1, 99) as i64;
             set(&mut out, i, ci, Answer::Value(w));
             (i, format!("an I-variable written {v} (not locked, SRM p.57) reads back {w}"))
         }
         "locked-write-took-effect" => {
-            let (i, ci, v) = locked_took[rng.range(0, locked_took.len() as u64 - 1) as usize];
+            let (i, ci, v) = locked_took[early(rng, locked_took.len())];
             set(&mut out, i, ci, Answer::Value(v));
             (i, format!("a write of {v} locked out by I41 is read back (SRM p.57: the write is ignored)"))
         }
         "answer-after-trip" => {
-            let i = answer_after_trip[rng.range(0, answer_after_trip.len() as u64 - 1) as usize];
+            let i = answer_after_trip[early(rng, answer_after_trip.len())];
             // The uninterrupted count: as if the card had kept running.
             let (x0, at) = last_x0_before(exchanges, i).expect("an X:$0 read before");
             let cycles = ((exchanges[i].sent_s - at) * servo_hz) as u64;
