@@ -138,8 +138,14 @@ fn setup(rng: &mut Rng, family: &str) -> Setup {
     Setup { card, stamps, many_per_line, wall_start_s, started_with_reset, survival_s }
 }
 
-fn standard_poll() -> Vec<Cmd> {
-    vec![Cmd::ReadX0, Cmd::Status, Cmd::ReadY25, Cmd::ReadX25]
+/// What the host polls: everything docs/capturing.md asks for, or X:$25 without Y:$25, or
+/// the status alone (always with X:$0, which times the log).
+fn poll_style(rng: &mut Rng) -> (&'static str, Vec<Cmd>) {
+    match rng.range(0, 19) {
+        0..=7 => ("full", vec![Cmd::ReadX0, Cmd::Status, Cmd::ReadY25, Cmd::ReadX25]),
+        8..=14 => ("no-y25", vec![Cmd::ReadX0, Cmd::Status, Cmd::ReadX25]),
+        _ => ("status", vec![Cmd::ReadX0, Cmd::Status]),
+    }
 }
 
 /// The start every host does (docs/capturing.md "What to log"): a reset, then the
@@ -185,12 +191,14 @@ pub struct Facts {
     pub trip_time_s: Option<f64>,
     pub notes: Vec<String>,
     pub i40_written: bool,
+    pub poll: &'static str,
 }
 
 /// Run one family's scenario on a session.
 fn scenario(family: &str, s: &mut Session, r: &mut Rng, started_with_reset: bool, survival_s: f64) -> Facts {
-    let mut facts = Facts { cause: None, trip_time_s: None, notes: Vec::new(), i40_written: false };
-    let poll = standard_poll();
+    let mut facts = Facts { cause: None, trip_time_s: None, notes: Vec::new(), i40_written: false, poll: "" };
+    let (style, poll) = poll_style(r);
+    facts.poll = style;
     match family {
         "healthy" => {
             let poll_s = r.pick(&[0.1, 0.25, 0.5, 1.0, 1.5]);
@@ -347,6 +355,7 @@ fn scenario(family: &str, s: &mut Session, r: &mut Rng, started_with_reset: bool
         }
         "status-10hz" => {
             // Issue 36: `???` at 10 Hz, X:$0 read once a second.
+            facts.poll = "status";
             opening(s, started_with_reset, false);
             let duration = r.pick(&[10.0, 30.0, 120.0]);
             let end = s.t + duration;
@@ -364,6 +373,7 @@ fn scenario(family: &str, s: &mut Session, r: &mut Rng, started_with_reset: bool
         }
         "status-slow" => {
             // Issue 36: status-only polling slower than the reload period.
+            facts.poll = "status";
             opening(s, started_with_reset, false);
             let poll_s = r.pick(&[2.0, 3.0, 5.0, 10.0]);
             let duration = r.pick(&[60.0, 600.0, 1800.0]);

@@ -216,7 +216,7 @@ pub fn judge_all(
 /// The lines of replay's output worth showing for a misjudged log.
 pub fn first_lines(output: &str, furthest: Option<usize>) -> Vec<String> {
     let mut lines = Vec::new();
-    if let Some(l) = output.lines().find(|l| l.starts_with("verdict:") || l.contains("error")) {
+    if let Some(l) = output.lines().find(|l| l.starts_with("verdict:") || l.starts_with("pmacwd:") || l.starts_with("error")) {
         lines.push(l.trim().to_string());
     }
     if let Some(n) = furthest {

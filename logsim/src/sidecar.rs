@@ -30,6 +30,8 @@ pub struct Sidecar {
     pub readings: BTreeMap<String, String>,
     pub card: CardFacts,
     pub stamps: String,
+    /// What each poll reads: `full` (X:$0, ???, Y:$25, X:$25), `no-y25`, `status` (X:$0, ???).
+    pub poll: String,
     pub commands_per_line: String,
     pub host_timeout_s: f64,
     pub exchanges: usize,
@@ -97,6 +99,7 @@ impl Sidecar {
                 background_units: spec.background_units,
             },
             stamps: stamps.to_string(),
+            poll: facts.poll.to_string(),
             commands_per_line: if many_per_line { "many" } else { "one" }.to_string(),
             host_timeout_s: (timeout_s * 1000.0).round() / 1000.0,
             exchanges,
