@@ -216,7 +216,9 @@ pub fn judge_all(
 /// The lines of replay's output worth showing for a misjudged log.
 pub fn first_lines(output: &str, furthest: Option<usize>) -> Vec<String> {
     let mut lines = Vec::new();
-    if let Some(l) = output.lines().find(|l| l.starts_with("verdict:") || l.starts_with("pmacwd:") || l.starts_with("error")) {
+    if let Some(l) =
+        output.lines().find(|l| l.starts_with("verdict:") || l.starts_with("pmacwd:") || l.starts_with("error"))
+    {
         lines.push(l.trim().to_string());
     }
     if let Some(n) = furthest {
@@ -269,6 +271,17 @@ pub fn report(results: &[Judged]) -> String {
     ] {
         out.push_str(&format!("  {:<40} {}\n", c.label(), counts.get(&c).copied().unwrap_or(0)));
     }
+    // An impossible variant judged anywhere but its line says little when its correct log is
+    // misjudged too: count those apart.
+    let base_wrong = |name: &str| {
+        let base = name.split("-impossible-").next().unwrap_or(name);
+        results.iter().any(|b| b.sidecar.name == base && !b.category.is_right())
+    };
+    let moot = results
+        .iter()
+        .filter(|r| r.sidecar.expect == "impossible" && !r.category.is_right() && base_wrong(&r.sidecar.name))
+        .count();
+    out.push_str(&format!("  {:<40} {moot}\n", "(misjudged impossible whose correct log is misjudged too)"));
     out.push_str("by family (judged right / logs):\n");
     for ((family, expect), (right, all)) in &families {
         out.push_str(&format!("  {family:<20} {expect:<11} {right}/{all}\n"));
