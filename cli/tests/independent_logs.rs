@@ -38,6 +38,9 @@ enum Misjudged {
     Undecided,
     /// A correct card's log that replay does not judge within the limit.
     Slow,
+    /// A correct card's log, "no correct card", after longer than this test waits (about
+    /// 30 s on a release build).
+    ImpossibleSlowly,
 }
 
 const KNOWN_FAILURES: &[Known] = &[
@@ -77,6 +80,14 @@ const KNOWN_FAILURES: &[Known] = &[
         log: "status-polls-i40-8000.log",
         families: "every family with the status or no-y25 poll on a card with a large I40",
         misjudged: Misjudged::Slow,
+    },
+    Known {
+        // After a trip and an unseen INIT/, the first answer is a `???`, before any X:$0 read
+        // shows the restart: the import places the restart at that later X:$0 read, so the
+        // card is still tripped when it answers.
+        log: "answer-after-init-before-an-x0-read.log",
+        families: "init-recovery",
+        misjudged: Misjudged::ImpossibleSlowly,
     },
     Known {
         // A card with I40 = 2000 whose log never reads I40: replay takes I40 = 0.
@@ -191,7 +202,7 @@ fn the_known_failures_are_still_misjudged() {
         let log = root.join(known.log);
         assert!(log.exists(), "{} is missing", log.display());
         let limit = match known.misjudged {
-            Misjudged::Slow => SLOW_LIMIT,
+            Misjudged::Slow | Misjudged::ImpossibleSlowly => SLOW_LIMIT,
             _ => Duration::from_secs(120),
         };
         let result = pmacwd(&["replay", log.to_str().expect("utf-8")], limit);
@@ -201,6 +212,7 @@ fn the_known_failures_are_still_misjudged() {
             (Misjudged::Slow, None) => true,
             // A slow one that now finishes but still misjudges is a known failure all the same.
             (Misjudged::Slow, Some((code, _))) => *code != 0,
+            (Misjudged::ImpossibleSlowly, None | Some((1, _))) => true,
             _ => false,
         };
         if !still {
