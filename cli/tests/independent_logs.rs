@@ -6,7 +6,7 @@
 //!   impossible variant) replay judges right today, each verdict asserted: a correct log
 //!   explained, an impossible one rejected at its line;
 //! - KNOWN_FAILURES: what replay misjudges today, each with its minimal log in
-//!   `specs/captures/independent/` (FINDINGS.md). Each must still be misjudged: when one is judged
+//!   `specs/captures/independent/` (docs/independent-logs-findings.md). Each must still be misjudged: when one is judged
 //!   right, this test fails so that it moves into the asserted set (as wasmtime's known-failure
 //!   list does).
 
@@ -34,8 +34,6 @@ struct Known {
 enum Misjudged {
     /// A correct card's log, "no correct card" (exit 1).
     Impossible,
-    /// A correct card's log, "undecided" (exit 2).
-    Undecided,
     /// A correct card's log that replay does not judge within the limit.
     Slow,
     /// A correct card's log, "no correct card", after longer than this test waits (about
@@ -64,10 +62,12 @@ const KNOWN_FAILURES: &[Known] = &[
         misjudged: Misjudged::Impossible,
     },
     Known {
-        // `???` at 10 Hz between X:$0 reads a second apart, placed at one instant (issue 36).
-        log: "status-10hz-one-x0-read-a-second.log",
+        // `???` at 10 Hz between X:$0 reads a second apart: placed by host time (issue 36) a
+        // 20-line cut is explained (status-10hz-one-x0-read-a-second.log, fixed), but the
+        // family's 670-line log takes minutes.
+        log: "status-10hz-67-seconds-is-slow.log",
         families: "status-10hz",
-        misjudged: Misjudged::Undecided,
+        misjudged: Misjudged::Slow,
     },
     Known {
         // `RHX:$0 ???` every 3 s, slower than the reload period (issue 36).
@@ -164,7 +164,9 @@ fn the_asserted_families_are_judged_right() {
     for g in set.iter().filter(|g| ASSERTED.contains(&g.sidecar.family.as_str())) {
         let log = dir.join(format!("{}.log", g.name));
         let (code, text) =
-            pmacwd(&["replay", log.to_str().expect("utf-8")], Duration::from_secs(120)).expect("replay finishes");
+            // 240 s: an impossible log whose commands lie apart from their reads is searched
+            // again placed by host time (i41-session's took 105 s on the release build).
+            pmacwd(&["replay", log.to_str().expect("utf-8")], Duration::from_secs(240)).expect("replay finishes");
         if g.sidecar.expect == "explained" {
             assert_eq!(code, 0, "{}: a correct card's log, not explained:\n{text}", g.name);
         } else {
@@ -208,7 +210,6 @@ fn the_known_failures_are_still_misjudged() {
         let result = pmacwd(&["replay", log.to_str().expect("utf-8")], limit);
         let still = match (&known.misjudged, &result) {
             (Misjudged::Impossible, Some((1, _))) => true,
-            (Misjudged::Undecided, Some((2, _))) => true,
             (Misjudged::Slow, None) => true,
             // A slow one that now finishes but still misjudges is a known failure all the same.
             (Misjudged::Slow, Some((code, _))) => *code != 0,

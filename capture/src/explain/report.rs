@@ -75,7 +75,8 @@ pub struct Report {
     /// When placing them at the reads' instants explained nothing and host time was tried:
     /// where the first placement failed, in words.
     pub at_reads_failed: Option<String>,
-    /// Whether the capture is a host log with host timestamps (which host time can place).
+    /// Whether the capture is a stamped host log whose commands host time places apart from
+    /// the X:$0 reads before them (more than about 10 ms; or a log without two reads).
     pub stamped_log: bool,
     /// The search placing the log by host time ran past its limit: the verdict is undecided.
     pub host_time_unfinished: bool,
@@ -107,8 +108,9 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
 /// configuration and format).
 ///
 /// A stamped log is judged first with the commands between X:$0 reads at the reads' instants
-/// (fast). If no correct card explains it so, it is judged again with every exchange at its
-/// own host time, and that verdict stands: a poll spread between reads (bit 12 flipping
+/// (fast). If no correct card explains it so, and host time places some command more than
+/// about 10 ms after the read before it, it is judged again with every exchange at its own
+/// host time, and that verdict stands: a poll spread between reads (bit 12 flipping
 /// between two `???` 0.1 s apart) is not called impossible for want of time the log shows
 /// passed (issue 36).
 pub fn explain_as(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> Result<Report, SpecError> {
@@ -354,9 +356,10 @@ fn scan(spec: &Spec, mut source: Source) -> Result<(bool, Option<String>, bool),
         }
     }
     let (untimed, stamped) = match &source {
-        Source::HostLog(stream) => {
-            (stream.summary().and_then(|s| s.timing_warning()), stream.summary().is_some_and(|s| s.stamped))
-        }
+        Source::HostLog(stream) => (
+            stream.summary().and_then(|s| s.timing_warning()),
+            stream.summary().is_some_and(|s| s.spread_between_reads()),
+        ),
         _ => (None, false),
     };
     Ok((seen, untimed, stamped))

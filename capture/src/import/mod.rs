@@ -817,6 +817,9 @@ pub struct Summary {
     pub placed_by_host_time: u64,
     /// Whether the log has host timestamps.
     pub stamped: bool,
+    /// The most host time, in ns, between an X:$0 read and an exchange after it (before the
+    /// next read): what [`Placement::AtReads`] leaves out.
+    pub spread_ns_max: i128,
     /// Commands whose answer the log does not show ([`Answer::Unseen`]), kept without an
     /// expectation.
     pub unseen: u64,
@@ -825,6 +828,14 @@ pub struct Summary {
 impl Summary {
     /// A warning when the log gives no timing at all: without two X:$0 reads (or host time
     /// over a silent card) every command happens at one instant.
+    /// Whether placing the commands at the reads' instants leaves out more host time than the
+    /// search's hints allow for between the commands of one poll (about 10 ms): then a verdict
+    /// against the log is checked again with every exchange at its own host time.
+    pub fn spread_between_reads(&self) -> bool {
+        const SPREAD_NS_MAX: i128 = 10_000_000;
+        self.stamped && (self.counter_reads < 2 || self.spread_ns_max > SPREAD_NS_MAX)
+    }
+
     pub fn timing_warning(&self) -> Option<String> {
         (self.counter_reads < 2 && self.silent_gaps == 0 && self.placed_by_host_time == 0).then(|| {
             format!(
@@ -984,6 +995,13 @@ impl Importer {
             self.silent = true;
         }
         let reads_counter = ex.commands.iter().any(Self::is_counter_read);
+        // How far host time places this exchange after the last X:$0 read: what placing it at
+        // the read's instant leaves out.
+        if let (Some(now), Some((_, Some(read_at)))) = (ex.at, self.last_read) {
+            if !reads_counter {
+                self.summary.spread_ns_max = self.summary.spread_ns_max.max(now.1 - read_at.0);
+            }
+        }
         let first = self.summary.exchanges == 1;
         let resets = ex.commands.iter().any(|c| c.command == HostCommand::Reset);
         if first && self.placement == Placement::HostTime && ex.at.is_some() && !reads_counter && !resets {
