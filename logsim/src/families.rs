@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use crate::card::{Answer, Area, Card, CardSpec, Cmd, Power, Readings, Why, CYCLE_UNITS, PLC0_ENDLESS};
 use crate::host::{render, Exchange, Session, Stamps};
 use crate::rng::Rng;
-use crate::sidecar::Sidecar;
+use crate::sidecar::{Facts, Sidecar};
 
 /// Every family, in the order `--count` cycles through them. `healthy-week` is generated only
 /// when asked for by name (a week at 2 Hz: 1.2 million polls).
@@ -184,14 +184,6 @@ fn poll_for(s: &mut Session, poll_s: f64, duration_s: f64, cmds: &[Cmd]) {
 /// RTI capacity in CPU units: what the RTI period leaves after the servo tasks (UM p.236).
 fn rti_capacity(card: &Card) -> u64 {
     (u64::from(card.i8()) + 1) * (CYCLE_UNITS - u64::from(card.spec.servo_units))
-}
-
-pub struct Facts {
-    pub cause: Option<&'static str>,
-    pub trip_time_s: Option<f64>,
-    pub notes: Vec<String>,
-    pub i40_written: bool,
-    pub poll: &'static str,
 }
 
 /// Run one family's scenario on a session.

@@ -4,7 +4,17 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 use crate::card::{CardSpec, Readings};
-use crate::families::Facts;
+
+/// What a family's scenario did that the sidecar reports: the trip's cause and time, notes,
+/// whether I40 was written, the poll style. (Defined here, beside the sidecar it fills, so that
+/// the families import the sidecar and not the other way round.)
+pub struct Facts {
+    pub cause: Option<&'static str>,
+    pub trip_time_s: Option<f64>,
+    pub notes: Vec<String>,
+    pub i40_written: bool,
+    pub poll: &'static str,
+}
 
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
