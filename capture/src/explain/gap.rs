@@ -205,36 +205,53 @@ pub struct Outcome {
     pub start_hi: i32,
 }
 
-/// What a lane has worked out once and asks again on every gap of a long capture: the servo
-/// cycles each card it met takes to trip without a background cycle. A healthy log meets the
-/// same few cards over and over (X:$0, which no rule reads, is cleared in the search's cards),
-/// and running a card down cycle by cycle to its trip was most of a stamped log's time. Bounded:
-/// cleared when full, so memory stays flat whatever the log's length.
-#[derive(Default)]
+/// A map that forgets everything when full: memory stays flat whatever the log's length, and a
+/// healthy log, which meets the same few cards over and over, fills it again at once.
+struct Bounded<K, V> {
+    map: HashMap<K, V>,
+    entries_max: usize,
+}
+
+impl<K: std::hash::Hash + Eq, V: Clone> Bounded<K, V> {
+    fn new(entries_max: usize) -> Self {
+        Bounded { map: HashMap::new(), entries_max }
+    }
+
+    /// The value for `key`, worked out by `make` the first time.
+    fn get_or(&mut self, key: K, make: impl FnOnce() -> V) -> V {
+        if let Some(v) = self.map.get(&key) {
+            return v.clone();
+        }
+        let v = make();
+        if self.map.len() >= self.entries_max {
+            self.map.clear();
+        }
+        self.map.insert(key, v.clone());
+        v
+    }
+}
+
+/// What a lane has worked out once and asks again on every gap of a long capture (X:$0, which
+/// no rule reads, is cleared in the search's cards, so the same card recurs): running a card
+/// down cycle by cycle to its trip, and the plans of whole gaps, were most of a stamped log's
+/// time.
 pub struct Memo {
-    trip: HashMap<(Controller, u64), u64>,
-    /// Whole gaps: a healthy poll asks for the same card, the same cycles and the same hints
-    /// again and again.
-    gaps: HashMap<(Controller, i32, u32, Hints), Vec<Outcome>>,
+    /// Servo cycles each card takes to trip without a background cycle (4,096 cards).
+    trip: Bounded<(Controller, u64), u64>,
+    /// Whole gaps: a healthy poll asks for the same card, cycles and hints again and again
+    /// (512 gaps of a few cards each: about 1 MB a lane).
+    gaps: Bounded<(Controller, i32, u32, Hints), Vec<Outcome>>,
+}
+
+impl Default for Memo {
+    fn default() -> Memo {
+        Memo { trip: Bounded::new(4096), gaps: Bounded::new(512) }
+    }
 }
 
 impl Memo {
-    /// The most cards remembered before the memo starts again.
-    const ENTRIES_MAX: usize = 4096;
-    /// The most gaps remembered (each holds a few cards): about 1 MB a lane.
-    const GAPS_MAX: usize = 512;
-
     fn cycles_to_trip(&mut self, cfg: &ModelConfig, card: &Controller, max: u64) -> u64 {
-        let key = (card.clone(), max);
-        if let Some(n) = self.trip.get(&key) {
-            return *n;
-        }
-        let n = cycles_to_trip(cfg, card, max);
-        if self.trip.len() >= Self::ENTRIES_MAX {
-            self.trip.clear();
-        }
-        self.trip.insert(key, n);
-        n
+        self.trip.get_or((card.clone(), max), || cycles_to_trip(cfg, card, max))
     }
 }
 
@@ -265,15 +282,12 @@ pub fn successors(
     hints: &Hints,
 ) -> Vec<Outcome> {
     let key = (card.clone(), counter_lo, cycles, hints.clone());
-    if let Some(out) = memo.gaps.get(&key) {
+    if let Some(out) = memo.gaps.map.get(&key) {
         return out.clone();
     }
+    // Worked out outside `get_or`: the plans use the memo's trip counts too.
     let out = successors_uncached(cfg, memo, card, counter_lo, cycles, hints);
-    if memo.gaps.len() >= Memo::GAPS_MAX {
-        memo.gaps.clear();
-    }
-    memo.gaps.insert(key, out.clone());
-    out
+    memo.gaps.get_or(key, || out)
 }
 
 fn successors_uncached(

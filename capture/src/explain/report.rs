@@ -77,7 +77,7 @@ pub struct Report {
     pub at_reads_failed: Option<String>,
     /// Whether the capture is a stamped host log whose commands host time places apart from
     /// the X:$0 reads before them (more than about 10 ms; or a log without two reads).
-    pub stamped_log: bool,
+    pub placed_apart: bool,
     /// The search placing the log by host time ran past its limit: the verdict is undecided.
     pub host_time_unfinished: bool,
 }
@@ -116,7 +116,7 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
 pub fn explain_as(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> Result<Report, SpecError> {
     use crate::import::Placement;
     let first = explain_placed(spec, path, import_configuration)?;
-    if first.explained() || import_configuration.placement == Placement::HostTime || !first.stamped_log {
+    if first.explained() || import_configuration.placement == Placement::HostTime || !first.placed_apart {
         return Ok(first);
     }
     let failed = first
@@ -161,7 +161,7 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
     let description = source.description().to_string();
     let profiles = source.profiles(spec, path)?;
     let card = source.card();
-    let (observed, untimed, stamped_log) = scan(spec, source)?;
+    let (observed, untimed, placed_apart) = scan(spec, source)?;
     if !spec.check.configurations.contains_key(&configuration) {
         return Err(SpecError::at(
             path,
@@ -289,7 +289,7 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
         untimed,
         placement: import_configuration.placement,
         at_reads_failed: None,
-        stamped_log,
+        placed_apart,
         host_time_unfinished: false,
     })
 }

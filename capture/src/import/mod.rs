@@ -1407,6 +1407,17 @@ impl ImportStream {
         ImportStream::open_as(spec, path, configuration, None)
     }
 
+    /// Opens the log `path` in format `format` (by its content when `None`), placing the
+    /// commands between X:$0 reads at the reads' instants.
+    pub fn open_as(
+        spec: &Spec,
+        path: &Path,
+        configuration: &str,
+        format: Option<LogFormat>,
+    ) -> Result<ImportStream, SpecError> {
+        ImportStream::open_placed(spec, path, configuration, format, Placement::AtReads)
+    }
+
     /// Opens the log `path` in format `format`, placing its commands as `placement` says.
     pub fn open_placed(
         spec: &Spec,
@@ -1414,18 +1425,6 @@ impl ImportStream {
         configuration: &str,
         format: Option<LogFormat>,
         placement: Placement,
-    ) -> Result<ImportStream, SpecError> {
-        let mut stream = ImportStream::open_as(spec, path, configuration, format)?;
-        stream.importer = Some(Importer::placing(path, stream.servo_hz, placement));
-        Ok(stream)
-    }
-
-    /// Opens the log `path` in format `format` (by its content when `None`).
-    pub fn open_as(
-        spec: &Spec,
-        path: &Path,
-        configuration: &str,
-        format: Option<LogFormat>,
     ) -> Result<ImportStream, SpecError> {
         let config_hz = configuration_servo_hz(spec, configuration).map_err(|e| SpecError::whole_file(path, e))?;
         // A file that looks like none of the formats is read as a host log (the first format,
@@ -1456,7 +1455,7 @@ impl ImportStream {
             servo_hz,
             format,
             records: open_records(path, format)?,
-            importer: Some(Importer::new(path, servo_hz)),
+            importer: Some(Importer::placing(path, servo_hz, placement)),
             summary: None,
             queue: VecDeque::new(),
             path: path.to_path_buf(),
