@@ -125,6 +125,11 @@ fn generate(spec: &Spec, cfg: &ModelConfig, cpu: u8, gaps: &[GapGen]) -> String 
         if let Some(area) = g.fault {
             card.apply(cfg, &Event::ChecksumFault(area));
         }
+        // The background cycle the last command was processed in may end before the next
+        // servo cycle, reloading the counter (UM p.236, p.215).
+        if card.background_possible() && rng.below(100) < g.background_percent {
+            card.background_cycle(cfg);
+        }
         for c in 0..g.cycles {
             let load = if c < g.overrun_cycles { heavy(card.i8) } else { light };
             if card.load != load {

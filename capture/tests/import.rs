@@ -253,9 +253,14 @@ fn a_line_of_several_commands_is_split_as_the_card_splits_it_and_its_replies_pai
     assert_eq!(s[4].expect.reply.as_deref(), Some("001000000000"));
     assert_eq!(s[5].expect.reply.as_deref(), Some("000FFC"));
     assert_eq!(s[8].expect.reply.as_deref(), Some("(ack)"));
-    // A timeout silences the whole line.
+    // A timeout silences the whole line; without stamps the host waited an unknown time first
+    // (issue 36: not zero).
     let t = ok("> I40 I41\n< (timeout)\n");
-    assert!(t.trace.steps.iter().all(|s| s.expect.reply.as_deref() == Some("(silence)")));
+    let (wait, commands) = t.trace.steps.split_first().expect("steps");
+    assert_eq!(wait.event, TraceEvent::Elapsed { cycles_min: 0, cycles_max: None });
+    assert_eq!(commands.len(), 2);
+    assert!(commands.iter().all(|s| s.expect.reply.as_deref() == Some("(silence)")));
+    assert_eq!(t.summary.waits_unknown, 1);
 }
 
 #[test]

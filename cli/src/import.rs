@@ -132,13 +132,14 @@ fn summarize(stream: &ImportStream, configuration: &str) {
     }
     let Some(s) = stream.summary() else { return };
     eprintln!(
-        "pmacwd: {} on {}, {}, {}, {} timed by the host clock, {} answered from the card's own state \
+        "pmacwd: {} on {}, {}, {}, {} timed by the host clock, {} of unknown length (a timeout in a log without stamps), {} answered from the card's own state \
          (not compared with the model's values), {} the grammar cannot read (kept without an expectation){}{}",
         plural(s.commands, "command", "commands"),
         plural(s.exchanges, "line", "lines"),
         plural(s.counter_reads, "X:$0 read", "X:$0 reads"),
         plural(s.restarts, "restart", "restarts"),
         plural(s.silent_gaps, "silent gap", "silent gaps"),
+        plural(s.waits_unknown, "wait", "waits"),
         s.card_own,
         s.not_modelled,
         if s.unseen > 0 {

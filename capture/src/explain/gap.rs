@@ -53,8 +53,14 @@ pub struct Hints {
 /// How a gap begins, before background cycles follow whenever the load allows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Lead {
-    /// The first background cycle at the first chance.
+    /// The first background cycle at the first chance after a servo cycle.
     Steady,
+    /// A background cycle before the gap's first servo cycle: the one in which the command
+    /// just answered was processed ends, reloading the counter (UM p.236: host commands are
+    /// processed in the background; UM p.215: the reload comes "at the end of each background
+    /// cycle"). The counter then never drops below where the command read it, and the last
+    /// reload may be the gap's very start.
+    ReloadFirst,
     /// No background cycle for the first `j` servo cycles; one after the `j`-th.
     FirstAfter(u32),
     /// A background cycle after the first servo cycle, then none for `s` cycles, then one.
@@ -119,6 +125,10 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
             if let Some(area) = fault {
                 sim.event(Event::ChecksumFault(area));
             }
+            // The background cycle the command just answered was processed in ends first.
+            if lead == Lead::ReloadFirst && !sim.background() {
+                return None;
+            }
             if heavy > 0 {
                 sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
                 sim.servo(heavy);
@@ -129,6 +139,9 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
             let last = cycles.checked_sub(tail)?;
             let lead_ends_with_background = match lead {
                 Lead::Steady => false,
+                // Ran before PLC 0's overrun, above; it ends with a background cycle only if
+                // nothing came between.
+                Lead::ReloadFirst => heavy == 0,
                 Lead::FirstAfter(j) => {
                     if j == 0 || u64::from(j) + sim.cycles > u64::from(last) {
                         return None;
@@ -333,6 +346,9 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
         let r = cfg.reset_value(card.i40);
         let delay = i64::from(cfg.hardware_delay_cycles);
         let may_be_silent = hints.silent != Some(false);
+        // A card answers unless it has tripped (UM p.215: it "will not communicate"), so a
+        // silent command after the gap needs a plan that ends tripped.
+        let must_trip = hints.silent == Some(true);
         // No background cycle at all: the counter runs down from where it is.
         let starved_counter = super::run_down(cfg, card.counter, cycles);
         // Whether Y:$25 as read can follow from `v` at the end of this gap.
@@ -346,8 +362,13 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
         if may_be_silent {
             plans.push(Plan::Undervoltage { cycles });
         }
-        // Cycles since the last background cycle, from Y:$25 when it is read.
-        let tail_max = u64::from(cycles.saturating_sub(1)).min((i64::from(r) + delay + 2).max(0) as u64) as u32;
+        // A background cycle can end right after the command just answered (`Lead::ReloadFirst`);
+        // it changes the card only if the counter has run down since the last reload.
+        let reload_first = card.background_possible() && card.counter < r;
+        // Cycles since the last background cycle, from Y:$25 when it is read: the whole gap
+        // when the last one ended right at its start.
+        let tail_top = if reload_first { cycles } else { cycles.saturating_sub(1) };
+        let tail_max = u64::from(tail_top).min((i64::from(r) + delay + 2).max(0) as u64) as u32;
         let tails: Vec<u32> = match hints.counter {
             Some(c) if hints.silent == Some(false) || hints.silent.is_none() => {
                 let mut t = std::collections::BTreeSet::new();
@@ -395,6 +416,12 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
             let c0 = super::run_down(cfg, card.counter, heavy);
             let room = cycles - heavy;
             let mut leads = vec![Lead::Steady];
+            // Reloading first matters where the counter is at its lowest since reset (X:$25
+            // then stays), or for a tail of the whole gap; elsewhere it is `Steady` but for
+            // one background cycle more, whose checksum area `skip` covers.
+            if reload_first && (card.counter == card.counter_min || tails.contains(&cycles)) {
+                leads.push(Lead::ReloadFirst);
+            }
             match hints.counter_min {
                 Some(m) => {
                     // X:$25 as read, less what the short gaps after this one may have run down.
@@ -437,6 +464,12 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
                 &[None]
             };
             for (&tail, &fault) in tails.iter().flat_map(|t| faults.iter().map(move |f| (t, f))) {
+                // Without an overrun first, a schedule trips only in its tail (a lead or a
+                // middle that would trip fails its next background cycle): a tail in which the
+                // counter, reloaded at its start, cannot reach zero leaves the card answering.
+                if must_trip && heavy == 0 && super::run_down(cfg, r, tail) > 0 {
+                    continue;
+                }
                 for &lead in &leads {
                     for (skip, overrun_tail) in [(false, false), (true, false), (false, true), (true, true)]
                         .into_iter()
@@ -472,8 +505,7 @@ fn unread_tails(card: &Controller, r: i32, tail_max: u32) -> std::collections::B
 }
 
 /// Runs every plan and merges the results that differ only in X:$25 into intervals; with
-/// `merge_counter`, also those that differ only in Y:$25 (and the background's CPU credit,
-/// which no plan uses before a servo cycle refills it), over contiguous runs of values.
+/// `merge_counter`, also those that differ only in Y:$25, over contiguous runs of values.
 ///
 /// MODEL (search): merged, Y:$25 and X:$25 are two intervals with X:$25 <= Y:$25, which
 /// allows pairs a run of the model would not reach together when both are read after a later
@@ -507,8 +539,10 @@ fn group(cfg: &ModelConfig, runs: Vec<(Controller, Plan)>, merge_counter: bool) 
             Plan::Schedule { .. } => 3,
         };
         if merge_counter {
+            // The background's CPU credit stays in the key: a card whose last background cycle
+            // ended a servo cycle or more ago may end another before the next one
+            // (`Lead::ReloadFirst`), one that has just had one may not.
             key.counter = i32::MIN;
-            key.background_credit = 0;
         }
         let points = by_state.entry((key, kind)).or_default();
         match points.get_mut(&end.counter) {
@@ -564,6 +598,55 @@ fn group(cfg: &ModelConfig, runs: Vec<(Controller, Plan)>, merge_counter: bool) 
             }
         }
         out.extend(run);
+    }
+    if merge_counter {
+        out = merge_touching(out);
+    }
+    out
+}
+
+/// Merges outcomes of different kinds of plan (a starved gap's and a scheduled one's) that
+/// are the same card but for Y:$25 and X:$25 and whose Y:$25 intervals meet, touch, or leave
+/// one value between them: each interval holds every value between its ends (see `group`),
+/// and the value between is one the card reaches. (It is the Y:$25 of a gap with a single
+/// background cycle, at its start: under the search's checksum passes of one background cycle
+/// each, that cycle always moves the checksum engine to the other area, so the area of the
+/// starved card is not reached with it; a card's passes are longer, and one background cycle
+/// need not end one. MODEL: check.yaml, `host-log`.)
+///
+/// Without it, a status poll that never reads Y:$25 keeps a card that may have starved since
+/// each gap apart from the others (Y:$25 one gap's cycles lower each time): cards that never
+/// recur, until the counter would run out. Merged, the interval grows to the trip and the
+/// same cards come back, so a lane's gaps are met from its memo.
+fn merge_touching(outcomes: Vec<Outcome>) -> Vec<Outcome> {
+    let mut out: Vec<Outcome> = Vec::with_capacity(outcomes.len());
+    for o in outcomes {
+        let meets = |m: &Outcome| {
+            super::same_but_counters(&m.card, &o.card)
+                && m.card.background_credit == o.card.background_credit
+                && i64::from(o.counter_lo) <= i64::from(m.card.counter) + 2
+                && i64::from(m.counter_lo) <= i64::from(o.card.counter) + 2
+        };
+        match out.iter_mut().find(|m| meets(m)) {
+            Some(m) => {
+                if o.card.counter_min > m.card.counter_min {
+                    m.plan_hi = o.plan_hi;
+                    m.start_hi = o.start_hi;
+                }
+                if o.min_lo < m.min_lo {
+                    m.plan_lo = o.plan_lo;
+                    m.min_lo = o.min_lo;
+                }
+                let counter_min = m.card.counter_min.max(o.card.counter_min);
+                if o.card.counter > m.card.counter {
+                    m.card = Controller { counter_min, ..o.card };
+                } else {
+                    m.card.counter_min = counter_min;
+                }
+                m.counter_lo = m.counter_lo.min(o.counter_lo);
+            }
+            None => out.push(o),
+        }
     }
     out
 }

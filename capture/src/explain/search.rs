@@ -290,7 +290,12 @@ fn cycle_set(min: u32, max: Option<u32>, card: &Controller, cfg: &ModelConfig) -
     let long = u64::from(min)
         + 2 * (u64::from(cfg.reset_value(card.i40).unsigned_abs()) + u64::from(cfg.hardware_delay_cycles) + 2 * period);
     let mut out: Vec<u32> = Vec::new();
-    for start in [u64::from(min), long] {
+    // A gap at least `long - min` cycles long already has room for any run-down: its RTI
+    // phases are all the longer gap's outcomes differ in (X:$0, which differs too, is not
+    // compared). The first X:$0 read of a card up for hours is such a gap.
+    let starts: &[u64] =
+        if long - u64::from(min) <= u64::from(min) { &[u64::from(min)] } else { &[u64::from(min), long] };
+    for &start in starts {
         for n in start..start + period {
             if n <= max && !out.contains(&(n as u32)) {
                 out.push(n as u32);
@@ -301,6 +306,53 @@ fn cycle_set(min: u32, max: Option<u32>, card: &Controller, cfg: &ModelConfig) -
         out.push(max as u32);
     }
     out
+}
+
+/// Adds `c` to `same` (candidates that differ from it only in Y:$25 and X:$25), or merges it
+/// into one of them; returns whether it merged (the candidate count did not grow).
+///
+/// - One whose Y:$25 and X:$25 intervals both hold the other's stands for it: every card the
+///   smaller allows, the larger allows, and what follows from it too.
+/// - Equal Y:$25 intervals whose X:$25 intervals meet are one: the union of two overlapping
+///   intervals is exactly the values either allows. With witnesses recorded, only where one
+///   holds the other, so that the history kept reaches every value of the merged interval.
+/// - Without witnesses, equal X:$25 intervals whose Y:$25 intervals meet are one, likewise.
+///
+/// Without it, a status poll that never reads Y:$25 keeps a candidate for every gap since
+/// which the card may have starved (Y:$25 one gap's cycles lower each), each held by the
+/// widest.
+fn absorb(same: &mut Vec<Cand>, c: Cand, record: bool) -> bool {
+    let (y_lo, y_hi, x_lo, x_hi) = (c.counter_lo, c.card.counter, c.min_lo, c.card.counter_min);
+    let holds = |o: &Cand, lo: i32, hi: i32, xlo: i32, xhi: i32| {
+        o.counter_lo <= lo && hi <= o.card.counter && o.min_lo <= xlo && xhi <= o.card.counter_min
+    };
+    if same.iter().any(|o| holds(o, y_lo, y_hi, x_lo, x_hi)) {
+        return true;
+    }
+    if let Some(o) = same.iter_mut().find(|o| holds(&c, o.counter_lo, o.card.counter, o.min_lo, o.card.counter_min)) {
+        *o = c;
+        return true;
+    }
+    let meet =
+        |a_lo: i32, a_hi: i32, b_lo: i32, b_hi: i32| a_lo <= b_hi.saturating_add(1) && b_lo <= a_hi.saturating_add(1);
+    let same_y = |o: &Cand| o.counter_lo == y_lo && o.card.counter == y_hi;
+    let same_x = |o: &Cand| o.min_lo == x_lo && o.card.counter_min == x_hi;
+    if !record {
+        if let Some(o) = same.iter_mut().find(|o| same_y(o) && meet(o.min_lo, o.card.counter_min, x_lo, x_hi)) {
+            o.card.counter_min = o.card.counter_min.max(x_hi);
+            o.min_lo = o.min_lo.min(x_lo);
+            return true;
+        }
+        if let Some(o) = same.iter_mut().find(|o| same_x(o) && meet(o.counter_lo, o.card.counter, y_lo, y_hi)) {
+            if y_hi > o.card.counter {
+                o.card = Controller { counter_min: o.card.counter_min, ..c.card };
+            }
+            o.counter_lo = o.counter_lo.min(y_lo);
+            return true;
+        }
+    }
+    same.push(c);
+    false
 }
 
 /// Applies `f` to a candidate and, if its Y:$25 is an interval, to the card at the interval's
@@ -478,45 +530,20 @@ impl Lane {
         }
         let record = self.cands.first().is_some_and(|c| c.node.is_some());
         let cfg = &self.cfg;
-        // Candidates that differ only in X:$25 are kept as one when their intervals meet: the
-        // union of two overlapping intervals is exactly the values either allows.
-        let mut next: HashMap<(Controller, i32, u8), Vec<Cand>> = HashMap::new();
+        // Candidates that differ only in Y:$25 and X:$25 are kept together: one whose intervals
+        // hold another's stands for it, and intervals that meet are one (see `absorb`).
+        let mut next: HashMap<(Controller, u8), Vec<Cand>> = HashMap::new();
         let mut count = 0usize;
         let mut first_failure: Option<(String, String, String)> = None;
         let before = self.cands.len();
         let label = super::lanes::label(&self.def.choices);
-        let mut insert = |c: Cand, next: &mut HashMap<(Controller, i32, u8), Vec<Cand>>| -> Result<(), SpecError> {
+        let mut insert = |c: Cand, next: &mut HashMap<(Controller, u8), Vec<Cand>>| -> Result<(), SpecError> {
             let mut key = c.card.clone();
             key.counter_min = i32::MIN;
-            let same = next.entry((key, c.counter_lo, c.cpu)).or_default();
-            let (lo, hi) = (c.min_lo, c.card.counter_min);
-            // Overlapping X:$25 intervals are one candidate. With witnesses recorded, the merged
-            // candidate keeps the history of the wider interval; a value only the other history
-            // reaches would show up as an explanation that does not reproduce (checked before
-            // one is printed).
-            // With witnesses recorded, an interval merges only into one that holds it (or that
-            // it holds), so that the history kept reaches every value of the merged interval.
-            let meets = |o: &Cand| {
-                if record {
-                    (o.min_lo <= lo && hi <= o.card.counter_min) || (lo <= o.min_lo && o.card.counter_min <= hi)
-                } else {
-                    lo <= o.card.counter_min.saturating_add(1) && o.min_lo <= hi.saturating_add(1)
-                }
-            };
-            match same.iter_mut().find(|o| meets(o)) {
-                Some(o) => {
-                    if record && i64::from(hi) - i64::from(lo) > i64::from(o.card.counter_min) - i64::from(o.min_lo) {
-                        o.node = c.node.clone();
-                    }
-                    if hi > o.card.counter_min {
-                        o.card.counter_min = hi;
-                    }
-                    o.min_lo = o.min_lo.min(lo);
-                }
-                None => {
-                    same.push(c);
-                    count += 1;
-                }
+            key.counter = i32::MIN;
+            let same = next.entry((key, c.cpu)).or_default();
+            if !absorb(same, c, record) {
+                count += 1;
             }
             if count > CANDIDATES_MAX {
                 return Err(SpecError::at(

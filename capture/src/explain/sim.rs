@@ -61,6 +61,9 @@ impl<'a> Sim<'a> {
             return;
         }
         for _ in 0..n {
+            if self.frozen() {
+                break;
+            }
             self.card.servo_cycle(self.cfg);
         }
         self.cycles += u64::from(n);
@@ -83,6 +86,14 @@ impl<'a> Sim<'a> {
             left -= u64::from(step);
         }
         n
+    }
+
+    /// Whether servo cycles change nothing: the model's `servo_cycle` returns at once on a
+    /// tripped card (UM p.215: "the processor stops operating") and in bootstrap mode, and no
+    /// background cycle can complete. Long gaps (a first X:$0 read millions of cycles after
+    /// the last restart) are then not run cycle by cycle.
+    fn frozen(&self) -> bool {
+        self.card.tripped() || self.card.bootstrap
     }
 
     /// A background cycle completes; `false` (and nothing done) if the model says it cannot.
@@ -114,6 +125,10 @@ impl<'a> Sim<'a> {
         let mut mark: Option<Controller> = None;
         let mut since_mark = 0u32;
         while left > 0 {
+            if self.frozen() {
+                // X:$0 stops with the rest (no servo cycle runs): nothing left changes.
+                break;
+            }
             self.card.servo_cycle(self.cfg);
             if self.card.background_possible() {
                 self.card.background_cycle(self.cfg);

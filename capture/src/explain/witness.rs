@@ -100,6 +100,10 @@ fn realize<'a>(
     }
     let r = i64::from(cfg.reset_value(card.i40));
     let mut tries = vec![*plan_hi, *plan_lo];
+    // A Y:$25 the search merged from a starved gap and a scheduled one (`gap::group`).
+    if let (Some(_), Plan::Schedule { cycles, .. } | Plan::Starved { cycles, .. }) = (need_counter, plan_hi) {
+        tries.push(Plan::Starved { cycles: *cycles, heavy: 0 });
+    }
     let heavies = 0..=3 * (u32::from(card.i8) + 1) + 2;
     for (base, heavy) in [*plan_hi, *plan_lo].into_iter().flat_map(|b| heavies.clone().map(move |h| (b, h))) {
         if let Plan::Schedule { cycles, fault, tail, overrun_tail, .. } = base {
@@ -108,13 +112,16 @@ fn realize<'a>(
             }
             let tail = match need_counter {
                 Some(v) => match u32::try_from(r - i64::from(v)) {
-                    Ok(t) if t < cycles => t,
+                    Ok(t) if t <= cycles => t,
                     _ => continue,
                 },
                 None => tail,
             };
             let c0 = super::run_down(cfg, card.counter, heavy);
             let mut leads = vec![Lead::Steady];
+            if card.background_possible() {
+                leads.push(Lead::ReloadFirst);
+            }
             if let Some(need) = need {
                 leads.extend(
                     [

@@ -812,6 +812,9 @@ pub struct Summary {
     pub card_own: u64,
     /// `elapsed` steps bounded by host time alone, while the card was silent.
     pub silent_gaps: u64,
+    /// Unbounded `elapsed` steps before a command that timed out in a log without stamps: the
+    /// host waited, for how long the log does not say.
+    pub waits_unknown: u64,
     /// `elapsed` steps bounded by host time alone before answered commands
     /// ([`Placement::HostTime`]).
     pub placed_by_host_time: u64,
@@ -837,14 +840,15 @@ impl Summary {
     }
 
     pub fn timing_warning(&self) -> Option<String> {
-        (self.counter_reads < 2 && self.silent_gaps == 0 && self.placed_by_host_time == 0).then(|| {
-            format!(
-                "warning: the log has {} X:$0 read{}: no timing can be derived, every command is placed at \
+        (self.counter_reads < 2 && self.silent_gaps == 0 && self.placed_by_host_time == 0 && self.waits_unknown == 0)
+            .then(|| {
+                format!(
+                    "warning: the log has {} X:$0 read{}: no timing can be derived, every command is placed at \
                  one instant (read RHX:$0 alongside the other commands, docs/capturing.md)",
-                if self.counter_reads == 0 { "no".to_string() } else { "a single".to_string() },
-                if self.counter_reads == 0 { "s" } else { "" }
-            )
-        })
+                    if self.counter_reads == 0 { "no".to_string() } else { "a single".to_string() },
+                    if self.counter_reads == 0 { "s" } else { "" }
+                )
+            })
     }
 }
 
@@ -1039,6 +1043,23 @@ impl Importer {
                     )),
                 ));
             }
+        }
+        if ex.at.is_none() && !reads_counter && ex.commands.iter().any(|c| c.answer == Answer::Timeout) {
+            // A timeout means the host waited; without stamps the wait is unknown, not zero
+            // (issue 36): a card that answered and then fell silent may have starved meanwhile
+            // (UM p.236) and tripped (UM p.215). The next X:$0 read's count then bounds only
+            // what follows the wait (the search takes the two on their own, MODEL:
+            // docs/replay.md).
+            self.gap.1 = u64::MAX;
+            self.summary.waits_unknown += 1;
+            steps.extend(elapsed_steps(
+                0,
+                None,
+                Some(
+                    "the host waited for a reply that did not come: the log has no stamps, so for an unknown time"
+                        .into(),
+                ),
+            ));
         }
         for c in &ex.commands {
             self.summary.commands += 1;
