@@ -11,11 +11,11 @@
 //! at most [`CYCLES_PER_HOLD_MAX`] servo cycles at a time.
 
 use crate::bounded::{accepted, room_for_a_thread, spawn, CountedLog, Table};
-use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
+use crate::card::{Card, Clock, Progress, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
 use crate::control::{read_line_max, Control, CONTROL_LINE_BYTES_MAX};
-use crate::framing::BEL;
+use crate::host_reply::HostReply;
 use crate::listen::bind;
-use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
+use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES};
 use pmacwd_specs::grammar::Addressing;
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_trace::jsonl::step_line;
@@ -139,8 +139,9 @@ impl Shared {
         }
         card
     }
+    /// Milliseconds since the start, plus one: 0 is a connection's `NEVER_SPOKE`.
     fn now_ms(&self) -> u64 {
-        u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX)
+        u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX).saturating_add(1)
     }
     fn log(&self, msg: &str) {
         if self.options.verbose {
@@ -275,7 +276,7 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
             shared.spawn_failures.report(&format!("a host connection: cannot start its thread: {e}"));
             continue;
         }
-        let (id, last_active_ms, evicted) = match shared.hosts.admit(&stream, shared.now_ms()) {
+        let (id, last_active_ms, evicted) = match shared.hosts.admit(&stream) {
             Ok(admitted) => admitted,
             Err(e) => {
                 shared.accept_errors.report(&format!("cannot keep a host connection: {e}"));
@@ -316,19 +317,42 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
 }
 
 fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) -> io::Result<()> {
+    // `#n` and `&n` stay until changed, on this connection only (SRM p.270).
+    let mut addressing = Addressing::default();
+    let mut reply = HostReply::default();
+    let ended = serve_requests(stream, shared, last_active_ms, &mut reply, &mut addressing);
+    // A line the host left unfinished still runs to its end, as the card read it.
+    reply.finish(&|| shared.card_now(), &mut addressing);
+    ended
+}
+
+fn serve_requests(
+    stream: TcpStream,
+    shared: &Shared,
+    last_active_ms: &AtomicU64,
+    reply: &mut HostReply,
+    addressing: &mut Addressing,
+) -> io::Result<()> {
     stream.set_nodelay(true)?;
     stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
     stream.set_read_timeout(shared.options.idle_timeout)?;
     let mut reader = BufReader::new(stream.try_clone()?);
     let mut writer = stream;
-    // The part of a long reply not yet fetched (GETBUFFER), or a SENDLINE answer (GETLINE).
-    let mut pending: Vec<u8> = Vec::new();
-    let mut sent = 0usize;
     let mut header = [0u8; HEADER_BYTES];
     let mut data = Vec::new();
-    // `#n` and `&n` stay until changed, on this connection only (SRM p.270).
-    let mut addressing = Addressing::default();
     let mut last_error: Option<Instant> = None;
+    // The card, caught up with its clock, for one command at a time.
+    let card = || shared.card_now();
+    // Error replies are held to one per ERROR_REPLY_INTERVAL, with the card's lock released.
+    let mut slow_errors = |ended: Option<Progress>| {
+        if ended == Some(Progress::Failed) {
+            if let Some(wait) = last_error.and_then(|t| ERROR_REPLY_INTERVAL.checked_sub(t.elapsed())) {
+                shared.stats.errors_slowed.fetch_add(1, Ordering::Relaxed);
+                thread::sleep(wait);
+            }
+            last_error = Some(Instant::now());
+        }
+    };
     loop {
         if !read_or_end(&mut reader, &mut header)? {
             return Ok(());
@@ -338,70 +362,63 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
             shared.stats.refused_requests.fetch_add(1, Ordering::Relaxed);
             io::Error::new(io::ErrorKind::InvalidData, e)
         })?;
-        let reply: Option<Vec<u8>> = match request {
-            Request::Line { data_bytes, reply } => {
+        let answer: Option<Vec<u8>> = match request {
+            Request::Line { data_bytes, reply: now } => {
                 data.resize(data_bytes, 0);
                 if !read_or_end(&mut reader, &mut data)? && data_bytes > 0 {
                     return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the client left mid-request"));
                 }
-                let answer = shared.card_now().line_addressed(trim_line(&data), &mut addressing);
-                if answer.as_ref().is_some_and(|a| a.contains(&BEL)) {
-                    if let Some(wait) = last_error.and_then(|t| ERROR_REPLY_INTERVAL.checked_sub(t.elapsed())) {
-                        shared.stats.errors_slowed.fetch_add(1, Ordering::Relaxed);
-                        thread::sleep(wait);
-                    }
-                    last_error = Some(Instant::now());
+                reply.start(trim_line(&data), &card, addressing);
+                let ended = reply.fill(&card, addressing);
+                slow_errors(ended);
+                match ended {
+                    Some(Progress::Silent) => None,
+                    _ if now => Some(reply.next_packet()),
+                    // SENDLINE: one byte now, the answer on GETLINE.
+                    _ => Some(vec![0x40]),
                 }
-                pending.clear();
-                sent = 0;
-                match answer {
-                    None => None,
-                    Some(bytes) if reply => {
-                        pending = bytes;
-                        Some(next_packet(&pending, &mut sent))
-                    }
-                    Some(bytes) => {
-                        // SENDLINE: one byte now, the answer on GETLINE.
-                        pending = bytes;
-                        Some(vec![0x40])
+            }
+            Request::NextPacket => {
+                if card().tripped() {
+                    None
+                } else {
+                    let ended = reply.fill(&card, addressing);
+                    slow_errors(ended);
+                    match ended {
+                        Some(Progress::Silent) => None,
+                        // Nothing waiting: NUL, which hosts read as "no data" (facts s.3).
+                        _ if !reply.has_waiting() => Some(vec![0]),
+                        _ => Some(reply.next_packet()),
                     }
                 }
             }
-            Request::NextPacket => (!shared.card_now().tripped()).then(|| {
-                if sent < pending.len() {
-                    next_packet(&pending, &mut sent)
-                } else {
-                    // Nothing waiting: NUL, which hosts read as "no data" (facts s.3).
-                    vec![0]
-                }
-            }),
             // UMAC Turbo CPU/Communications Board Hardware Manual p.36 (Ethernet Protocol,
             // VR_PMAC_READREADY): "Two bytes are returned. The first byte if non-zero
             // indicates there is data to be read"; the EPICS pmac driver tests `data[0]`.
-            Request::ReadReady => (!shared.card_now().tripped()).then(|| vec![u8::from(sent < pending.len()), 0]),
+            Request::ReadReady => {
+                if card().tripped() {
+                    None
+                } else {
+                    let ended = reply.fill(&card, addressing);
+                    slow_errors(ended);
+                    (ended != Some(Progress::Silent)).then(|| vec![u8::from(reply.has_waiting()), 0])
+                }
+            }
             Request::Flush => {
-                pending.clear();
-                sent = 0;
+                reply.flush();
                 // The flush is acknowledged with one byte. MODEL: the manual's text says
                 // CTRL-X; DLS's EPICS driver (pmacAsynIPPort.c, pmacFlush) records that real
                 // cards send 0x40 (VR_DOWNLOAD) and reads any byte; the emulator sends what the
                 // cards send.
-                (!shared.card_now().tripped()).then(|| vec![FLUSH_ACK])
+                (!card().tripped()).then(|| vec![FLUSH_ACK])
             }
-            Request::Control(c) => shared.card_now().control_character(c),
+            Request::Control(c) => card().control_character(c),
         };
         // A tripped card says nothing: the host's read times out (UM p.215).
-        if let Some(bytes) = reply {
+        if let Some(bytes) = answer {
             writer.write_all(&bytes)?;
         }
     }
-}
-
-fn next_packet(pending: &[u8], sent: &mut usize) -> Vec<u8> {
-    let end = (*sent + REPLY_PACKET_BYTES).min(pending.len());
-    let packet = pending[*sent..end].to_vec();
-    *sent = end;
-    packet
 }
 
 fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
@@ -415,7 +432,7 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
             shared.spawn_failures.report(&format!("a control connection: cannot start its thread: {e}"));
             continue;
         }
-        let (id, last_active_ms, evicted) = match shared.controls.admit(&stream, shared.now_ms()) {
+        let (id, last_active_ms, evicted) = match shared.controls.admit(&stream) {
             Ok(admitted) => admitted,
             Err(e) => {
                 shared.accept_errors.report(&format!("cannot keep a control connection: {e}"));

@@ -1,0 +1,92 @@
+//! One host connection's reply, answered as the host fetches it (issue 33). The card answers
+//! a line a command at a time ([`Card::line_step`]), the card's lock taken for each command
+//! and released between them, and only until a packet's worth of answers waits: the rest
+//! comes as the host asks for it with GETBUFFER (a reply over 1,400 bytes comes in 1,400-byte
+//! packets, docs/emulator.md). A connection therefore holds at most a packet and one command's
+//! answers (a range is answered [`crate::card::RANGE_PART_MAX`] variables at a time), however
+//! large the reply: 128 connections asking for replies of 24 MB each took 1.6 GB before.
+
+use crate::card::{Card, LineRun, Progress};
+use crate::protocol::REPLY_PACKET_BYTES;
+use pmacwd_specs::grammar::Addressing;
+use std::sync::MutexGuard;
+
+/// What a connection has of its current line.
+#[derive(Default)]
+pub struct HostReply {
+    /// The line being answered, until it ends.
+    run: Option<LineRun>,
+    /// Answers not yet sent.
+    waiting: Vec<u8>,
+}
+
+impl HostReply {
+    /// Starts answering `line`. A line the host left unfinished (it sent another request
+    /// before fetching the whole reply) runs to its end first, its answers dropped: the card
+    /// runs the commands it read, in order (MODEL: what a card answers to a line whose reply
+    /// the host abandoned is not in the pages at hand; the emulator always dropped such a
+    /// reply, and runs every command it read, as it did when it answered lines whole).
+    pub fn start<'a>(&mut self, line: &[u8], card: &impl Fn() -> MutexGuard<'a, Card>, addressing: &mut Addressing) {
+        self.finish(card, addressing);
+        self.run = Some(LineRun::new(line));
+    }
+
+    /// Runs commands, one hold of the card's lock each, while less than a packet waits and
+    /// the line goes on. How the line ended, if it ended now; a silent card (tripped, UM
+    /// p.215) drops what waited.
+    pub fn fill<'a>(
+        &mut self,
+        card: &impl Fn() -> MutexGuard<'a, Card>,
+        addressing: &mut Addressing,
+    ) -> Option<Progress> {
+        while self.waiting.len() < REPLY_PACKET_BYTES {
+            let run = self.run.as_mut()?;
+            let progress = card().line_step(run, addressing, &mut self.waiting);
+            if progress != Progress::More {
+                self.run = None;
+                if progress == Progress::Silent {
+                    self.waiting.clear();
+                }
+                return Some(progress);
+            }
+        }
+        None
+    }
+
+    /// Whether answers wait to be fetched.
+    pub fn has_waiting(&self) -> bool {
+        !self.waiting.is_empty()
+    }
+
+    /// The next packet of what waits (empty when nothing does).
+    pub fn next_packet(&mut self) -> Vec<u8> {
+        let n = self.waiting.len().min(REPLY_PACKET_BYTES);
+        let packet: Vec<u8> = self.waiting.drain(..n).collect();
+        if self.waiting.capacity() > 4 * REPLY_PACKET_BYTES {
+            // A range part's answers may have grown it; keep the connection's share small.
+            self.waiting.shrink_to(2 * REPLY_PACKET_BYTES);
+        }
+        packet
+    }
+
+    /// The host flushed: what waited is dropped, and so are the line's commands not yet run.
+    /// SRM p.263 (<CTRL-X>, which the flush request stands for): the card stops sending what it
+    /// had started to send. MODEL: that the commands of the line not yet run are dropped with
+    /// it; <CTRL-X> also empties the queue of commands from the host.
+    pub fn flush(&mut self) {
+        self.run = None;
+        self.waiting.clear();
+    }
+
+    /// Runs what is left of the line, its answers dropped (the host has gone, or sent another
+    /// line). The lock is still taken per command.
+    pub fn finish<'a>(&mut self, card: &impl Fn() -> MutexGuard<'a, Card>, addressing: &mut Addressing) {
+        self.waiting.clear();
+        if let Some(mut run) = self.run.take() {
+            let mut scratch = Vec::new();
+            while card().line_step(&mut run, addressing, &mut scratch) == Progress::More {
+                scratch.clear();
+            }
+        }
+    }
+}
