@@ -9,7 +9,18 @@
 use crate::card::{Card, LineRun, Progress};
 use crate::protocol::REPLY_PACKET_BYTES;
 use pmacwd_specs::grammar::Addressing;
-use std::sync::MutexGuard;
+use std::ops::DerefMut;
+
+/// Who asks for the card: the first command of a new request, or the continuation of a line
+/// already started (the rest of a long reply, or of a line the host abandoned). The server
+/// lets continuations take the card one at a time among themselves (`server::Shared`), so
+/// that a new request, a poller's `???`, waits behind at most one of them however many
+/// connections are answering long lines.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Turn {
+    First,
+    Continuing,
+}
 
 /// What a connection has of its current line.
 #[derive(Default)]
@@ -26,7 +37,12 @@ impl HostReply {
     /// runs the commands it read, in order (MODEL: what a card answers to a line whose reply
     /// the host abandoned is not in the pages at hand; the emulator always dropped such a
     /// reply, and runs every command it read, as it did when it answered lines whole).
-    pub fn start<'a>(&mut self, line: &[u8], card: &impl Fn() -> MutexGuard<'a, Card>, addressing: &mut Addressing) {
+    pub fn start<G: DerefMut<Target = Card>>(
+        &mut self,
+        line: &[u8],
+        card: &impl Fn(Turn) -> G,
+        addressing: &mut Addressing,
+    ) {
         self.finish(card, addressing);
         self.run = Some(LineRun::new(line));
     }
@@ -34,14 +50,15 @@ impl HostReply {
     /// Runs commands, one hold of the card's lock each, while less than a packet waits and
     /// the line goes on. How the line ended, if it ended now; a silent card (tripped, UM
     /// p.215) drops what waited.
-    pub fn fill<'a>(
+    pub fn fill<G: DerefMut<Target = Card>>(
         &mut self,
-        card: &impl Fn() -> MutexGuard<'a, Card>,
+        card: &impl Fn(Turn) -> G,
         addressing: &mut Addressing,
     ) -> Option<Progress> {
         while self.waiting.len() < REPLY_PACKET_BYTES {
             let run = self.run.as_mut()?;
-            let progress = card().line_step(run, addressing, &mut self.waiting);
+            let turn = if run.started() { Turn::Continuing } else { Turn::First };
+            let progress = card(turn).line_step(run, addressing, &mut self.waiting);
             if progress != Progress::More {
                 self.run = None;
                 if progress == Progress::Silent {
@@ -80,11 +97,11 @@ impl HostReply {
 
     /// Runs what is left of the line, its answers dropped (the host has gone, or sent another
     /// line). The lock is still taken per command.
-    pub fn finish<'a>(&mut self, card: &impl Fn() -> MutexGuard<'a, Card>, addressing: &mut Addressing) {
+    pub fn finish<G: DerefMut<Target = Card>>(&mut self, card: &impl Fn(Turn) -> G, addressing: &mut Addressing) {
         self.waiting.clear();
         if let Some(mut run) = self.run.take() {
             let mut scratch = Vec::new();
-            while card().line_step(&mut run, addressing, &mut scratch) == Progress::More {
+            while card(Turn::Continuing).line_step(&mut run, addressing, &mut scratch) == Progress::More {
                 scratch.clear();
             }
         }

@@ -13,7 +13,7 @@
 use crate::bounded::{accepted, room_for_a_thread, spawn, CountedLog, Table};
 use crate::card::{Card, Clock, Progress, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
 use crate::control::{read_line_max, Control, CONTROL_LINE_BYTES_MAX};
-use crate::host_reply::HostReply;
+use crate::host_reply::{HostReply, Turn};
 use crate::listen::bind;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES};
 use pmacwd_specs::grammar::Addressing;
@@ -105,6 +105,11 @@ pub struct Stats {
 
 struct Shared {
     card: Mutex<Card>,
+    /// Taken before the card by the continuation of a line already started (a long reply, a
+    /// line the host abandoned), so that those take the card one at a time and a new request
+    /// competes with at most one of them: with 100 connections answering long lines, a
+    /// poller's `???` would otherwise queue behind all 100 (issue 33).
+    continuing: Mutex<()>,
     started: Instant,
     options: ServeOptions,
     hosts: Table,
@@ -140,6 +145,15 @@ impl Shared {
         card
     }
     /// Milliseconds since the start, plus one: 0 is a connection's `NEVER_SPOKE`.
+    /// The card for `turn` (see [`Turn`]): a continuation first waits its turn among the
+    /// others.
+    fn card_for(&self, turn: Turn) -> CardHold<'_> {
+        let gate = match turn {
+            Turn::First => None,
+            Turn::Continuing => Some(self.continuing.lock().unwrap_or_else(|e| e.into_inner())),
+        };
+        CardHold { card: self.card_now(), _gate: gate }
+    }
     fn now_ms(&self) -> u64 {
         u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX).saturating_add(1)
     }
@@ -147,6 +161,26 @@ impl Shared {
         if self.options.verbose {
             crate::bounded::to_stderr(format_args!("pmacwd serve: {msg}"));
         }
+    }
+}
+
+/// The card, held for one command; a continuation also holds its turn (`Shared::continuing`).
+/// The card is declared first, so it is released first.
+struct CardHold<'a> {
+    card: MutexGuard<'a, Card>,
+    _gate: Option<MutexGuard<'a, ()>>,
+}
+
+impl std::ops::Deref for CardHold<'_> {
+    type Target = Card;
+    fn deref(&self) -> &Card {
+        &self.card
+    }
+}
+
+impl std::ops::DerefMut for CardHold<'_> {
+    fn deref_mut(&mut self) -> &mut Card {
+        &mut self.card
     }
 }
 
@@ -171,6 +205,7 @@ impl Server {
         let verbose = options.verbose;
         let shared = Arc::new(Shared {
             card: Mutex::new(card),
+            continuing: Mutex::new(()),
             started: Instant::now(),
             hosts: Table::new(options.clients_max),
             controls: Table::new(CONTROL_CLIENTS_MAX),
@@ -322,7 +357,7 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
     let mut reply = HostReply::default();
     let ended = serve_requests(stream, shared, last_active_ms, &mut reply, &mut addressing);
     // A line the host left unfinished still runs to its end, as the card read it.
-    reply.finish(&|| shared.card_now(), &mut addressing);
+    reply.finish(&|turn| shared.card_for(turn), &mut addressing);
     ended
 }
 
@@ -342,7 +377,7 @@ fn serve_requests(
     let mut data = Vec::new();
     let mut last_error: Option<Instant> = None;
     // The card, caught up with its clock, for one command at a time.
-    let card = || shared.card_now();
+    let card = |turn| shared.card_for(turn);
     // Error replies are held to one per ERROR_REPLY_INTERVAL, with the card's lock released.
     let mut slow_errors = |ended: Option<Progress>| {
         if ended == Some(Progress::Failed) {
@@ -379,7 +414,7 @@ fn serve_requests(
                 }
             }
             Request::NextPacket => {
-                if card().tripped() {
+                if card(Turn::First).tripped() {
                     None
                 } else {
                     let ended = reply.fill(&card, addressing);
@@ -396,7 +431,7 @@ fn serve_requests(
             // VR_PMAC_READREADY): "Two bytes are returned. The first byte if non-zero
             // indicates there is data to be read"; the EPICS pmac driver tests `data[0]`.
             Request::ReadReady => {
-                if card().tripped() {
+                if card(Turn::First).tripped() {
                     None
                 } else {
                     let ended = reply.fill(&card, addressing);
@@ -410,9 +445,9 @@ fn serve_requests(
                 // CTRL-X; DLS's EPICS driver (pmacAsynIPPort.c, pmacFlush) records that real
                 // cards send 0x40 (VR_DOWNLOAD) and reads any byte; the emulator sends what the
                 // cards send.
-                (!card().tripped()).then(|| vec![FLUSH_ACK])
+                (!card(Turn::First).tripped()).then(|| vec![FLUSH_ACK])
             }
-            Request::Control(c) => card().control_character(c),
+            Request::Control(c) => card(Turn::First).control_character(c),
         };
         // A tripped card says nothing: the host's read times out (UM p.215).
         if let Some(bytes) = answer {

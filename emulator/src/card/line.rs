@@ -60,6 +60,11 @@ impl LineRun {
         }
     }
 
+    /// Whether its first command has run.
+    pub fn started(&self) -> bool {
+        self.started
+    }
+
     /// How the line ended, once it has.
     pub fn ended(&self) -> Option<Progress> {
         self.ended

@@ -1,0 +1,117 @@
+//! The emulator's whole byte stream (issue 33): any bytes a host sends to `pmacwd serve`,
+//! request headers and command lines pipelined as they come, delivered to a real server on a
+//! loopback socket in pieces of any size down to one byte.
+//!
+//! The first input byte chooses the piece size (0: all at once, n: n bytes per write, each
+//! sent on its own with TCP_NODELAY and a yield between, so the server reads across every
+//! split); the rest is the stream. Then the host closes its side.
+//!
+//! Invariants:
+//! - the server stays up and closes the connection (end of stream for the host) once the
+//!   stream has ended, within a bound, whatever it held: a half header, half a line;
+//! - the replies are bounded by the requests: at most one packet (1,400 bytes) per 8-byte
+//!   header in the stream, so no reply is built beyond what was asked;
+//! - a following well-formed request on a new connection is answered correctly: `CLOSE`
+//!   (leaving any program buffer the stream opened), then `???` answered with one 12-digit
+//!   status word under whatever framing (I3, I6) the stream left, or nothing if the card is
+//!   tripped, which the card then says it is;
+//! - memory stays bounded: libFuzzer's `-rss_limit_mb` (2 GB by default) fails a run that
+//!   grows past it, and `-malloc_limit_mb` (the same) a single allocation past it.
+//!
+//! One server per fuzzing process, its card replaced by a fresh one before each input, so that
+//! an input's outcome does not depend on the ones before.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use pmacwd_emulator::card::{Card, Clock};
+use pmacwd_emulator::framing::{parse_reply, ReadAnswer};
+use pmacwd_emulator::protocol::{Header, HEADER_BYTES, REPLY_PACKET_BYTES};
+use pmacwd_emulator::server::{ServeOptions, Server};
+use std::io::{Read, Write};
+use std::net::{Shutdown, TcpStream};
+use std::sync::OnceLock;
+use std::time::Duration;
+
+/// How long the server may take to end a connection after its stream ended: a line of ranges
+/// runs to its end first (about 0.1 s on a release build; the sanitizers slow it many times).
+const CLOSE_WITHIN: Duration = Duration::from_secs(30);
+
+fn server() -> &'static Server {
+    static SERVER: OnceLock<Server> = OnceLock::new();
+    SERVER.get_or_init(|| {
+        Server::start(Card::default_card(Clock::Virtual), ServeOptions::free_loopback_port(8))
+            .expect("a free loopback port")
+    })
+}
+
+fn connect(s: &Server) -> TcpStream {
+    let c = TcpStream::connect(s.local_addr).expect("the server accepts");
+    c.set_nodelay(true).unwrap();
+    c.set_read_timeout(Some(CLOSE_WITHIN)).unwrap();
+    c
+}
+
+/// Sends `line` with GETRESPONSE and reads one packet (`None`: no reply in 2 s, a silent card).
+fn ask(c: &mut TcpStream, line: &[u8]) -> Option<Vec<u8>> {
+    c.write_all(&Header::getresponse(line.len() as u16).to_bytes()).unwrap();
+    c.write_all(line).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
+    let mut buf = vec![0u8; 4096];
+    match c.read(&mut buf) {
+        Ok(n) => {
+            assert!(n > 0, "the server closed a connection that sent a well-formed request");
+            buf.truncate(n);
+            Some(buf)
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => None,
+        Err(e) => panic!("the well-formed request failed: {e}"),
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&piece, stream)) = data.split_first() else { return };
+    let s = server();
+    s.with_card(|c| *c = Card::default_card(Clock::Virtual));
+
+    let mut host = connect(s);
+    let piece = if piece == 0 { stream.len().max(1) } else { usize::from(piece) };
+    for chunk in stream.chunks(piece) {
+        // The server may have closed the connection already (a request it cannot follow).
+        if host.write_all(chunk).is_err() {
+            break;
+        }
+        std::thread::yield_now();
+    }
+    let _ = host.shutdown(Shutdown::Write);
+    let mut replied = 0usize;
+    let mut buf = vec![0u8; 64 * 1024];
+    loop {
+        match host.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => replied += n,
+            Err(e) if e.kind() == std::io::ErrorKind::ConnectionReset => break,
+            Err(e) => panic!("the server did not end the connection within {CLOSE_WITHIN:?}: {e}"),
+        }
+    }
+    let headers = stream.len() / HEADER_BYTES + 1;
+    assert!(
+        replied <= headers * REPLY_PACKET_BYTES,
+        "{replied} reply bytes for at most {headers} requests of {} bytes",
+        stream.len()
+    );
+
+    let mut next = connect(s);
+    assert!(ask(&mut next, b"CLOSE").is_some() || s.with_card(|c| c.tripped()), "CLOSE unanswered, card running");
+    match ask(&mut next, b"???") {
+        Some(reply) => {
+            let parsed = parse_reply(&reply).unwrap_or_else(|e| panic!("`???` answered {reply:?}: {e}"));
+            match parsed.answers.as_slice() {
+                [ReadAnswer::Data(words)] => {
+                    assert!(words.len() == 12 && words.bytes().all(|b| b.is_ascii_hexdigit()), "`???` answered {words:?}")
+                }
+                other => panic!("`???` answered {other:?}"),
+            }
+        }
+        None => assert!(s.with_card(|c| c.tripped()), "`???` unanswered and the card is not tripped"),
+    }
+});
