@@ -12,8 +12,8 @@
 //! No faults are injected (a tripped card silences every host by design; the emulator's own
 //! soak, `emulator/tests/soak.rs`, injects them): here every unanswered request is a loss.
 //!
-//! A well-behaved host, over and over on its own connection: writes and reads back an
-//! I-variable of its own, `???`, READREADY, and a reply of 4,850 bytes (373 `???`) fetched
+//! A well-behaved host, over and over on its own connection: writes and reads back a
+//! Q-variable of its own, `???`, READREADY, and a reply of 4,850 bytes (373 `???`) fetched
 //! whole with GETBUFFER; it waits at most 3 s for each reply (dls-pmaclib's timeout).
 //! A hostile host cycles through: the largest replies a line can ask (every M-variable's
 //! definition, every P-variable) abandoned after the first packet; the same with SENDLINE and
@@ -40,6 +40,8 @@ struct Counts {
     lost: AtomicU64,
     wrong: AtomicU64,
     hostile_rounds: AtomicU64,
+    /// The first wrong reply, and to what.
+    first_wrong: std::sync::Mutex<Option<String>>,
 }
 
 fn request(code: u8, kind: u8, line: &[u8]) -> Vec<u8> {
@@ -84,6 +86,14 @@ fn well_behaved(k: u16, addr: SocketAddr, stop: &AtomicBool, counts: &Counts) {
                 counts.answered.fetch_add(1, Ordering::Relaxed);
                 if !ok(&reply) {
                     counts.wrong.fetch_add(1, Ordering::Relaxed);
+                    let mut first = counts.first_wrong.lock().unwrap();
+                    if first.is_none() {
+                        *first = Some(format!(
+                            "{:?} answered {:?}",
+                            String::from_utf8_lossy(&request[..request.len().min(60)]),
+                            String::from_utf8_lossy(&reply[..reply.len().min(60)])
+                        ));
+                    }
                 }
                 true
             }
@@ -96,9 +106,15 @@ fn well_behaved(k: u16, addr: SocketAddr, stop: &AtomicBool, counts: &Counts) {
     while !stop.load(Ordering::Relaxed) {
         round += 1;
         let value = u64::from(k) * 1_000_000 + round % 1_000_000;
-        let write_read = getresponse(&format!("I{n}={value} I{n}", n = 1000 + k));
+        // A Q-variable of its own: no hostile host writes Q-variables (they write every
+        // P-variable, and a line is no longer one hold of the card's lock), and no Q-variable
+        // has a format of its own (I1024, motor 10's Ixx24, reads back in hex).
+        let write_read = getresponse(&format!("Q{n}={value} Q{n}", n = 1000 + k));
         let answered = check(&mut c, &write_read, &|r| r == format!("{value}\r\x06").as_bytes())
-            && check(&mut c, &getresponse("???"), &|r| r == b"001000000000\r\x06")
+            && check(&mut c, &getresponse("???"), &|r| {
+                // 12 hex digits (the checksum-active bit comes and goes), CR, ACK.
+                r.len() == 14 && r[..12].iter().all(u8::is_ascii_hexdigit) && r.ends_with(b"\r\x06")
+            })
             && check(&mut c, &READREADY, &|r| r == [0, 0])
             && {
                 // 373 answers of 13 bytes and the ACK: 1,400 + 1,400 + 1,400 + 650 bytes.
@@ -181,6 +197,12 @@ fn hostile(k: u16, addr: SocketAddr, stop: &AtomicBool, counts: &Counts) {
 
 /// `VmRSS` and `VmHWM` of process `pid`, in kB.
 fn memory_kb(pid: u32) -> (u64, u64) {
+    let (rss, hwm, _) = memory_and_threads(pid);
+    (rss, hwm)
+}
+
+/// `VmRSS`, `VmHWM` (kB) and `Threads` of process `pid`.
+fn memory_and_threads(pid: u32) -> (u64, u64, u64) {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).expect("the server's /proc status");
     let field = |name: &str| {
         status
@@ -189,7 +211,7 @@ fn memory_kb(pid: u32) -> (u64, u64) {
             .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
             .unwrap_or(0)
     };
-    (field("VmRSS:"), field("VmHWM:"))
+    (field("VmRSS:"), field("VmHWM:"), field("Threads:"))
 }
 
 #[test]
@@ -225,10 +247,11 @@ fn fifty_well_behaved_hosts_lose_no_answer_to_fifty_hostile_ones_and_memory_stay
     }
     let started = Instant::now();
     let half = Duration::from_secs(seconds) / 2;
-    let (mut first_half_max_kb, mut second_half_max_kb) = (0u64, 0u64);
+    let (mut first_half_max_kb, mut second_half_max_kb, mut threads_max) = (0u64, 0u64, 0u64);
     while started.elapsed() < Duration::from_secs(seconds) {
         std::thread::sleep(SAMPLE_INTERVAL);
         let (rss, _) = memory_kb(pid);
+        threads_max = threads_max.max(memory_and_threads(pid).2);
         if started.elapsed() < half {
             first_half_max_kb = first_half_max_kb.max(rss);
         } else {
@@ -240,7 +263,7 @@ fn fifty_well_behaved_hosts_lose_no_answer_to_fifty_hostile_ones_and_memory_stay
         t.join().expect("no client saw a panic");
     }
     let duration = started.elapsed().as_secs_f64();
-    let (rss_end_kb, hwm_kb) = memory_kb(pid);
+    let (rss_end_kb, hwm_kb, threads_end) = memory_and_threads(pid);
     let _ = server.kill();
     let _ = server.wait();
     let c = &counts;
@@ -253,9 +276,14 @@ fn fifty_well_behaved_hosts_lose_no_answer_to_fifty_hostile_ones_and_memory_stay
         c.hostile_rounds.load(Ordering::Relaxed),
     );
     println!(
-        "soak: server RSS {rss_start_kb} kB at the start, peak sampled {first_half_max_kb} kB in the first half and {second_half_max_kb} kB in the second, {rss_end_kb} kB at the end; VmHWM {hwm_kb} kB"
+        "soak: server RSS {rss_start_kb} kB at the start, peak sampled {first_half_max_kb} kB in the first half and {second_half_max_kb} kB in the second, {rss_end_kb} kB at the end; VmHWM {hwm_kb} kB; threads at most {threads_max}, {threads_end} at the end"
     );
-    assert_eq!(c.wrong.load(Ordering::Relaxed), 0, "a well-behaved host got an answer that was not its own");
+    assert_eq!(
+        c.wrong.load(Ordering::Relaxed),
+        0,
+        "a well-behaved host got an answer that was not its own; the first: {:?}",
+        c.first_wrong.lock().unwrap()
+    );
     assert_eq!(c.lost.load(Ordering::Relaxed), 0, "a well-behaved host's request went unanswered within 3 s");
     assert!(
         second_half_max_kb <= first_half_max_kb + first_half_max_kb / 4 + 4096,

@@ -648,10 +648,15 @@ impl Card {
                         // The grammar reads `=*` for I-variables only.
                         (_, None) => Answer::Error(3),
                     };
-                    let failed = matches!(answer, Answer::Error(_));
-                    out.push(answer);
-                    if failed {
-                        return;
+                    match answer {
+                        // A write answers nothing: no answer per variable is kept (a range of
+                        // 8,192 made 256 KB of them for every such command).
+                        Answer::Nothing => {}
+                        Answer::Error(_) => {
+                            out.push(answer);
+                            return;
+                        }
+                        Answer::Data(_) => out.push(answer),
                     }
                 }
                 // A motor deactivated (Ixx00 = 0) stops at once (`card/motion.rs`).

@@ -11,15 +11,14 @@ use crate::protocol::REPLY_PACKET_BYTES;
 use pmacwd_specs::grammar::Addressing;
 use std::ops::DerefMut;
 
-/// Who asks for the card: the first command of a new request, or the continuation of a line
-/// already started (the rest of a long reply, or of a line the host abandoned). The server
-/// lets continuations take the card one at a time among themselves (`server::Shared`), so
-/// that a new request, a poller's `???`, waits behind at most one of them however many
-/// connections are answering long lines.
+/// Why the card is wanted: for a request, whose work is bounded (a packet's worth of
+/// answers), or for the rest of a line its host abandoned, which may be a whole line of ranges
+/// (0.1 s) that nobody waits for (`card_turns` says who goes first). The card for a turn may
+/// be refused (`None`) to a leftover whose host left while it waited.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Turn {
-    First,
-    Continuing,
+    Request,
+    Leftover,
 }
 
 /// What a connection has of its current line.
@@ -32,18 +31,20 @@ pub struct HostReply {
 }
 
 impl HostReply {
-    /// Starts answering `line`. A line the host left unfinished (it sent another request
-    /// before fetching the whole reply) runs to its end first, its answers dropped: the card
-    /// runs the commands it read, in order (MODEL: what a card answers to a line whose reply
-    /// the host abandoned is not in the pages at hand; the emulator always dropped such a
-    /// reply, and runs every command it read, as it did when it answered lines whole).
+    /// Starts answering `line`. A line the host left unfinished (it sent another line before
+    /// fetching the whole reply) runs to its end first, its answers dropped: the card runs the
+    /// commands it read, in order (MODEL: what a card answers to a line whose reply the host
+    /// abandoned is not in the pages at hand; the emulator always dropped such a reply, and
+    /// runs every command it read, as it did when it answered lines whole). A host that leaves
+    /// drops the rest instead (`server::host_session`).
     pub fn start<G: DerefMut<Target = Card>>(
         &mut self,
         line: &[u8],
-        card: &impl Fn(Turn) -> G,
+        card: &impl Fn(Turn) -> Option<G>,
         addressing: &mut Addressing,
+        host_gone: &impl Fn() -> bool,
     ) {
-        self.finish(card, addressing);
+        self.finish(card, addressing, host_gone);
         self.run = Some(LineRun::new(line));
     }
 
@@ -52,13 +53,14 @@ impl HostReply {
     /// p.215) drops what waited.
     pub fn fill<G: DerefMut<Target = Card>>(
         &mut self,
-        card: &impl Fn(Turn) -> G,
+        card: &impl Fn(Turn) -> Option<G>,
         addressing: &mut Addressing,
     ) -> Option<Progress> {
         while self.waiting.len() < REPLY_PACKET_BYTES {
             let run = self.run.as_mut()?;
-            let turn = if run.started() { Turn::Continuing } else { Turn::First };
-            let progress = card(turn).line_step(run, addressing, &mut self.waiting);
+            let mut card = card(Turn::Request)?;
+            let progress = card.line_step(run, addressing, &mut self.waiting);
+            drop(card);
             if progress != Progress::More {
                 self.run = None;
                 if progress == Progress::Silent {
@@ -95,13 +97,25 @@ impl HostReply {
         self.waiting.clear();
     }
 
-    /// Runs what is left of the line, its answers dropped (the host has gone, or sent another
-    /// line). The lock is still taken per command.
-    pub fn finish<G: DerefMut<Target = Card>>(&mut self, card: &impl Fn(Turn) -> G, addressing: &mut Addressing) {
+    /// Runs what is left of the line, its answers dropped (the host sent another line). The
+    /// lock is still taken per command. Stops, the rest dropped as when a host leaves, once
+    /// `host_gone` says the host has gone meanwhile: a leftover waits behind requests, and a
+    /// thread finishing a line for a host that left kept running for minutes (1,138 threads in
+    /// a 30 s soak, for 128 connections).
+    pub fn finish<G: DerefMut<Target = Card>>(
+        &mut self,
+        card: &impl Fn(Turn) -> Option<G>,
+        addressing: &mut Addressing,
+        host_gone: &impl Fn() -> bool,
+    ) {
         self.waiting.clear();
         if let Some(mut run) = self.run.take() {
             let mut scratch = Vec::new();
-            while card(Turn::Continuing).line_step(&mut run, addressing, &mut scratch) == Progress::More {
+            while !host_gone() {
+                let Some(mut card) = card(Turn::Leftover) else { break };
+                if card.line_step(&mut run, addressing, &mut scratch) != Progress::More {
+                    break;
+                }
                 scratch.clear();
             }
         }

@@ -6,6 +6,7 @@ pub mod bounded;
 pub mod capture;
 pub mod capture_queue;
 pub mod card;
+pub mod card_turns;
 pub mod control;
 pub mod framing;
 pub mod host_reply;

@@ -12,6 +12,7 @@
 
 use crate::bounded::{accepted, room_for_a_thread, spawn, CountedLog, Table};
 use crate::card::{Card, Clock, Progress, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
+use crate::card_turns::{CardTurns, LeftoverTurn};
 use crate::control::{read_line_max, Control, CONTROL_LINE_BYTES_MAX};
 use crate::host_reply::{HostReply, Turn};
 use crate::listen::bind;
@@ -22,8 +23,8 @@ use pmacwd_trace::jsonl::step_line;
 use pmacwd_trace::{Expect, Step, TraceEvent, STEP_CYCLES_MAX};
 use std::io::{self, BufReader, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread;
 use std::time::{Duration, Instant};
 
@@ -105,19 +106,8 @@ pub struct Stats {
 
 struct Shared {
     card: Mutex<Card>,
-    /// Taken before the card by the continuation of a line already started (a long reply, a
-    /// line the host abandoned), so that those take the card one at a time and a new request
-    /// competes with at most one of them: with 100 connections answering long lines, a
-    /// poller's `???` would otherwise queue behind all 100 (issue 33).
-    continuing: Mutex<()>,
-    /// New requests waiting for the card. The continuation holding its turn lets them go
-    /// first: the standard mutex is not fair, and a thread that releases the card and takes
-    /// it again at once would keep a woken waiter out for a whole line (a poller's p90 was
-    /// 16 ms behind 10 such connections).
-    first_waiting: AtomicUsize,
-    /// Where the continuation holding its turn sleeps while new requests go first (a
-    /// spinning one would take the core the new request needs).
-    first_gone: (Mutex<()>, Condvar),
+    /// Who takes the card next: requests before the rest of abandoned lines (`card_turns`).
+    turns: CardTurns,
     started: Instant,
     options: ServeOptions,
     hosts: Table,
@@ -152,37 +142,18 @@ impl Shared {
         }
         card
     }
-    /// Milliseconds since the start, plus one: 0 is a connection's `NEVER_SPOKE`.
-    /// The card for `turn` (see [`Turn`]): a continuation first waits its turn among the
-    /// others.
-    fn card_for(&self, turn: Turn) -> CardHold<'_> {
-        match turn {
-            Turn::First => {
-                self.first_waiting.fetch_add(1, Ordering::SeqCst);
-                let card = self.card_now();
-                if self.first_waiting.fetch_sub(1, Ordering::SeqCst) == 1 {
-                    let (lock, gone) = &self.first_gone;
-                    let _g = lock.lock().unwrap_or_else(|e| e.into_inner());
-                    gone.notify_all();
-                }
-                CardHold { card, _gate: None }
-            }
-            Turn::Continuing => {
-                let gate = self.continuing.lock().unwrap_or_else(|e| e.into_inner());
-                // Only the one continuation holding the turn waits here. The timeout only
-                // guards the wait; the notification comes when the last new request has the
-                // card.
-                if self.first_waiting.load(Ordering::SeqCst) > 0 {
-                    let (lock, gone) = &self.first_gone;
-                    let mut g = lock.lock().unwrap_or_else(|e| e.into_inner());
-                    while self.first_waiting.load(Ordering::SeqCst) > 0 {
-                        g = gone.wait_timeout(g, Duration::from_millis(1)).unwrap_or_else(|e| e.into_inner()).0;
-                    }
-                }
-                CardHold { card: self.card_now(), _gate: Some(gate) }
-            }
-        }
+    /// The card for a request (see [`CardTurns`]).
+    fn card_request(&self) -> CardHold<'_> {
+        let (card, _) = self.turns.take(Turn::Request, || self.card_now(), &|| false).unwrap_or_else(|| unreachable!());
+        CardHold { card, _turn: None }
     }
+    /// The card for the rest of an abandoned line, once its turn comes; `None` if its host left
+    /// meanwhile.
+    fn card_leftover(&self, host_gone: &dyn Fn() -> bool) -> Option<CardHold<'_>> {
+        let (card, turn) = self.turns.take(Turn::Leftover, || self.card_now(), host_gone)?;
+        Some(CardHold { card, _turn: turn })
+    }
+    /// Milliseconds since the start, plus one: 0 is a connection's `NEVER_SPOKE`.
     fn now_ms(&self) -> u64 {
         u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX).saturating_add(1)
     }
@@ -193,11 +164,11 @@ impl Shared {
     }
 }
 
-/// The card, held for one command; a continuation also holds its turn (`Shared::continuing`).
-/// The card is declared first, so it is released first.
+/// The card, held for one command; a leftover also holds its turn (`card_turns`). The card is
+/// declared first, so it is released first.
 struct CardHold<'a> {
     card: MutexGuard<'a, Card>,
-    _gate: Option<MutexGuard<'a, ()>>,
+    _turn: Option<LeftoverTurn<'a>>,
 }
 
 impl std::ops::Deref for CardHold<'_> {
@@ -234,9 +205,7 @@ impl Server {
         let verbose = options.verbose;
         let shared = Arc::new(Shared {
             card: Mutex::new(card),
-            continuing: Mutex::new(()),
-            first_waiting: AtomicUsize::new(0),
-            first_gone: (Mutex::new(()), Condvar::new()),
+            turns: CardTurns::default(),
             started: Instant::now(),
             hosts: Table::new(options.clients_max),
             controls: Table::new(CONTROL_CLIENTS_MAX),
@@ -387,8 +356,13 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
     let mut addressing = Addressing::default();
     let mut reply = HostReply::default();
     let ended = serve_requests(stream, shared, last_active_ms, &mut reply, &mut addressing);
-    // A line the host left unfinished still runs to its end, as the card read it.
-    reply.finish(&|turn| shared.card_for(turn), &mut addressing);
+    // The host has gone: the commands of its line not yet run go with it, as with a flush.
+    // MODEL: a card has read the whole line and would run it; running a line of ranges whose
+    // answers nobody fetches kept a thread per departed connection busy (behind the requests
+    // of the hosts still there), and those threads outgrew the connection table (1,331 in a
+    // 30 s soak). Only commands past the first packet of answers are affected: a line whose
+    // answers fit a packet has run whole when its first packet went.
+    reply.flush();
     ended
 }
 
@@ -403,12 +377,18 @@ fn serve_requests(
     stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
     stream.set_read_timeout(shared.options.idle_timeout)?;
     let mut reader = BufReader::new(stream.try_clone()?);
+    // A look at the socket for the rest of an abandoned line, which stops when the host left.
+    let probe = stream.try_clone()?;
+    let gone = move || host_gone(&probe);
     let mut writer = stream;
     let mut header = [0u8; HEADER_BYTES];
     let mut data = Vec::new();
     let mut last_error: Option<Instant> = None;
     // The card, caught up with its clock, for one command at a time.
-    let card = |turn| shared.card_for(turn);
+    let card = |turn| match turn {
+        Turn::Request => Some(shared.card_request()),
+        Turn::Leftover => shared.card_leftover(&gone),
+    };
     // Error replies are held to one per ERROR_REPLY_INTERVAL, with the card's lock released.
     let mut slow_errors = |ended: Option<Progress>| {
         if ended == Some(Progress::Failed) {
@@ -434,7 +414,7 @@ fn serve_requests(
                 if !read_or_end(&mut reader, &mut data)? && data_bytes > 0 {
                     return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the client left mid-request"));
                 }
-                reply.start(trim_line(&data), &card, addressing);
+                reply.start(trim_line(&data), &card, addressing, &gone);
                 let ended = reply.fill(&card, addressing);
                 slow_errors(ended);
                 match ended {
@@ -445,7 +425,7 @@ fn serve_requests(
                 }
             }
             Request::NextPacket => {
-                if card(Turn::First).tripped() {
+                if shared.card_request().tripped() {
                     None
                 } else {
                     let ended = reply.fill(&card, addressing);
@@ -462,7 +442,7 @@ fn serve_requests(
             // VR_PMAC_READREADY): "Two bytes are returned. The first byte if non-zero
             // indicates there is data to be read"; the EPICS pmac driver tests `data[0]`.
             Request::ReadReady => {
-                if card(Turn::First).tripped() {
+                if shared.card_request().tripped() {
                     None
                 } else {
                     let ended = reply.fill(&card, addressing);
@@ -476,14 +456,40 @@ fn serve_requests(
                 // CTRL-X; DLS's EPICS driver (pmacAsynIPPort.c, pmacFlush) records that real
                 // cards send 0x40 (VR_DOWNLOAD) and reads any byte; the emulator sends what the
                 // cards send.
-                (!card(Turn::First).tripped()).then(|| vec![FLUSH_ACK])
+                (!shared.card_request().tripped()).then(|| vec![FLUSH_ACK])
             }
-            Request::Control(c) => card(Turn::First).control_character(c),
+            Request::Control(c) => shared.card_request().control_character(c),
         };
         // A tripped card says nothing: the host's read times out (UM p.215).
         if let Some(bytes) = answer {
             writer.write_all(&bytes)?;
         }
+    }
+}
+
+/// Whether the host has closed its side or the connection was shut down (evicted): a look at
+/// the socket that neither waits nor takes a byte.
+fn host_gone(stream: &TcpStream) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::fd::AsRawFd;
+        let mut byte = 0u8;
+        // SAFETY: a one-byte buffer of ours; MSG_PEEK leaves the byte in the socket.
+        let n =
+            unsafe { libc::recv(stream.as_raw_fd(), (&raw mut byte).cast(), 1, libc::MSG_PEEK | libc::MSG_DONTWAIT) };
+        match n {
+            0 => true,
+            n if n > 0 => false,
+            _ => {
+                let e = io::Error::last_os_error();
+                !matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted)
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = stream;
+        false
     }
 }
 
