@@ -468,25 +468,19 @@ fn serve_requests(
 }
 
 /// Whether the host has closed its side or the connection was shut down (evicted): a look at
-/// the socket that neither waits nor takes a byte.
+/// the socket that neither waits nor takes a byte. POLLRDHUP says the host closed even when
+/// requests it sent before closing are still unread (a look at the bytes would see those and
+/// not the close).
 fn host_gone(stream: &TcpStream) -> bool {
-    #[cfg(unix)]
+    #[cfg(target_os = "linux")]
     {
         use std::os::fd::AsRawFd;
-        let mut byte = 0u8;
-        // SAFETY: a one-byte buffer of ours; MSG_PEEK leaves the byte in the socket.
-        let n =
-            unsafe { libc::recv(stream.as_raw_fd(), (&raw mut byte).cast(), 1, libc::MSG_PEEK | libc::MSG_DONTWAIT) };
-        match n {
-            0 => true,
-            n if n > 0 => false,
-            _ => {
-                let e = io::Error::last_os_error();
-                !matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted)
-            }
-        }
+        let mut poll = libc::pollfd { fd: stream.as_raw_fd(), events: libc::POLLRDHUP, revents: 0 };
+        // SAFETY: one pollfd of ours, no wait.
+        let n = unsafe { libc::poll(&raw mut poll, 1, 0) };
+        n > 0 && poll.revents & (libc::POLLRDHUP | libc::POLLHUP | libc::POLLERR | libc::POLLNVAL) != 0
     }
-    #[cfg(not(unix))]
+    #[cfg(not(target_os = "linux"))]
     {
         let _ = stream;
         false
