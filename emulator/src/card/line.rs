@@ -60,11 +60,6 @@ impl LineRun {
         }
     }
 
-    /// Whether its first command has run.
-    pub fn started(&self) -> bool {
-        self.started
-    }
-
     /// How the line ended, once it has.
     pub fn ended(&self) -> Option<Progress> {
         self.ended
@@ -266,6 +261,20 @@ mod tests {
         assert_eq!(out, b"\x07ERR003\r");
         assert_eq!(steps, 2);
         assert_eq!(card.line(b"P1").unwrap(), b"5\r\x06");
+    }
+
+    #[test]
+    fn close_with_no_buffer_open_answers_nothing_and_the_line_goes_on() {
+        // What the fuzz target emulator_stream sends after any stream, under whatever framing.
+        let mut card = Card::default_card(Clock::Virtual);
+        assert_eq!(card.line(b"CLOSE ???").unwrap(), b"001000000000\r\x06");
+        card.line(b"I3=0").unwrap();
+        assert_eq!(card.line(b"CLOSE ???").unwrap(), b"001000000000\r");
+        assert_eq!(card.line(b"CLOSE").unwrap(), b"", "under I3 = 0 a line without data gets no bytes");
+        // The fuzz target's first failure: `i3=1&i3=2` writes I3 = 1 & I3 = 0 (an expression).
+        let mut card = Card::default_card(Clock::Virtual);
+        assert_eq!(card.line(b"i3=1&i3=2; ve").unwrap(), b"\x07ERR003\r");
+        assert_eq!(card.line(b"CLOSE ???").unwrap(), b"001000000000\r");
     }
 
     #[test]
