@@ -80,7 +80,7 @@ fn well_behaved(k: u16, addr: SocketAddr, stop: &AtomicBool, counts: &Counts) {
     let mut c = connect(addr);
     let long = "??? ".repeat(373);
     let mut round = 0u64;
-    let mut check = |c: &mut TcpStream, request: &[u8], ok: &dyn Fn(&[u8]) -> bool| -> bool {
+    let check = |c: &mut TcpStream, request: &[u8], ok: &dyn Fn(&[u8]) -> bool| -> bool {
         match exchange(c, request) {
             Some(reply) => {
                 counts.answered.fetch_add(1, Ordering::Relaxed);
