@@ -10,7 +10,6 @@
 //! waits (at most [`LEFTOVER_WAIT_MAX`] a step, so that a stream of requests never stops it),
 //! and sleeps rather than spins, leaving the core to the request.
 
-use crate::host_reply::Turn;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::Duration;
@@ -54,48 +53,40 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 }
 
 impl CardTurns {
-    /// Takes the card with `take` for `turn`. A request takes it at once (competing only with
-    /// the one leftover that holds its turn, which steps aside); a leftover first waits for its
-    /// turn, and gives up (`None`) if `host_gone` says its host left meanwhile.
-    pub fn take<'a, G>(
-        &'a self,
-        turn: Turn,
-        take: impl FnOnce() -> G,
-        host_gone: &dyn Fn() -> bool,
-    ) -> Option<(G, Option<LeftoverTurn<'a>>)> {
-        match turn {
-            Turn::Request => {
-                self.requests_waiting.fetch_add(1, Ordering::SeqCst);
-                let card = take();
-                if self.requests_waiting.fetch_sub(1, Ordering::SeqCst) == 1 {
-                    let (m, gone) = &self.requests_gone;
-                    let _g = lock(m);
-                    gone.notify_all();
-                }
-                Some((card, None))
-            }
-            Turn::Leftover => {
-                let mut held = lock(&self.leftover_turn);
-                while *held {
-                    held = self.turn_free.wait_timeout(held, LEFTOVER_HOST_CHECK).unwrap_or_else(|e| e.into_inner()).0;
-                    if *held && host_gone() {
-                        return None;
-                    }
-                }
-                *held = true;
-                drop(held);
-                let turn = LeftoverTurn { turns: self };
-                if self.requests_waiting.load(Ordering::SeqCst) > 0 {
-                    let (m, gone) = &self.requests_gone;
-                    let _ = gone
-                        .wait_timeout_while(lock(m), LEFTOVER_WAIT_MAX, |_| {
-                            self.requests_waiting.load(Ordering::SeqCst) > 0
-                        })
-                        .unwrap_or_else(|e| e.into_inner());
-                }
-                Some((take(), Some(turn)))
+    /// Takes the card with `take` for a request: at once, competing only with the one
+    /// leftover that holds its turn, which steps aside.
+    pub fn request<G>(&self, take: impl FnOnce() -> G) -> G {
+        self.requests_waiting.fetch_add(1, Ordering::SeqCst);
+        let card = take();
+        if self.requests_waiting.fetch_sub(1, Ordering::SeqCst) == 1 {
+            let (m, gone) = &self.requests_gone;
+            let _g = lock(m);
+            gone.notify_all();
+        }
+        card
+    }
+
+    /// Takes the card with `take` for a leftover, once its turn comes and no request waits (or
+    /// [`LEFTOVER_WAIT_MAX`] has passed); `None` if `host_gone` says its host left while it
+    /// waited for its turn.
+    pub fn leftover<G>(&self, take: impl FnOnce() -> G, host_gone: &dyn Fn() -> bool) -> Option<(G, LeftoverTurn<'_>)> {
+        let mut held = lock(&self.leftover_turn);
+        while *held {
+            held = self.turn_free.wait_timeout(held, LEFTOVER_HOST_CHECK).unwrap_or_else(|e| e.into_inner()).0;
+            if *held && host_gone() {
+                return None;
             }
         }
+        *held = true;
+        drop(held);
+        let turn = LeftoverTurn { turns: self };
+        if self.requests_waiting.load(Ordering::SeqCst) > 0 {
+            let (m, gone) = &self.requests_gone;
+            let _ = gone
+                .wait_timeout_while(lock(m), LEFTOVER_WAIT_MAX, |_| self.requests_waiting.load(Ordering::SeqCst) > 0)
+                .unwrap_or_else(|e| e.into_inner());
+        }
+        Some((take(), turn))
     }
 }
 
@@ -109,11 +100,11 @@ mod tests {
     #[test]
     fn a_leftover_whose_host_left_gives_up_its_place_in_the_queue() {
         let turns = Arc::new(CardTurns::default());
-        let (_, holder) = turns.take(Turn::Leftover, || (), &|| false).unwrap();
+        let (_, holder) = turns.leftover(|| (), &|| false).unwrap();
         let gone = Arc::new(AtomicBool::new(false));
         let waiter = {
             let (turns, gone) = (turns.clone(), gone.clone());
-            std::thread::spawn(move || turns.take(Turn::Leftover, || (), &|| gone.load(Ordering::SeqCst)).is_none())
+            std::thread::spawn(move || turns.leftover(|| (), &|| gone.load(Ordering::SeqCst)).is_none())
         };
         std::thread::sleep(Duration::from_millis(20));
         let t = Instant::now();
@@ -121,13 +112,13 @@ mod tests {
         assert!(waiter.join().unwrap(), "gave up");
         assert!(t.elapsed() < Duration::from_secs(2));
         drop(holder);
-        assert!(turns.take(Turn::Leftover, || (), &|| false).is_some(), "the turn is free again");
+        assert!(turns.leftover(|| (), &|| false).is_some(), "the turn is free again");
     }
 
     #[test]
     fn a_request_never_waits_for_a_leftover_s_turn() {
         let turns = CardTurns::default();
-        let (_, _holder) = turns.take(Turn::Leftover, || (), &|| false).unwrap();
-        assert!(turns.take(Turn::Request, || 7, &|| false).is_some_and(|(v, t)| v == 7 && t.is_none()));
+        let (_, _holder) = turns.leftover(|| (), &|| false).unwrap();
+        assert_eq!(turns.request(|| 7), 7);
     }
 }

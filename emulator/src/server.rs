@@ -1,6 +1,7 @@
 //! `pmacwd serve`: the card on TCP. One thread per connection; the card's lock is held only
-//! while a line is answered (microseconds), never while a socket is read or written, so a slow
-//! or vanished client cannot stall the others.
+//! while one command is answered (microseconds; a line is answered a command at a time,
+//! `card/line.rs`), never while a socket is read or written, so a slow or vanished client
+//! cannot stall the others.
 //!
 //! What keeps the server from wedging: a request the card cannot follow (unknown code, a
 //! length beyond its 1,492-byte buffer) closes that connection; a write that does not complete
@@ -144,14 +145,13 @@ impl Shared {
     }
     /// The card for a request (see [`CardTurns`]).
     fn card_request(&self) -> CardHold<'_> {
-        let (card, _) = self.turns.take(Turn::Request, || self.card_now(), &|| false).unwrap_or_else(|| unreachable!());
-        CardHold { card, _turn: None }
+        CardHold { card: self.turns.request(|| self.card_now()), _turn: None }
     }
     /// The card for the rest of an abandoned line, once its turn comes; `None` if its host left
     /// meanwhile.
     fn card_leftover(&self, host_gone: &dyn Fn() -> bool) -> Option<CardHold<'_>> {
-        let (card, turn) = self.turns.take(Turn::Leftover, || self.card_now(), host_gone)?;
-        Some(CardHold { card, _turn: turn })
+        let (card, turn) = self.turns.leftover(|| self.card_now(), host_gone)?;
+        Some(CardHold { card, _turn: Some(turn) })
     }
     /// Milliseconds since the start, plus one: 0 is a connection's `NEVER_SPOKE`.
     fn now_ms(&self) -> u64 {
@@ -359,8 +359,8 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
     // The host has gone: the commands of its line not yet run go with it, as with a flush.
     // MODEL: a card has read the whole line and would run it; running a line of ranges whose
     // answers nobody fetches kept a thread per departed connection busy (behind the requests
-    // of the hosts still there), and those threads outgrew the connection table (1,331 in a
-    // 30 s soak). Only commands past the first packet of answers are affected: a line whose
+    // of the hosts still there), and those threads outgrew the connection table (1,163 for 128
+    // connections in a 30 s soak). Only commands past the first packet of answers are affected: a line whose
     // answers fit a packet has run whole when its first packet went.
     reply.flush();
     ended
