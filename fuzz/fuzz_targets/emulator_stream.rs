@@ -15,6 +15,8 @@
 //!   `CLOSE ???` (CLOSE leaves any program buffer the stream opened, and answers nothing)
 //!   answered with one 12-digit status word under whatever framing (I3, I6) the stream left,
 //!   or nothing if the card is tripped, which the card then says it is;
+//! - every connection's thread ends within 10 s of its connection (the process is back to the
+//!   threads it had before the input);
 //! - memory stays bounded: libFuzzer's `-rss_limit_mb` (2 GB by default) fails a run that
 //!   grows past it, and `-malloc_limit_mb` (the same) a single allocation past it.
 //!
@@ -54,6 +56,24 @@ fn server() -> &'static Server {
     })
 }
 
+/// The threads of this process (`/proc/self/status`).
+fn threads() -> usize {
+    let status = std::fs::read_to_string("/proc/self/status").expect("/proc/self/status (Linux)");
+    status.lines().find_map(|l| l.strip_prefix("Threads:")).and_then(|v| v.trim().parse().ok()).expect("Threads:")
+}
+
+/// The threads before any connection: the server's own and the fuzzer's.
+fn baseline() -> usize {
+    static BASELINE: OnceLock<usize> = OnceLock::new();
+    *BASELINE.get_or_init(|| {
+        server();
+        threads()
+    })
+}
+
+/// How long a connection's thread may outlive its connection.
+const THREAD_ENDS_WITHIN: Duration = Duration::from_secs(10);
+
 fn connect(s: &Server) -> TcpStream {
     let c = TcpStream::connect(s.local_addr).expect("the server accepts");
     c.set_nodelay(true).unwrap();
@@ -80,6 +100,7 @@ fn ask(c: &mut TcpStream, line: &[u8]) -> Option<Vec<u8>> {
 
 fuzz_target!(|data: &[u8]| {
     let Some((&piece, stream)) = data.split_first() else { return };
+    let before = baseline();
     let s = server();
     s.with_card(|c| *c = Card::default_card(Clock::Virtual));
 
@@ -123,5 +144,14 @@ fuzz_target!(|data: &[u8]| {
             }
         }
         None => assert!(s.with_card(|c| c.tripped()), "`???` unanswered and the card is not tripped"),
+    }
+    drop(next);
+    // Every connection's thread ends with its connection: the threads are bounded by the open
+    // connections, and nothing of an input is left running into the next (nor into
+    // LeakSanitizer's check after it, which counted a live thread's allocations as lost).
+    let t = std::time::Instant::now();
+    while threads() > before {
+        assert!(t.elapsed() < THREAD_ENDS_WITHIN, "{} threads {THREAD_ENDS_WITHIN:?} after the input, {before} before", threads());
+        std::thread::sleep(Duration::from_millis(1));
     }
 });
