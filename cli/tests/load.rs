@@ -32,6 +32,17 @@ fn request(line: &str) -> Vec<u8> {
     r
 }
 
+/// The server's process, killed when dropped: also when the test panics, which left servers
+/// running before.
+struct Serving(std::process::Child);
+
+impl Drop for Serving {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
 fn connect(addr: SocketAddr) -> TcpStream {
     let c = TcpStream::connect(addr).unwrap();
     c.set_nodelay(true).unwrap();
@@ -57,14 +68,16 @@ fn a_question_mark_poller_stays_prompt_while_100_connections_send_the_largest_li
     let seconds = env_or("PMACWD_LOAD_SECONDS", 15);
     let p99_bound_us = env_or("PMACWD_LOAD_P99_US", 1000);
     let hostile_count = env_or("PMACWD_LOAD_HOSTILE", HOSTILE_DEFAULT) as usize;
-    let mut server = Command::new(env!("CARGO_BIN_EXE_pmacwd"))
-        .args(["serve", "--listen", "127.0.0.1:0", "--no-control", "--clients-max", "128"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut server = Serving(
+        Command::new(env!("CARGO_BIN_EXE_pmacwd"))
+            .args(["serve", "--listen", "127.0.0.1:0", "--no-control", "--clients-max", "128"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
     let mut first = String::new();
-    BufReader::new(server.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
+    BufReader::new(server.0.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
     let addr: SocketAddr =
         first.split(" on ").nth(1).and_then(|r| r.split(' ').next()).expect("the address line").parse().unwrap();
 
@@ -122,8 +135,7 @@ fn a_question_mark_poller_stays_prompt_while_100_connections_send_the_largest_li
     for h in hostile {
         h.join().unwrap();
     }
-    let _ = server.kill();
-    let _ = server.wait();
+    drop(server);
 
     latencies.sort();
     let at = |q: f64| latencies[((latencies.len() as f64 * q) as usize).min(latencies.len() - 1)];

@@ -59,6 +59,17 @@ const GETBUFFER: [u8; 8] = [0xC0, 0xC5, 0, 0, 0, 0, 0, 0];
 const READREADY: [u8; 8] = [0xC0, 0xC2, 0, 0, 0, 0, 0, 2];
 const FLUSH: [u8; 8] = [0x40, 0xB3, 0, 0, 0, 0, 0, 0];
 
+/// The server's process, killed when dropped: also when the test panics, which left servers
+/// running before.
+struct Serving(std::process::Child);
+
+impl Drop for Serving {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
 fn connect(addr: SocketAddr) -> TcpStream {
     let c = TcpStream::connect(addr).expect("the server accepts");
     c.set_read_timeout(Some(REPLY_TIMEOUT)).unwrap();
@@ -218,17 +229,19 @@ fn memory_and_threads(pid: u32) -> (u64, u64, u64) {
 #[ignore = "a soak for PMACWD_SOAK_SECONDS (default 60 s) on the release binary; run by hand, see the module's doc"]
 fn fifty_well_behaved_hosts_lose_no_answer_to_fifty_hostile_ones_and_memory_stays_flat() {
     let seconds: u64 = std::env::var("PMACWD_SOAK_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(60);
-    let mut server = Command::new(env!("CARGO_BIN_EXE_pmacwd"))
-        .args(["serve", "--listen", "127.0.0.1:0", "--no-control"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut server = Serving(
+        Command::new(env!("CARGO_BIN_EXE_pmacwd"))
+            .args(["serve", "--listen", "127.0.0.1:0", "--no-control"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
     let mut first = String::new();
-    BufReader::new(server.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
+    BufReader::new(server.0.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
     let addr: SocketAddr =
         first.split(" on ").nth(1).and_then(|r| r.split(' ').next()).expect("the address line").parse().unwrap();
-    let pid = server.id();
+    let pid = server.0.id();
     let mut definer = connect(addr);
     assert_eq!(exchange(&mut definer, &getresponse("M0..8191->X:$0,0,24,S")).as_deref(), Some(&b"\x06"[..]));
     drop(definer);
@@ -264,8 +277,7 @@ fn fifty_well_behaved_hosts_lose_no_answer_to_fifty_hostile_ones_and_memory_stay
     }
     let duration = started.elapsed().as_secs_f64();
     let (rss_end_kb, hwm_kb, threads_end) = memory_and_threads(pid);
-    let _ = server.kill();
-    let _ = server.wait();
+    drop(server);
     let c = &counts;
     println!(
         "soak: {duration:.1} s, {WELL_BEHAVED} well-behaved hosts: {} replies ({:.0}/s), {} lost, {} wrong; {HOSTILE} hostile hosts: {} rounds",
