@@ -126,6 +126,22 @@ printf '\x40\xb3\x00\x00\x00\x00\x00\x00' | seed ethernet_header flush
 printf '\xc0\xc4\x00\x01\x00\x00\x00\x00' | seed ethernet_header ctrl-a
 printf '\x40\xbf\x00\x00\x00\x00\x05\xd5' | seed ethernet_header too-long
 
+# emulator_stream: whole request streams as dls-pmaclib and the EPICS driver send them (the
+# first byte is the piece size the target writes in: 0 all at once, 1 a byte at a time).
+req() { # req CODE TYPE LINE: a request header for LINE, then LINE
+  printf "\\x$2\\x$1\\x00\\x00\\x00\\x00\\x$(printf %02x $((${#3} >> 8)))\\x$(printf %02x $((${#3} & 255)))%s" "$3"
+}
+{ printf '\000'; req bf 40 'i6=1 i3=2 ver'; req bf 40 '???'; } | seed emulator_stream handshake
+{ printf '\001'; req bf 40 '???'; req bf 40 'I130=5 I130'; } | seed emulator_stream byte-by-byte
+{ printf '\007'; req bf 40 "$(printf '??? %.0s' $(seq 373))"; printf '\xc0\xc5\x00\x00\x00\x00\x00\x00'; printf '\xc0\xc5\x00\x00\x00\x00\x00\x00'; } \
+  | seed emulator_stream long-reply-getbuffer
+{ printf '\000'; req b0 40 'I40'; printf '\xc0\xc2\x00\x00\x00\x00\x00\x02'; printf '\xc0\xb1\x00\x00\x00\x00\x00\x00'; } \
+  | seed emulator_stream sendline-readready-getline
+{ printf '\000'; req bf 40 'M0..8191->X:$0,0,24,S'; req bf 40 'M0..8191-> M0..8191->'; printf '\x40\xb3\x00\x00\x00\x00\x00\x00'; req bf 40 'P0..8191'; } \
+  | seed emulator_stream ranges-flush
+{ printf '\003'; printf '\xc0\xc4\x00\x0b\x00\x00\x00\x00'; req bf 40 'OPEN PLC 1 P1=1'; req bf 40 'CLOSE ???'; } \
+  | seed emulator_stream control-and-buffer
+
 # framing: command lines and replies as framed under I3 and I6 (emulator/src/framing.rs).
 printf 'i6=1 i3=2 ver' | seed framing line
 printf ' ???  OPEN PLC 1 I130\r' | seed framing line-open

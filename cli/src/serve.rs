@@ -162,7 +162,11 @@ pub fn serve(a: ServeArgs) -> ExitCode {
             if a.virtual_time { ", virtual time" } else { "" }
         );
         match create_capture(path, &description, &a.configuration, pmacwd_emulator::capture::Timing::Exact) {
-            Ok(c) => card.record(c),
+            Ok(c) => {
+                if let Err(e) = card.record(c) {
+                    return unusable(format!("{}: cannot start the capture's writer: {e}", path.display()));
+                }
+            }
             Err(e) => return unusable(e),
         }
     }

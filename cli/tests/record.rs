@@ -443,7 +443,7 @@ fn the_emulator_s_own_capture_of_a_refused_i3_write_replays_as_consistent() {
     let path = std::env::temp_dir().join(format!("pmacwd-record-i3-{}.jsonl", std::process::id()));
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
     let mut card = Card::default_card(Clock::Virtual);
-    card.record(CaptureWriter::new(out, "I3=4", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap());
+    card.record(CaptureWriter::new(out, "I3=4", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap()).unwrap();
     let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
     {
         let mut c = TcpStream::connect(server.local_addr).unwrap();
@@ -468,7 +468,8 @@ fn the_emulator_s_capture_of_the_grammar_s_new_commands_replays_as_consistent() 
     let path = std::env::temp_dir().join(format!("pmacwd-record-grammar-{}.jsonl", std::process::id()));
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
     let mut card = Card::default_card(Clock::Virtual);
-    card.record(CaptureWriter::new(out, "grammar", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap());
+    card.record(CaptureWriter::new(out, "grammar", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap())
+        .unwrap();
     let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
     {
         let mut c = TcpStream::connect(server.local_addr).unwrap();
@@ -505,7 +506,8 @@ fn the_emulator_s_capture_of_motors_that_move_replays_as_consistent() {
     let path = std::env::temp_dir().join(format!("pmacwd-record-motion-{}.jsonl", std::process::id()));
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
     let mut card = Card::default_card(Clock::Virtual);
-    card.record(CaptureWriter::new(out, "motion", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap());
+    card.record(CaptureWriter::new(out, "motion", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap())
+        .unwrap();
     let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
     let step = |cycles: u32| assert!(server.with_card(|c| c.control(Control::Step { cycles })).starts_with("ok"));
     {
@@ -571,7 +573,8 @@ fn a_servo_control_longer_than_a_step_is_captured_as_steps_the_capture_s_own_rep
     let path = std::env::temp_dir().join(format!("pmacwd-servo-steps-{}.jsonl", std::process::id()));
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
     let mut card = Card::default_card(Clock::Virtual);
-    card.record(CaptureWriter::new(out, "servo", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap());
+    card.record(CaptureWriter::new(out, "servo", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap())
+        .unwrap();
     let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
     let server = Server::start(card, options).unwrap();
     let control = server.control_addr.unwrap();

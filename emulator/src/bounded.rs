@@ -84,6 +84,9 @@ pub fn spawn<T: Send + 'static>(
     builder.spawn(f)
 }
 
+/// A connection's last request time before its first request.
+pub(crate) const NEVER_SPOKE: u64 = 0;
+
 pub(crate) struct Connection {
     id: u64,
     stream: TcpStream,
@@ -91,8 +94,13 @@ pub(crate) struct Connection {
 }
 
 /// The open connections of one kind (hosts, or control clients), at most `max` of them: a
-/// newcomer to a full table closes the one idle longest, so that connections that went
-/// silent (a half-open socket, a client that never closes) can never lock a new client out.
+/// newcomer to a full table closes one, so that connections that went silent (a half-open
+/// socket, a client that never closes) can never lock a new client out. The one closed is a
+/// connection that has not sent a request yet, the oldest of them, and only when every one has
+/// spoken the one idle longest (issue 33): judged by last request alone, a burst of connections
+/// that never speak is "newer" than a host polling every few hundred milliseconds, and pushed
+/// it out; a legitimate client speaks as soon as it connects, and from then on only
+/// connections idle longer than it go before it.
 pub(crate) struct Table {
     pub(crate) max: usize,
     open: Mutex<Vec<Connection>>,
@@ -108,17 +116,22 @@ impl Table {
         self.open.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Enters `stream`, closing the connection idle longest if the table is full: its id and
-    /// the clock its thread keeps up to date, and the id of the connection closed, if any.
-    pub(crate) fn admit(&self, stream: &TcpStream, now_ms: u64) -> io::Result<(u64, Arc<AtomicU64>, Option<u64>)> {
+    /// Enters `stream`, closing one connection if the table is full (see [`Table`]): its id and
+    /// the clock its thread sets at each request (in ms, at least 1; [`NEVER_SPOKE`] until the
+    /// first), and the id of the connection closed, if any.
+    pub(crate) fn admit(&self, stream: &TcpStream) -> io::Result<(u64, Arc<AtomicU64>, Option<u64>)> {
         let handle = stream.try_clone()?;
         let id = self.next_id.fetch_add(1, Ordering::Relaxed) + 1;
-        let last_active_ms = Arc::new(AtomicU64::new(now_ms));
+        let last_active_ms = Arc::new(AtomicU64::new(NEVER_SPOKE));
         let mut open = self.lock();
         let mut evicted = None;
         if open.len() >= self.max {
-            let idlest =
-                open.iter().enumerate().min_by_key(|(_, c)| c.last_active_ms.load(Ordering::Relaxed)).map(|(i, _)| i);
+            // Never spoken (0) first, the oldest of them (ids rise); then the idlest.
+            let idlest = open
+                .iter()
+                .enumerate()
+                .min_by_key(|(_, c)| (c.last_active_ms.load(Ordering::Relaxed), c.id))
+                .map(|(i, _)| i);
             if let Some(i) = idlest {
                 let old = open.swap_remove(i);
                 let _ = old.stream.shutdown(Shutdown::Both);

@@ -22,7 +22,7 @@
 use crate::bounded::cut;
 use crate::framing::{self, framing_write_out_of_range, ReadAnswer, FRAMING_VALUE_MAX};
 use pmacwd_specs::check::{AllKeyword, ProfileSelection};
-use pmacwd_specs::grammar::{self, Addressing, Command, VarKind};
+use pmacwd_specs::grammar::{self, Addressing, Command, Unreadable, VarKind};
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_trace::jsonl as trace_jsonl;
@@ -209,9 +209,31 @@ impl<W: Write> CaptureWriter<W> {
     /// As [`CaptureWriter::exchange`], for a connection that addressed `addressing` (`#n`,
     /// `&n`) before this line.
     pub fn exchange_addressed(&mut self, line: &str, addressing: Addressing, reply: Option<&[u8]>) -> io::Result<()> {
+        let reads = reads_of(line, addressing);
+        let matched = self.match_reads(line, &reads, reply);
+        self.write_matched(matched)
+    }
+
+    /// Commands the card ran in one hold of its lock (`serve` answers a line a command at a
+    /// time, issue 33), each with its text as the host wrote it, and the answers they gave
+    /// (`None`: none, the card is tripped). The first may have ended the line with an error,
+    /// and the others then follow it unexecuted.
+    pub fn commands(
+        &mut self,
+        commands: &[(String, Result<Command, Unreadable>)],
+        reply: Option<&[u8]>,
+    ) -> io::Result<()> {
+        let reads: Vec<Read> = commands.iter().map(|(text, c)| Read::of(text, c)).collect();
+        let line = commands.iter().map(|(t, _)| t.as_str()).collect::<Vec<_>>().join(" ");
+        let matched = self.match_reads(&line, &reads, reply);
+        self.write_matched(matched)
+    }
+
+    /// Writes each step matched, with the notes that follow it in its line.
+    fn write_matched(&mut self, matched: Vec<Matched>) -> io::Result<()> {
         // A note goes with the line's step before it, or with the next step written.
         let mut last: Option<(Step, Notes)> = None;
-        for m in self.match_line(line, addressing, reply) {
+        for m in matched {
             match m {
                 Matched::Step(s) => {
                     if let Some((previous, after)) = last.replace((s, Notes::default())) {
@@ -242,29 +264,7 @@ impl<W: Write> CaptureWriter<W> {
         Ok(std::mem::take(&mut self.pending_notes).into_list())
     }
 
-    fn match_line(&mut self, line: &str, addressing: Addressing, reply: Option<&[u8]>) -> Vec<Matched> {
-        // The card's grammar reads the line, as the card did (`pmacwd_specs::grammar`).
-        let mut addressing = addressing;
-        let commands: Vec<Read> = grammar::pieces(line.as_bytes(), &mut addressing)
-            .into_iter()
-            .map(|p| {
-                let text = line.get(p.start..p.end).unwrap_or(line).trim().to_string();
-                match p.command {
-                    Ok(c) => Read {
-                        memory: memory_access(&c),
-                        values: c.values(),
-                        host: HostCommand::from_grammar(&c),
-                        text,
-                    },
-                    Err(e) => Read {
-                        text: line.get(p.start..).unwrap_or(line).trim().to_string(),
-                        host: Ok(HostCommand::Unrecognized(e.at)),
-                        values: Some(0),
-                        memory: None,
-                    },
-                }
-            })
-            .collect();
+    fn match_reads(&mut self, line: &str, commands: &[Read], reply: Option<&[u8]>) -> Vec<Matched> {
         if commands.iter().any(|c| c.memory == Some(MemoryAccess::Write)) {
             self.memory_written = true;
         }
@@ -421,6 +421,21 @@ impl<W: Write> CaptureWriter<W> {
     }
 }
 
+/// The commands of `line` as the card's grammar reads it, as the card did
+/// (`pmacwd_specs::grammar`), from `addressing`.
+fn reads_of(line: &str, addressing: Addressing) -> Vec<Read> {
+    let mut addressing = addressing;
+    grammar::pieces(line.as_bytes(), &mut addressing)
+        .into_iter()
+        .map(|p| {
+            // An unreadable command takes the rest of the line with it.
+            let end = if p.command.is_ok() { p.end } else { line.len() };
+            let text = line.get(p.start..end).unwrap_or(line);
+            Read::of(text, &p.command)
+        })
+        .collect()
+}
+
 /// One command of a line as the grammar read it, with the model's view of it.
 struct Read {
     text: String,
@@ -428,6 +443,16 @@ struct Read {
     /// How many values the card answers it with (`Command::values`).
     values: Option<usize>,
     memory: Option<MemoryAccess>,
+}
+
+impl Read {
+    fn of(text: &str, command: &Result<Command, Unreadable>) -> Read {
+        let text = text.trim().to_string();
+        match command {
+            Ok(c) => Read { memory: memory_access(c), values: c.values(), host: HostCommand::from_grammar(c), text },
+            Err(e) => Read { text, host: Ok(HostCommand::Unrecognized(e.at.clone())), values: Some(0), memory: None },
+        }
+    }
 }
 
 /// What a command does to memory beyond the model's vocabulary.

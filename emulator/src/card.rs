@@ -4,6 +4,7 @@
 //! the session is recorded.
 
 use crate::capture::CaptureWriter;
+use crate::capture_queue::{CaptureQueue, Record, FINISH_WAIT};
 use crate::control::{Control, HELP};
 use crate::framing::{framing_write_out_of_range, Answer, Framing};
 use crate::memory::{format_value, HostDefaults, Memory};
@@ -15,9 +16,7 @@ use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::grammar::{
-    parse_commands, Addressing, Assigned, Command, Env, Gather, Jog, VarKind, Vars, VARIABLE_MAX,
-};
+use pmacwd_specs::grammar::{Addressing, Assigned, Command, Env, Gather, Jog, VarKind, Vars, VARIABLE_MAX};
 use pmacwd_specs::vocab::command::{HostCommand, Motion, MotorCommand, Register};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::vocab::Buffer;
@@ -26,8 +25,11 @@ use pmacwd_trace::{Expect, Step, TraceEvent};
 use std::io::Write;
 use std::time::Instant;
 
+mod line;
 mod memory_access;
 mod motion;
+
+pub use line::{LineRun, Progress, RANGE_PART_MAX};
 
 /// What `ver` and `cid` answer: a firmware version (dls-pmaclib checks `^\d+\.\d+`) and a card
 /// ID (603382 is the Geo Brick, one of the three dls-pmaclib knows).
@@ -228,7 +230,9 @@ pub struct Card {
     /// Servo cycles run since power-up (wall clock: against `start`).
     cycles: u64,
     identity: Identity,
-    capture: Option<CaptureWriter<Box<dyn Write + Send>>>,
+    /// Where records go when the session is recorded: a queue a thread of its own writes
+    /// from, so that the card never waits for the capture's sink (`capture_queue`).
+    capture: Option<CaptureQueue>,
     /// P-, Q-, M-variables, feedrate overrides, I-variable formats.
     memory: Memory,
     /// M-variable definitions and the memory words they point at.
@@ -363,9 +367,16 @@ impl Card {
         self.clock
     }
 
-    /// Records every exchange and event from now on.
-    pub fn record(&mut self, capture: CaptureWriter<Box<dyn Write + Send>>) {
-        self.capture = Some(capture);
+    /// Records every exchange and event from now on, through a writer thread of its own; an
+    /// error when the system will not start it.
+    pub fn record(&mut self, capture: CaptureWriter<Box<dyn Write + Send>>) -> std::io::Result<()> {
+        self.capture = Some(CaptureQueue::start(capture)?);
+        Ok(())
+    }
+
+    /// Whether the session is being recorded (a sink that failed or stalled stops it).
+    pub fn is_recording(&self) -> bool {
+        self.capture.as_ref().is_some_and(CaptureQueue::is_recording)
     }
 
     /// Ends the recording; returns notes that found no step (normally none).
@@ -373,23 +384,20 @@ impl Card {
         self.finish_recording_counted().1
     }
 
-    /// Ends the recording; returns the steps it wrote and the notes that found no step.
+    /// Ends the recording, waiting at most [`FINISH_WAIT`] for the sink to take what is
+    /// queued; returns the steps it wrote and the notes that found no step.
     pub fn finish_recording_counted(&mut self) -> (u64, Vec<String>) {
-        let Some(capture) = self.capture.take() else { return (0, Vec::new()) };
-        let steps = capture.steps;
-        match capture.finish() {
-            Ok(notes) => (steps, notes),
-            Err(e) => (steps, vec![format!("the capture could not be completed: {e}")]),
+        match self.capture.take() {
+            Some(capture) => capture.finish(FINISH_WAIT),
+            None => (0, Vec::new()),
         }
     }
 
-    fn captured(&mut self, write: impl FnOnce(&mut CaptureWriter<Box<dyn Write + Send>>) -> std::io::Result<()>) {
+    /// Hands a record to the capture, if the session is recorded (`record` is not built
+    /// otherwise). Never waits for the sink.
+    fn capture_record(&mut self, record: impl FnOnce() -> Record) {
         if let Some(c) = &mut self.capture {
-            if let Err(e) = write(c) {
-                // A full disk must not stop the emulator: say so once and stop recording.
-                crate::bounded::to_stderr(format_args!("pmacwd serve: recording stopped: {e}"));
-                self.capture = None;
-            }
+            c.send(record());
         }
     }
 
@@ -430,10 +438,9 @@ impl Card {
     fn run(&mut self, n: u64) {
         let first = self.cycles;
         self.cycles = self.cycles.saturating_add(n);
-        self.captured(|c| {
+        if let Some(c) = &mut self.capture {
             c.elapse(n);
-            Ok(())
-        });
+        }
         let mut tripped_at = None;
         for i in 0..n {
             if self.core.tripped() {
@@ -476,71 +483,20 @@ impl Card {
         reply
     }
 
-    /// Answers a command line from a connection that keeps its own `#n`/`&n` addressing
-    /// (SRM p.270: the addressed motor is the port's); `None` when the card is silent.
+    /// Answers a whole command line from a connection that keeps its own `#n`/`&n`
+    /// addressing (SRM p.270: the addressed motor is the port's); `None` when the card is
+    /// silent. The reply is built whole: for tests and tools; the server answers a command
+    /// at a time ([`Card::line_step`]).
     pub fn line_addressed(&mut self, bytes: &[u8], addressing: &mut Addressing) -> Option<Vec<u8>> {
-        self.catch_up();
-        let line = String::from_utf8_lossy(bytes).into_owned();
-        let before = *addressing;
-        let reply = self.answer(bytes, addressing);
-        let r = reply.as_deref();
-        self.captured(|c| c.exchange_addressed(&line, before, r));
-        reply
-    }
-
-    fn answer(&mut self, bytes: &[u8], addressing: &mut Addressing) -> Option<Vec<u8>> {
-        // UM p.215: a tripped card will not communicate.
-        if self.core.tripped() {
-            return None;
-        }
+        let mut run = LineRun::new(bytes);
         let mut out = Vec::new();
-        if bytes.iter().any(|b| *b > 127) {
-            // ERR004: illegal character, bad value (>127 ASCII).
-            self.framing().push_answer(&mut out, &Answer::Error(4));
-            return Some(out);
-        }
-        // While a program buffer is open, lines are program text for it, not on-line commands
-        // (UM p.46: "P1=1 ... stored in the buffer if one is open"), up to the CLOSE that ends
-        // it; an `OPEN` makes the rest of its own line program text. The emulator keeps no
-        // program text: what comes before CLOSE is acknowledged and dropped (MODEL: the core
-        // models a buffer's checksum, not its contents).
-        let mut rest = bytes;
-        let mut answers = Vec::new();
         loop {
-            if self.buffer_open() {
-                match find_close(rest) {
-                    Some(at) => rest = &rest[at..],
-                    None => break,
-                }
-            }
-            let mut opened_at = None;
-            for (command, end) in parse_commands(rest, addressing) {
-                answers.clear();
-                let opens = matches!(command, Ok(Command::OpenPlc(_) | Command::OpenProgram(_)));
-                match command {
-                    Ok(c) => self.command(c, *addressing, &mut answers),
-                    Err(_) => answers.push(Answer::Error(3)),
-                }
-                // Each answer is framed as I3/I6 stand after its command: `i3=2` already counts.
-                let framing = self.framing();
-                for answer in &answers {
-                    framing.push_answer(&mut out, answer);
-                    if let Answer::Error(_) = answer {
-                        return Some(out);
-                    }
-                }
-                if opens && self.buffer_open() {
-                    opened_at = Some(end);
-                    break;
-                }
-            }
-            match opened_at {
-                Some(end) => rest = &rest[end..],
-                None => break,
+            match self.line_step(&mut run, addressing, &mut out) {
+                Progress::More => {}
+                Progress::Ended | Progress::Failed => return Some(out),
+                Progress::Silent => return None,
             }
         }
-        self.framing().push_line_end(&mut out);
-        Some(out)
     }
 
     /// Whether a PLC or motion program buffer is open (the core's Y:$000006 bits 17 and 19).
@@ -692,10 +648,15 @@ impl Card {
                         // The grammar reads `=*` for I-variables only.
                         (_, None) => Answer::Error(3),
                     };
-                    let failed = matches!(answer, Answer::Error(_));
-                    out.push(answer);
-                    if failed {
-                        return;
+                    match answer {
+                        // A write answers nothing: no answer per variable is kept (a range of
+                        // 8,192 made 256 KB of them for every such command).
+                        Answer::Nothing => {}
+                        Answer::Error(_) => {
+                            out.push(answer);
+                            return;
+                        }
+                        Answer::Data(_) => out.push(answer),
                     }
                 }
                 // A motor deactivated (Ixx00 = 0) stops at once (`card/motion.rs`).
@@ -857,7 +818,7 @@ impl Card {
         let event = Event::ClearRtiReentry;
         self.core.apply(&self.cfg, core_event(&event), &mut self.store);
         let step = Step { event: TraceEvent::Model(event), expect: Expect::default(), note: None };
-        self.captured(|c| c.event(step));
+        self.capture_record(|| Record::Event(step));
     }
 
     /// A control-interface command; the reply line without its newline.
@@ -948,7 +909,7 @@ impl Card {
         self.sync_motion();
         let step = Step { event: TraceEvent::Model(event), expect: Expect::default(), note: None };
         let line = step_line(&step);
-        self.captured(|c| c.event(step));
+        self.capture_record(|| Record::Event(step));
         format!("ok {line}")
     }
 

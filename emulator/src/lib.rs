@@ -4,9 +4,12 @@
 
 pub mod bounded;
 pub mod capture;
+pub mod capture_queue;
 pub mod card;
+pub mod card_turns;
 pub mod control;
 pub mod framing;
+pub mod host_reply;
 pub mod listen;
 pub mod memory;
 pub mod motor_status;

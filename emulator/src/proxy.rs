@@ -235,8 +235,9 @@ impl Shared {
             }
         }
     }
+    /// Milliseconds since the start, plus one: 0 is a connection's `NEVER_SPOKE`.
     fn now_ms(&self) -> u64 {
-        u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX)
+        u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX).saturating_add(1)
     }
     fn log(&self, msg: &str) {
         if self.options.verbose {
@@ -609,7 +610,7 @@ fn accept_hosts(listener: TcpListener, own: SocketAddr, shared: Arc<Shared>) {
             shared.spawn_failures.report(&format!("a session: cannot start its threads: {e}"));
             continue;
         }
-        let (id, last_active_ms, evicted) = match shared.hosts.admit(&client, shared.now_ms()) {
+        let (id, last_active_ms, evicted) = match shared.hosts.admit(&client) {
             Ok(admitted) => admitted,
             Err(e) => {
                 shared.accept_errors.report(&format!("cannot keep a host connection: {e}"));
@@ -867,7 +868,7 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
             shared.spawn_failures.report(&format!("a control session: cannot start its thread: {e}"));
             continue;
         }
-        let (id, last_active_ms, evicted) = match shared.controls.admit(&client, shared.now_ms()) {
+        let (id, last_active_ms, evicted) = match shared.controls.admit(&client) {
             Ok(admitted) => admitted,
             Err(e) => {
                 shared.accept_errors.report(&format!("cannot keep a control connection: {e}"));

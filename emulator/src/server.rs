@@ -1,6 +1,7 @@
 //! `pmacwd serve`: the card on TCP. One thread per connection; the card's lock is held only
-//! while a line is answered (microseconds), never while a socket is read or written, so a slow
-//! or vanished client cannot stall the others.
+//! while one command is answered (microseconds; a line is answered a command at a time,
+//! `card/line.rs`), never while a socket is read or written, so a slow or vanished client
+//! cannot stall the others.
 //!
 //! What keeps the server from wedging: a request the card cannot follow (unknown code, a
 //! length beyond its 1,492-byte buffer) closes that connection; a write that does not complete
@@ -11,11 +12,12 @@
 //! at most [`CYCLES_PER_HOLD_MAX`] servo cycles at a time.
 
 use crate::bounded::{accepted, room_for_a_thread, spawn, CountedLog, Table};
-use crate::card::{Card, Clock, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
+use crate::card::{Card, Clock, Progress, CYCLES_PER_HOLD_MAX, SERVO_HZ_MAX};
+use crate::card_turns::{CardTurns, LeftoverTurn};
 use crate::control::{read_line_max, Control, CONTROL_LINE_BYTES_MAX};
-use crate::framing::BEL;
+use crate::host_reply::{HostReply, Turn};
 use crate::listen::bind;
-use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, REPLY_PACKET_BYTES};
+use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES};
 use pmacwd_specs::grammar::Addressing;
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_trace::jsonl::step_line;
@@ -105,6 +107,8 @@ pub struct Stats {
 
 struct Shared {
     card: Mutex<Card>,
+    /// Who takes the card next: requests before the rest of abandoned lines (`card_turns`).
+    turns: CardTurns,
     started: Instant,
     options: ServeOptions,
     hosts: Table,
@@ -139,13 +143,44 @@ impl Shared {
         }
         card
     }
+    /// The card for a request (see [`CardTurns`]).
+    fn card_request(&self) -> CardHold<'_> {
+        CardHold { card: self.turns.request(|| self.card_now()), _turn: None }
+    }
+    /// The card for the rest of an abandoned line, once its turn comes; `None` if its host left
+    /// meanwhile.
+    fn card_leftover(&self, host_gone: &dyn Fn() -> bool) -> Option<CardHold<'_>> {
+        let (card, turn) = self.turns.leftover(|| self.card_now(), host_gone)?;
+        Some(CardHold { card, _turn: Some(turn) })
+    }
+    /// Milliseconds since the start, plus one: 0 is a connection's `NEVER_SPOKE`.
     fn now_ms(&self) -> u64 {
-        u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX)
+        u64::try_from(self.started.elapsed().as_millis()).unwrap_or(u64::MAX).saturating_add(1)
     }
     fn log(&self, msg: &str) {
         if self.options.verbose {
             crate::bounded::to_stderr(format_args!("pmacwd serve: {msg}"));
         }
+    }
+}
+
+/// The card, held for one command; a leftover also holds its turn (`card_turns`). The card is
+/// declared first, so it is released first.
+struct CardHold<'a> {
+    card: MutexGuard<'a, Card>,
+    _turn: Option<LeftoverTurn<'a>>,
+}
+
+impl std::ops::Deref for CardHold<'_> {
+    type Target = Card;
+    fn deref(&self) -> &Card {
+        &self.card
+    }
+}
+
+impl std::ops::DerefMut for CardHold<'_> {
+    fn deref_mut(&mut self) -> &mut Card {
+        &mut self.card
     }
 }
 
@@ -170,6 +205,7 @@ impl Server {
         let verbose = options.verbose;
         let shared = Arc::new(Shared {
             card: Mutex::new(card),
+            turns: CardTurns::default(),
             started: Instant::now(),
             hosts: Table::new(options.clients_max),
             controls: Table::new(CONTROL_CLIENTS_MAX),
@@ -275,7 +311,7 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
             shared.spawn_failures.report(&format!("a host connection: cannot start its thread: {e}"));
             continue;
         }
-        let (id, last_active_ms, evicted) = match shared.hosts.admit(&stream, shared.now_ms()) {
+        let (id, last_active_ms, evicted) = match shared.hosts.admit(&stream) {
             Ok(admitted) => admitted,
             Err(e) => {
                 shared.accept_errors.report(&format!("cannot keep a host connection: {e}"));
@@ -316,19 +352,53 @@ fn accept_hosts(listener: TcpListener, shared: Arc<Shared>) {
 }
 
 fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) -> io::Result<()> {
+    // `#n` and `&n` stay until changed, on this connection only (SRM p.270).
+    let mut addressing = Addressing::default();
+    let mut reply = HostReply::default();
+    let ended = serve_requests(stream, shared, last_active_ms, &mut reply, &mut addressing);
+    // The host has gone: the commands of its line not yet run go with it, as with a flush.
+    // MODEL: a card has read the whole line and would run it; running a line of ranges whose
+    // answers nobody fetches kept a thread per departed connection busy (behind the requests
+    // of the hosts still there), and those threads outgrew the connection table (1,163 for 128
+    // connections in a 30 s soak). Only commands past the first packet of answers are affected: a line whose
+    // answers fit a packet has run whole when its first packet went.
+    reply.flush();
+    ended
+}
+
+fn serve_requests(
+    stream: TcpStream,
+    shared: &Shared,
+    last_active_ms: &AtomicU64,
+    reply: &mut HostReply,
+    addressing: &mut Addressing,
+) -> io::Result<()> {
     stream.set_nodelay(true)?;
     stream.set_write_timeout(Some(WRITE_TIMEOUT))?;
     stream.set_read_timeout(shared.options.idle_timeout)?;
     let mut reader = BufReader::new(stream.try_clone()?);
+    // A look at the socket for the rest of an abandoned line, which stops when the host left.
+    let probe = stream.try_clone()?;
+    let gone = move || host_gone(&probe);
     let mut writer = stream;
-    // The part of a long reply not yet fetched (GETBUFFER), or a SENDLINE answer (GETLINE).
-    let mut pending: Vec<u8> = Vec::new();
-    let mut sent = 0usize;
     let mut header = [0u8; HEADER_BYTES];
     let mut data = Vec::new();
-    // `#n` and `&n` stay until changed, on this connection only (SRM p.270).
-    let mut addressing = Addressing::default();
     let mut last_error: Option<Instant> = None;
+    // The card, caught up with its clock, for one command at a time.
+    let card = |turn| match turn {
+        Turn::Request => Some(shared.card_request()),
+        Turn::Leftover => shared.card_leftover(&gone),
+    };
+    // Error replies are held to one per ERROR_REPLY_INTERVAL, with the card's lock released.
+    let mut slow_errors = |ended: Option<Progress>| {
+        if ended == Some(Progress::Failed) {
+            if let Some(wait) = last_error.and_then(|t| ERROR_REPLY_INTERVAL.checked_sub(t.elapsed())) {
+                shared.stats.errors_slowed.fetch_add(1, Ordering::Relaxed);
+                thread::sleep(wait);
+            }
+            last_error = Some(Instant::now());
+        }
+    };
     loop {
         if !read_or_end(&mut reader, &mut header)? {
             return Ok(());
@@ -338,70 +408,83 @@ fn host_session(stream: TcpStream, shared: &Shared, last_active_ms: &AtomicU64) 
             shared.stats.refused_requests.fetch_add(1, Ordering::Relaxed);
             io::Error::new(io::ErrorKind::InvalidData, e)
         })?;
-        let reply: Option<Vec<u8>> = match request {
-            Request::Line { data_bytes, reply } => {
+        let answer: Option<Vec<u8>> = match request {
+            Request::Line { data_bytes, reply: now } => {
                 data.resize(data_bytes, 0);
                 if !read_or_end(&mut reader, &mut data)? && data_bytes > 0 {
                     return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the client left mid-request"));
                 }
-                let answer = shared.card_now().line_addressed(trim_line(&data), &mut addressing);
-                if answer.as_ref().is_some_and(|a| a.contains(&BEL)) {
-                    if let Some(wait) = last_error.and_then(|t| ERROR_REPLY_INTERVAL.checked_sub(t.elapsed())) {
-                        shared.stats.errors_slowed.fetch_add(1, Ordering::Relaxed);
-                        thread::sleep(wait);
-                    }
-                    last_error = Some(Instant::now());
+                reply.start(trim_line(&data), &card, addressing, &gone);
+                let ended = reply.fill(&card, addressing);
+                slow_errors(ended);
+                match ended {
+                    Some(Progress::Silent) => None,
+                    _ if now => Some(reply.next_packet()),
+                    // SENDLINE: one byte now, the answer on GETLINE.
+                    _ => Some(vec![0x40]),
                 }
-                pending.clear();
-                sent = 0;
-                match answer {
-                    None => None,
-                    Some(bytes) if reply => {
-                        pending = bytes;
-                        Some(next_packet(&pending, &mut sent))
-                    }
-                    Some(bytes) => {
-                        // SENDLINE: one byte now, the answer on GETLINE.
-                        pending = bytes;
-                        Some(vec![0x40])
+            }
+            Request::NextPacket => {
+                if shared.card_request().tripped() {
+                    None
+                } else {
+                    let ended = reply.fill(&card, addressing);
+                    slow_errors(ended);
+                    match ended {
+                        Some(Progress::Silent) => None,
+                        // Nothing waiting: NUL, which hosts read as "no data" (facts s.3).
+                        _ if !reply.has_waiting() => Some(vec![0]),
+                        _ => Some(reply.next_packet()),
                     }
                 }
             }
-            Request::NextPacket => (!shared.card_now().tripped()).then(|| {
-                if sent < pending.len() {
-                    next_packet(&pending, &mut sent)
-                } else {
-                    // Nothing waiting: NUL, which hosts read as "no data" (facts s.3).
-                    vec![0]
-                }
-            }),
             // UMAC Turbo CPU/Communications Board Hardware Manual p.36 (Ethernet Protocol,
             // VR_PMAC_READREADY): "Two bytes are returned. The first byte if non-zero
             // indicates there is data to be read"; the EPICS pmac driver tests `data[0]`.
-            Request::ReadReady => (!shared.card_now().tripped()).then(|| vec![u8::from(sent < pending.len()), 0]),
+            Request::ReadReady => {
+                if shared.card_request().tripped() {
+                    None
+                } else {
+                    let ended = reply.fill(&card, addressing);
+                    slow_errors(ended);
+                    (ended != Some(Progress::Silent)).then(|| vec![u8::from(reply.has_waiting()), 0])
+                }
+            }
             Request::Flush => {
-                pending.clear();
-                sent = 0;
+                reply.flush();
                 // The flush is acknowledged with one byte. MODEL: the manual's text says
                 // CTRL-X; DLS's EPICS driver (pmacAsynIPPort.c, pmacFlush) records that real
                 // cards send 0x40 (VR_DOWNLOAD) and reads any byte; the emulator sends what the
                 // cards send.
-                (!shared.card_now().tripped()).then(|| vec![FLUSH_ACK])
+                (!shared.card_request().tripped()).then(|| vec![FLUSH_ACK])
             }
-            Request::Control(c) => shared.card_now().control_character(c),
+            Request::Control(c) => shared.card_request().control_character(c),
         };
         // A tripped card says nothing: the host's read times out (UM p.215).
-        if let Some(bytes) = reply {
+        if let Some(bytes) = answer {
             writer.write_all(&bytes)?;
         }
     }
 }
 
-fn next_packet(pending: &[u8], sent: &mut usize) -> Vec<u8> {
-    let end = (*sent + REPLY_PACKET_BYTES).min(pending.len());
-    let packet = pending[*sent..end].to_vec();
-    *sent = end;
-    packet
+/// Whether the host has closed its side or the connection was shut down (evicted): a look at
+/// the socket that neither waits nor takes a byte. POLLRDHUP says the host closed even when
+/// requests it sent before closing are still unread (a look at the bytes would see those and
+/// not the close).
+fn host_gone(stream: &TcpStream) -> bool {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::fd::AsRawFd;
+        let mut poll = libc::pollfd { fd: stream.as_raw_fd(), events: libc::POLLRDHUP, revents: 0 };
+        // SAFETY: one pollfd of ours, no wait.
+        let n = unsafe { libc::poll(&raw mut poll, 1, 0) };
+        n > 0 && poll.revents & (libc::POLLRDHUP | libc::POLLHUP | libc::POLLERR | libc::POLLNVAL) != 0
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = stream;
+        false
+    }
 }
 
 fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
@@ -415,7 +498,7 @@ fn accept_control(listener: TcpListener, shared: Arc<Shared>) {
             shared.spawn_failures.report(&format!("a control connection: cannot start its thread: {e}"));
             continue;
         }
-        let (id, last_active_ms, evicted) = match shared.controls.admit(&stream, shared.now_ms()) {
+        let (id, last_active_ms, evicted) = match shared.controls.admit(&stream) {
             Ok(admitted) => admitted,
             Err(e) => {
                 shared.accept_errors.report(&format!("cannot keep a control connection: {e}"));

@@ -1,0 +1,286 @@
+//! A command line answered a command at a time (issue 33). The server takes the card's lock
+//! for one [`Card::line_step`] and releases it before the next, so that another host's `???`
+//! waits for at most one command, never for a whole line (a 1,492-byte line of ranges held the
+//! lock about 0.1 s); and it asks for the next command only when the host has fetched what the
+//! last ones answered, so that a reply far larger than its line (`P0..8191` 165 times) is never
+//! built whole: a connection holds one packet and one command's answers.
+//!
+//! A range of more than [`RANGE_PART_MAX`] variables is read in parts of that many, each its
+//! own step: one `M0..8191->` would otherwise hold the lock for 8,192 answers. The answers
+//! and their framing are those of the whole range, since each variable's answer is framed on
+//! its own (SRM p.37-38).
+
+use super::{find_close, Card};
+use crate::capture_queue::Record;
+use crate::framing::Answer;
+use pmacwd_specs::grammar::{pieces, Addressing, Command, Piece, Unreadable, VarRange, Vars};
+use std::collections::VecDeque;
+
+/// The most variables of a range read answered in one step. 64 answers are formatted in a few
+/// microseconds, a few `???` round trips; a range of 8,192 is 128 steps.
+pub const RANGE_PART_MAX: u16 = 64;
+
+/// How a step left the line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Progress {
+    /// More commands to run.
+    More,
+    /// The line is done; its end (the acknowledgement) is framed.
+    Ended,
+    /// An error ended the line (its error framed, no acknowledgement).
+    Failed,
+    /// The card is tripped: it answers nothing (UM p.215), and the rest of the line is lost.
+    Silent,
+}
+
+/// A command line and how far the card has answered it.
+pub struct LineRun {
+    line: Vec<u8>,
+    /// The commands of the line's current segment not yet run; a segment ends where an `OPEN`
+    /// makes the rest of the line program text, which the card reads again once it ran.
+    queue: VecDeque<Piece>,
+    /// Where the segment starts in the line (the pieces' offsets are the segment's).
+    segment_at: usize,
+    /// The connection's addressing after the segment was read, which `#` and `&` report.
+    addressing_after: Addressing,
+    started: bool,
+    ended: Option<Progress>,
+}
+
+impl LineRun {
+    /// `bytes` (at most a line, 1,492 bytes: the request's length is checked before).
+    pub fn new(bytes: &[u8]) -> LineRun {
+        LineRun {
+            line: bytes.to_vec(),
+            queue: VecDeque::new(),
+            segment_at: 0,
+            addressing_after: Addressing::default(),
+            started: false,
+            ended: None,
+        }
+    }
+
+    /// How the line ended, once it has.
+    pub fn ended(&self) -> Option<Progress> {
+        self.ended
+    }
+
+    fn end(&mut self, how: Progress) -> Progress {
+        self.queue.clear();
+        self.ended = Some(how);
+        how
+    }
+
+    /// The text of a piece of the current segment, as the host wrote it.
+    fn text(&self, p: &Piece) -> String {
+        let at = self.segment_at;
+        // An unreadable command takes the rest of the line with it.
+        let end = if p.command.is_ok() { at + p.end } else { self.line.len() };
+        String::from_utf8_lossy(self.line.get(at + p.start..end).unwrap_or_default()).trim().to_string()
+    }
+
+    /// The commands still queued, for a capture record.
+    fn rest(&mut self) -> Vec<(String, Result<Command, Unreadable>)> {
+        let queue = std::mem::take(&mut self.queue);
+        queue.into_iter().map(|p| (self.text(&p), p.command)).collect()
+    }
+}
+
+impl Card {
+    /// Runs the next command of `run` (or part of a range), appending its framed answers to
+    /// `out`; the connection's `addressing` follows the line as it is read (SRM p.270).
+    pub fn line_step(&mut self, run: &mut LineRun, addressing: &mut Addressing, out: &mut Vec<u8>) -> Progress {
+        if let Some(how) = run.ended {
+            return how;
+        }
+        self.catch_up();
+        if !run.started {
+            run.started = true;
+            if let Some(how) = self.line_start(run, addressing, out) {
+                return how;
+            }
+        } else if self.core.tripped() {
+            // Tripped between two commands of the line (the card's time runs between two holds
+            // of its lock): the rest gets no answer.
+            let commands = run.rest();
+            self.capture_record(|| Record::Commands { commands, reply: None });
+            return run.end(Progress::Silent);
+        }
+        let Some(piece) = run.queue.pop_front() else {
+            self.framing().push_line_end(out);
+            return run.end(Progress::Ended);
+        };
+        let mut text = run.text(&piece);
+        let command = match piece.command {
+            Ok(c) => c,
+            Err(e) => {
+                let mut own = Vec::new();
+                self.framing().push_answer(&mut own, &Answer::Error(3));
+                out.extend_from_slice(&own);
+                self.capture_record(|| Record::Commands { commands: vec![(text, Err(e))], reply: Some(own) });
+                return run.end(Progress::Failed);
+            }
+        };
+        let (now, later) = split_range(command);
+        if let Some(later) = later {
+            text = now.to_string();
+            run.queue.push_front(Piece { command: Ok(later), start: piece.start, end: piece.end });
+        }
+        let opens = matches!(now, Command::OpenPlc(_) | Command::OpenProgram(_));
+        let mut answers = Vec::new();
+        self.command(now.clone(), run.addressing_after, &mut answers);
+        // Each answer is framed as I3/I6 stand after its command: `i3=2` already counts.
+        let framing = self.framing();
+        let mut own = Vec::new();
+        let mut failed = false;
+        for answer in &answers {
+            framing.push_answer(&mut own, answer);
+            if let Answer::Error(_) = answer {
+                failed = true;
+                break;
+            }
+        }
+        out.extend_from_slice(&own);
+        if failed {
+            // The commands after it are not executed; the capture notes them so.
+            let mut commands = vec![(text, Ok(now))];
+            commands.extend(run.rest());
+            self.capture_record(|| Record::Commands { commands, reply: Some(own) });
+            return run.end(Progress::Failed);
+        }
+        self.capture_record(|| Record::Commands { commands: vec![(text, Ok(now))], reply: Some(own) });
+        if opens && self.buffer_open() {
+            self.open_segment(run, run.segment_at + piece.end, addressing);
+        }
+        if run.queue.is_empty() {
+            // The line's end goes with its last command, in the same hold.
+            self.framing().push_line_end(out);
+            return run.end(Progress::Ended);
+        }
+        Progress::More
+    }
+
+    /// The start of a line: a tripped card, or a byte above 127, answers the line at once
+    /// (`Some`: how it ended); otherwise its first commands are read.
+    fn line_start(&mut self, run: &mut LineRun, addressing: &mut Addressing, out: &mut Vec<u8>) -> Option<Progress> {
+        let whole = |run: &LineRun| String::from_utf8_lossy(&run.line).into_owned();
+        // UM p.215: a tripped card will not communicate.
+        if self.core.tripped() {
+            let (line, before) = (whole(run), *addressing);
+            self.capture_record(|| Record::Line { line, addressing: before, reply: None });
+            return Some(run.end(Progress::Silent));
+        }
+        if run.line.iter().any(|b| *b > 127) {
+            // ERR004: illegal character, bad value (>127 ASCII).
+            let mut own = Vec::new();
+            self.framing().push_answer(&mut own, &Answer::Error(4));
+            out.extend_from_slice(&own);
+            let (line, before) = (whole(run), *addressing);
+            self.capture_record(|| Record::Line { line, addressing: before, reply: Some(own) });
+            return Some(run.end(Progress::Failed));
+        }
+        self.open_segment(run, 0, addressing);
+        None
+    }
+
+    /// Reads the line from `from` on. While a program buffer is open, what comes before CLOSE
+    /// is program text for it, not on-line commands (UM p.46: "P1=1 ... stored in the buffer
+    /// if one is open"); the emulator keeps no program text: it is acknowledged and dropped
+    /// (MODEL: the core models a buffer's checksum, not its contents). The capture keeps it
+    /// as an exchange without answers, as it kept the whole line before.
+    fn open_segment(&mut self, run: &mut LineRun, from: usize, addressing: &mut Addressing) {
+        let mut at = from.min(run.line.len());
+        if self.buffer_open() {
+            let skip = find_close(&run.line[at..]).unwrap_or(run.line.len() - at);
+            let text = String::from_utf8_lossy(&run.line[at..at + skip]).trim().to_string();
+            if !text.is_empty() {
+                let before = *addressing;
+                self.capture_record(|| Record::Line { line: text, addressing: before, reply: Some(Vec::new()) });
+            }
+            at += skip;
+        }
+        run.segment_at = at;
+        run.queue = pieces(&run.line[at..], addressing).into();
+        run.addressing_after = *addressing;
+    }
+}
+
+/// `c`, or its first [`RANGE_PART_MAX`] variables and the rest when it reads more.
+fn split_range(c: Command) -> (Command, Option<Command>) {
+    match c {
+        Command::Read { kind, vars: Vars::Numbers(r), cs } if r.count > RANGE_PART_MAX => {
+            let now = VarRange { first: r.first, count: RANGE_PART_MAX, step: r.step };
+            let later =
+                VarRange { first: r.first + RANGE_PART_MAX * r.step, count: r.count - RANGE_PART_MAX, step: r.step };
+            (
+                Command::Read { kind, vars: Vars::Numbers(now), cs },
+                Some(Command::Read { kind, vars: Vars::Numbers(later), cs }),
+            )
+        }
+        Command::MReport { first, last } if last - first >= RANGE_PART_MAX => (
+            Command::MReport { first, last: first + RANGE_PART_MAX - 1 },
+            Some(Command::MReport { first: first + RANGE_PART_MAX, last }),
+        ),
+        other => (other, None),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::card::Clock;
+
+    fn whole(card: &mut Card, line: &str) -> (Vec<u8>, usize) {
+        let mut run = LineRun::new(line.as_bytes());
+        let mut addressing = Addressing::default();
+        let mut out = Vec::new();
+        let mut steps = 0;
+        while card.line_step(&mut run, &mut addressing, &mut out) == Progress::More {
+            steps += 1;
+        }
+        (out, steps + 1)
+    }
+
+    #[test]
+    fn a_range_is_answered_in_parts_whose_answers_are_the_whole_range_s() {
+        let mut card = Card::default_card(Clock::Virtual);
+        card.line(b"P0..199=7").unwrap();
+        let (out, steps) = whole(&mut card, "P0..199");
+        assert_eq!(out, [&b"7\r".repeat(200)[..], b"\x06"].concat());
+        assert_eq!(steps, 4, "64 + 64 + 64 + 8 variables, the line's end with the last");
+        // With a step between the numbers (`I130,4,100`), the parts keep the step.
+        card.line(b"I130,4,100=3").unwrap();
+        let (out, _) = whole(&mut card, "I130,4,100");
+        assert_eq!(out, b"3\r3\r3\r3\r\x06");
+    }
+
+    #[test]
+    fn an_error_ends_the_line_without_running_the_rest() {
+        let mut card = Card::default_card(Clock::Virtual);
+        let (out, steps) = whole(&mut card, "P1=5 ZZZ P1=6");
+        assert_eq!(out, b"\x07ERR003\r");
+        assert_eq!(steps, 2);
+        assert_eq!(card.line(b"P1").unwrap(), b"5\r\x06");
+    }
+
+    #[test]
+    fn close_with_no_buffer_open_answers_nothing_and_the_line_goes_on() {
+        // What the fuzz target emulator_stream sends after any stream, under whatever framing.
+        let mut card = Card::default_card(Clock::Virtual);
+        assert_eq!(card.line(b"CLOSE ???").unwrap(), b"001000000000\r\x06");
+        card.line(b"I3=0").unwrap();
+        assert_eq!(card.line(b"CLOSE ???").unwrap(), b"001000000000\r");
+        assert_eq!(card.line(b"CLOSE").unwrap(), b"", "under I3 = 0 a line without data gets no bytes");
+        // The fuzz target's first failure: `i3=1&i3=2` writes I3 = 1 & I3 = 0 (an expression).
+        let mut card = Card::default_card(Clock::Virtual);
+        assert_eq!(card.line(b"i3=1&i3=2; ve").unwrap(), b"\x07ERR003\r");
+        assert_eq!(card.line(b"CLOSE ???").unwrap(), b"001000000000\r");
+    }
+
+    #[test]
+    fn an_open_buffer_takes_the_rest_of_its_line_as_program_text_up_to_close() {
+        let mut card = Card::default_card(Clock::Virtual);
+        assert_eq!(card.line(b"OPEN PLC 1 P1=1 CLOSE P2=2").unwrap(), b"\x06");
+        assert_eq!(card.line(b"P1 P2").unwrap(), b"0\r2\r\x06", "P1=1 was program text");
+    }
+}
