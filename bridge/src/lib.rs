@@ -143,6 +143,8 @@ pub fn core_command(c: &HostCommand) -> core::Command {
         HostCommand::Motion(m) => core::Command::Motion(core_motion(m)),
         HostCommand::Reinitialize => core::Command::Reinitialize,
         HostCommand::Checksum => core::Command::Checksum,
+        HostCommand::Gather => core::Command::Gather,
+        HostCommand::EndGather => core::Command::EndGather,
         HostCommand::WriteIMemory(n, v) => core::Command::WriteIMemory(*n, *v),
         HostCommand::DefaultI(n) => core::Command::DefaultI(*n),
         HostCommand::Card { forgets, .. } => {

@@ -69,6 +69,8 @@ fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
             HostCommand::Motion(_) => "motion command that starts motion",
             HostCommand::Reinitialize => "$$$*** (re-initialize)",
             HostCommand::Checksum => "CHECKSUM",
+            HostCommand::Gather => "GATHER",
+            HostCommand::EndGather => "ENDGATHER",
             HostCommand::WriteIMemory(..) => "memory write to an I-variable",
             HostCommand::DefaultI(_) => "I-variable default (I{n}=*)",
             HostCommand::Card { .. } => "the card's own command",

@@ -65,7 +65,8 @@ const TRIPPED_SILENT: &str = "a tripped card does not reply to any command";
 const LOCKED_UNCHANGED: &str = "a locked I-variable never changes through an I-variable write";
 const RELOAD: &str = "a background cycle reloads the counter from I40";
 const NOT_MODELLED_BITS: &str =
-    "bits X19, X17 and X14 of ??? stay 0: the card gathers no data and runs no leadscrew compensation";
+    "bits X17 and X14 of ??? stay 0: the card gathers on no trigger and runs no leadscrew compensation";
+const GATHERING_BIT: &str = "bit 19 of ??? is set by GATHER and cleared by ENDGATHER or a reset, and by nothing else";
 const PLC_KILLS_ALL: &str =
     "a closed-loop motor whose encoder is lost has every motor killed at the next background cycle, its loss latched";
 
@@ -345,6 +346,14 @@ const MUTATIONS: &[Mutation] = &[
         &["CLOSE stores the user program's checksum as it stands in X:$1090"],
     ),
     canary(
+        "EndGatherKeepsGathering",
+        "ENDGATHER leaves data gathering on",
+        &["srm289_x19_data_gathering_on"],
+        "status",
+        Canary::EndGatherKeepsGathering,
+        &[GATHERING_BIT],
+    ),
+    canary(
         "LockoutIgnored",
         "a locked I-variable write takes effect",
         &["srm57_i41_purpose", "srm57_i41_bit_set_locks", "srm57_i41_download_care"],
@@ -478,7 +487,7 @@ const MUTATIONS: &[Mutation] = &[
         statements: &["srm289_x19_data_gathering_on"],
         configuration: "status",
         change: Change::Config(|cfg| cfg.layout.motion_buffer_open = (WordId::X, 19)),
-        caught_by: &[NOT_MODELLED_BITS],
+        caught_by: &[GATHERING_BIT],
         caught: true,
     },
     Mutation {
@@ -611,8 +620,8 @@ const SPEC_MUTATIONS: &[SpecMutation] = &[
         file: "status.yaml",
         edits: swap_names!("servo_error", "data_gathering_on"),
         // The scenario of bit 20 names the bit (`status_set: [servo_error]`), so it moves with
-        // the name; the property reads X19 where SRM p.289 prints it.
-        caught_by: Catch::Check("timing", &[NOT_MODELLED_BITS]),
+        // the name; the monitor of bit 19 reads X19 where SRM p.289 prints it.
+        caught_by: Catch::Check("timing", &[GATHERING_BIT]),
     },
     SpecMutation {
         name: "ChecksumErrorOnBit14",

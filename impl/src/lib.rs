@@ -40,6 +40,8 @@ pub mod bits {
     pub const FLASH_ERROR: u32 = 1 << 10;
     /// X bit 9: RTI warning.
     pub const RTI_WARNING: u32 = 1 << 9;
+    /// X bit 19: data gathering on, from GATHER to ENDGATHER or a reset (SRM p.289, p.307).
+    pub const DATA_GATHERING_ON: u32 = 1 << 19;
     /// Y bit 19: motion program buffer open.
     pub const MOTION_BUFFER_OPEN: u32 = 1 << 19;
     /// Y bit 17: PLC buffer open.
@@ -310,6 +312,10 @@ pub enum Command {
     Reinitialize,
     /// `CHECKSUM`: the firmware's reference checksum (UM p.217).
     Checksum,
+    /// `GATHER`: data gathering starts, X bit 19 (SRM p.289, p.307).
+    Gather,
+    /// `ENDGATHER`: data gathering stops (SRM p.289, p.307).
+    EndGather,
     /// An M-variable assignment or memory write into I-variable `n` (SRM p.57: past I41).
     WriteIMemory(u16, i64),
     /// `I{n}=*`: the factory default (through I41, SRM p.57).
@@ -997,6 +1003,17 @@ impl Core {
             // UM p.217: the reference register, preloaded at the factory (token 0, MODEL as
             // the reference model: no memory is summed).
             Command::Checksum => Reply::Hex(u32::from(self.tokens >> 1 & 1)),
+            // SRM p.289: bit 19 while the data gathering function is active; SRM p.307: until
+            // ENDGATHER (MODEL, as the reference model: the buffer never fills; a reset ends it,
+            // `restart_with` clearing the word).
+            Command::Gather => {
+                self.status_x |= bits::DATA_GATHERING_ON;
+                Reply::Ack
+            }
+            Command::EndGather => {
+                self.status_x &= !bits::DATA_GATHERING_ON;
+                Reply::Ack
+            }
             // SRM p.57: I41 does not stop an M-variable assignment or a memory write.
             Command::WriteIMemory(n, v) => self.store_i(n, v, store),
             // As the reference model: the defaults of I8, I40, I41 are the core's; any other

@@ -134,6 +134,9 @@ pub enum Canary {
     AbortActsAsQuit,
     /// `CLOSE` leaves X:$1090 as it was (UM p.217: the checksum is stored at CLOSE).
     CloseKeepsOldReference,
+    /// `ENDGATHER` leaves data gathering on (SRM p.289, p.307: bit 19 is 0 once gathering
+    /// stops at ENDGATHER).
+    EndGatherKeepsGathering,
     /// A servo cycle that decrements the counter takes 2 off it (SRM p.57: by 1). Applied to
     /// each servo cycle, so the cycle monitors see it.
     CounterDropsByTwo,
@@ -569,6 +572,9 @@ fn mutate(
             if let Reply::Hex(v) = *reply {
                 *reply = Reply::Hex(v + 1);
             }
+        }
+        (Canary::EndGatherKeepsGathering, Event::Command(HostCommand::EndGather)) => {
+            next.status.data_gathering_on = prev.status.data_gathering_on;
         }
         (Canary::Bit9NeverSet, Event::Servo { .. }) => next.status.rti_warning = false,
         (Canary::Bit22NeverSet, Event::Servo { .. }) => next.status.rti_reentry = false,

@@ -41,6 +41,9 @@ pub struct StatusFlags {
     pub plc_buffer_open: bool,
     /// Y bit 19: a motion program buffer is open (GlobalStatus.py).
     pub motion_buffer_open: bool,
+    /// X bit 19: the data gathering function is active (SRM p.289), from GATHER until
+    /// ENDGATHER or a reset (SRM p.307).
+    pub data_gathering_on: bool,
 }
 
 /// The background checksum engine of UM p.217: it alternates between the firmware and the
@@ -467,6 +470,20 @@ impl Controller {
                 self.checksum.program_reference = self.checksum.program;
                 Reply::Ack
             }
+            // SRM p.289: bit 19 "is 1 when the data gathering function is active; it is 0 when
+            // the function is not active". SRM p.307: gathering is "in progress" until
+            // "an ENDGATHER command" is issued or "the gather buffer has ... filled up". MODEL:
+            // the model holds no gather buffer (`DEFINE GATHER` is the card's own), so it reads
+            // the buffer as one that never fills: I5000 = 1 or 3, "permit wrap-around" (SRM
+            // p.170); a GATHER with no buffer defined starts gathering all the same.
+            HostCommand::Gather => {
+                self.status.data_gathering_on = true;
+                Reply::Ack
+            }
+            HostCommand::EndGather => {
+                self.status.data_gathering_on = false;
+                Reply::Ack
+            }
             // UM p.217, UM p.319: the stop commands and those that start motion (motion.rs).
             HostCommand::Motion(m) => self.axes.command(cfg, *m, decel),
             HostCommand::Reinitialize => {
@@ -592,6 +609,7 @@ impl Controller {
             rti_warning,
             motion_buffer_open,
             plc_buffer_open,
+            data_gathering_on,
             cpu_type_bit1,
             cpu_type_bit0,
         } = cfg.layout;
@@ -632,6 +650,7 @@ impl Controller {
         set(s.rti_warning, rti_warning);
         set(s.motion_buffer_open, motion_buffer_open);
         set(s.plc_buffer_open, plc_buffer_open);
+        set(s.data_gathering_on, data_gathering_on);
         set(cpu1, cpu_type_bit1);
         set(cpu0, cpu_type_bit0);
         (words[0], words[1])
@@ -701,7 +720,9 @@ impl Controller {
         self.rti_remaining = 0;
         self.background_credit = 0;
         // SRM p.289: bits 11 and 10 report the reset-time DPRAM check and flash read; every
-        // other driven bit starts clear (bit 22 "until the card is reset").
+        // other driven bit starts clear (bit 22 "until the card is reset"). MODEL: a reset
+        // also ends data gathering (bit 19): gathering is started only by the on-line GATHER
+        // (SRM p.307), and no page says it survives a reset.
         self.status =
             StatusFlags { dpram_error: reset.dpram_fault, flash_error: reset.flash_fault, ..StatusFlags::default() };
         // MODEL: an injected fault corrupts the stored firmware or user program, which a reset

@@ -156,6 +156,25 @@ pub const MONITORS: &[Monitor] = &[
         }),
     },
     Monitor {
+        name: "bit 19 of ??? is set by GATHER and cleared by ENDGATHER or a reset, and by nothing else",
+        cite: "SRM p.289",
+        sentence: "Bit 19 Data Gathering Function On : This bit is 1 when the data gathering function is active; it is 0 when the function is not active. (SRM p.307: Data Gathering is in progress while an ENDGATHER command has not been issued and the gather buffer has not been filled up.)",
+        // Bit 19 of the first word as SRM p.289 prints it, not status.yaml's layout: a driven
+        // bit misplaced onto it (or gathering's flag onto another bit) is caught. MODEL: a reset
+        // ends gathering; the gather buffer never fills (wrap-around, SRM p.170).
+        check: Check::Event(|cfg, prev, ev, _, next| {
+            let before = bit(prev.status_words(cfg).0, 19);
+            let after = bit(next.status_words(cfg).0, 19);
+            match ev {
+                Event::Command(HostCommand::Gather) if running(prev) => after,
+                Event::Command(HostCommand::EndGather) if running(prev) => !after,
+                Event::Reset(_) => !after,
+                Event::Command(HostCommand::Reset | HostCommand::Reinitialize) if running(prev) => !after,
+                _ => after == before,
+            }
+        }),
+    },
+    Monitor {
         name: "a locked I-variable never changes through an I-variable write",
         cite: "SRM p.57",
         sentence: "If the bit of I41 is set to 1, the corresponding I-variables cannot be changed with an {I-variable}={value} command.",

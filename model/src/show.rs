@@ -98,6 +98,7 @@ pub fn state_text(cfg: &ModelConfig, s: &State) -> String {
         flash_error,
         plc_buffer_open,
         motion_buffer_open,
+        data_gathering_on,
     } = status;
     let flags: Vec<&str> = [
         (*rti_reentry, "RTI re-entry (X22)"),
@@ -107,6 +108,7 @@ pub fn state_text(cfg: &ModelConfig, s: &State) -> String {
         (*flash_error, "flash checksum error (X10)"),
         (*plc_buffer_open, "PLC buffer open (Y17)"),
         (*motion_buffer_open, "motion buffer open (Y19)"),
+        (*data_gathering_on, "data gathering on (X19)"),
     ]
     .into_iter()
     .filter_map(|(on, name)| on.then_some(name))

@@ -58,6 +58,7 @@ impl std::hash::Hash for State {
             flash_error,
             plc_buffer_open,
             motion_buffer_open,
+            data_gathering_on,
         } = status;
         let crate::controller::ChecksumEngine {
             area,
@@ -79,6 +80,7 @@ impl std::hash::Hash for State {
             *flash_error,
             *plc_buffer_open,
             *motion_buffer_open,
+            *data_gathering_on,
             *supply_low,
             *bootstrap,
             *led_red,
@@ -234,6 +236,7 @@ mod tests {
             ("flash_error", |s| s.controller.status.flash_error = true),
             ("plc_buffer_open", |s| s.controller.status.plc_buffer_open = true),
             ("motion_buffer_open", |s| s.controller.status.motion_buffer_open = true),
+            ("data_gathering_on", |s| s.controller.status.data_gathering_on = true),
             ("checksum.area", |s| s.controller.checksum.area = ChecksumTarget::UserProgram),
             ("checksum.position", |s| s.controller.checksum.position += 1),
             ("checksum.error", |s| s.controller.checksum.error = Some(ChecksumTarget::Firmware)),

@@ -22,6 +22,8 @@ pub struct StatusLayout {
     pub rti_warning: (WordId, u8),
     pub motion_buffer_open: (WordId, u8),
     pub plc_buffer_open: (WordId, u8),
+    /// X bit 19: the data gathering function is on (SRM p.289), from GATHER to ENDGATHER.
+    pub data_gathering_on: (WordId, u8),
     /// X bit 21 and Y bit 21: the CPU option (SRM p.289), from the configuration.
     pub cpu_type_bit1: (WordId, u8),
     pub cpu_type_bit0: (WordId, u8),
@@ -49,6 +51,7 @@ impl StatusLayout {
             rti_warning: bit("rti_warning")?,
             motion_buffer_open: bit("motion_buffer_open")?,
             plc_buffer_open: bit("plc_buffer_open")?,
+            data_gathering_on: bit("data_gathering_on")?,
             cpu_type_bit1: bit("cpu_type_bit1")?,
             cpu_type_bit0: bit("cpu_type_bit0")?,
         })
@@ -56,7 +59,7 @@ impl StatusLayout {
 
     /// Every bit the model drives. Destructured without `..`: a new driven bit is a compile
     /// error here, so counts derived from this list stay true.
-    pub fn driven(&self) -> [(WordId, u8); 11] {
+    pub fn driven(&self) -> [(WordId, u8); 12] {
         let StatusLayout {
             rti_reentry,
             servo_error,
@@ -67,6 +70,7 @@ impl StatusLayout {
             rti_warning,
             motion_buffer_open,
             plc_buffer_open,
+            data_gathering_on,
             cpu_type_bit1,
             cpu_type_bit0,
         } = *self;
@@ -80,6 +84,7 @@ impl StatusLayout {
             rti_warning,
             motion_buffer_open,
             plc_buffer_open,
+            data_gathering_on,
             cpu_type_bit1,
             cpu_type_bit0,
         ]
