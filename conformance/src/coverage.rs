@@ -48,6 +48,8 @@ pub const EVENT_KINDS: &[&str] = &[
     "stop command (UM p.217)",
     "encoder lost",
     "encoder restored",
+    "amplifier fault",
+    "amplifier fault cleared",
 ];
 
 fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
@@ -99,6 +101,8 @@ fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
         Event::ClearRtiReentry => vec!["clear bit 22"],
         Event::EncoderInput(i) if i.lost => vec!["encoder lost"],
         Event::EncoderInput(_) => vec!["encoder restored"],
+        Event::AmplifierFault(i) if i.fault => vec!["amplifier fault"],
+        Event::AmplifierFault(_) => vec!["amplifier fault cleared"],
     }
 }
 

@@ -196,6 +196,8 @@ fn choice() -> impl Strategy<Value = Choice> {
         8 => (0usize..11).prop_map(Choice::StopProgram),
         2 => (1u8..=3, any::<bool>())
             .prop_map(|(motor, lost)| Choice::Event(Event::EncoderInput(pmacwd_specs::vocab::EncoderInput { motor, lost }))),
+        2 => (1u8..=3, any::<bool>())
+            .prop_map(|(motor, fault)| Choice::Event(Event::AmplifierFault(pmacwd_specs::vocab::AmplifierFaultInput { motor, fault }))),
     ]
 }
 

@@ -346,6 +346,25 @@ const MUTATIONS: &[Mutation] = &[
         &["CLOSE stores the user program's checksum as it stands in X:$1090"],
     ),
     canary(
+        "AmplifierFaultKillsAll",
+        "the firmware's amplifier-fault kill kills every motor, as the encoder-loss PLC does",
+        &["um213_fault_kills_the_offending_motor"],
+        "amplifier-fault",
+        Canary::AmplifierFaultKillsAll,
+        &["an amplifier fault kills no motor outside the offending motors' coordinate systems"],
+    ),
+    canary(
+        "AmplifierFaultIgnored",
+        "the housekeeping's amplifier-fault check kills nothing",
+        &["um213_fault_kills_the_offending_motor", "um237_housekeeping_safety_checks_each_background_cycle"],
+        "amplifier-fault",
+        Canary::AmplifierFaultIgnored,
+        &[
+            "an amplifier fault kills the offending motor at the next background cycle and sets its fault status",
+            "an amplifier fault can kill a motor, leaving its fault status set",
+        ],
+    ),
+    canary(
         "EndGatherKeepsGathering",
         "ENDGATHER leaves data gathering on",
         &["srm289_x19_data_gathering_on"],
@@ -525,6 +544,19 @@ const MUTATIONS: &[Mutation] = &[
         statements: &["um215_supply_minimum"],
         configuration: "edges",
         change: Change::Config(|cfg| cfg.supply_min_millivolts = 4751),
+        caught_by: &["a supply change trips a running card exactly when it falls below 4.75 V"],
+        caught: true,
+    },
+    // Issue 35: before, the checker offered a supply reading only when it changed the rule's
+    // own low flag, so with the threshold moved down no reading between the two came: this
+    // mutation passed the model check. The checker now offers readings on both sides of the
+    // printed 4.75 V as well.
+    Mutation {
+        name: "SupplyThresholdLowered",
+        what: "the supply minimum moved from 4,750 to 4,749 mV",
+        statements: &["um215_supply_minimum"],
+        configuration: "edges",
+        change: Change::Config(|cfg| cfg.supply_min_millivolts = 4749),
         caught_by: &["a supply change trips a running card exactly when it falls below 4.75 V"],
         caught: true,
     },

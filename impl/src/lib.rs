@@ -344,6 +344,11 @@ pub enum Event {
         motor: u8,
         lost: bool,
     },
+    /// Motor `motor`'s (from 1) amplifier-fault input changes (UM p.213).
+    AmplifierFault {
+        motor: u8,
+        fault: bool,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -640,6 +645,11 @@ impl Core {
                 self.motion.encoder_input(&cfg.motion, motor, lost);
                 Reply::None
             }
+            Event::AmplifierFault { motor, fault } => {
+                // UM p.213: the amplifier-fault line, a hardware input.
+                self.motion.amplifier_fault_input(&cfg.motion, motor, fault);
+                Reply::None
+            }
         }
     }
 
@@ -915,6 +925,9 @@ impl Core {
         // UM p.215: the safety PLCs scan once per background cycle, after the checksum step
         // (the order of the reference model; neither reads what the other writes).
         self.motion.encoder_loss_plc(&cfg.motion, cfg.profile.encoder_loss_clear_intended);
+        // UM p.237: the housekeeping's safety checks end the cycle; UM p.213: an amplifier
+        // fault kills the offending motor (the firmware's rule, after the PLC's scan).
+        self.motion.amplifier_fault_check(&cfg.motion);
     }
 
     /// One background step of the checksum engine.

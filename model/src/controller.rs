@@ -246,6 +246,11 @@ impl Controller {
                 self.axes.encoder_input(input.motor, input.lost);
                 Reply::None
             }
+            Event::AmplifierFault(input) => {
+                // UM p.213: the amplifier-fault line (FAULTn); a hardware input.
+                self.axes.amplifier_fault_input(input.motor, input.fault);
+                Reply::None
+            }
         }
     }
 
@@ -372,6 +377,9 @@ impl Controller {
         self.checksum_step(cfg);
         // UM p.215: the safety PLCs scan once per background cycle.
         self.axes.encoder_loss_plc(cfg);
+        // UM p.237: the cycle ends with the housekeeping's safety checks, among them the
+        // amplifier-fault check of UM p.213 (the firmware's own, after the PLC's scan).
+        self.axes.amplifier_fault_check(&cfg.motion);
     }
 
     fn checksum_step(&mut self, cfg: &ModelConfig) {

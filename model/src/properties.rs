@@ -515,6 +515,15 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         },
     },
     StateProperty {
+        name: "an amplifier fault can kill a motor, leaving its fault status set",
+        expectation: Sometimes,
+        applies: |c| c.motion.amplifier_fault_inputs,
+        needs: "amplifier-fault inputs (check.yaml motion.amplifier_fault_inputs)",
+        cite: "UM p.213",
+        sentence: "The offending motor is killed ... Turbo PMAC sets the amplifier fault motor status bit.",
+        holds: |_, s| running(s) && s.controller.axes.motors().iter().any(|m| m.fault_status && m.state == MotorState::Killed),
+    },
+    StateProperty {
         name: "the encoder-loss PLC can kill a motor and latch the loss",
         expectation: Sometimes,
         applies: |c| c.motion.encoder_inputs,

@@ -168,6 +168,8 @@ pub fn state_text(cfg: &ModelConfig, s: &State) -> String {
             output_zero,
             encoder_lost,
             loss_status,
+            amplifier_fault,
+            fault_status,
         } = m;
         let _ = write!(
             o,
@@ -179,6 +181,15 @@ pub fn state_text(cfg: &ModelConfig, s: &State) -> String {
             if *encoder_lost { "LOST" } else { "ok" },
             yes(*loss_status)
         );
+        // Shown only when set: the configurations without amplifier-fault inputs print as before.
+        if *amplifier_fault || *fault_status {
+            let _ = write!(
+                o,
+                ", amplifier fault input {}, fault status {}",
+                if *amplifier_fault { "FAULT" } else { "ok" },
+                yes(*fault_status)
+            );
+        }
         if let Some(stop) = stop {
             let _ = write!(o, ", stopping ({stop:?}, {stop_cycles} cycles left)");
         } else if *stop_cycles != 0 {

@@ -91,6 +91,23 @@ impl StatusLayout {
     }
 }
 
+/// One row of UM p.217's stop-command table (`stop_commands.yaml`) as the model's stop rules
+/// read it: the columns decide what a stop command does (`model/src/motion.rs`).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct StopRow {
+    /// The first column (`J/`, `A`, `<CTRL-A>`, ...), as `Motion::stop_table_name` prints it.
+    pub command: String,
+    pub scope: crate::facts::StopScope,
+    /// "Begin Immed?".
+    pub begins_immediately: bool,
+    /// "Stop on Path?".
+    pub stops_on_path: crate::facts::Tristate,
+    /// "Stop at Prog Pt?".
+    pub stops_at_program_point: bool,
+    /// "Decel Rate" printed: a stop that decelerates; an empty cell is a kill.
+    pub decelerates: bool,
+}
+
 /// The I-variable values restored by every reset (what was last saved to flash).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct SavedIVariables {
@@ -134,6 +151,9 @@ pub struct ModelConfig {
     pub clear_rti_reentry: bool,
     /// The motors (`check.yaml`'s `motion`).
     pub motion: crate::check::MotionSetup,
+    /// UM p.217's stop-command table, top to bottom (`stop_commands.yaml`): the model's stop
+    /// rules read their columns here, so a column changed in the data changes the behaviour.
+    pub stop_table: Vec<StopRow>,
     pub layout: StatusLayout,
     /// I41 lockout ranges, indexed by I41 bit (SRM p.57).
     pub lockout: [(u16, u16); 4],
@@ -146,6 +166,11 @@ pub struct ModelConfig {
 }
 
 impl ModelConfig {
+    /// The row of UM p.217's table whose first column is `command`.
+    pub fn stop_row(&self, command: &str) -> Option<&StopRow> {
+        self.stop_table.iter().find(|r| r.command == command)
+    }
+
     /// Resolves configuration `name` of the spec's `check.yaml` under `profile`.
     pub fn from_spec(spec: &Spec, name: &str, profile: &Profile) -> Result<ModelConfig, SpecError> {
         let map = &spec.check_map;
@@ -238,6 +263,19 @@ impl ModelConfig {
             checksum_faults: c.checksum_faults.clone(),
             pass_cycles: c.checksum_pass_cycles,
             clear_rti_reentry: c.clear_rti_reentry,
+            stop_table: spec
+                .stop_commands
+                .rows
+                .iter()
+                .map(|r| StopRow {
+                    command: r.command.clone(),
+                    scope: r.scope,
+                    begins_immediately: r.begins_immediately,
+                    stops_on_path: r.stops_on_path,
+                    stops_at_program_point: r.stops_at_program_point,
+                    decelerates: r.decel_rate.is_some(),
+                })
+                .collect(),
             motion: c.motion.clone(),
             layout,
             lockout,
