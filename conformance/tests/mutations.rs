@@ -70,6 +70,11 @@ const GATHERING_BIT: &str = "bit 19 of ??? is set by GATHER and cleared by ENDGA
 const PLC_KILLS_ALL: &str =
     "a closed-loop motor whose encoder is lost has every motor killed at the next background cycle, its loss latched";
 
+/// The row of UM p.217's table named `command` in a configuration, to change a column.
+fn stop_row<'a>(cfg: &'a mut ModelConfig, command: &str) -> &'a mut pmacwd_specs::config::StopRow {
+    cfg.stop_table.iter_mut().find(|r| r.command == command).expect("the row is in stop_commands.yaml")
+}
+
 /// The mutations, simplest rules first.
 const MUTATIONS: &[Mutation] = &[
     canary(
@@ -434,7 +439,7 @@ const MUTATIONS: &[Mutation] = &[
     canary(
         "KillAllSparesMotor2",
         "<CTRL-K> leaves motor 2 closed-loop at rest",
-        &["um319_kill_all_at_once"],
+        &["um319_kill_all_at_once", "um217_stop_row_ctrl_k"],
         "motion",
         Canary::KillAllSparesMotor2,
         &["after <CTRL-K> every motor is killed at once"],
@@ -442,7 +447,7 @@ const MUTATIONS: &[Mutation] = &[
     canary(
         "HoldAllSparesCs2",
         "<CTRL-O> leaves the program of C.S. 2 running",
-        &["srm260_ctrl_o_holds_every_coordinate_system"],
+        &["srm260_ctrl_o_holds_every_coordinate_system", "um217_stop_row_ctrl_o"],
         "motion",
         Canary::HoldAllSparesCs2,
         &["<CTRL-O> holds every running program and <CTRL-Q> quits each"],
@@ -450,7 +455,7 @@ const MUTATIONS: &[Mutation] = &[
     canary(
         "AbortActsAsQuit",
         "&nA acts as &nQ: its motors go on with their calculated moves",
-        &["um217_stop_command_table", "um319_abort_discards_the_lookahead"],
+        &["um217_stop_row_a", "um319_abort_discards_the_lookahead"],
         "motion",
         Canary::AbortActsAsQuit,
         &[
@@ -545,6 +550,45 @@ const MUTATIONS: &[Mutation] = &[
         configuration: "edges",
         change: Change::Config(|cfg| cfg.supply_min_millivolts = 4751),
         caught_by: &["a supply change trips a running card exactly when it falls below 4.75 V"],
+        caught: true,
+    },
+    // Issue 35: the model carries each stop command out by its row of UM p.217's table as the
+    // data holds it (`ModelConfig::stop_table`), so a column changed in the data is a rule
+    // written wrong; the monitors read the page's columns as printed, per command.
+    Mutation {
+        name: "JogStopRowNotImmediate",
+        what: "J/'s row says it does not begin immediately",
+        statements: &["um217_stop_row_j_slash"],
+        configuration: "motion",
+        change: Change::Config(|cfg| stop_row(cfg, "J/").begins_immediately = false),
+        caught_by: &["J/ begins immediately: a jogging motor decelerates at once, and no other motor changes"],
+        caught: true,
+    },
+    Mutation {
+        name: "QuitRowImmediate",
+        what: "Q's row says it begins immediately",
+        statements: &["um217_stop_row_q"],
+        configuration: "motion",
+        change: Change::Config(|cfg| stop_row(cfg, "Q").begins_immediately = true),
+        caught_by: &["Q does not begin immediately: the program's motors go on with their calculated moves"],
+        caught: true,
+    },
+    Mutation {
+        name: "HoldRowOffThePath",
+        what: "H's row says it does not stop on the path",
+        statements: &["um217_stop_row_h"],
+        configuration: "motion",
+        change: Change::Config(|cfg| stop_row(cfg, "H").stops_on_path = pmacwd_specs::facts::Tristate::No),
+        caught_by: &["H stops on the path: its motors end holding, and R can resume the program"],
+        caught: true,
+    },
+    Mutation {
+        name: "KillRowGlobal",
+        what: "K's row says its scope is global: #nK kills every motor, whatever program runs",
+        statements: &["um217_stop_row_k"],
+        configuration: "motion",
+        change: Change::Config(|cfg| stop_row(cfg, "K").scope = pmacwd_specs::facts::StopScope::Global),
+        caught_by: &["K is refused while the motor's coordinate system executes a program"],
         caught: true,
     },
     // Issue 35: before, the checker offered a supply reading only when it changed the rule's

@@ -715,7 +715,9 @@ impl Core {
                 if !cfg.profile.rti_warning_sticky {
                     self.status_x &= !bits::RTI_WARNING;
                 }
-                self.rti_remaining = u32::from(self.load.plc0_units).saturating_add(u32::from(cfg.move_planning_units));
+                // UM p.236: the planning of the next move runs at the RTI while a program
+                // executes moves (MODEL, as the reference model: one new move per RTI period).
+                self.rti_remaining = u32::from(self.load.plc0_units).saturating_add(self.planning_units(cfg));
                 tick = Tick::Started;
             }
         }
@@ -724,6 +726,16 @@ impl Core {
         // cost the servo cycle two instructions fewer than saturating ones would.
         self.rti_remaining = self.rti_remaining.wrapping_sub(work);
         (tick, free.wrapping_sub(work))
+    }
+
+    /// The move planning an RTI runs (UM p.236): `cfg.move_planning_units` while a program
+    /// executes moves, none otherwise.
+    fn planning_units(&self, cfg: &Config) -> u32 {
+        if self.motion.plans_moves() {
+            u32::from(cfg.move_planning_units)
+        } else {
+            0
+        }
     }
 
     fn set_load(&mut self, cfg: &Config, load: Load) {
@@ -861,7 +873,9 @@ impl Core {
         }
         let whole = remaining_cycles.checked_div(period).unwrap_or(0);
         if whole > 0 {
-            let task = u64::from(self.load.plc0_units).saturating_add(u64::from(cfg.move_planning_units));
+            // A program executes moves or not for the whole of the k cycles: servo cycles end
+            // only stops, which never start a program's moves (`Motion::plans_moves`).
+            let task = u64::from(self.load.plc0_units).saturating_add(u64::from(self.planning_units(cfg)));
             let p = rti::whole_periods(
                 u64::from(self.rti_remaining),
                 u64::from(whole),

@@ -420,6 +420,14 @@ impl Motion {
         MotorState::of_code(self.motors.get(k).copied().unwrap_or(0))
     }
 
+    /// Whether a program is executing moves (UM p.236: each new move is planned at the next
+    /// RTI): some motor runs its program with no stop under way. Servo cycles only end stops,
+    /// so this does not change within a run of servo cycles.
+    pub fn plans_moves(&self) -> bool {
+        let running = pack(MotorState::Program, None);
+        self.motors.iter().any(|b| *b == running)
+    }
+
     /// Whether any motor has a stop under way (one byte read).
     pub fn stops_under_way(&self) -> bool {
         self.stopping != 0

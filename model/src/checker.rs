@@ -400,7 +400,8 @@ fn mutate_cycle(
         Canary::CounterDropsByTwo if after.counter > 0 && after.counter < before.counter => after.counter -= 1,
         Canary::PlcRestartsOnOverrun if report.rti_overrun => {
             report.rti_started = true;
-            after.rti_remaining = u32::from(after.load.plc0_units) + u32::from(cfg.cpu.move_planning_units);
+            let planning = if after.axes.plans_moves() { u32::from(cfg.cpu.move_planning_units) } else { 0 };
+            after.rti_remaining = u32::from(after.load.plc0_units) + planning;
         }
         _ => {}
     }

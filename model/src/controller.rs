@@ -318,8 +318,14 @@ impl Controller {
                     // finished within its period, so the warning no longer holds.
                     self.status.rti_warning = false;
                 }
-                // UM p.236: move planning and PLC 0 / PLCC 0 run at the RTI.
-                self.rti_remaining = u32::from(self.load.plc0_units) + u32::from(cfg.cpu.move_planning_units);
+                // UM p.236: move planning and PLC 0 / PLCC 0 run at the RTI. "Every time Turbo
+                // PMAC starts executing a new move, it sets an internal flag indicating that it
+                // is time to plan the next move in the program. This planning occurs at the next
+                // RTI": planning is charged while a program executes moves (`Axes::plans_moves`).
+                // MODEL: the model's programs have no moves of their own, so it takes the worst
+                // case, a new move started in every RTI period.
+                let planning = if self.axes.plans_moves() { u32::from(cfg.cpu.move_planning_units) } else { 0 };
+                self.rti_remaining = u32::from(self.load.plc0_units) + planning;
                 report.rti_started = true;
             }
         }

@@ -128,11 +128,13 @@ pub const MONITORS: &[Monitor] = &[
             if !prev.tripped() || matches!(ev, Event::Reset(_)) || next == prev {
                 return true;
             }
-            // The supply and the encoder-loss inputs are hardware inputs, not the card's state.
+            // The supply, the encoder-loss and the amplifier-fault inputs are hardware inputs,
+            // not the card's state.
             let mut same = next.clone();
             same.supply_low = prev.supply_low;
             for (s, p) in same.axes.motors_mut().iter_mut().zip(prev.axes.motors()) {
                 s.encoder_lost = p.encoder_lost;
+                s.amplifier_fault = p.amplifier_fault;
             }
             same == *prev
         }),
@@ -434,6 +436,20 @@ pub const MONITORS: &[Monitor] = &[
                     reenabled && n.state == MotorState::Closed
                 }
             })
+        }),
+    },
+    Monitor {
+        name: "J/ begins immediately: a jogging motor decelerates at once, and no other motor changes",
+        cite: "UM p.217",
+        sentence: "J/: Scope Motor, Begin Immed? Yes, Decel Rate Ixx19-21.",
+        check: Check::Event(|cfg, prev, ev, _, next| match motion(prev, ev) {
+            Some(Motion::Motor(n, MotorCommand::JogStop)) if n >= 1 && n <= cfg.motion.motors => {
+                let k = usize::from(n) - 1;
+                let (p, m) = (&prev.axes.motors()[k], &next.axes.motors()[k]);
+                implies(p.state == MotorState::Jogging, m.state == MotorState::Decelerating && m.stop == Some(Stop::Jog))
+                    && (0..prev.axes.motors().len()).filter(|j| *j != k).all(|j| prev.axes.motors()[j] == next.axes.motors()[j])
+            }
+            _ => true,
         }),
     },
     Monitor {

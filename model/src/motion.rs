@@ -296,6 +296,15 @@ impl Axes {
         }
     }
 
+    /// Whether a program is executing moves, so that new moves start and the next one has to
+    /// be planned at the next RTI (UM p.236): some motor runs its program with no stop under
+    /// way. A program finishing its calculated moves (Q, /, the one move of S), held or
+    /// stopped starts no new move. Servo cycles do not change this (only commands, the
+    /// background's kills and a trip do), so it holds for a whole leap in time.
+    pub fn plans_moves(&self) -> bool {
+        self.motors().iter().any(|m| m.state == MotorState::Program && m.stop.is_none())
+    }
+
     /// Whether motor `m` (from 1)'s coordinate system is executing a program.
     pub fn motor_in_executing_program(&self, setup: &MotionSetup, m: u8) -> bool {
         self.program(setup.coordinate_system(m)).executing()
