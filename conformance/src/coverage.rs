@@ -30,6 +30,8 @@ pub const EVENT_KINDS: &[&str] = &[
     "CLOSE",
     "$$$*** (re-initialize)",
     "CHECKSUM",
+    "GATHER",
+    "ENDGATHER",
     "memory write to an I-variable",
     "I-variable default (I{n}=*)",
     "the card's own command",

@@ -727,7 +727,8 @@ mod tests {
     #[test]
     fn stop_rules_match_the_table() {
         let spec = pmacwd_specs::Spec::embedded().unwrap();
-        let cfg = pmacwd_specs::config::ModelConfig::from_spec(&spec, "motion", &spec.profiles.default_profile()).unwrap();
+        let cfg =
+            pmacwd_specs::config::ModelConfig::from_spec(&spec, "motion", &spec.profiles.default_profile()).unwrap();
         let rows = &cfg.stop_table;
         assert_eq!(rows.len(), STOP_RULES.len());
         for (row, rule) in rows.iter().zip(STOP_RULES.iter()) {
