@@ -425,7 +425,7 @@ impl Motion {
     /// so this does not change within a run of servo cycles.
     pub fn plans_moves(&self) -> bool {
         let running = pack(MotorState::Program, None);
-        self.motors.iter().any(|b| *b == running)
+        self.motors.contains(&running)
     }
 
     /// Whether any motor has a stop under way (one byte read).
