@@ -143,6 +143,8 @@ pub fn core_command(c: &HostCommand) -> core::Command {
         HostCommand::Motion(m) => core::Command::Motion(core_motion(m)),
         HostCommand::Reinitialize => core::Command::Reinitialize,
         HostCommand::Checksum => core::Command::Checksum,
+        HostCommand::Gather => core::Command::Gather,
+        HostCommand::EndGather => core::Command::EndGather,
         HostCommand::WriteIMemory(n, v) => core::Command::WriteIMemory(*n, *v),
         HostCommand::DefaultI(n) => core::Command::DefaultI(*n),
         HostCommand::Card { forgets, .. } => {
@@ -173,6 +175,7 @@ pub fn core_event(e: &Event) -> core::Event {
         Event::ChecksumFault(ChecksumTarget::UserProgram) => core::Event::ChecksumFault(core::Area::UserProgram),
         Event::ClearRtiReentry => core::Event::ClearRtiReentry,
         Event::EncoderInput(i) => core::Event::EncoderInput { motor: i.motor, lost: i.lost },
+        Event::AmplifierFault(i) => core::Event::AmplifierFault { motor: i.motor, fault: i.fault },
     }
 }
 
@@ -228,6 +231,8 @@ pub fn motor_view(m: &core::MotorStatus) -> MotorView {
         output_zero: m.output_zero,
         encoder_lost: m.encoder_lost,
         encoder_loss_status: m.encoder_loss_status,
+        amplifier_fault: m.amplifier_fault,
+        amplifier_fault_status: m.amplifier_fault_status,
     }
 }
 

@@ -76,6 +76,8 @@ const FRAGMENTS: &[&str] = &[
     "ENABLE PLC 1",
     "LIST PROG 1",
     "DEFINE GATHER",
+    "GATHER",
+    "ENDG",
     "SAVE",
     "MS0,I910",
     "ZZZ",

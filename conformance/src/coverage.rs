@@ -30,6 +30,8 @@ pub const EVENT_KINDS: &[&str] = &[
     "CLOSE",
     "$$$*** (re-initialize)",
     "CHECKSUM",
+    "GATHER",
+    "ENDGATHER",
     "memory write to an I-variable",
     "I-variable default (I{n}=*)",
     "the card's own command",
@@ -48,6 +50,8 @@ pub const EVENT_KINDS: &[&str] = &[
     "stop command (UM p.217)",
     "encoder lost",
     "encoder restored",
+    "amplifier fault",
+    "amplifier fault cleared",
 ];
 
 fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
@@ -69,6 +73,8 @@ fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
             HostCommand::Motion(_) => "motion command that starts motion",
             HostCommand::Reinitialize => "$$$*** (re-initialize)",
             HostCommand::Checksum => "CHECKSUM",
+            HostCommand::Gather => "GATHER",
+            HostCommand::EndGather => "ENDGATHER",
             HostCommand::WriteIMemory(..) => "memory write to an I-variable",
             HostCommand::DefaultI(_) => "I-variable default (I{n}=*)",
             HostCommand::Card { .. } => "the card's own command",
@@ -97,6 +103,8 @@ fn kind(cfg: &ModelConfig, e: &Event) -> Vec<&'static str> {
         Event::ClearRtiReentry => vec!["clear bit 22"],
         Event::EncoderInput(i) if i.lost => vec!["encoder lost"],
         Event::EncoderInput(_) => vec!["encoder restored"],
+        Event::AmplifierFault(i) if i.fault => vec!["amplifier fault"],
+        Event::AmplifierFault(_) => vec!["amplifier fault cleared"],
     }
 }
 

@@ -47,7 +47,7 @@ pub fn all_configs(spec: &Spec) -> Result<Vec<ModelConfig>, SpecError> {
 /// range, I41 values that lock some ranges and an out-of-range one, I40 and I8 near their
 /// edges, the watchdog and checksum registers, buffers, `$$$` and an unknown command; memory
 /// writes past I41 into a locked range, I40 and I41 (SRM p.57), `$$$***` (UM p.243) and
-/// `CHECKSUM` (UM p.217).
+/// `CHECKSUM` (UM p.217), `GATHER` and `ENDGATHER` (SRM p.289).
 pub const COMMANDS: &[&str] = &[
     "???",
     "I130",
@@ -93,6 +93,9 @@ pub const COMMANDS: &[&str] = &[
     "$$$",
     "$$$***",
     "CHECKSUM",
+    // SRM p.289, p.307: data gathering on and off (bit 19).
+    "GATHER",
+    "ENDGATHER",
     "<MEMORY-WRITE I130=9>",
     "<MEMORY-WRITE I40=2>",
     "<MEMORY-WRITE I41=3>",
@@ -196,6 +199,8 @@ fn choice() -> impl Strategy<Value = Choice> {
         8 => (0usize..11).prop_map(Choice::StopProgram),
         2 => (1u8..=3, any::<bool>())
             .prop_map(|(motor, lost)| Choice::Event(Event::EncoderInput(pmacwd_specs::vocab::EncoderInput { motor, lost }))),
+        2 => (1u8..=3, any::<bool>())
+            .prop_map(|(motor, fault)| Choice::Event(Event::AmplifierFault(pmacwd_specs::vocab::AmplifierFaultInput { motor, fault }))),
     ]
 }
 

@@ -25,6 +25,7 @@ fn the_core_status_bits_sit_where_status_yaml_puts_them() {
         ("rti_warning", WordId::X, bits::RTI_WARNING),
         ("motion_buffer_open", WordId::Y, bits::MOTION_BUFFER_OPEN),
         ("plc_buffer_open", WordId::Y, bits::PLC_BUFFER_OPEN),
+        ("data_gathering_on", WordId::X, bits::DATA_GATHERING_ON),
         ("cpu_type_bit1", WordId::X, bits::CPU_TYPE_1),
         ("cpu_type_bit0", WordId::Y, bits::CPU_TYPE_0),
     ] {

@@ -23,13 +23,13 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("timing-wide", "um-215-4095", 193_480),
     ("timing-wide", "um-215-50hz", 193_480),
     // A reset keeps a checksum corruption (issue 35): a pass after the reset finds it again.
-    ("status", "um-215", 26_040),
-    ("status", "srm-57", 31_752),
-    ("status", "srm-57-sticky-bit9", 31_752),
-    ("status", "um-215-4095", 26_040),
-    ("status", "um-215-50hz", 26_040),
-    ("status", "um-215-literal-plc", 26_040),
-    ("status", "um-215-m83", 26_040),
+    ("status", "um-215", 52_056),
+    ("status", "srm-57", 63_480),
+    ("status", "srm-57-sticky-bit9", 63_480),
+    ("status", "um-215-4095", 52_056),
+    ("status", "um-215-50hz", 52_056),
+    ("status", "um-215-literal-plc", 52_056),
+    ("status", "um-215-m83", 52_056),
     ("lockout", "um-215", 5_112),
     ("lockout", "srm-57", 6_264),
     ("lockout", "srm-57-sticky-bit9", 6_264),
@@ -47,8 +47,8 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("i40-zero", "srm-57", 17_840),
     ("i40-zero", "um-215-4095", 3_668),
     ("i40-zero", "um-215-50hz", 3_578),
-    ("motion", "um-215", 47_842),
-    ("motion", "srm-57", 57_782),
+    ("motion", "um-215", 52_402),
+    ("motion", "srm-57", 64_166),
     ("encoder-loss", "um-215", 14_680),
     ("encoder-loss", "srm-57", 17_880),
     ("encoder-loss", "srm-57-sticky-bit9", 17_880),
@@ -60,6 +60,14 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     // Two motors in two coordinate systems: the PLC's CMD^K kills both (UM p.214-215).
     ("encoder-loss-2", "um-215", 74_688),
     ("encoder-loss-2", "um-215-literal-plc", 65_984),
+    // The firmware's amplifier-fault kill (issue 35, UM p.213).
+    ("amplifier-fault", "um-215", 16_800),
+    ("amplifier-fault", "srm-57", 21_488),
+    ("amplifier-fault", "srm-57-sticky-bit9", 21_488),
+    ("amplifier-fault", "um-215-4095", 16_800),
+    ("amplifier-fault", "um-215-50hz", 16_800),
+    ("amplifier-fault", "um-215-literal-plc", 16_800),
+    ("amplifier-fault", "um-215-m83", 16_800),
 ];
 
 #[test]

@@ -65,9 +65,15 @@ const TRIPPED_SILENT: &str = "a tripped card does not reply to any command";
 const LOCKED_UNCHANGED: &str = "a locked I-variable never changes through an I-variable write";
 const RELOAD: &str = "a background cycle reloads the counter from I40";
 const NOT_MODELLED_BITS: &str =
-    "bits X19, X17 and X14 of ??? stay 0: the card gathers no data and runs no leadscrew compensation";
+    "bits X17 and X14 of ??? stay 0: the card gathers on no trigger and runs no leadscrew compensation";
+const GATHERING_BIT: &str = "bit 19 of ??? is set by GATHER and cleared by ENDGATHER or a reset, and by nothing else";
 const PLC_KILLS_ALL: &str =
     "a closed-loop motor whose encoder is lost has every motor killed at the next background cycle, its loss latched";
+
+/// The row of UM p.217's table named `command` in a configuration, to change a column.
+fn stop_row<'a>(cfg: &'a mut ModelConfig, command: &str) -> &'a mut pmacwd_specs::config::StopRow {
+    cfg.stop_table.iter_mut().find(|r| r.command == command).expect("the row is in stop_commands.yaml")
+}
 
 /// The mutations, simplest rules first.
 const MUTATIONS: &[Mutation] = &[
@@ -345,6 +351,33 @@ const MUTATIONS: &[Mutation] = &[
         &["CLOSE stores the user program's checksum as it stands in X:$1090"],
     ),
     canary(
+        "AmplifierFaultKillsAll",
+        "the firmware's amplifier-fault kill kills every motor, as the encoder-loss PLC does",
+        &["um213_fault_kills_the_offending_motor"],
+        "amplifier-fault",
+        Canary::AmplifierFaultKillsAll,
+        &["an amplifier fault kills no motor outside the offending motors' coordinate systems"],
+    ),
+    canary(
+        "AmplifierFaultIgnored",
+        "the housekeeping's amplifier-fault check kills nothing",
+        &["um213_fault_kills_the_offending_motor", "um237_housekeeping_safety_checks_each_background_cycle"],
+        "amplifier-fault",
+        Canary::AmplifierFaultIgnored,
+        &[
+            "an amplifier fault kills the offending motor at the next background cycle and sets its fault status",
+            "an amplifier fault can kill a motor, leaving its fault status set",
+        ],
+    ),
+    canary(
+        "EndGatherKeepsGathering",
+        "ENDGATHER leaves data gathering on",
+        &["srm289_x19_data_gathering_on"],
+        "status",
+        Canary::EndGatherKeepsGathering,
+        &[GATHERING_BIT],
+    ),
+    canary(
         "LockoutIgnored",
         "a locked I-variable write takes effect",
         &["srm57_i41_purpose", "srm57_i41_bit_set_locks", "srm57_i41_download_care"],
@@ -406,7 +439,7 @@ const MUTATIONS: &[Mutation] = &[
     canary(
         "KillAllSparesMotor2",
         "<CTRL-K> leaves motor 2 closed-loop at rest",
-        &["um319_kill_all_at_once"],
+        &["um319_kill_all_at_once", "um217_stop_row_ctrl_k"],
         "motion",
         Canary::KillAllSparesMotor2,
         &["after <CTRL-K> every motor is killed at once"],
@@ -414,7 +447,7 @@ const MUTATIONS: &[Mutation] = &[
     canary(
         "HoldAllSparesCs2",
         "<CTRL-O> leaves the program of C.S. 2 running",
-        &["srm260_ctrl_o_holds_every_coordinate_system"],
+        &["srm260_ctrl_o_holds_every_coordinate_system", "um217_stop_row_ctrl_o"],
         "motion",
         Canary::HoldAllSparesCs2,
         &["<CTRL-O> holds every running program and <CTRL-Q> quits each"],
@@ -422,7 +455,7 @@ const MUTATIONS: &[Mutation] = &[
     canary(
         "AbortActsAsQuit",
         "&nA acts as &nQ: its motors go on with their calculated moves",
-        &["um217_stop_command_table", "um319_abort_discards_the_lookahead"],
+        &["um217_stop_row_a", "um319_abort_discards_the_lookahead"],
         "motion",
         Canary::AbortActsAsQuit,
         &[
@@ -478,7 +511,7 @@ const MUTATIONS: &[Mutation] = &[
         statements: &["srm289_x19_data_gathering_on"],
         configuration: "status",
         change: Change::Config(|cfg| cfg.layout.motion_buffer_open = (WordId::X, 19)),
-        caught_by: &[NOT_MODELLED_BITS],
+        caught_by: &[GATHERING_BIT],
         caught: true,
     },
     Mutation {
@@ -516,6 +549,58 @@ const MUTATIONS: &[Mutation] = &[
         statements: &["um215_supply_minimum"],
         configuration: "edges",
         change: Change::Config(|cfg| cfg.supply_min_millivolts = 4751),
+        caught_by: &["a supply change trips a running card exactly when it falls below 4.75 V"],
+        caught: true,
+    },
+    // Issue 35: the model carries each stop command out by its row of UM p.217's table as the
+    // data holds it (`ModelConfig::stop_table`), so a column changed in the data is a rule
+    // written wrong; the monitors read the page's columns as printed, per command.
+    Mutation {
+        name: "JogStopRowNotImmediate",
+        what: "J/'s row says it does not begin immediately",
+        statements: &["um217_stop_row_j_slash"],
+        configuration: "motion",
+        change: Change::Config(|cfg| stop_row(cfg, "J/").begins_immediately = false),
+        caught_by: &["J/ begins immediately: a jogging motor decelerates at once, and no other motor changes"],
+        caught: true,
+    },
+    Mutation {
+        name: "QuitRowImmediate",
+        what: "Q's row says it begins immediately",
+        statements: &["um217_stop_row_q"],
+        configuration: "motion",
+        change: Change::Config(|cfg| stop_row(cfg, "Q").begins_immediately = true),
+        caught_by: &["Q does not begin immediately: the program's motors go on with their calculated moves"],
+        caught: true,
+    },
+    Mutation {
+        name: "HoldRowOffThePath",
+        what: "H's row says it does not stop on the path",
+        statements: &["um217_stop_row_h"],
+        configuration: "motion",
+        change: Change::Config(|cfg| stop_row(cfg, "H").stops_on_path = pmacwd_specs::facts::Tristate::No),
+        caught_by: &["H stops on the path: its motors end holding, and R can resume the program"],
+        caught: true,
+    },
+    Mutation {
+        name: "KillRowGlobal",
+        what: "K's row says its scope is global: #nK kills every motor, whatever program runs",
+        statements: &["um217_stop_row_k"],
+        configuration: "motion",
+        change: Change::Config(|cfg| stop_row(cfg, "K").scope = pmacwd_specs::facts::StopScope::Global),
+        caught_by: &["K is refused while the motor's coordinate system executes a program"],
+        caught: true,
+    },
+    // Issue 35: before, the checker offered a supply reading only when it changed the rule's
+    // own low flag, so with the threshold moved down no reading between the two came: this
+    // mutation passed the model check. The checker now offers readings on both sides of the
+    // printed 4.75 V as well.
+    Mutation {
+        name: "SupplyThresholdLowered",
+        what: "the supply minimum moved from 4,750 to 4,749 mV",
+        statements: &["um215_supply_minimum"],
+        configuration: "edges",
+        change: Change::Config(|cfg| cfg.supply_min_millivolts = 4749),
         caught_by: &["a supply change trips a running card exactly when it falls below 4.75 V"],
         caught: true,
     },
@@ -611,8 +696,8 @@ const SPEC_MUTATIONS: &[SpecMutation] = &[
         file: "status.yaml",
         edits: swap_names!("servo_error", "data_gathering_on"),
         // The scenario of bit 20 names the bit (`status_set: [servo_error]`), so it moves with
-        // the name; the property reads X19 where SRM p.289 prints it.
-        caught_by: Catch::Check("timing", &[NOT_MODELLED_BITS]),
+        // the name; the monitor of bit 19 reads X19 where SRM p.289 prints it.
+        caught_by: Catch::Check("timing", &[GATHERING_BIT]),
     },
     SpecMutation {
         name: "ChecksumErrorOnBit14",

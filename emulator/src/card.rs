@@ -700,12 +700,13 @@ impl Card {
                 self.mvars.save();
                 out.push(Answer::Nothing);
             }
-            // Data gathering to the level dls-pmaccontrol uses it: the commands are accepted
-            // and LIST GATHER reports no samples (MODEL: nothing the emulator models changes
-            // between samples, so there is nothing to gather).
-            Command::Gather(Gather::Define(_) | Gather::Start | Gather::End | Gather::List | Gather::Delete) => {
-                out.push(Answer::Nothing)
-            }
+            // Data gathering to the level dls-pmaccontrol uses it: GATHER and ENDGATHER start
+            // and stop the function in the core (X:$000006 bit 19, SRM p.289, p.307); the
+            // other commands are accepted and LIST GATHER reports no samples (MODEL: nothing
+            // the emulator models changes between samples, so there is nothing to gather).
+            Command::Gather(Gather::Start) => out.push(self.core_answer(&HostCommand::Gather)),
+            Command::Gather(Gather::End) => out.push(self.core_answer(&HostCommand::EndGather)),
+            Command::Gather(Gather::Define(_) | Gather::List | Gather::Delete) => out.push(Answer::Nothing),
             Command::Ignored(_) => out.push(Answer::Nothing),
         }
     }

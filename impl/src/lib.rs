@@ -40,6 +40,8 @@ pub mod bits {
     pub const FLASH_ERROR: u32 = 1 << 10;
     /// X bit 9: RTI warning.
     pub const RTI_WARNING: u32 = 1 << 9;
+    /// X bit 19: data gathering on, from GATHER to ENDGATHER or a reset (SRM p.289, p.307).
+    pub const DATA_GATHERING_ON: u32 = 1 << 19;
     /// Y bit 19: motion program buffer open.
     pub const MOTION_BUFFER_OPEN: u32 = 1 << 19;
     /// Y bit 17: PLC buffer open.
@@ -310,6 +312,10 @@ pub enum Command {
     Reinitialize,
     /// `CHECKSUM`: the firmware's reference checksum (UM p.217).
     Checksum,
+    /// `GATHER`: data gathering starts, X bit 19 (SRM p.289, p.307).
+    Gather,
+    /// `ENDGATHER`: data gathering stops (SRM p.289, p.307).
+    EndGather,
     /// An M-variable assignment or memory write into I-variable `n` (SRM p.57: past I41).
     WriteIMemory(u16, i64),
     /// `I{n}=*`: the factory default (through I41, SRM p.57).
@@ -337,6 +343,11 @@ pub enum Event {
     EncoderInput {
         motor: u8,
         lost: bool,
+    },
+    /// Motor `motor`'s (from 1) amplifier-fault input changes (UM p.213).
+    AmplifierFault {
+        motor: u8,
+        fault: bool,
     },
 }
 
@@ -634,6 +645,11 @@ impl Core {
                 self.motion.encoder_input(&cfg.motion, motor, lost);
                 Reply::None
             }
+            Event::AmplifierFault { motor, fault } => {
+                // UM p.213: the amplifier-fault line, a hardware input.
+                self.motion.amplifier_fault_input(&cfg.motion, motor, fault);
+                Reply::None
+            }
         }
     }
 
@@ -699,7 +715,9 @@ impl Core {
                 if !cfg.profile.rti_warning_sticky {
                     self.status_x &= !bits::RTI_WARNING;
                 }
-                self.rti_remaining = u32::from(self.load.plc0_units).saturating_add(u32::from(cfg.move_planning_units));
+                // UM p.236: the planning of the next move runs at the RTI while a program
+                // executes moves (MODEL, as the reference model: one new move per RTI period).
+                self.rti_remaining = u32::from(self.load.plc0_units).saturating_add(self.planning_units(cfg));
                 tick = Tick::Started;
             }
         }
@@ -708,6 +726,16 @@ impl Core {
         // cost the servo cycle two instructions fewer than saturating ones would.
         self.rti_remaining = self.rti_remaining.wrapping_sub(work);
         (tick, free.wrapping_sub(work))
+    }
+
+    /// The move planning an RTI runs (UM p.236): `cfg.move_planning_units` while a program
+    /// executes moves, none otherwise.
+    fn planning_units(&self, cfg: &Config) -> u32 {
+        if self.motion.plans_moves() {
+            u32::from(cfg.move_planning_units)
+        } else {
+            0
+        }
     }
 
     fn set_load(&mut self, cfg: &Config, load: Load) {
@@ -845,7 +873,9 @@ impl Core {
         }
         let whole = remaining_cycles.checked_div(period).unwrap_or(0);
         if whole > 0 {
-            let task = u64::from(self.load.plc0_units).saturating_add(u64::from(cfg.move_planning_units));
+            // A program executes moves or not for the whole of the k cycles: servo cycles end
+            // only stops, which never start a program's moves (`Motion::plans_moves`).
+            let task = u64::from(self.load.plc0_units).saturating_add(u64::from(self.planning_units(cfg)));
             let p = rti::whole_periods(
                 u64::from(self.rti_remaining),
                 u64::from(whole),
@@ -909,6 +939,9 @@ impl Core {
         // UM p.215: the safety PLCs scan once per background cycle, after the checksum step
         // (the order of the reference model; neither reads what the other writes).
         self.motion.encoder_loss_plc(&cfg.motion, cfg.profile.encoder_loss_clear_intended);
+        // UM p.237: the housekeeping's safety checks end the cycle; UM p.213: an amplifier
+        // fault kills the offending motor (the firmware's rule, after the PLC's scan).
+        self.motion.amplifier_fault_check(&cfg.motion);
     }
 
     /// One background step of the checksum engine.
@@ -997,6 +1030,17 @@ impl Core {
             // UM p.217: the reference register, preloaded at the factory (token 0, MODEL as
             // the reference model: no memory is summed).
             Command::Checksum => Reply::Hex(u32::from(self.tokens >> 1 & 1)),
+            // SRM p.289: bit 19 while the data gathering function is active; SRM p.307: until
+            // ENDGATHER (MODEL, as the reference model: the buffer never fills; a reset ends it,
+            // `restart_with` clearing the word).
+            Command::Gather => {
+                self.status_x |= bits::DATA_GATHERING_ON;
+                Reply::Ack
+            }
+            Command::EndGather => {
+                self.status_x &= !bits::DATA_GATHERING_ON;
+                Reply::Ack
+            }
             // SRM p.57: I41 does not stop an M-variable assignment or a memory write.
             Command::WriteIMemory(n, v) => self.store_i(n, v, store),
             // As the reference model: the defaults of I8, I40, I41 are the core's; any other

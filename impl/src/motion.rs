@@ -310,6 +310,11 @@ pub struct MotorStatus {
     pub encoder_lost: bool,
     /// The encoder-loss PLC's `Mtr1EncLossStatus` (UM p.215).
     pub encoder_loss_status: bool,
+    /// The amplifier-fault input reports a fault (UM p.213).
+    pub amplifier_fault: bool,
+    /// The amplifier-fault motor status bit: set by the fault kill, cleared when the motor is
+    /// re-enabled (UM p.213).
+    pub amplifier_fault_status: bool,
     /// The motor's coordinate system, and where its program stands.
     pub coordinate_system: u8,
     pub program: Program,
@@ -337,6 +342,10 @@ pub struct Motion {
     encoder_lost: u8,
     /// The PLC's latched `Mtr1EncLossStatus` of each motor.
     loss_status: u8,
+    /// The amplifier-fault inputs (hardware: a reset keeps them), UM p.213.
+    amplifier_fault: u8,
+    /// The amplifier-fault motor status bits (UM p.213).
+    fault_status: u8,
 }
 
 /// The motor indices a one-bit-per-motor mask names, lowest first: only the set bits are
@@ -370,12 +379,15 @@ impl Motion {
             amplifiers: 0,
             encoder_lost: 0,
             loss_status: 0,
+            amplifier_fault: 0,
+            fault_status: 0,
         }
     }
 
-    /// After a reset: every motor and program as at power-up; the encoder inputs keep their level.
+    /// After a reset: every motor and program as at power-up; the encoder and amplifier-fault
+    /// inputs keep their levels.
     pub fn restart(&mut self) {
-        *self = Motion { encoder_lost: self.encoder_lost, ..Motion::power_on() };
+        *self = Motion { encoder_lost: self.encoder_lost, amplifier_fault: self.amplifier_fault, ..Motion::power_on() };
     }
 
     /// UM p.215: a trip holds every Servo IC in reset, "which force discrete outputs off, and
@@ -387,6 +399,8 @@ impl Motion {
             programs: self.programs,
             encoder_lost: self.encoder_lost,
             loss_status: self.loss_status,
+            amplifier_fault: self.amplifier_fault,
+            fault_status: self.fault_status,
             ..Motion::power_on()
         };
     }
@@ -404,6 +418,14 @@ impl Motion {
 
     fn state(&self, k: usize) -> MotorState {
         MotorState::of_code(self.motors.get(k).copied().unwrap_or(0))
+    }
+
+    /// Whether a program is executing moves (UM p.236: each new move is planned at the next
+    /// RTI): some motor runs its program with no stop under way. Servo cycles only end stops,
+    /// so this does not change within a run of servo cycles.
+    pub fn plans_moves(&self) -> bool {
+        let running = pack(MotorState::Program, None);
+        self.motors.contains(&running)
     }
 
     /// Whether any motor has a stop under way (one byte read).
@@ -459,6 +481,8 @@ impl Motion {
             output_zero: !enabled,
             encoder_lost: self.encoder_lost & bit != 0,
             encoder_loss_status: self.loss_status & bit != 0,
+            amplifier_fault: self.amplifier_fault & bit != 0,
+            amplifier_fault_status: self.fault_status & bit != 0,
             coordinate_system: cs,
             program: self.program(cs),
         })
@@ -489,8 +513,12 @@ impl Motion {
                         self.kill(k);
                     }
                     MotorCommand::JogStop => match self.state(k) {
-                        // MODEL, as the reference model: J/ on a killed motor closes its loop.
-                        MotorState::Killed => self.close_loop(k),
+                        // MODEL, as the reference model: J/ on a killed motor closes its loop;
+                        // UM p.213: re-enabling clears the amplifier-fault status bit.
+                        MotorState::Killed => {
+                            self.close_loop(k);
+                            self.fault_status &= !(1u8 << k);
+                        }
                         // UM p.217 row 1: J/ begins immediately, decelerating at Ixx19-21.
                         MotorState::Jogging => self.set(k, MotorState::Decelerating, Some(Stop::Jog), decel),
                         // J/ stops jogs only; programs are stopped by the C.S. commands.
@@ -702,6 +730,37 @@ impl Motion {
         let Some(k) = usize::from(motor).checked_sub(1).filter(|k| *k < cfg.count()) else { return };
         let bit = 1u8 << k;
         self.encoder_lost = if lost { self.encoder_lost | bit } else { self.encoder_lost & !bit };
+    }
+
+    /// UM p.213: a motor's amplifier-fault input changes (a hardware input). Motors the
+    /// configuration does not have have no input.
+    pub fn amplifier_fault_input(&mut self, cfg: &MotionConfig, motor: u8, fault: bool) {
+        let Some(k) = usize::from(motor).checked_sub(1).filter(|k| *k < cfg.count()) else { return };
+        let bit = 1u8 << k;
+        self.amplifier_fault = if fault { self.amplifier_fault | bit } else { self.amplifier_fault & !bit };
+    }
+
+    /// The firmware's amplifier-fault check, in the housekeeping at the end of each background
+    /// cycle (UM p.237). UM p.213: "The offending motor is killed", its amplifier-fault status
+    /// bit set. MODEL, as the reference model: a motor whose coordinate system executes a
+    /// program takes that program (lookahead lost, UM p.319) and the C.S.'s other motors with
+    /// it; the offending motors are those enabled with a fault at the start of the check.
+    pub fn amplifier_fault_check(&mut self, cfg: &MotionConfig) {
+        let offending = self.amplifiers & self.amplifier_fault;
+        if offending == 0 {
+            return;
+        }
+        self.fault_status |= offending;
+        for k in motors_in(offending) {
+            self.kill(k);
+            let cs = cfg.cs_of(k);
+            if self.program(cs).executing() {
+                self.set_program(cs, Program::Lost);
+                for j in motors_in(cfg.members(cs)) {
+                    self.kill(j);
+                }
+            }
+        }
     }
 
     /// UM p.319: <CTRL-K> "disables all motors ... by opening the servo loops, forcing

@@ -134,6 +134,14 @@ pub enum Canary {
     AbortActsAsQuit,
     /// `CLOSE` leaves X:$1090 as it was (UM p.217: the checksum is stored at CLOSE).
     CloseKeepsOldReference,
+    /// The firmware's amplifier-fault kill kills every motor, as the encoder-loss PLC's CMD^K
+    /// does (UM p.213: the offending motor is killed).
+    AmplifierFaultKillsAll,
+    /// The housekeeping's amplifier-fault check does nothing (UM p.213, UM p.237).
+    AmplifierFaultIgnored,
+    /// `ENDGATHER` leaves data gathering on (SRM p.289, p.307: bit 19 is 0 once gathering
+    /// stops at ENDGATHER).
+    EndGatherKeepsGathering,
     /// A servo cycle that decrements the counter takes 2 off it (SRM p.57: by 1). Applied to
     /// each servo cycle, so the cycle monitors see it.
     CounterDropsByTwo,
@@ -392,7 +400,8 @@ fn mutate_cycle(
         Canary::CounterDropsByTwo if after.counter > 0 && after.counter < before.counter => after.counter -= 1,
         Canary::PlcRestartsOnOverrun if report.rti_overrun => {
             report.rti_started = true;
-            after.rti_remaining = u32::from(after.load.plc0_units) + u32::from(cfg.cpu.move_planning_units);
+            let planning = if after.axes.plans_moves() { u32::from(cfg.cpu.move_planning_units) } else { 0 };
+            after.rti_remaining = u32::from(after.load.plc0_units) + planning;
         }
         _ => {}
     }
@@ -570,6 +579,19 @@ fn mutate(
                 *reply = Reply::Hex(v + 1);
             }
         }
+        (Canary::AmplifierFaultKillsAll, Event::Background)
+            if prev.axes.motors().iter().zip(next.axes.motors()).any(|(p, n)| !p.fault_status && n.fault_status) =>
+        {
+            next.axes.force_off();
+        }
+        (Canary::AmplifierFaultIgnored, Event::Background)
+            if prev.axes.motors().iter().zip(next.axes.motors()).any(|(p, n)| !p.fault_status && n.fault_status) =>
+        {
+            next.axes = prev.axes.clone();
+        }
+        (Canary::EndGatherKeepsGathering, Event::Command(HostCommand::EndGather)) => {
+            next.status.data_gathering_on = prev.status.data_gathering_on;
+        }
         (Canary::Bit9NeverSet, Event::Servo { .. }) => next.status.rti_warning = false,
         (Canary::Bit22NeverSet, Event::Servo { .. }) => next.status.rti_reentry = false,
         (Canary::ChecksumStaysOnFirmware, Event::Background)
@@ -729,9 +751,23 @@ impl Model for WatchdogModel {
                 actions.push(Action::Do(Event::EncoderInput(input)));
             }
         }
+        // UM p.213: each motor's amplifier can report a fault and clear it at any time.
+        if cfg.motion.amplifier_fault_inputs {
+            for (k, m) in c.axes.motors().iter().enumerate() {
+                let input = pmacwd_specs::vocab::AmplifierFaultInput { motor: k as u8 + 1, fault: !m.amplifier_fault };
+                actions.push(Action::Do(Event::AmplifierFault(input)));
+            }
+        }
+        // A supply reading is offered when it changes whether the supply is low by the rule's
+        // own threshold, or by the manual's 4.75 V (UM p.215): a threshold moved either way in
+        // the data or the rule then meets a reading between the two, where the monitor that
+        // reads the printed figure tells them apart (issue 35: with the rule's threshold alone,
+        // one moved down was never offered a reading below the manual's and so never caught).
+        // While the two agree, the readings offered are the same as the rule's alone.
         for mv in &cfg.supply_millivolts {
             let low = *mv < cfg.supply_min_millivolts;
-            if low != c.supply_low {
+            let low_by_the_manual = *mv < crate::monitor::SUPPLY_MIN_MILLIVOLTS_PRINTED;
+            if low != c.supply_low || low_by_the_manual != c.supply_low {
                 actions.push(Action::Do(Event::Supply { millivolts: *mv }));
             }
         }
@@ -1386,6 +1422,31 @@ mod tests {
                 })
                 .collect();
             assert_eq!(offered, changing, "supply low: {}", state.controller.supply_low);
+        }
+    }
+
+    /// With the rule's threshold moved off the manual's 4.75 V (UM p.215), either way, the
+    /// checker still offers the readings between the two from a good supply: the one the manual
+    /// calls low and the rule does not (threshold moved down), and the one the rule calls low
+    /// and the manual does not (moved up). Before issue 35 only the second was offered, so a
+    /// threshold moved down was never caught.
+    #[test]
+    fn supply_readings_are_offered_on_both_sides_of_the_printed_threshold_when_the_rule_s_moves() {
+        let printed = crate::monitor::SUPPLY_MIN_MILLIVOLTS_PRINTED;
+        for moved in [printed - 1, printed + 1] {
+            let base = config("edges");
+            let cfg = ModelConfig { supply_min_millivolts: moved, ..base };
+            let model = WatchdogModel::new(cfg.clone());
+            let start = State { controller: Controller::power_on(&cfg), violations: 0 };
+            let offered: Vec<u32> = actions_of(&model, &start)
+                .into_iter()
+                .filter_map(|a| match a {
+                    Action::Do(Event::Supply { millivolts }) => Some(millivolts),
+                    _ => None,
+                })
+                .collect();
+            let between = if moved < printed { printed - 1 } else { printed };
+            assert!(offered.contains(&between), "threshold {moved}: {between} mV offered, got {offered:?}");
         }
     }
 

@@ -41,6 +41,9 @@ pub struct StatusFlags {
     pub plc_buffer_open: bool,
     /// Y bit 19: a motion program buffer is open (GlobalStatus.py).
     pub motion_buffer_open: bool,
+    /// X bit 19: the data gathering function is active (SRM p.289), from GATHER until
+    /// ENDGATHER or a reset (SRM p.307).
+    pub data_gathering_on: bool,
 }
 
 /// The background checksum engine of UM p.217: it alternates between the firmware and the
@@ -243,6 +246,11 @@ impl Controller {
                 self.axes.encoder_input(input.motor, input.lost);
                 Reply::None
             }
+            Event::AmplifierFault(input) => {
+                // UM p.213: the amplifier-fault line (FAULTn); a hardware input.
+                self.axes.amplifier_fault_input(input.motor, input.fault);
+                Reply::None
+            }
         }
     }
 
@@ -310,8 +318,14 @@ impl Controller {
                     // finished within its period, so the warning no longer holds.
                     self.status.rti_warning = false;
                 }
-                // UM p.236: move planning and PLC 0 / PLCC 0 run at the RTI.
-                self.rti_remaining = u32::from(self.load.plc0_units) + u32::from(cfg.cpu.move_planning_units);
+                // UM p.236: move planning and PLC 0 / PLCC 0 run at the RTI. "Every time Turbo
+                // PMAC starts executing a new move, it sets an internal flag indicating that it
+                // is time to plan the next move in the program. This planning occurs at the next
+                // RTI": planning is charged while a program executes moves (`Axes::plans_moves`).
+                // MODEL: the model's programs have no moves of their own, so it takes the worst
+                // case, a new move started in every RTI period.
+                let planning = if self.axes.plans_moves() { u32::from(cfg.cpu.move_planning_units) } else { 0 };
+                self.rti_remaining = u32::from(self.load.plc0_units) + planning;
                 report.rti_started = true;
             }
         }
@@ -369,6 +383,9 @@ impl Controller {
         self.checksum_step(cfg);
         // UM p.215: the safety PLCs scan once per background cycle.
         self.axes.encoder_loss_plc(cfg);
+        // UM p.237: the cycle ends with the housekeeping's safety checks, among them the
+        // amplifier-fault check of UM p.213 (the firmware's own, after the PLC's scan).
+        self.axes.amplifier_fault_check(&cfg.motion);
     }
 
     fn checksum_step(&mut self, cfg: &ModelConfig) {
@@ -465,6 +482,20 @@ impl Controller {
                 // UM p.217: X:$001090 holds "the checksum value that was computed the last time
                 // one of these buffers was closed".
                 self.checksum.program_reference = self.checksum.program;
+                Reply::Ack
+            }
+            // SRM p.289: bit 19 "is 1 when the data gathering function is active; it is 0 when
+            // the function is not active". SRM p.307: gathering is "in progress" until
+            // "an ENDGATHER command" is issued or "the gather buffer has ... filled up". MODEL:
+            // the model holds no gather buffer (`DEFINE GATHER` is the card's own), so it reads
+            // the buffer as one that never fills: I5000 = 1 or 3, "permit wrap-around" (SRM
+            // p.170); a GATHER with no buffer defined starts gathering all the same.
+            HostCommand::Gather => {
+                self.status.data_gathering_on = true;
+                Reply::Ack
+            }
+            HostCommand::EndGather => {
+                self.status.data_gathering_on = false;
                 Reply::Ack
             }
             // UM p.217, UM p.319: the stop commands and those that start motion (motion.rs).
@@ -592,6 +623,7 @@ impl Controller {
             rti_warning,
             motion_buffer_open,
             plc_buffer_open,
+            data_gathering_on,
             cpu_type_bit1,
             cpu_type_bit0,
         } = cfg.layout;
@@ -632,6 +664,7 @@ impl Controller {
         set(s.rti_warning, rti_warning);
         set(s.motion_buffer_open, motion_buffer_open);
         set(s.plc_buffer_open, plc_buffer_open);
+        set(s.data_gathering_on, data_gathering_on);
         set(cpu1, cpu_type_bit1);
         set(cpu0, cpu_type_bit0);
         (words[0], words[1])
@@ -701,7 +734,9 @@ impl Controller {
         self.rti_remaining = 0;
         self.background_credit = 0;
         // SRM p.289: bits 11 and 10 report the reset-time DPRAM check and flash read; every
-        // other driven bit starts clear (bit 22 "until the card is reset").
+        // other driven bit starts clear (bit 22 "until the card is reset"). MODEL: a reset
+        // also ends data gathering (bit 19): gathering is started only by the on-line GATHER
+        // (SRM p.307), and no page says it survives a reset.
         self.status =
             StatusFlags { dpram_error: reset.dpram_fault, flash_error: reset.flash_fault, ..StatusFlags::default() };
         // MODEL: an injected fault corrupts the stored firmware or user program, which a reset

@@ -16,6 +16,11 @@ use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::{Event, Reply};
 use pmacwd_specs::vocab::MotorState;
 
+/// UM p.215's "approximately 4.75V", as printed: what the supply monitor reads, and what the
+/// checker offers supply readings on both sides of (not `watchdog.yaml`'s copy the rule reads,
+/// which a mutation may move).
+pub const SUPPLY_MIN_MILLIVOLTS_PRINTED: u32 = 4_750;
+
 /// A transition monitor: its property name, the sentence it encodes, and its check.
 pub struct Monitor {
     pub name: &'static str,
@@ -123,11 +128,13 @@ pub const MONITORS: &[Monitor] = &[
             if !prev.tripped() || matches!(ev, Event::Reset(_)) || next == prev {
                 return true;
             }
-            // The supply and the encoder-loss inputs are hardware inputs, not the card's state.
+            // The supply, the encoder-loss and the amplifier-fault inputs are hardware inputs,
+            // not the card's state.
             let mut same = next.clone();
             same.supply_low = prev.supply_low;
             for (s, p) in same.axes.motors_mut().iter_mut().zip(prev.axes.motors()) {
                 s.encoder_lost = p.encoder_lost;
+                s.amplifier_fault = p.amplifier_fault;
             }
             same == *prev
         }),
@@ -137,10 +144,13 @@ pub const MONITORS: &[Monitor] = &[
         cite: "UM p.215",
         sentence: "it must see a DC voltage greater than approximately 4.75V. If the supply voltage is below this value, the circuit's relay will trip and the card will shut down.",
         // The figure as printed, not `watchdog.yaml`'s copy the rule reads: a threshold moved
-        // in the data (or the rule) breaks this where a configuration offers a supply at the
-        // edge (check.yaml `edges`: 4,750 and 4,749 mV).
+        // either way in the data (or the rule) breaks this where a configuration offers a
+        // supply at the edge (check.yaml `edges`: 4,750 and 4,749 mV), since the checker offers
+        // readings on both sides of the printed figure too.
         check: Check::Event(|_, prev, ev, _, next| match ev {
-            Event::Supply { millivolts } if running(prev) => next.tripped() == (*millivolts < 4_750),
+            Event::Supply { millivolts } if running(prev) => {
+                next.tripped() == (*millivolts < SUPPLY_MIN_MILLIVOLTS_PRINTED)
+            }
             _ => true,
         }),
     },
@@ -153,6 +163,25 @@ pub const MONITORS: &[Monitor] = &[
                 next.checksum.program_reference == prev.checksum.program
             }
             _ => true,
+        }),
+    },
+    Monitor {
+        name: "bit 19 of ??? is set by GATHER and cleared by ENDGATHER or a reset, and by nothing else",
+        cite: "SRM p.289",
+        sentence: "Bit 19 Data Gathering Function On : This bit is 1 when the data gathering function is active; it is 0 when the function is not active. (SRM p.307: Data Gathering is in progress while an ENDGATHER command has not been issued and the gather buffer has not been filled up.)",
+        // Bit 19 of the first word as SRM p.289 prints it, not status.yaml's layout: a driven
+        // bit misplaced onto it (or gathering's flag onto another bit) is caught. MODEL: a reset
+        // ends gathering; the gather buffer never fills (wrap-around, SRM p.170).
+        check: Check::Event(|cfg, prev, ev, _, next| {
+            let before = bit(prev.status_words(cfg).0, 19);
+            let after = bit(next.status_words(cfg).0, 19);
+            match ev {
+                Event::Command(HostCommand::Gather) if running(prev) => after,
+                Event::Command(HostCommand::EndGather) if running(prev) => !after,
+                Event::Reset(_) => !after,
+                Event::Command(HostCommand::Reset | HostCommand::Reinitialize) if running(prev) => !after,
+                _ => after == before,
+            }
         }),
     },
     Monitor {
@@ -410,6 +439,20 @@ pub const MONITORS: &[Monitor] = &[
         }),
     },
     Monitor {
+        name: "J/ begins immediately: a jogging motor decelerates at once, and no other motor changes",
+        cite: "UM p.217",
+        sentence: "J/: Scope Motor, Begin Immed? Yes, Decel Rate Ixx19-21.",
+        check: Check::Event(|cfg, prev, ev, _, next| match motion(prev, ev) {
+            Some(Motion::Motor(n, MotorCommand::JogStop)) if n >= 1 && n <= cfg.motion.motors => {
+                let k = usize::from(n) - 1;
+                let (p, m) = (&prev.axes.motors()[k], &next.axes.motors()[k]);
+                implies(p.state == MotorState::Jogging, m.state == MotorState::Decelerating && m.stop == Some(Stop::Jog))
+                    && (0..prev.axes.motors().len()).filter(|j| *j != k).all(|j| prev.axes.motors()[j] == next.axes.motors()[j])
+            }
+            _ => true,
+        }),
+    },
+    Monitor {
         name: "A begins immediately: no motor of the coordinate system runs its program or jogs after it",
         cite: "UM p.217",
         sentence: "A: Scope C.S., Begin Immed? Yes, Decel Rate Ixx15 (UM p.319: A breaks into the executing trajectory immediately).",
@@ -511,6 +554,62 @@ pub const MONITORS: &[Monitor] = &[
                 .iter()
                 .all(|m| m.state != MotorState::Program || matches!(m.stop, Some(Stop::Quit | Stop::EndOfMove))),
             _ => true,
+        }),
+    },
+    // ------------------------------------------------------------ the firmware's amplifier-fault kill (UM p.213)
+    Monitor {
+        name: "an amplifier fault kills the offending motor at the next background cycle and sets its fault status",
+        cite: "UM p.213",
+        sentence: "Turbo PMAC reacts just as for an amplifier fault error. The offending motor is killed ... Turbo PMAC sets the amplifier fault motor status bit. (UM p.237: the housekeeping's safety checks, amplifier fault among them, end each background cycle.)",
+        check: Check::Event(|_, prev, ev, _, next| {
+            let offending = |m: &crate::motion::Motor| m.state != MotorState::Killed && m.amplifier_fault;
+            // MODEL: the check follows the PLC's scan; a motor the PLC's CMD^K killed first is
+            // no longer enabled when the check comes, and is not an offending motor.
+            let plc_fires = prev.axes.motors().iter().any(|m| m.state != MotorState::Killed && m.encoder_lost);
+            !matches!(ev, Event::Background)
+                || !prev.background_possible()
+                || plc_fires
+                || prev
+                    .axes
+                    .motors()
+                    .iter()
+                    .zip(next.axes.motors())
+                    .all(|(p, n)| implies(offending(p), n.state == MotorState::Killed && n.fault_status))
+        }),
+    },
+    Monitor {
+        name: "an amplifier fault kills no motor outside the offending motors' coordinate systems",
+        cite: "UM p.213",
+        sentence: "The offending motor is killed and possibly other motors as set by bits 21 and 22 of Ixx24.",
+        // Unlike the encoder-loss PLC's CMD^K (UM p.214-215, every motor): on a background
+        // cycle whose PLC scan kills nothing, a motor of another coordinate system keeps its
+        // state. MODEL: Ixx24 bits 21-22 read as adding no motor outside the offending
+        // motor's coordinate system.
+        check: Check::Event(|cfg, prev, ev, _, next| {
+            let plc_fires = prev.axes.motors().iter().any(|m| m.state != MotorState::Killed && m.encoder_lost);
+            if !matches!(ev, Event::Background) || !prev.background_possible() || plc_fires {
+                return true;
+            }
+            let motors = prev.axes.motors();
+            let hit: Vec<u8> = (0..motors.len())
+                .filter(|k| motors[*k].state != MotorState::Killed && motors[*k].amplifier_fault)
+                .map(|k| cs_of(cfg, k))
+                .collect();
+            (0..motors.len())
+                .filter(|k| !hit.contains(&cs_of(cfg, *k)))
+                .all(|k| motors[k].state == next.axes.motors()[k].state)
+        }),
+    },
+    Monitor {
+        name: "the amplifier-fault status is set only by the fault kill and cleared only when the motor is re-enabled or the card reset",
+        cite: "UM p.213",
+        sentence: "Turbo PMAC sets the amplifier fault motor status bit. ... Both bits are cleared when the motor is re-enabled.",
+        check: Check::Event(|_, prev, ev, _, next| {
+            prev.axes.motors().iter().zip(next.axes.motors()).all(|(p, n)| match (p.fault_status, n.fault_status) {
+                (false, true) => matches!(ev, Event::Background) && p.amplifier_fault && p.state != MotorState::Killed,
+                (true, false) => n.state != MotorState::Killed || matches!(ev, Event::Reset(_)) || is_reset(ev),
+                _ => true,
+            })
         }),
     },
     // ------------------------------------------------------------ the encoder-loss PLC (UM p.214-215)

@@ -10,10 +10,10 @@
 //! property depends on a rate's value. A trace (deterministic) decelerates for the longest.
 
 use pmacwd_specs::check::MotionSetup;
-use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::config::{ModelConfig, StopRow};
 use pmacwd_specs::facts::{StopScope, Tristate};
 use pmacwd_specs::profiles::EncoderLossClear;
-use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand, COORDINATE_SYSTEM_MAX};
+use pmacwd_specs::vocab::command::{CsCommand, Motion, MotorCommand, COORDINATE_SYSTEM_MAX};
 use pmacwd_specs::vocab::event::Reply;
 use pmacwd_specs::vocab::observation::{MotionView, MotorState, MotorView, MOTORS_SHOWN};
 
@@ -33,132 +33,34 @@ pub enum Stop {
     Hold,
 }
 
-/// One row of UM p.217 as the model carries it out; `stop_rules_match_the_table` checks every
-/// column against `specs/stop_commands.yaml`.
+/// How the model carries out one row of UM p.217: the stop its motors carry while they come to
+/// rest (`None` for the kills, which do not decelerate). What the row's command does is decided
+/// by the row's columns as `specs/stop_commands.yaml` prints them (`ModelConfig::stop_table`,
+/// read by [`Axes::command`]: scope, "Begin Immed?", "Stop on Path?", "Stop at Prog Pt?",
+/// whether a deceleration rate is printed); `stop_rules_match_the_table` checks that this
+/// table names the same rows in the same order and that each stop fits its row's columns.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StopRule {
     /// The first column, as `stop_commands.yaml` has it.
     pub command: &'static str,
-    pub scope: StopScope,
-    /// "Begin Immed?": a stop that does not begin immediately leaves the program running its
-    /// calculated moves (the motors stay in `Program`) until it ends.
-    pub begins_immediately: bool,
-    /// "Stop on Path?": a stop on the path leaves the program resumable where it stopped; one
-    /// off the path discards the lookahead ("no easy restart", UM p.319).
-    pub stops_on_path: Tristate,
-    /// "Stop at Prog Pt?": the program ends at a program point.
-    pub stops_at_program_point: bool,
-    /// "Decel Rate", as printed.
-    pub decel_rate: Option<&'static str>,
-    /// How the model carries it out; `None` for the kills, which do not decelerate at all.
+    /// The stop its motors carry; `None` for the kills.
     pub stop: Option<Stop>,
 }
 
-use StopScope::{CoordinateSystem as Cs, Global, Motor as MotorScope};
-
-/// The eleven rows of UM p.217, top to bottom.
+/// The eleven rows of UM p.217, top to bottom. `\` acts as H (UM p.217: "Acts as H command if
+/// outside of lookahead"; MODEL: the model has no lookahead buffer, Isx20 = 0).
 pub const STOP_RULES: [StopRule; 11] = [
-    StopRule {
-        command: "J/",
-        scope: MotorScope,
-        begins_immediately: true,
-        stops_on_path: Tristate::NotApplicable,
-        stops_at_program_point: false,
-        decel_rate: Some("Ixx19-21"),
-        stop: Some(Stop::Jog),
-    },
-    StopRule {
-        command: "A",
-        scope: Cs,
-        begins_immediately: true,
-        stops_on_path: Tristate::No,
-        stops_at_program_point: false,
-        decel_rate: Some("Ixx15"),
-        stop: Some(Stop::Abort),
-    },
-    StopRule {
-        command: "<CTRL-A>",
-        scope: Global,
-        begins_immediately: true,
-        stops_on_path: Tristate::No,
-        stops_at_program_point: false,
-        decel_rate: Some("Ixx15"),
-        stop: Some(Stop::Abort),
-    },
-    StopRule {
-        command: "Q",
-        scope: Cs,
-        begins_immediately: false,
-        stops_on_path: Tristate::Yes,
-        stops_at_program_point: true,
-        decel_rate: Some("TA, TS"),
-        stop: Some(Stop::Quit),
-    },
-    StopRule {
-        command: "<CTRL-Q>",
-        scope: Global,
-        begins_immediately: false,
-        stops_on_path: Tristate::Yes,
-        stops_at_program_point: true,
-        decel_rate: Some("TA, TS"),
-        stop: Some(Stop::Quit),
-    },
-    StopRule {
-        command: "/",
-        scope: Cs,
-        begins_immediately: false,
-        stops_on_path: Tristate::Yes,
-        stops_at_program_point: true,
-        decel_rate: Some("TA, TS"),
-        stop: Some(Stop::EndOfMove),
-    },
-    StopRule {
-        command: "H",
-        scope: Cs,
-        begins_immediately: true,
-        stops_on_path: Tristate::Yes,
-        stops_at_program_point: false,
-        decel_rate: Some("Isx95"),
-        stop: Some(Stop::Hold),
-    },
-    StopRule {
-        command: "<CTRL-O>",
-        scope: Global,
-        begins_immediately: true,
-        stops_on_path: Tristate::Yes,
-        stops_at_program_point: false,
-        decel_rate: Some("Isx95"),
-        stop: Some(Stop::Hold),
-    },
-    // UM p.217: "Acts as H command if outside of lookahead". MODEL: the model has no lookahead
-    // buffer (Isx20 = 0), so `\` is always outside it and acts as H.
-    StopRule {
-        command: "\\",
-        scope: Cs,
-        begins_immediately: true,
-        stops_on_path: Tristate::Yes,
-        stops_at_program_point: false,
-        decel_rate: Some("Ixx17/Isx95"),
-        stop: Some(Stop::Hold),
-    },
-    StopRule {
-        command: "K",
-        scope: MotorScope,
-        begins_immediately: true,
-        stops_on_path: Tristate::No,
-        stops_at_program_point: false,
-        decel_rate: None,
-        stop: None,
-    },
-    StopRule {
-        command: "<CTRL-K>",
-        scope: Global,
-        begins_immediately: true,
-        stops_on_path: Tristate::No,
-        stops_at_program_point: false,
-        decel_rate: None,
-        stop: None,
-    },
+    StopRule { command: "J/", stop: Some(Stop::Jog) },
+    StopRule { command: "A", stop: Some(Stop::Abort) },
+    StopRule { command: "<CTRL-A>", stop: Some(Stop::Abort) },
+    StopRule { command: "Q", stop: Some(Stop::Quit) },
+    StopRule { command: "<CTRL-Q>", stop: Some(Stop::Quit) },
+    StopRule { command: "/", stop: Some(Stop::EndOfMove) },
+    StopRule { command: "H", stop: Some(Stop::Hold) },
+    StopRule { command: "<CTRL-O>", stop: Some(Stop::Hold) },
+    StopRule { command: "\\", stop: Some(Stop::Hold) },
+    StopRule { command: "K", stop: None },
+    StopRule { command: "<CTRL-K>", stop: None },
 ];
 
 /// The row of a stop command.
@@ -228,12 +130,17 @@ pub struct Motor {
     pub encoder_lost: bool,
     /// The encoder-loss PLC's `Mtr1EncLossStatus` (UM p.215).
     pub loss_status: bool,
+    /// The amplifier-fault input (FAULTn) reports a fault (UM p.213); a hardware input.
+    pub amplifier_fault: bool,
+    /// The amplifier-fault motor status bit: set when the firmware kills the motor for the
+    /// fault, cleared when the motor is re-enabled (UM p.213).
+    pub fault_status: bool,
 }
 
 impl Motor {
     /// MODEL: motors power up killed (Ixx80 = 0: not enabled at power-up/reset), the PLC's
-    /// status clear; the encoder input keeps its level.
-    fn power_on(encoder_lost: bool) -> Motor {
+    /// status clear; the encoder and amplifier-fault inputs keep their levels.
+    fn power_on(encoder_lost: bool, amplifier_fault: bool) -> Motor {
         Motor {
             state: MotorState::Killed,
             stop: None,
@@ -242,6 +149,8 @@ impl Motor {
             output_zero: true,
             encoder_lost,
             loss_status: false,
+            amplifier_fault,
+            fault_status: false,
         }
     }
 
@@ -282,6 +191,8 @@ impl Motor {
             output_zero: self.output_zero,
             encoder_lost: self.encoder_lost,
             encoder_loss_status: self.loss_status,
+            amplifier_fault: self.amplifier_fault,
+            amplifier_fault_status: self.fault_status,
         }
     }
 }
@@ -306,7 +217,7 @@ impl Axes {
     pub fn power_on(setup: &MotionSetup) -> Axes {
         let highest = (1..=setup.motors).map(|m| setup.coordinate_system(m)).max().unwrap_or(1);
         Axes {
-            motor_slots: [Motor::power_on(false); MOTORS_SHOWN],
+            motor_slots: [Motor::power_on(false, false); MOTORS_SHOWN],
             motor_count: setup.motors,
             program_slots: [Program::None; COORDINATE_SYSTEM_MAX as usize],
             program_count: highest,
@@ -330,10 +241,11 @@ impl Axes {
         &mut self.program_slots[..usize::from(self.program_count)]
     }
 
-    /// After a reset: every motor and program as at power-up; the encoder inputs keep their level.
+    /// After a reset: every motor and program as at power-up; the encoder and amplifier-fault
+    /// inputs keep their levels.
     pub fn restart(&mut self) {
         for m in self.motors_mut() {
-            *m = Motor::power_on(m.encoder_lost);
+            *m = Motor::power_on(m.encoder_lost, m.amplifier_fault);
         }
         for p in self.programs_mut() {
             *p = Program::None;
@@ -384,6 +296,15 @@ impl Axes {
         }
     }
 
+    /// Whether a program is executing moves, so that new moves start and the next one has to
+    /// be planned at the next RTI (UM p.236): some motor runs its program with no stop under
+    /// way. A program finishing its calculated moves (Q, /, the one move of S), held or
+    /// stopped starts no new move. Servo cycles do not change this (only commands, the
+    /// background's kills and a trip do), so it holds for a whole leap in time.
+    pub fn plans_moves(&self) -> bool {
+        self.motors().iter().any(|m| m.state == MotorState::Program && m.stop.is_none())
+    }
+
     /// Whether motor `m` (from 1)'s coordinate system is executing a program.
     pub fn motor_in_executing_program(&self, setup: &MotionSetup, m: u8) -> bool {
         self.program(setup.coordinate_system(m)).executing()
@@ -391,9 +312,20 @@ impl Axes {
 
     // ------------------------------------------------------------------ commands
 
-    /// A motion command; `decel` is the length of any deceleration it starts.
+    /// A motion command; `decel` is the length of any deceleration it starts. A stop command
+    /// (UM p.217) is carried out by its row of the table ([`Self::stop_command`]); `%0` by H's
+    /// row (UM p.217, H: "Similar to %0"); the commands that start motion by the rules below.
     pub fn command(&mut self, cfg: &ModelConfig, m: Motion, decel: u8) -> Reply {
         let setup = &cfg.motion;
+        let row_name = match m {
+            Motion::CoordinateSystem(_, CsCommand::Feedrate(0)) => Some("H"),
+            _ => m.stop_table_name(),
+        };
+        if let Some(name) = row_name {
+            let row = cfg.stop_row(name).expect("every stop command has its row in stop_commands.yaml");
+            let stop = STOP_RULES.iter().find(|r| r.command == name).and_then(|r| r.stop);
+            return self.stop_command(cfg, m, row, stop, decel);
+        }
         match m {
             Motion::Motor(n, c) => {
                 let Some(k) = usize::from(n).checked_sub(1).filter(|k| *k < self.motors().len()) else {
@@ -404,26 +336,6 @@ impl Axes {
                 let executing = self.motor_in_executing_program(setup, n);
                 let motor = &mut self.motors_mut()[k];
                 match c {
-                    MotorCommand::Kill => {
-                        // UM p.319: "the motor-specific K kill command is not permitted when the
-                        // motor is in a coordinate system that is executing a motion program.
-                        // The program must first be halted". UM p.217: "Must stop program first".
-                        // MODEL: refused with ERR001, Turbo PMAC's "command not allowed during
-                        // program execution".
-                        if executing {
-                            return Reply::Error(1);
-                        }
-                        motor.kill();
-                    }
-                    MotorCommand::JogStop => match motor.state {
-                        // MODEL: J/ on a killed motor closes its loop (enables it), the usual
-                        // way to re-enable a motor; the excerpts do not say so.
-                        MotorState::Killed => motor.close_loop(),
-                        // UM p.217 row 1: J/ begins immediately, decelerating at Ixx19-21.
-                        MotorState::Jogging => motor.start(MotorState::Decelerating, Some(Stop::Jog), decel),
-                        // MODEL: J/ stops jogs only; program motion is stopped by the C.S. commands.
-                        MotorState::Closed | MotorState::Program | MotorState::Decelerating | MotorState::Holding => {}
-                    },
                     MotorCommand::JogPlus | MotorCommand::JogMinus | MotorCommand::JogToPosition => {
                         // MODEL: a jog needs a closed loop at rest outside a running program; a
                         // killed motor is not moved by a jog command ("a killed motor does not
@@ -433,85 +345,157 @@ impl Axes {
                             motor.start(MotorState::Jogging, None, 0);
                         }
                     }
+                    MotorCommand::JogStop | MotorCommand::Kill => unreachable!("stop commands have their rows"),
                 }
                 Reply::Ack
             }
             Motion::CoordinateSystem(cs, c) => {
-                self.cs_command(setup, cs, c, decel);
+                self.cs_start(setup, cs, c, decel);
                 Reply::Ack
             }
-            Motion::Global(g) => {
-                // UM p.217: the control characters are global: each acts on every coordinate
-                // system (SRM p.260 for <CTRL-O>: "equivalent to issuing the H command to each
-                // coordinate system").
-                match g {
-                    GlobalCommand::KillAll => self.kill_all(),
-                    GlobalCommand::AbortAll => self.every_cs(setup, CsCommand::Abort, decel),
-                    GlobalCommand::QuitAll => self.every_cs(setup, CsCommand::Quit, decel),
-                    GlobalCommand::HoldAll => self.every_cs(setup, CsCommand::Hold, decel),
-                }
-                Reply::Ack
-            }
+            Motion::Global(_) => unreachable!("every global command is a stop command"),
         }
     }
 
-    fn every_cs(&mut self, setup: &MotionSetup, c: CsCommand, decel: u8) {
-        for cs in 1..=self.program_count {
-            self.cs_command(setup, cs, c, decel);
-        }
-    }
-
-    fn cs_command(&mut self, setup: &MotionSetup, cs: u8, c: CsCommand, decel: u8) {
-        let members: Vec<usize> = Self::in_cs(setup, cs).collect();
-        let program = self.program(cs);
-        match c {
-            CsCommand::Abort => {
-                // UM p.319: A "breaks into the executing trajectory immediately, and brings all
-                // motors in the coordinate system to a controlled stop, each at its own
-                // deceleration rate as set by Ixx15"; "not necessarily at a programmed point",
-                // "not necessarily even along the programmed path"; the lookahead is discarded.
-                for k in members {
-                    let m = &mut self.motors_mut()[k];
-                    match m.state {
-                        MotorState::Jogging | MotorState::Program | MotorState::Decelerating => {
-                            m.start(MotorState::Decelerating, Some(Stop::Abort), decel)
-                        }
-                        MotorState::Holding => m.close_loop(),
-                        MotorState::Killed | MotorState::Closed => {}
-                    }
+    /// A stop command carried out by its row of UM p.217 (`stop_commands.yaml`, as
+    /// `ModelConfig::stop_table` holds it): the scope column says which motors and coordinate
+    /// systems it acts on, an empty "Decel Rate" that it kills, "Begin Immed?", "Stop on Path?"
+    /// and "Stop at Prog Pt?" how the motors and the program stop. `stop` is the stop the
+    /// motors carry ([`STOP_RULES`]).
+    fn stop_command(&mut self, cfg: &ModelConfig, m: Motion, row: &StopRow, stop: Option<Stop>, decel: u8) -> Reply {
+        let setup = &cfg.motion;
+        // The scope column: the motor `#n`, the coordinate system `&n`, or every one (UM p.217:
+        // the control characters act on every coordinate system; SRM p.260 for <CTRL-O>:
+        // "equivalent to issuing the H command to each coordinate system").
+        let (motor, systems): (Option<u8>, Vec<u8>) = match (row.scope, m) {
+            (StopScope::Motor, Motion::Motor(n, _)) => (Some(n), Vec::new()),
+            (StopScope::CoordinateSystem, Motion::CoordinateSystem(cs, _)) => (None, vec![cs]),
+            (StopScope::Global, _) => (None, (1..=self.program_count).collect()),
+            // A row whose scope is not the command's own (only a changed table has one): the
+            // command acts on the scope it addresses.
+            (_, Motion::Motor(n, _)) => (Some(n), Vec::new()),
+            (_, Motion::CoordinateSystem(cs, _)) => (None, vec![cs]),
+            (_, Motion::Global(_)) => (None, (1..=self.program_count).collect()),
+        };
+        if let Some(n) = motor {
+            let Some(k) = usize::from(n).checked_sub(1).filter(|k| *k < self.motors().len()) else {
+                // MODEL: a motor the configuration does not have is not set up (Ixx00 = 0).
+                return Reply::Ack;
+            };
+            let executing = self.motor_in_executing_program(setup, n);
+            let motor = &mut self.motors_mut()[k];
+            if !row.decelerates {
+                // UM p.319: "the motor-specific K kill command is not permitted when the motor is
+                // in a coordinate system that is executing a motion program. The program must
+                // first be halted". UM p.217: "Must stop program first". MODEL: refused with
+                // ERR001, Turbo PMAC's "command not allowed during program execution".
+                if executing {
+                    return Reply::Error(1);
                 }
-                if program.executing() {
+                motor.kill();
+                return Reply::Ack;
+            }
+            match motor.state {
+                // MODEL: J/ on a killed motor closes its loop (enables it), the usual way to
+                // re-enable a motor; the excerpts do not say so. UM p.213: the amplifier-fault
+                // status bit "is cleared when the motor is re-enabled".
+                MotorState::Killed => {
+                    motor.close_loop();
+                    motor.fault_status = false;
+                }
+                // A motor-scope stop of the table (J/, row 1) stops the motor's jog, beginning
+                // immediately ("Begin Immed?") or not, at its deceleration rate.
+                MotorState::Jogging => {
+                    let state = if row.begins_immediately { MotorState::Decelerating } else { MotorState::Jogging };
+                    motor.start(state, stop, decel);
+                }
+                // MODEL: a motor-scope stop stops jogs only; program motion is stopped by the
+                // C.S. commands.
+                MotorState::Closed | MotorState::Program | MotorState::Decelerating | MotorState::Holding => {}
+            }
+            return Reply::Ack;
+        }
+        if !row.decelerates {
+            // UM p.319: <CTRL-K> "breaks into the executing trajectory immediately, and disables
+            // all motors ... by opening the servo loops, forcing zero-value command outputs, and
+            // disabling the amplifiers"; the lookahead segments "are discarded". MODEL: the
+            // "Must stop program first" note of its row (UM p.217) is read as about restarting;
+            // UM p.319 restricts only K.
+            for cs in systems {
+                for k in Self::in_cs(setup, cs).collect::<Vec<_>>() {
+                    self.motor_slots[k].kill();
+                }
+                if self.program(cs).executing() {
                     self.set_program(cs, Program::Lost);
                 }
             }
-            CsCommand::Quit | CsCommand::EndOfMove => {
-                // UM p.217: Q "Finishes calculated moves", / ends at the "End of currently
-                // executing move"; neither begins immediately; both stop on the path at a
-                // program point, at TA/TS. MODEL: the blending that / undoes is not represented.
-                if program == Program::Running {
-                    let stop = if c == CsCommand::Quit { Stop::Quit } else { Stop::EndOfMove };
-                    for k in members {
-                        let m = &mut self.motors_mut()[k];
-                        if m.state == MotorState::Program && m.stop.is_none() {
-                            m.start(MotorState::Program, Some(stop), decel);
-                        }
+            return Reply::Ack;
+        }
+        let stop = stop.expect("a stop that decelerates carries its stop");
+        for cs in systems {
+            self.cs_stop(setup, cs, row, stop, decel);
+        }
+        Reply::Ack
+    }
+
+    /// A decelerating stop of UM p.217 on coordinate system `cs`, by its row's columns.
+    fn cs_stop(&mut self, setup: &MotionSetup, cs: u8, row: &StopRow, stop: Stop, decel: u8) {
+        let members: Vec<usize> = Self::in_cs(setup, cs).collect();
+        let program = self.program(cs);
+        if !row.begins_immediately {
+            // "Begin Immed?" no (Q: "Finishes calculated moves"; /: "End of currently executing
+            // move"): the program's motors go on with their calculated moves until the stop
+            // ends; "Stop at Prog Pt?" yes: it ends at a program point (the program then stands
+            // there, `servo_cycle`), on the path, at TA/TS. MODEL: the blending that / undoes is
+            // not represented.
+            if program == Program::Running {
+                for k in members {
+                    let m = &mut self.motors_mut()[k];
+                    if m.state == MotorState::Program && m.stop.is_none() {
+                        m.start(MotorState::Program, Some(stop), decel);
                     }
                 }
             }
-            CsCommand::Hold | CsCommand::QuickStop | CsCommand::Feedrate(0) => {
-                // UM p.217: H begins immediately and stops on the path at Isx95, not at a
-                // program point; "Similar to %0". SRM p.260: a held C.S. "can be started up
-                // again with an R". `\` acts as H outside lookahead (see STOP_RULES).
-                if program == Program::Running {
-                    for k in members {
-                        let m = &mut self.motors_mut()[k];
-                        if m.state == MotorState::Program {
-                            m.start(MotorState::Decelerating, Some(Stop::Hold), decel);
-                        }
+        } else if row.stops_on_path == Tristate::Yes {
+            // "Begin Immed?" yes, "Stop on Path?" yes, not at a program point (H, <CTRL-O>, `\`,
+            // %0): the program's motors decelerate at once along the path to a feed hold, and
+            // the program stays resumable (SRM p.260: "can be started up again with an R").
+            if program == Program::Running {
+                for k in members {
+                    let m = &mut self.motors_mut()[k];
+                    if m.state == MotorState::Program {
+                        m.start(MotorState::Decelerating, Some(stop), decel);
                     }
-                    self.set_program(cs, Program::Held);
+                }
+                self.set_program(cs, if row.stops_at_program_point { Program::AtPoint } else { Program::Held });
+            }
+        } else {
+            // "Begin Immed?" yes, "Stop on Path?" no (A, <CTRL-A>). UM p.319: A "breaks into the
+            // executing trajectory immediately, and brings all motors in the coordinate system
+            // to a controlled stop, each at its own deceleration rate as set by Ixx15"; "not
+            // necessarily at a programmed point", "not necessarily even along the programmed
+            // path"; the lookahead is discarded.
+            for k in members {
+                let m = &mut self.motors_mut()[k];
+                match m.state {
+                    MotorState::Jogging | MotorState::Program | MotorState::Decelerating => {
+                        m.start(MotorState::Decelerating, Some(stop), decel)
+                    }
+                    MotorState::Holding => m.close_loop(),
+                    MotorState::Killed | MotorState::Closed => {}
                 }
             }
+            if program.executing() {
+                self.set_program(cs, Program::Lost);
+            }
+        }
+    }
+
+    /// The coordinate-system commands that start motion or point at a program.
+    fn cs_start(&mut self, setup: &MotionSetup, cs: u8, c: CsCommand, decel: u8) {
+        let members: Vec<usize> = Self::in_cs(setup, cs).collect();
+        let program = self.program(cs);
+        match c {
             CsCommand::Run | CsCommand::Step | CsCommand::Feedrate(_) => {
                 // R runs from where the program stands; S runs one move and stops at a program
                 // point (UM p.319: a program "could be resumed with an R or S command"). MODEL:
@@ -537,6 +521,9 @@ impl Axes {
                 if !program.executing() {
                     self.set_program(cs, Program::AtPoint);
                 }
+            }
+            CsCommand::Abort | CsCommand::Quit | CsCommand::EndOfMove | CsCommand::Hold | CsCommand::QuickStop => {
+                unreachable!("stop commands have their rows")
             }
         }
     }
@@ -591,6 +578,45 @@ impl Axes {
     pub fn encoder_input(&mut self, motor: u8, lost: bool) {
         if let Some(m) = usize::from(motor).checked_sub(1).and_then(|k| self.motors_mut().get_mut(k)) {
             m.encoder_lost = lost;
+        }
+    }
+
+    /// UM p.213: a motor's amplifier-fault input changes (a hardware input, which changes
+    /// whether or not the card runs).
+    pub fn amplifier_fault_input(&mut self, motor: u8, fault: bool) {
+        if let Some(m) = usize::from(motor).checked_sub(1).and_then(|k| self.motors_mut().get_mut(k)) {
+            m.amplifier_fault = fault;
+        }
+    }
+
+    /// The firmware's own amplifier-fault rule, in the housekeeping's safety checks at the end
+    /// of each background cycle (UM p.237: the housekeeping's safety checks include "amplifier
+    /// fault"). UM p.213: on an amplifier fault "The offending motor is killed and possibly
+    /// other motors as set by bits 21 and 22 of Ixx24", and the amplifier-fault motor status
+    /// bit is set. This is not the encoder-loss PLC's CMD^K (UM p.214-215), which kills every
+    /// motor: here only the offending motor is killed.
+    ///
+    /// MODEL: the model has no Ixx24; it reads bits 21 and 22 as adding no motor outside the
+    /// offending motor's program: a motor whose coordinate system executes a program cannot
+    /// run on killed, so that program loses its lookahead (as a kill does, UM p.319) and the
+    /// other motors of its coordinate system are killed with it (their status bits stay clear:
+    /// they are not the offending motors). A motor already killed is not killed again, so its
+    /// status bit is not set. Every motor enabled with its fault input on at the start of the
+    /// check is an offending motor.
+    pub fn amplifier_fault_check(&mut self, setup: &MotionSetup) {
+        let offending: Vec<usize> = (0..self.motors().len())
+            .filter(|k| self.motor_slots[*k].amplifier_fault && self.motor_slots[*k].state != MotorState::Killed)
+            .collect();
+        for k in offending {
+            self.motor_slots[k].kill();
+            self.motor_slots[k].fault_status = true;
+            let cs = setup.coordinate_system(k as u8 + 1);
+            if self.program(cs).executing() {
+                self.set_program(cs, Program::Lost);
+                for j in Self::in_cs(setup, cs).collect::<Vec<_>>() {
+                    self.motor_slots[j].kill();
+                }
+            }
         }
     }
 
@@ -692,28 +718,27 @@ mod tests {
         }
     }
 
-    /// Every column of every row of the model's stop rules is the table's, so a rule cannot
-    /// drift from `specs/stop_commands.yaml` (UM p.217).
+    /// The model's stop rules name the rows of `specs/stop_commands.yaml` (UM p.217) in order,
+    /// and the stop each row's motors carry fits the row's columns, which decide what the
+    /// command does (`Axes::stop_command` reads them from `ModelConfig::stop_table`): a stop at
+    /// a program point is a Quit or an end-of-move; a stop on the path that is not at a
+    /// program point is a hold; a stop off the path is an abort or a kill; a kill has no
+    /// deceleration rate.
     #[test]
     fn stop_rules_match_the_table() {
         let spec = pmacwd_specs::Spec::embedded().unwrap();
-        let rows = &spec.stop_commands.rows;
+        let cfg =
+            pmacwd_specs::config::ModelConfig::from_spec(&spec, "motion", &spec.profiles.default_profile()).unwrap();
+        let rows = &cfg.stop_table;
         assert_eq!(rows.len(), STOP_RULES.len());
         for (row, rule) in rows.iter().zip(STOP_RULES.iter()) {
             assert_eq!(row.command, rule.command);
-            assert_eq!(row.scope, rule.scope, "{}", rule.command);
-            assert_eq!(row.begins_immediately, rule.begins_immediately, "{}", rule.command);
-            assert_eq!(row.stops_on_path, rule.stops_on_path, "{}", rule.command);
-            assert_eq!(row.stops_at_program_point, rule.stops_at_program_point, "{}", rule.command);
-            assert_eq!(row.decel_rate.as_deref(), rule.decel_rate, "{}", rule.command);
-            // The behaviour follows the columns: a stop at a program point is a Quit or an
-            // end-of-move; a stop on the path that is not at a program point is a hold; a stop
-            // off the path is an abort or a kill.
+            assert_eq!(row.decelerates, rule.stop.is_some(), "{}", rule.command);
             match rule.stop {
-                Some(Stop::Quit | Stop::EndOfMove) => assert!(rule.stops_at_program_point && !rule.begins_immediately),
-                Some(Stop::Hold) => assert!(rule.stops_on_path == Tristate::Yes && !rule.stops_at_program_point),
-                Some(Stop::Abort) | None => assert!(rule.stops_on_path == Tristate::No && rule.begins_immediately),
-                Some(Stop::Jog) => assert_eq!(rule.scope, MotorScope),
+                Some(Stop::Quit | Stop::EndOfMove) => assert!(row.stops_at_program_point && !row.begins_immediately),
+                Some(Stop::Hold) => assert!(row.stops_on_path == Tristate::Yes && !row.stops_at_program_point),
+                Some(Stop::Abort) | None => assert!(row.stops_on_path == Tristate::No && row.begins_immediately),
+                Some(Stop::Jog) => assert_eq!(row.scope, StopScope::Motor),
             }
         }
     }

@@ -301,18 +301,19 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         },
     },
     StateProperty {
-        name: "bits X19, X17 and X14 of ??? stay 0: the card gathers no data and runs no leadscrew compensation",
+        name: "bits X17 and X14 of ??? stay 0: the card gathers on no trigger and runs no leadscrew compensation",
         expectation: Always,
         applies: any,
         needs: "",
         cite: "SRM p.289",
-        sentence: "Bit 19 Data Gathering Function On : This bit is 1 when the data gathering function is active; it is 0 when the function is not active. ... Bit 17 Data Gather to Start on Trigger: ... It is 0 otherwise. ... Bit 14 Leadscrew Compensation On: ... It is 0 if the compensation is not active.",
+        sentence: "Bit 17 Data Gather to Start on Trigger: ... It is 0 otherwise. ... Bit 14 Leadscrew Compensation On: ... It is 0 if the compensation is not active.",
         // SRM p.289: the positions as the page prints them, not from status.yaml's layout, so
-        // that a driven bit placed on one of them (Y19, motion buffer open, put in the X word)
+        // that a driven bit placed on one of them (Y17, PLC buffer open, put in the X word)
         // is caught. MODEL: the model has neither function; no command of its own starts one
-        // (a host's `GAT` or `DEFINE GATHER` is the card's own, docs/grammar.md).
+        // (a host's `GATHER TRIGGER`-style setup and `DEFINE GATHER` are the card's own,
+        // docs/grammar.md). Bit 19 (data gathering on) is driven: see its monitor.
         holds: |cfg, s| {
-            const NOT_MODELLED: u32 = (1 << 19) | (1 << 17) | (1 << 14);
+            const NOT_MODELLED: u32 = (1 << 17) | (1 << 14);
             s.controller.status_words(cfg).0 & NOT_MODELLED == 0
         },
     },
@@ -400,6 +401,15 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
         cite: "SRM p.289",
         sentence: "This bit is 1 if Turbo PMAC detected a checksum error in reading saved data from the flash memory on board reset.",
         holds: |cfg, s| running(s) && x_bit(cfg, s, cfg.layout.flash_error),
+    },
+    StateProperty {
+        name: "bit 19 (data gathering on) can be set",
+        expectation: Sometimes,
+        applies: |c| has_command(c, |x| matches!(x, HostCommand::Gather)),
+        needs: "a GATHER command",
+        cite: "SRM p.289",
+        sentence: "Bit 19 Data Gathering Function On : This bit is 1 when the data gathering function is active",
+        holds: |cfg, s| running(s) && x_bit(cfg, s, cfg.layout.data_gathering_on),
     },
     StateProperty {
         name: "second-word bit 19 (motion buffer open) can be set",
@@ -503,6 +513,15 @@ pub const STATE_PROPERTIES: &[StateProperty] = &[
                 && s.controller.axes.programs().contains(&Program::Lost)
                 && motors(s).iter().any(|m| m.stop == Some(Stop::Abort))
         },
+    },
+    StateProperty {
+        name: "an amplifier fault can kill a motor, leaving its fault status set",
+        expectation: Sometimes,
+        applies: |c| c.motion.amplifier_fault_inputs,
+        needs: "amplifier-fault inputs (check.yaml motion.amplifier_fault_inputs)",
+        cite: "UM p.213",
+        sentence: "The offending motor is killed ... Turbo PMAC sets the amplifier fault motor status bit.",
+        holds: |_, s| running(s) && s.controller.axes.motors().iter().any(|m| m.fault_status && m.state == MotorState::Killed),
     },
     StateProperty {
         name: "the encoder-loss PLC can kill a motor and latch the loss",
@@ -774,13 +793,14 @@ mod tests {
         let cfg = config("motion", "um-215");
         let running = Controller::power_on(&cfg);
         type Flag = fn(&mut crate::controller::StatusFlags);
-        let bits: [(&str, Flag); 7] = [
+        let bits: [(&str, Flag); 8] = [
             ("bit 22 (RTI re-entry) can be set", |f| f.rti_reentry = true),
             ("bit 9 (RTI warning) can be set", |f| f.rti_warning = true),
             ("bit 20 (servo error) can be set", |f| f.servo_error = true),
             ("bit 11 (DPRAM error) can be set", |f| f.dpram_error = true),
             ("bit 10 (flash error) can be set", |f| f.flash_error = true),
             ("second-word bit 19 (motion buffer open) can be set", |f| f.motion_buffer_open = true),
+            ("bit 19 (data gathering on) can be set", |f| f.data_gathering_on = true),
             ("second-word bit 17 (PLC buffer open) can be set", |f| f.plc_buffer_open = true),
         ];
         for (name, set) in bits {

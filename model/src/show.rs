@@ -98,6 +98,7 @@ pub fn state_text(cfg: &ModelConfig, s: &State) -> String {
         flash_error,
         plc_buffer_open,
         motion_buffer_open,
+        data_gathering_on,
     } = status;
     let flags: Vec<&str> = [
         (*rti_reentry, "RTI re-entry (X22)"),
@@ -107,6 +108,7 @@ pub fn state_text(cfg: &ModelConfig, s: &State) -> String {
         (*flash_error, "flash checksum error (X10)"),
         (*plc_buffer_open, "PLC buffer open (Y17)"),
         (*motion_buffer_open, "motion buffer open (Y19)"),
+        (*data_gathering_on, "data gathering on (X19)"),
     ]
     .into_iter()
     .filter_map(|(on, name)| on.then_some(name))
@@ -166,6 +168,8 @@ pub fn state_text(cfg: &ModelConfig, s: &State) -> String {
             output_zero,
             encoder_lost,
             loss_status,
+            amplifier_fault,
+            fault_status,
         } = m;
         let _ = write!(
             o,
@@ -177,6 +181,15 @@ pub fn state_text(cfg: &ModelConfig, s: &State) -> String {
             if *encoder_lost { "LOST" } else { "ok" },
             yes(*loss_status)
         );
+        // Shown only when set: the configurations without amplifier-fault inputs print as before.
+        if *amplifier_fault || *fault_status {
+            let _ = write!(
+                o,
+                ", amplifier fault input {}, fault status {}",
+                if *amplifier_fault { "FAULT" } else { "ok" },
+                yes(*fault_status)
+            );
+        }
         if let Some(stop) = stop {
             let _ = write!(o, ", stopping ({stop:?}, {stop_cycles} cycles left)");
         } else if *stop_cycles != 0 {

@@ -58,6 +58,7 @@ impl std::hash::Hash for State {
             flash_error,
             plc_buffer_open,
             motion_buffer_open,
+            data_gathering_on,
         } = status;
         let crate::controller::ChecksumEngine {
             area,
@@ -79,6 +80,7 @@ impl std::hash::Hash for State {
             *flash_error,
             *plc_buffer_open,
             *motion_buffer_open,
+            *data_gathering_on,
             *supply_low,
             *bootstrap,
             *led_red,
@@ -104,7 +106,8 @@ impl std::hash::Hash for State {
             Some(pmacwd_specs::check::ResetKind::Power) => 1,
             None => 2,
         };
-        // Motor k is word k: its seven fields one byte each, in the order `Motor` keeps them in
+        // Motor k is word k: its first seven fields one byte each (the two amplifier-fault bools
+        // share the eighth), in the order `Motor` keeps them in
         // memory (`#[repr(C)]`), so the compiler reads several with one load (two motors to a
         // word, packed by bit fields, took 16 instructions a motor; measured with callgrind).
         let mut motors = [0u64; 8];
@@ -117,6 +120,8 @@ impl std::hash::Hash for State {
                 output_zero,
                 encoder_lost,
                 loss_status,
+                amplifier_fault,
+                fault_status,
             } = m;
             let stop = stop_code(*stop);
             let packed = (*state as u64)
@@ -125,7 +130,8 @@ impl std::hash::Hash for State {
                 | u64::from(*amplifier_enabled) << 24
                 | u64::from(*output_zero) << 32
                 | u64::from(*encoder_lost) << 40
-                | u64::from(*loss_status) << 48;
+                | u64::from(*loss_status) << 48
+                | (u64::from(*amplifier_fault) | u64::from(*fault_status) << 1) << 56;
             motors[k] = packed;
         }
         // Three bits per coordinate system's program, of those that exist: the slots past
@@ -234,6 +240,7 @@ mod tests {
             ("flash_error", |s| s.controller.status.flash_error = true),
             ("plc_buffer_open", |s| s.controller.status.plc_buffer_open = true),
             ("motion_buffer_open", |s| s.controller.status.motion_buffer_open = true),
+            ("data_gathering_on", |s| s.controller.status.data_gathering_on = true),
             ("checksum.area", |s| s.controller.checksum.area = ChecksumTarget::UserProgram),
             ("checksum.position", |s| s.controller.checksum.position += 1),
             ("checksum.error", |s| s.controller.checksum.error = Some(ChecksumTarget::Firmware)),

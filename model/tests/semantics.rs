@@ -378,24 +378,38 @@ fn bit_20_is_set_exactly_when_the_motors_servo_work_needs_more_than_the_servo_cy
     }
 }
 
-/// UM p.236: move planning "occurs at the next RTI", alongside PLC 0, so the RTI's task set is
-/// PLC 0 plus the planning (the model's fixed planning cost). With I8 = 1 an RTI period has 6
-/// free units: PLC 0 alone at 4 units finishes in time, PLC 0 with 3 units of planning does not,
-/// and the next RTI finds it still executing (SRM p.289, bit 22). The configurations of
-/// `check.yaml` all plan at no cost, so the cost is set here (found by cargo-mutants: `+` -> `-`
-/// in the RTI task set survived).
+/// UM p.236: "Every time Turbo PMAC starts executing a new move, it sets an internal flag
+/// indicating that it is time to plan the next move in the program. This planning occurs at the
+/// next RTI", alongside PLC 0, so while a program executes moves the RTI's task set is PLC 0
+/// plus the planning; with no program running there is nothing to plan. With I8 = 1 an RTI
+/// period has 6 free units: PLC 0 alone at 4 units finishes in time, PLC 0 with 3 units of
+/// planning does not, and the next RTI finds it still executing (SRM p.289, bit 22). The
+/// configurations of `check.yaml` all plan at no cost, so the cost is set here (found by
+/// cargo-mutants: `+` -> `-` in the RTI task set survived). Before issue 35 the planning was
+/// charged whether or not a program ran, so the case without a program overran too.
 #[test]
-fn move_planning_adds_to_plc0_in_the_rti_and_can_make_it_overrun_its_period() {
+fn move_planning_adds_to_plc0_in_the_rti_while_a_program_runs_and_can_make_it_overrun_its_period() {
     // UM p.236, SRM p.289
-    let base = config("timing", "um-215");
-    for (planning, overrun) in [(0, false), (3, true)] {
+    let base = config("motion", "um-215");
+    for (planning, program, overrun) in [(0, true, false), (3, true, true), (3, false, false)] {
         let mut cfg = base.clone();
-        cfg.cpu.move_planning_units = planning;
+        cfg.saved.i8 = 1;
+        cfg.cpu = pmacwd_specs::check::Cpu { cycle_units: 4, servo_units_per_motor: 1, move_planning_units: planning };
         let mut card = Controller::power_on(&cfg);
+        if program {
+            for text in ["#1J/", "#2J/", "&1B", "&1R"] {
+                assert_eq!(cmd(&mut card, &cfg, text), Reply::Ack, "{text}");
+            }
+            assert!(card.axes.plans_moves(), "the program of &1 runs");
+        }
         card.apply(&cfg, &Event::Load(Load { motors: 1, plc0_units: 4, background_units: 3 }));
         servo(&mut card, &cfg, 4);
         let Reply::Status { x, .. } = cmd(&mut card, &cfg, "???") else { panic!("??? answers") };
-        assert_eq!(x & (1 << 22) != 0, overrun, "PLC 0 = 4 units, planning = {planning}: X:$000006 = {x:06X}");
+        assert_eq!(
+            x & (1 << 22) != 0,
+            overrun,
+            "PLC 0 = 4 units, planning = {planning}, program running: {program}: X:$000006 = {x:06X}"
+        );
     }
 }
 

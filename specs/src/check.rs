@@ -105,6 +105,9 @@ pub struct MotionSetup {
     /// Whether the environment may lose and restore each motor's encoder (UM p.214).
     #[serde(default)]
     pub encoder_inputs: bool,
+    /// Whether the environment may set and clear each motor's amplifier-fault input (UM p.213).
+    #[serde(default)]
+    pub amplifier_fault_inputs: bool,
 }
 
 fn eight() -> u8 {
@@ -117,7 +120,13 @@ fn one() -> u8 {
 
 impl Default for MotionSetup {
     fn default() -> Self {
-        MotionSetup { motors: eight(), coordinate_systems: Vec::new(), decel_cycles_max: one(), encoder_inputs: false }
+        MotionSetup {
+            motors: eight(),
+            coordinate_systems: Vec::new(),
+            decel_cycles_max: one(),
+            encoder_inputs: false,
+            amplifier_fault_inputs: false,
+        }
     }
 }
 

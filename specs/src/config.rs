@@ -22,6 +22,8 @@ pub struct StatusLayout {
     pub rti_warning: (WordId, u8),
     pub motion_buffer_open: (WordId, u8),
     pub plc_buffer_open: (WordId, u8),
+    /// X bit 19: the data gathering function is on (SRM p.289), from GATHER to ENDGATHER.
+    pub data_gathering_on: (WordId, u8),
     /// X bit 21 and Y bit 21: the CPU option (SRM p.289), from the configuration.
     pub cpu_type_bit1: (WordId, u8),
     pub cpu_type_bit0: (WordId, u8),
@@ -49,6 +51,7 @@ impl StatusLayout {
             rti_warning: bit("rti_warning")?,
             motion_buffer_open: bit("motion_buffer_open")?,
             plc_buffer_open: bit("plc_buffer_open")?,
+            data_gathering_on: bit("data_gathering_on")?,
             cpu_type_bit1: bit("cpu_type_bit1")?,
             cpu_type_bit0: bit("cpu_type_bit0")?,
         })
@@ -56,7 +59,7 @@ impl StatusLayout {
 
     /// Every bit the model drives. Destructured without `..`: a new driven bit is a compile
     /// error here, so counts derived from this list stay true.
-    pub fn driven(&self) -> [(WordId, u8); 11] {
+    pub fn driven(&self) -> [(WordId, u8); 12] {
         let StatusLayout {
             rti_reentry,
             servo_error,
@@ -67,6 +70,7 @@ impl StatusLayout {
             rti_warning,
             motion_buffer_open,
             plc_buffer_open,
+            data_gathering_on,
             cpu_type_bit1,
             cpu_type_bit0,
         } = *self;
@@ -80,10 +84,28 @@ impl StatusLayout {
             rti_warning,
             motion_buffer_open,
             plc_buffer_open,
+            data_gathering_on,
             cpu_type_bit1,
             cpu_type_bit0,
         ]
     }
+}
+
+/// One row of UM p.217's stop-command table (`stop_commands.yaml`) as the model's stop rules
+/// read it: the columns decide what a stop command does (`model/src/motion.rs`).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct StopRow {
+    /// The first column (`J/`, `A`, `<CTRL-A>`, ...), as `Motion::stop_table_name` prints it.
+    pub command: String,
+    pub scope: crate::facts::StopScope,
+    /// "Begin Immed?".
+    pub begins_immediately: bool,
+    /// "Stop on Path?".
+    pub stops_on_path: crate::facts::Tristate,
+    /// "Stop at Prog Pt?".
+    pub stops_at_program_point: bool,
+    /// "Decel Rate" printed: a stop that decelerates; an empty cell is a kill.
+    pub decelerates: bool,
 }
 
 /// The I-variable values restored by every reset (what was last saved to flash).
@@ -129,6 +151,9 @@ pub struct ModelConfig {
     pub clear_rti_reentry: bool,
     /// The motors (`check.yaml`'s `motion`).
     pub motion: crate::check::MotionSetup,
+    /// UM p.217's stop-command table, top to bottom (`stop_commands.yaml`): the model's stop
+    /// rules read their columns here, so a column changed in the data changes the behaviour.
+    pub stop_table: Vec<StopRow>,
     pub layout: StatusLayout,
     /// I41 lockout ranges, indexed by I41 bit (SRM p.57).
     pub lockout: [(u16, u16); 4],
@@ -141,6 +166,11 @@ pub struct ModelConfig {
 }
 
 impl ModelConfig {
+    /// The row of UM p.217's table whose first column is `command`.
+    pub fn stop_row(&self, command: &str) -> Option<&StopRow> {
+        self.stop_table.iter().find(|r| r.command == command)
+    }
+
     /// Resolves configuration `name` of the spec's `check.yaml` under `profile`.
     pub fn from_spec(spec: &Spec, name: &str, profile: &Profile) -> Result<ModelConfig, SpecError> {
         let map = &spec.check_map;
@@ -233,6 +263,19 @@ impl ModelConfig {
             checksum_faults: c.checksum_faults.clone(),
             pass_cycles: c.checksum_pass_cycles,
             clear_rti_reentry: c.clear_rti_reentry,
+            stop_table: spec
+                .stop_commands
+                .rows
+                .iter()
+                .map(|r| StopRow {
+                    command: r.command.clone(),
+                    scope: r.scope,
+                    begins_immediately: r.begins_immediately,
+                    stops_on_path: r.stops_on_path,
+                    stops_at_program_point: r.stops_at_program_point,
+                    decelerates: r.decel_rate.is_some(),
+                })
+                .collect(),
             motion: c.motion.clone(),
             layout,
             lockout,

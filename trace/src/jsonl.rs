@@ -216,6 +216,7 @@ fn model_event_json(e: &Event) -> serde_json::Value {
         Event::ChecksumFault(ChecksumTarget::Firmware) => serde_json::json!({ "checksum_fault": "firmware" }),
         Event::ChecksumFault(ChecksumTarget::UserProgram) => serde_json::json!({ "checksum_fault": "user_program" }),
         Event::EncoderInput(i) => serde_json::json!({ "encoder": { "motor": i.motor, "lost": i.lost } }),
+        Event::AmplifierFault(i) => serde_json::json!({ "amplifier_fault": { "motor": i.motor, "fault": i.fault } }),
     }
 }
 

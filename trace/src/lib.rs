@@ -149,7 +149,7 @@ pub const STEP_CYCLES_MAX: u32 = 1 << 24;
 /// The keys a step may have besides its one event key.
 const STEP_EXTRAS: [&str; 2] = ["expect", "note"];
 /// The event keys.
-const EVENT_KEYS: [&str; 12] = [
+const EVENT_KEYS: [&str; 13] = [
     "servo",
     "run",
     "elapsed",
@@ -162,6 +162,7 @@ const EVENT_KEYS: [&str; 12] = [
     "checksum_fault",
     "clear_rti_reentry",
     "encoder",
+    "amplifier_fault",
 ];
 
 /// `elapsed: N` or `elapsed: {min: A, max: B}` (`max` optional: unbounded).
@@ -301,6 +302,9 @@ impl<'de> Deserialize<'de> for Step {
                         "supply_mv" => TraceEvent::Model(Event::Supply { millivolts: map.next_value()? }),
                         "encoder" => TraceEvent::Model(Event::EncoderInput(
                             map.next_value::<pmacwd_specs::vocab::EncoderInput>()?,
+                        )),
+                        "amplifier_fault" => TraceEvent::Model(Event::AmplifierFault(
+                            map.next_value::<pmacwd_specs::vocab::AmplifierFaultInput>()?,
                         )),
                         "reset" => TraceEvent::Model(Event::Reset(map.next_value::<ResetEvent>()?)),
                         "checksum_fault" => {
@@ -522,6 +526,7 @@ pub fn yaml_step(step: &Step) -> String {
                 Event::ChecksumFault(ChecksumTarget::Firmware) => "checksum_fault: firmware".into(),
                 Event::ChecksumFault(ChecksumTarget::UserProgram) => "checksum_fault: user_program".into(),
                 Event::EncoderInput(i) => format!("encoder: {{motor: {}, lost: {}}}", i.motor, i.lost),
+                Event::AmplifierFault(i) => format!("amplifier_fault: {{motor: {}, fault: {}}}", i.motor, i.fault),
             },
         };
         let _ = writeln!(s, "  - {event}");

@@ -3,7 +3,7 @@
 //! so that the vocabulary (`vocab`) imports nothing of the grammar: the grammar reads into the
 //! vocabulary's terms, never the other way round.
 
-use super::{pieces, Addressing, Assigned, Command, Jog, VarKind, Vars, VARIABLE_MAX};
+use super::{pieces, Addressing, Assigned, Command, Gather, Jog, VarKind, Vars, VARIABLE_MAX};
 use crate::vocab::command::{
     Buffer, CommandError, CsCommand, HostCommand, Motion, MotorCommand, Register, VarRange, RULED_I_VARIABLES,
 };
@@ -94,6 +94,10 @@ impl HostCommand {
             Command::Reset => HostCommand::Reset,
             Command::Reinitialize => HostCommand::Reinitialize,
             Command::Checksum => HostCommand::Checksum,
+            // SRM p.289: bit 19 is 1 while the data gathering function is active; SRM p.307:
+            // gathering runs from GATHER until ENDGATHER (or a filled buffer).
+            Command::Gather(Gather::Start) => HostCommand::Gather,
+            Command::Gather(Gather::End) => HostCommand::EndGather,
             Command::WriteIMemory(n, v) => HostCommand::WriteIMemory(*n, *v),
             Command::OpenPlc(n) => HostCommand::Open(Buffer::Plc(*n)),
             Command::OpenProgram(n) => HostCommand::Open(Buffer::Program(*n)),
@@ -144,7 +148,7 @@ impl HostCommand {
             | Command::Version
             | Command::CardId
             | Command::Cpu
-            | Command::Gather(_)
+            | Command::Gather(Gather::Define(_) | Gather::List | Gather::Delete)
             | Command::Ignored(_) => card(None),
         })
     }

@@ -13,6 +13,8 @@
 //! | `<MEMORY-WRITE I130=7>` | [`HostCommand::WriteIMemory`] | nothing; the I-variable's storage is written past I41 (SRM p.57) |
 //! | `OPEN PLC 1`, `OPEN PROG 1` | [`HostCommand::Open`] | nothing |
 //! | `CLOSE` | [`HostCommand::Close`] | nothing; X:$1090 takes the program checksum (UM p.217) |
+//! | `GATHER`, `GAT` | [`HostCommand::Gather`] | nothing; data gathering starts, X:$000006 bit 19 (SRM p.289, p.307) |
+//! | `ENDGATHER`, `ENDG` | [`HostCommand::EndGather`] | nothing; data gathering stops, bit 19 clears (SRM p.289, p.307) |
 //! | `#1J+`, `#1J-`, `#1J/`, `#1J=`, `#1K` | [`HostCommand::Motion`], motor scope | nothing; `#1K` while motor 1's C.S. runs a program: ERR001 (UM p.319) |
 //! | `&1A`, `&1Q`, `&1/`, `&1H`, `&1\`, `&1R`, `&1S`, `&1B`, `&1%0` | [`HostCommand::Motion`], C.S. scope | nothing |
 //! | `<CTRL-A>`, `<CTRL-Q>`, `<CTRL-O>`, `<CTRL-K>` | [`HostCommand::Motion`], global | nothing |
@@ -231,6 +233,12 @@ pub enum HostCommand {
     Reinitialize,
     /// `CHECKSUM` (`CHKS`): report the firmware's reference checksum (UM p.217, SRM p.295).
     Checksum,
+    /// `GATHER`: start the data gathering function; X:$000006 bit 19 "is 1 when the data
+    /// gathering function is active" (SRM p.289). Gathering runs until "an ENDGATHER command"
+    /// or until "the gather buffer has ... filled up" (SRM p.307).
+    Gather,
+    /// `ENDGATHER`: stop the data gathering function; bit 19 is 0 again (SRM p.289, p.307).
+    EndGather,
     /// An M-variable assignment or a direct memory write into I-variable `n`'s storage, which
     /// I41 does not prevent (SRM p.57). Written `<MEMORY-WRITE In=v>` (see the module text).
     WriteIMemory(u16, i64),
@@ -327,6 +335,8 @@ impl fmt::Display for HostCommand {
             HostCommand::Motion(m) => write!(f, "{m}"),
             HostCommand::Reinitialize => f.write_str("$$$***"),
             HostCommand::Checksum => f.write_str("CHECKSUM"),
+            HostCommand::Gather => f.write_str("GATHER"),
+            HostCommand::EndGather => f.write_str("ENDGATHER"),
             HostCommand::WriteIMemory(n, v) => write!(f, "<MEMORY-WRITE I{n}={v}>"),
             HostCommand::DefaultI(n) => write!(f, "I{n}=*"),
             HostCommand::Card { text, .. } => f.write_str(text),
@@ -364,6 +374,8 @@ mod tests {
             ("<CTRL-O>", "<CTRL-O>"),
             ("$$$***", "$$$***"),
             ("chks", "CHECKSUM"),
+            ("gat", "GATHER"),
+            ("endg", "ENDGATHER"),
             ("<memory-write i130 = $10>", "<MEMORY-WRITE I130=16>"),
         ] {
             assert_eq!(HostCommand::parse(text).unwrap().to_string(), canonical, "{text}");

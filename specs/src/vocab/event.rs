@@ -28,6 +28,18 @@ pub enum Event {
     /// A motor's encoder-loss input changes (UM p.214: the status bit is 1 for a valid encoder
     /// signal, 0 to signify encoder loss).
     EncoderInput(EncoderInput),
+    /// A motor's amplifier-fault input (FAULTn) changes (UM p.213: "Without the use of the
+    /// fault line, Turbo PMAC may not know when an amplifier has shut down").
+    AmplifierFault(AmplifierFaultInput),
+}
+
+/// One motor's amplifier-fault input: `fault` while the amplifier reports a fault.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AmplifierFaultInput {
+    /// The motor, from 1.
+    pub motor: u8,
+    pub fault: bool,
 }
 
 /// One motor's encoder-loss input: `lost` when the detection circuit reports loss.
@@ -117,6 +129,12 @@ impl fmt::Display for Event {
             Event::ClearRtiReentry => f.write_str("host clears bit 22"),
             Event::EncoderInput(EncoderInput { motor, lost: true }) => write!(f, "motor {motor}'s encoder is lost"),
             Event::EncoderInput(EncoderInput { motor, lost: false }) => write!(f, "motor {motor}'s encoder is back"),
+            Event::AmplifierFault(AmplifierFaultInput { motor, fault: true }) => {
+                write!(f, "motor {motor}'s amplifier reports a fault")
+            }
+            Event::AmplifierFault(AmplifierFaultInput { motor, fault: false }) => {
+                write!(f, "motor {motor}'s amplifier fault clears")
+            }
         }
     }
 }

@@ -12,5 +12,5 @@ pub mod observation;
 pub mod reply_text;
 
 pub use command::{Buffer, CsCommand, GlobalCommand, HostCommand, Motion, MotorCommand, Register, Space};
-pub use event::{EncoderInput, Event, Reply};
+pub use event::{AmplifierFaultInput, EncoderInput, Event, Reply};
 pub use observation::{MotionView, MotorState, MotorView, Observation};

@@ -55,6 +55,11 @@ pub struct MotorView {
     pub encoder_lost: bool,
     /// The encoder-loss PLC's latched status, `Mtr1EncLossStatus` of UM p.215.
     pub encoder_loss_status: bool,
+    /// The amplifier-fault input reports a fault (UM p.213).
+    pub amplifier_fault: bool,
+    /// The amplifier-fault motor status bit: set when the firmware killed the motor for the
+    /// fault, cleared when the motor is re-enabled (UM p.213).
+    pub amplifier_fault_status: bool,
 }
 
 /// A motor's motion, as abstract as the stop rules allow.
