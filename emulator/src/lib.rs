@@ -6,6 +6,7 @@ pub mod bounded;
 pub mod capture;
 pub mod card;
 pub mod control;
+pub mod fault;
 pub mod framing;
 pub mod listen;
 pub mod memory;
