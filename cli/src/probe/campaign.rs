@@ -67,8 +67,6 @@ pub static RESET: Check = Check {
     what: "$$$ resets the card: X:$0 restarts, Y:$25 and X:$25 start over, sticky bits clear",
     cite: "UM p.243, UM p.240",
 };
-pub static REINITIALIZE: Check =
-    Check { id: "reinitialize", what: "$$$*** puts the factory defaults in use", cite: "UM p.243" };
 pub static TRIP: Check = Check {
     id: "trip-silence",
     what: "a card whose watchdog ran out does not communicate until INIT/ or a power cycle",
@@ -76,7 +74,7 @@ pub static TRIP: Check = Check {
 };
 
 /// Every check, in the order the report lists them.
-pub const CHECKS: [&Check; 14] = [
+pub const CHECKS: [&Check; 13] = [
     &CONFIGURATION,
     &SERVO_COUNTER,
     &STATUS,
@@ -89,7 +87,6 @@ pub const CHECKS: [&Check; 14] = [
     &STOP,
     &ERRORS,
     &RESET,
-    &REINITIALIZE,
     &TRIP,
 ];
 
@@ -134,7 +131,6 @@ pub enum Unit {
     /// load restored and bit 22 watched.
     Bit22,
     Reset,
-    Reinitialize,
     /// The background starved until the card trips, then INIT/.
     Trip,
 }
@@ -161,7 +157,6 @@ impl Unit {
             Unit::StopIdle => "stop-idle-motors".into(),
             Unit::Bit22 => "bit22 (control port: PLC 0 overruns the RTI)".into(),
             Unit::Reset => "reset ($$$)".into(),
-            Unit::Reinitialize => "reinitialize ($$$*** then $$$)".into(),
             Unit::Trip => "trip (background starved) and INIT/".into(),
         }
     }
@@ -178,7 +173,6 @@ impl Unit {
             Unit::StopIdle => "stop",
             Unit::Bit22 => "bit22",
             Unit::Reset => "reset",
-            Unit::Reinitialize => "reinitialize",
             Unit::Trip => "trip",
         }
     }
@@ -188,7 +182,7 @@ impl Unit {
             Unit::Identity | Unit::Poll { .. } | Unit::Checksums => Touch::Reads,
             Unit::I40Reload { .. } | Unit::I41Lockout { .. } | Unit::Errors { .. } | Unit::StopIdle => Touch::Reversible,
             Unit::Bit22 => Touch::Writes,
-            Unit::Reset | Unit::Reinitialize => Touch::Resets,
+            Unit::Reset => Touch::Resets,
             Unit::Trip => Touch::Trips,
         }
     }
@@ -211,9 +205,6 @@ impl Unit {
             Unit::StopIdle => "reads #1? to #8?; sends #nK only to motors whose amplifier is already off".into(),
             Unit::Bit22 => "raises PLC 0's load on the emulator's control port, then restores it and clears bit 22".into(),
             Unit::Reset => "sends $$$ (a reset: unsaved changes are lost)".into(),
-            Unit::Reinitialize => {
-                "sends $$$*** (factory defaults in use) then $$$ (the saved values back; unsaved changes lost)".into()
-            }
             Unit::Trip if control => "starves the background on the control port until the card trips, then INIT/ there".into(),
             Unit::Trip => {
                 "downloads a PLC 0 that takes every RTI (OPEN PLC 0 CLEAR ... ENABLE PLC 0) until the card trips; \
@@ -291,9 +282,6 @@ fn plan_all(seed: u64, allow: Allow, rounds: u32) -> Vec<Unit> {
     units.insert(0, Unit::Identity);
     if allow.reset && !allow.read_only {
         units.push(Unit::Reset);
-        if allow.writes {
-            units.push(Unit::Reinitialize);
-        }
     }
     if allow.trip && !allow.read_only {
         units.push(Unit::Trip);
@@ -496,16 +484,6 @@ impl Session<'_> {
                 self.recovered(ms(3000))?;
                 self.polls(3, ms(40))?;
             }
-            Unit::Reinitialize => {
-                self.poll()?;
-                self.send(&REINITIALIZE, "$$$***")?;
-                self.recovered(ms(3000))?;
-                self.send(&REINITIALIZE, "I40 I41 I8")?;
-                self.poll()?;
-                self.send(&RESET, "$$$")?;
-                self.recovered(ms(3000))?;
-                self.polls(2, ms(30))?;
-            }
             Unit::Trip => self.trip()?,
         }
         Ok(())
@@ -551,6 +529,7 @@ impl Session<'_> {
 
     /// PLC 0's load raised on the control port, step by step, until the emulator's own state
     /// shows bit 22 (an RTI overrun); then the load as it was, and polls: bit 22 must stay.
+    /// A poll after each step: left unread, a long gap of changing load is slow to search.
     fn bit22(&mut self) -> Result<(), Stop> {
         let ms = Duration::from_millis;
         self.polls(2, ms(30))?;

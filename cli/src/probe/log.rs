@@ -36,10 +36,6 @@ impl HostLog {
         Ok(HostLog { path: path.to_path_buf(), out: BufWriter::new(file), lines: 0, exchanges: Vec::new() })
     }
 
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     pub fn comment(&mut self, text: &str) -> Result<(), String> {
         for l in text.lines() {
             self.write_line(&format!("# {l}"))?;

@@ -32,8 +32,8 @@ pub struct ProbeArgs {
     #[arg(long, allow_negative_numbers = true, value_name = "N", default_value_t = 1, value_parser = crate::common::ranged(1u32, 20, ""))]
     pub rounds: u32,
     /// Only these kinds of unit, comma-separated: identity, poll, i40, i41, errors, checksum,
-    /// stop, bit22, reset, reinitialize, trip (each still only where the --allow flags permit).
-    #[arg(long, value_name = "KINDS", value_delimiter = ',', value_parser = ["identity", "poll", "i40", "i41", "errors", "checksum", "stop", "bit22", "reset", "reinitialize", "trip"])]
+    /// stop, bit22, reset, trip (each still only where the --allow flags permit).
+    #[arg(long, value_name = "KINDS", value_delimiter = ',', value_parser = ["identity", "poll", "i40", "i41", "errors", "checksum", "stop", "bit22", "reset", "trip"])]
     pub units: Option<Vec<String>>,
     /// Where to write the host log (default: pmacwd-probe-SEED.log in the current directory).
     #[arg(long, value_name = "FILE")]
@@ -45,7 +45,8 @@ pub struct ProbeArgs {
     /// (I7999, I8191), and, with --control, PLC 0 loads on the emulator.
     #[arg(long)]
     pub allow_writes: bool,
-    /// Also `$$$` (a reset: unsaved changes are lost), and with --allow-writes `$$$***`.
+    /// Also `$$$` (a reset: unsaved changes are lost); the campaign then starts with one, which
+    /// makes its judgment fast (docs/probe.md).
     #[arg(long)]
     pub allow_reset: bool,
     /// Also starve the background until the watchdog trips (a PLC 0 download, or --control's

@@ -19,12 +19,6 @@ pub enum Reply {
 }
 
 impl Reply {
-    pub fn first(&self) -> Option<&str> {
-        match self {
-            Reply::Answers(a) => a.first().map(String::as_str),
-            Reply::Silent => None,
-        }
-    }
     /// As a host log writes it (docs/capturing.md).
     pub fn log_text(&self) -> String {
         match self {
