@@ -92,11 +92,9 @@ impl FaultState {
         match self.fault? {
             Fault::I41Ignored => match command {
                 // The write goes through as a memory write does (SRM p.57: I41 does not stop those).
-                HostCommand::WriteI(n, v) if core.write_locked(*n) => Some(reply(core.command(
-                    cfg,
-                    core::Command::WriteIMemory(*n, *v),
-                    store,
-                ))),
+                HostCommand::WriteI(n, v) if core.write_locked(*n) => {
+                    Some(reply(core.command(cfg, core::Command::WriteIMemory(*n, *v), store)))
+                }
                 _ => None,
             },
             Fault::NeverTrips if core.tripped() => Some(match command {
@@ -132,9 +130,7 @@ impl FaultState {
             (Some(Fault::X25NotLatched), HostCommand::ReadHex(Register::WatchdogMinimum)) => {
                 Answer::Data(format!("{:06X}", core.register(cfg, core::Register::WatchdogCounter)))
             }
-            (Some(Fault::StatusConstant), HostCommand::GlobalStatus) => {
-                self.status.get_or_insert(answer).clone()
-            }
+            (Some(Fault::StatusConstant), HostCommand::GlobalStatus) => self.status.get_or_insert(answer).clone(),
             (Some(Fault::Bit22NotSticky), HostCommand::GlobalStatus) => {
                 // Read-clears: the bit goes once the host has seen it.
                 core.apply(cfg, core_event(&Event::ClearRtiReentry), store);

@@ -117,13 +117,23 @@ pub enum Unit {
     /// `ver`, `cid`, I3, I6, and a poll.
     Identity,
     /// `polls` polls of X:$0, the status words, Y:$25 and X:$25, `gap_ms` apart.
-    Poll { polls: u32, gap_ms: u64 },
+    Poll {
+        polls: u32,
+        gap_ms: u64,
+    },
     /// I40 = `value` for a few polls, then back.
-    I40Reload { value: u32 },
+    I40Reload {
+        value: u32,
+    },
     /// I41's `bit` against I-variable `var` of its range: locked, then not, then restored.
-    I41Lockout { bit: u8, var: u16 },
+    I41Lockout {
+        bit: u8,
+        var: u16,
+    },
     /// Commands a correct card refuses.
-    Errors { unreadable: &'static str },
+    Errors {
+        unreadable: &'static str,
+    },
     Checksums,
     /// A kill of each of motors 1..=8 found idle (amplifier off).
     StopIdle,
@@ -180,7 +190,9 @@ impl Unit {
     pub fn touch(&self) -> Touch {
         match self {
             Unit::Identity | Unit::Poll { .. } | Unit::Checksums => Touch::Reads,
-            Unit::I40Reload { .. } | Unit::I41Lockout { .. } | Unit::Errors { .. } | Unit::StopIdle => Touch::Reversible,
+            Unit::I40Reload { .. } | Unit::I41Lockout { .. } | Unit::Errors { .. } | Unit::StopIdle => {
+                Touch::Reversible
+            }
             Unit::Bit22 => Touch::Writes,
             Unit::Reset => Touch::Resets,
             Unit::Trip => Touch::Trips,
@@ -203,9 +215,13 @@ impl Unit {
                     .into()
             }
             Unit::StopIdle => "reads #1? to #8?; sends #nK only to motors whose amplifier is already off".into(),
-            Unit::Bit22 => "raises PLC 0's load on the emulator's control port, then restores it and clears bit 22".into(),
+            Unit::Bit22 => {
+                "raises PLC 0's load on the emulator's control port, then restores it and clears bit 22".into()
+            }
             Unit::Reset => "sends $$$ (a reset: unsaved changes are lost)".into(),
-            Unit::Trip if control => "starves the background on the control port until the card trips, then INIT/ there".into(),
+            Unit::Trip if control => {
+                "starves the background on the control port until the card trips, then INIT/ there".into()
+            }
             Unit::Trip => {
                 "downloads a PLC 0 that takes every RTI (OPEN PLC 0 CLEAR ... ENABLE PLC 0) until the card trips; \
                  then waits for you to assert INIT/ or cycle the power"
@@ -498,7 +514,8 @@ impl Session<'_> {
 
     fn i41(&mut self, bit: u8, var: u16) -> Result<(), Stop> {
         let mask = 1u32 << bit;
-        let i41: u32 = self.value(&I41_LOCKOUT, "I41")?.trim().parse().map_err(|_| Stop::Unit("I41 is not a number".into()))?;
+        let i41: u32 =
+            self.value(&I41_LOCKOUT, "I41")?.trim().parse().map_err(|_| Stop::Unit("I41 is not a number".into()))?;
         let text = self.value(&I41_LOCKOUT, &format!("I{var}"))?;
         let Ok(before) = text.trim().parse::<i64>() else {
             return Err(Stop::Unit(format!("I{var} reads `{text}`, not a whole number: not written")));
@@ -533,7 +550,12 @@ impl Session<'_> {
     fn bit22(&mut self) -> Result<(), Stop> {
         let ms = Duration::from_millis;
         self.polls(2, ms(30))?;
-        let load = self.control.as_deref_mut().ok_or(Stop::Unit("no control port".into()))?.state_field("load").map_err(Stop::Link)?;
+        let load = self
+            .control
+            .as_deref_mut()
+            .ok_or(Stop::Unit("no control port".into()))?
+            .state_field("load")
+            .map_err(Stop::Link)?;
         let plc0: u32 = load
             .split(',')
             .find_map(|f| f.strip_prefix("plc0_units:"))
@@ -651,7 +673,10 @@ impl Session<'_> {
         }
         self.polls(2, ms(50))?;
         if silent < 3 {
-            return Err(Stop::Unit(format!("the card never went silent in {:.1} s of starvation", window.as_secs_f64())));
+            return Err(Stop::Unit(format!(
+                "the card never went silent in {:.1} s of starvation",
+                window.as_secs_f64()
+            )));
         }
         Ok(())
     }

@@ -95,13 +95,7 @@ pub fn stamp(t: SystemTime) -> String {
     let secs = d.as_secs();
     let (days, rest) = (secs / 86_400, secs % 86_400);
     let (y, m, day) = civil(days as i64);
-    format!(
-        "{y:04}-{m:02}-{day:02} {:02}:{:02}:{:02}.{:06}",
-        rest / 3600,
-        rest / 60 % 60,
-        rest % 60,
-        d.subsec_micros()
-    )
+    format!("{y:04}-{m:02}-{day:02} {:02}:{:02}:{:02}.{:06}", rest / 3600, rest / 60 % 60, rest % 60, d.subsec_micros())
 }
 
 /// Days since 1970-01-01 to a civil date (Howard Hinnant's algorithm).

@@ -84,7 +84,8 @@ pub fn text(run: &Run) -> String {
                 continue;
             }
             let decided = r.options.iter().any(|(_, x)| matches!(x, OptionVerdict::RuledOut(_)));
-            let _ = writeln!(o, "  {}: {}", r.reading, if decided { "decided" } else { "undecided (both options fit)" });
+            let _ =
+                writeln!(o, "  {}: {}", r.reading, if decided { "decided" } else { "undecided (both options fit)" });
             for (option, x) in &r.options {
                 let _ = writeln!(o, "      {option}: {}", over(x));
             }
@@ -102,7 +103,8 @@ pub fn text(run: &Run) -> String {
             let _ = writeln!(o, "  {} x{n}: {} ({})", check.id, check.what, check.cite);
             for f in v.faults.iter().filter(|f| std::ptr::eq(f.fault.check, *check)) {
                 let x = &f.fault;
-                let _ = writeln!(
+                let _ =
+                    writeln!(
                     o,
                     "    unit {} ({}), line {}: `{}` answered `{}`; {}: this card {}, a correct card could answer {}",
                     if f.unit == super::campaign::START { "start".to_string() } else { f.unit.to_string() },

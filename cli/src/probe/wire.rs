@@ -84,7 +84,9 @@ impl Link {
         if bytes.is_empty() {
             return Ok(Reply::Silent);
         }
-        answers(&bytes).map(Reply::Answers).map_err(|e| format!("the reply to `{line}` ({}): {e}", bytes.escape_ascii()))
+        answers(&bytes)
+            .map(Reply::Answers)
+            .map_err(|e| format!("the reply to `{line}` ({}): {e}", bytes.escape_ascii()))
     }
 
     /// Drops bytes a late answer left (after a silence), so that the next reply is the next line's.
