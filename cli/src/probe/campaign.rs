@@ -109,6 +109,8 @@ pub struct Allow {
     pub trip: bool,
     /// The emulator's control port is given: load and INIT/ through it.
     pub control: bool,
+    /// `--units` names bit22.
+    pub bit22: bool,
 }
 
 /// One unit of the campaign.
@@ -289,7 +291,10 @@ fn plan_all(seed: u64, allow: Allow, rounds: u32) -> Vec<Unit> {
                 units.push(Unit::Errors { unreadable: candidates[rng.range(0, candidates.len() as u64 - 1) as usize] });
             }
             units.push(Unit::StopIdle);
-            if allow.control && allow.writes {
+            // Only when named: a ramp of PLC 0 loads can overrun the RTI in patterns the replay
+            // search's plans do not cover, and a correct emulator was judged faulty once in
+            // three runs (docs/probe.md).
+            if allow.control && allow.writes && allow.bit22 {
                 units.push(Unit::Bit22);
             }
         }

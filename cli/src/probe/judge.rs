@@ -193,8 +193,18 @@ fn classify(at: &Exchange, what: &str, card: &str, model: &str) -> &'static Chec
     let answer_of = |c: &str| commands.iter().position(|x| *x == c).and_then(|i| answers.get(i));
     if let (Some(x6), Some(y6)) = (answer_of("RHX:$6"), answer_of("RHY:$6")) {
         let words = format!("{x6}{y6}");
-        if commands.iter().zip(answers).any(|(c, a)| *c == "???" && a.len() == 12 && *a != words) {
-            return &STATUS;
+        let differs: Vec<u64> = commands
+            .iter()
+            .zip(answers)
+            .filter(|(c, a)| **c == "???" && a.len() == 12 && **a != words)
+            .filter_map(|(_, a)| Some(u64::from_str_radix(a, 16).ok()? ^ u64::from_str_radix(&words, 16).ok()?))
+            .collect();
+        if !differs.is_empty() {
+            // Only bit 22, cleared by a `???` earlier on the line: bit 22 is not sticky.
+            let bit22 = 1u64 << (22 + 24);
+            let only_22 =
+                differs.iter().all(|d| *d == bit22) && u64::from_str_radix(&words, 16).is_ok_and(|w| w & bit22 != 0);
+            return if only_22 { &BIT22 } else { &STATUS };
         }
     }
     let hex = |t: &str| {
