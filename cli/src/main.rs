@@ -67,7 +67,8 @@ enum Command {
     /// Test a card or a simulator over the wire: a seeded campaign of command sequences (`???`
     /// and its bits, Y:$25/X:$25 with X:$0, I40 reloads, I41 lockout, checksums, error numbers,
     /// stop commands on idle motors; resets and a trip when allowed), recorded as a stamped
-    /// host log and judged unit by unit by the replay search (docs/probe.md).
+    /// host log and judged by the replay search, again without each unit that had a fault
+    /// (docs/probe.md).
     ///
     /// Prints the seed and the plan first; then every reading and named profile supported,
     /// ruled out or undecided, and every fault (an observation no correct card can show) with
