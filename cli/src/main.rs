@@ -10,6 +10,7 @@ mod explore;
 mod import;
 mod interrupt;
 mod margin;
+mod probe;
 mod progress;
 mod record;
 mod replay;
@@ -63,6 +64,20 @@ enum Command {
         after_help = "Exit codes: 0 the sessions asked for ended and the capture is closed, 2 unusable arguments or a port that cannot be bound."
     )]
     Record(record::RecordArgs),
+    /// Test a card or a simulator over the wire: a seeded campaign of command sequences (`???`
+    /// and its bits, Y:$25/X:$25 with X:$0, I40 reloads, I41 lockout, checksums, error numbers,
+    /// stop commands on idle motors; resets and a trip when allowed), recorded as a stamped
+    /// host log and judged by the replay search, again without each unit that had a fault
+    /// (docs/probe.md).
+    ///
+    /// Prints the seed and the plan first; then every reading and named profile supported,
+    /// ruled out or undecided, and every fault (an observation no correct card can show) with
+    /// the exchange, what a correct card could have answered, and the manual page, counted by
+    /// kind. Safe by default: reads, and I-variable writes read first and written back.
+    #[command(
+        after_help = "Examples:\n  pmacwd probe 192.168.0.200 --read-only\n  pmacwd probe 192.168.0.200 --yes --log bench.log\n  pmacwd probe 127.0.0.1:1025 --control 127.0.0.1:1026 --allow-writes --allow-reset --allow-trip --seed 7\n  pmacwd probe 127.0.0.1:5001 --telnet --format json\n\nExit codes: 0 every segment is explained by a correct card, 1 a fault found, 2 unusable arguments, an unreachable card, or segments undecided without a fault."
+    )]
+    Probe(probe::ProbeArgs),
     /// Model-check every profile at the bounded configurations of specs/check.yaml.
     ///
     /// Prints, per configuration and profile: states, depth, time, and every property with its
@@ -307,6 +322,7 @@ fn main() -> ExitCode {
         Command::Serve(args) => serve::serve(args),
         Command::Control { commands, address } => control::control(control::ControlArgs { address, commands }),
         Command::Record(args) => record::record(args),
+        Command::Probe(args) => probe::probe(args),
         Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
         Command::Replay { file, format, specs, configuration, log_format, witness, host_time_seconds } => {
             replay::replay_file(

@@ -76,6 +76,10 @@ pub struct ServeArgs {
     /// protocol errors are summed up on one line at most once a minute).
     #[arg(long)]
     pub verbose: bool,
+    /// Hidden, for testing testers (`pmacwd probe`'s tests): answer with one deliberately
+    /// broken behaviour (emulator/src/fault.rs).
+    #[arg(long, hide = true, value_name = "NAME", value_parser = ["x25-not-latched", "i41-ignored", "bit22-not-sticky", "never-trips", "status-constant"])]
+    pub fault: Option<String>,
 }
 
 /// `I3=2` and the like; I8, I40 and I41 go to the core's saved values, within their ranges.
@@ -150,6 +154,12 @@ pub fn serve(a: ServeArgs) -> ExitCode {
     let clock = if a.virtual_time { Clock::Virtual } else { Clock::Wall { start: Instant::now(), servo_hz } };
     let identity = Identity { version: a.version_text.clone(), card_id: a.card_id.clone() };
     let mut card = Card::power_on(cfg, &saved, clock, identity);
+    if let Some(name) = &a.fault {
+        match pmacwd_emulator::fault::Fault::parse(name) {
+            Ok(f) => card.inject_fault(f),
+            Err(e) => return unusable(format!("--fault: {e}")),
+        }
+    }
     // The card's console: a trip, INIT/, power, `$$$` and the recovery, one line each.
     card.on_console(Box::new(|line| {
         pmacwd_emulator::bounded::to_stdout(format_args!("pmacwd serve: {line}"));
@@ -184,7 +194,7 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         Err(e) => return unusable(format!("cannot listen: {e}")),
     };
     pmacwd_emulator::bounded::to_stdout(format_args!(
-        "pmacwd serve: Turbo PMAC emulator on {} ({}), configuration {}, profile {}, {}",
+        "pmacwd serve: Turbo PMAC emulator on {} ({}), configuration {}, profile {}, {}{}",
         server.local_addr,
         match server.control_addr {
             Some(c) => format!("control on {c}"),
@@ -192,7 +202,8 @@ pub fn serve(a: ServeArgs) -> ExitCode {
         },
         a.configuration,
         model.profile.name,
-        if a.virtual_time { "virtual time".to_string() } else { format!("{servo_hz} Hz servo clock") }
+        if a.virtual_time { "virtual time".to_string() } else { format!("{servo_hz} Hz servo clock") },
+        a.fault.as_ref().map(|f| format!(", BROKEN on purpose: {f}")).unwrap_or_default()
     ));
     if let Some(p) = &a.record {
         pmacwd_emulator::bounded::to_stdout(format_args!("recording to {}", p.display()));

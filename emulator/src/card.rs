@@ -248,6 +248,8 @@ pub struct Card {
     tripped_seen: bool,
     /// Each motor's trajectory, and the home flags the control port placed (`card/motion.rs`).
     motors: Motors,
+    /// A deliberately broken behaviour (`serve --fault`, `fault.rs`); none by default.
+    pub(crate) fault: crate::fault::FaultState,
 }
 
 impl Card {
@@ -285,6 +287,7 @@ impl Card {
             console: None,
             tripped_seen: false,
             motors: Motors::default(),
+            fault: Default::default(),
         }
     }
 
@@ -461,6 +464,7 @@ impl Card {
         // The supply trips at its event, not in a servo cycle: a trip found here is the
         // watchdog's, its strobe stopped for want of a background cycle (UM p.215, SRM p.57).
         if let Some(cycle) = tripped_at {
+            self.fault.tripped_at(self.core.register(&self.cfg, core::Register::ServoCycles), cycle);
             self.watch_trip_at("the watchdog timer ran out: no background cycle reloaded its counter in time", cycle);
         }
     }
@@ -777,6 +781,9 @@ impl Card {
 
     /// A command for the core, checked as before for what the core cannot hold.
     fn core_answer(&mut self, command: &HostCommand) -> Answer {
+        if let Some(a) = self.fault.before(command, &mut self.core, &self.cfg, &mut self.store, self.cycles) {
+            return a;
+        }
         // I3 and I6 range 0..3; a write outside it is refused and changes nothing (MODEL,
         // `framing::FRAMING_VALUE_MAX`). Neither lies in a range I41 locks (SRM p.57).
         if let HostCommand::WriteI(n, v) | HostCommand::WriteIMemory(n, v) = command {
@@ -800,7 +807,7 @@ impl Card {
             };
             self.say(&line);
         }
-        reply_answer(reply)
+        self.fault.after(command, reply_answer(reply), &mut self.core, &self.cfg, &mut self.store)
     }
 
     /// The answer to a control character sent on its own (VR_CTRL_RESPONSE): read as a line

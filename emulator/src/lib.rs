@@ -8,6 +8,7 @@ pub mod capture_queue;
 pub mod card;
 pub mod card_turns;
 pub mod control;
+pub mod fault;
 pub mod framing;
 pub mod host_reply;
 pub mod listen;

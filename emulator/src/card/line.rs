@@ -99,7 +99,7 @@ impl Card {
             if let Some(how) = self.line_start(run, addressing, out) {
                 return how;
             }
-        } else if self.core.tripped() {
+        } else if self.core.tripped() && !self.fault.answers_when_tripped() {
             // Tripped between two commands of the line (the card's time runs between two holds
             // of its lock): the rest gets no answer.
             let commands = run.rest();
@@ -164,8 +164,8 @@ impl Card {
     /// (`Some`: how it ended); otherwise its first commands are read.
     fn line_start(&mut self, run: &mut LineRun, addressing: &mut Addressing, out: &mut Vec<u8>) -> Option<Progress> {
         let whole = |run: &LineRun| String::from_utf8_lossy(&run.line).into_owned();
-        // UM p.215: a tripped card will not communicate.
-        if self.core.tripped() {
+        // UM p.215: a tripped card will not communicate (unless `serve --fault` breaks it).
+        if self.core.tripped() && !self.fault.answers_when_tripped() {
             let (line, before) = (whole(run), *addressing);
             self.capture_record(|| Record::Line { line, addressing: before, reply: None });
             return Some(run.end(Progress::Silent));
