@@ -474,6 +474,11 @@ impl Card {
         self.core.tripped()
     }
 
+    /// Runs this card with `fault` from now on (`pmacwd serve --fault`, `fault.rs`).
+    pub fn inject_fault(&mut self, fault: crate::fault::Fault) {
+        self.fault = crate::fault::FaultState::injected(fault);
+    }
+
     fn framing(&self) -> Framing {
         Framing { i3: self.core.read_i(3, &self.store).unwrap_or(0), i6: self.core.read_i(6, &self.store).unwrap_or(0) }
     }

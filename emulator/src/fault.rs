@@ -7,7 +7,6 @@
 //! ([`FaultState::before`], [`FaultState::after`]), where a tripped card decides to stay silent
 //! ([`FaultState::answers_when_tripped`]) and where the trip happens ([`FaultState::tripped_at`]).
 
-use crate::card::Card;
 use crate::framing::Answer;
 use pmacwd_bridge::core_event;
 use pmacwd_core as core;
@@ -64,6 +63,11 @@ pub struct FaultState {
 }
 
 impl FaultState {
+    /// The state of a card running `fault` from now on, nothing of it seen yet.
+    pub fn injected(fault: Fault) -> FaultState {
+        FaultState { fault: Some(fault), ..FaultState::default() }
+    }
+
     pub fn fault(&self) -> Option<Fault> {
         self.fault
     }
@@ -138,13 +142,6 @@ impl FaultState {
             }
             _ => answer,
         }
-    }
-}
-
-impl Card {
-    /// Runs this card with `fault` from now on (`pmacwd serve --fault`).
-    pub fn inject_fault(&mut self, fault: Fault) {
-        self.fault = FaultState { fault: Some(fault), ..FaultState::default() };
     }
 }
 

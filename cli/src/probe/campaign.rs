@@ -4,17 +4,10 @@
 //! (`judge.rs`); every I-variable a unit writes is read first and written back before the unit
 //! ends.
 
+use super::check::Check;
 use super::log::HostLog;
 use super::wire::{ControlPort, Link, Reply};
 use std::time::{Duration, Instant, SystemTime};
-
-/// What an exchange checks, with the manual page that says what a correct card does.
-#[derive(Debug, PartialEq, Eq)]
-pub struct Check {
-    pub id: &'static str,
-    pub what: &'static str,
-    pub cite: &'static str,
-}
 
 pub static CONFIGURATION: Check =
     Check { id: "configuration", what: "I10, I8, I40, I41 read back as held", cite: "SRM p.42-43, SRM p.57" };

@@ -3,7 +3,8 @@
 //! reading that lasted longest failed; its unit is then left out and the rest judged again
 //! ([`judge_all`]).
 
-use super::campaign::{Check, BIT22, SERVO_COUNTER, STATUS, TRIP, WATCHDOG_COUNTER, WATCHDOG_MINIMUM};
+use super::campaign::{BIT22, SERVO_COUNTER, STATUS, TRIP, WATCHDOG_COUNTER, WATCHDOG_MINIMUM};
+use super::check::Check;
 use super::log::{segment_text, Exchange};
 use super::wire::Reply;
 use pmacwd_capture::explain::report::{self, ReadingVerdict};

@@ -2,7 +2,7 @@
 //! happen, so that `pmacwd replay` can judge it again, and the same exchanges kept in memory
 //! with the check and unit each one belongs to, for judging the log without some units.
 
-use super::campaign::Check;
+use super::check::Check;
 use super::wire::Reply;
 use std::fs::File;
 use std::io::{BufWriter, Write};

@@ -3,6 +3,7 @@
 //! by the replay search, again without each unit that had a fault (docs/probe.md).
 
 mod campaign;
+mod check;
 mod judge;
 mod log;
 mod report;

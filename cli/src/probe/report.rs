@@ -2,7 +2,8 @@
 //! the segments a correct card explains; every fault with its exchange, what a correct card
 //! could have answered and the manual page; the counts per kind; the figures of the run.
 
-use super::campaign::{Check, CHECKS};
+use super::campaign::CHECKS;
+use super::check::Check;
 use super::judge::Verdict;
 use pmacwd_capture::explain::report::OptionVerdict;
 use serde_json::json;
