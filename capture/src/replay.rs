@@ -23,6 +23,9 @@ pub struct ImportAs<'a> {
     pub host_time_limit: Option<std::time::Duration>,
     /// When the search must stop (set from `host_time_limit` for the host-time pass).
     pub deadline: Option<std::time::Instant>,
+    /// The card's saved I40 where the capture does not say it (`--i40`, or a value the search
+    /// tries for a log that never reads I40: [`crate::explain::unknown`]).
+    pub card_i40: Option<i64>,
 }
 
 impl<'a> From<Option<&'a str>> for ImportAs<'a> {
@@ -33,6 +36,7 @@ impl<'a> From<Option<&'a str>> for ImportAs<'a> {
             placement: crate::import::Placement::AtReads,
             host_time_limit: None,
             deadline: None,
+            card_i40: None,
         }
     }
 }
@@ -81,6 +85,16 @@ impl Source {
             Source::Jsonl(r) => r.header.card,
             Source::HostLog(s) => s.card,
         }
+    }
+
+    /// What the capture says about the card, with `import`'s I40 where the capture does not
+    /// say it.
+    pub fn card_as(&self, import: &ImportAs<'_>) -> Option<pmacwd_specs::config::CardConfig> {
+        let mut card = self.card();
+        if let (Some(v), None) = (import.card_i40, card.and_then(|c| c.i40)) {
+            card.get_or_insert_default().i40 = Some(v);
+        }
+        card
     }
 
     /// Opens `path`, telling the forms apart by the first non-blank character (`{` is JSON Lines;

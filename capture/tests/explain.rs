@@ -97,10 +97,15 @@ fn temp_file(name: &str, text: &str) -> PathBuf {
     path
 }
 
-/// Runs the gaps on the model and writes what a host would have logged, as JSON Lines.
+/// Runs the gaps on the model and writes what a host would have logged, as JSON Lines. The
+/// header says the card's I40 (the model's card has the configuration's): a host log that
+/// does not say it leaves I40 the card's own (`explain::unknown`).
 fn generate(spec: &Spec, cfg: &ModelConfig, cpu: u8, gaps: &[GapGen]) -> String {
-    let header = r#"{"format":"pmacwd-trace","version":1,"description":"generated","configuration":"host-log","profiles":"all"}"#;
-    let mut lines = vec![header.to_string()];
+    let header = format!(
+        r#"{{"format":"pmacwd-trace","version":1,"description":"generated","configuration":"host-log","card":{{"i40":{}}},"profiles":"all"}}"#,
+        cfg.saved.i40
+    );
+    let mut lines = vec![header];
     let mut card = Controller::power_on(cfg);
     let light = Load { motors: 0, plc0_units: 0, background_units: 1 };
     let heavy = |i8: u8| Load {
@@ -313,6 +318,20 @@ fn y25_above_the_reload_value_is_explained_under_no_reading() {
     let spec = spec();
     let text = with_reply(&healthy(&spec, 6), "RHY:$25", 4, "001001");
     assert!(!explained(&spec, "above.jsonl", &text));
+}
+
+#[test]
+fn y25_above_4096_is_explained_when_the_capture_does_not_say_i40() {
+    // The same capture without `card: {i40: 0}`: the card's I40 is its own (SRM p.57), and a
+    // card saved with an I40 at or above 4097 reads Y:$25 = 001001.
+    let spec = spec();
+    let text = with_reply(&healthy(&spec, 6), "RHY:$25", 4, "001001").replacen(r#""card":{"i40":0},"#, "", 1);
+    let path = temp_file("above-open.jsonl", &text);
+    let r = report::explain(&spec, &path, None).unwrap();
+    let open = r.i40_open.clone().expect("I40 searched");
+    assert!(r.explained(), "tried {:?}", open.tried);
+    assert!(open.explaining.is_some_and(|v| v >= 4097), "{open:?}");
+    assert_eq!(open.highest_read, Some(4097));
 }
 
 /// Sets bit 22 of X:$6 in the replies of `???` reads number `from..=to` (1-based).

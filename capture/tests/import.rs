@@ -642,3 +642,77 @@ fn an_asyn_trace_without_stamps_or_with_a_prompt_run_into_a_line_is_read_all_the
         s.passed_over()
     );
 }
+
+/// The index of the first step that is `ev`.
+fn position(steps: &[Step], ev: &TraceEvent) -> usize {
+    steps.iter().position(|s| s.event == *ev).unwrap_or_else(|| panic!("no {ev:?} in {steps:#?}"))
+}
+
+#[test]
+fn an_answer_after_a_silence_follows_a_restart_when_no_counter_read_comes_after_it() {
+    // UM p.215: a tripped card does not communicate until it is reset, so an answer after a
+    // silence comes after an unseen INIT/ (issue 36: the restart was placed at the next X:$0
+    // read, after the answer, or nowhere).
+    let log = format!(
+        "{KHZ}12:00:00.000 > RHX:$0\n< 000100\n12:00:01.000 > ???\n12:00:02.000 < (timeout)\n\
+         12:00:03.000 > ???\n12:00:03.001 < 000000000000\n"
+    )
+    .replace("> I10", "12:00:00.000 > I10");
+    let t = ok(&log);
+    let s = &t.trace.steps;
+    let restart = position(s, &TraceEvent::Restart);
+    let answered = s.iter().rposition(|s| s.expect.reply.as_deref() == Some("000000000000")).expect("the answer");
+    assert!(restart < answered, "{s:#?}");
+    assert!(s[restart + 1..answered].iter().all(|s| matches!(s.event, TraceEvent::Elapsed { cycles_min: 0, .. })));
+    assert!(s[restart].note.as_deref().unwrap().contains("UM p.215"));
+    assert_eq!(t.summary.restarts, 1);
+    // Without stamps the time between the reset and the answer is unknown.
+    let t = ok("> RHX:$0\n< 000100\n> ???\n< (timeout)\n> ???\n< 000000000000\n");
+    let s = &t.trace.steps;
+    let restart = position(s, &TraceEvent::Restart);
+    assert_eq!(s[restart + 1].event, TraceEvent::Elapsed { cycles_min: 0, cycles_max: None });
+    assert_eq!(s[restart + 2].expect.reply.as_deref(), Some("000000000000"));
+}
+
+#[test]
+fn an_answer_after_a_silence_is_held_until_the_next_counter_read_says_whether_the_card_restarted() {
+    let head = "12:00:00.000 > I10\n< 8388607\n12:00:00.000 > RHX:$0\n< 000100\n12:00:01.000 > ???\n\
+                12:00:02.000 < (timeout)\n12:00:03.000 > ???\n12:00:03.001 < 000000000000\n12:00:04.000 > RHX:$0\n";
+    // The count went back: the restart comes before the answer, once, and the read's gap is at
+    // most its count.
+    let t = ok(&format!("{head}< 000800\n"));
+    let s = &t.trace.steps;
+    let restart = position(s, &TraceEvent::Restart);
+    let answered = s.iter().position(|s| s.expect.reply.as_deref() == Some("000000000000")).expect("the answer");
+    assert!(restart < answered, "{s:#?}");
+    assert_eq!(s.iter().filter(|s| s.event == TraceEvent::Restart).count(), 1);
+    assert_eq!(t.summary.restarts, 1);
+    let read_gap = &s[answered + 1];
+    assert_eq!(read_gap.event, range(0, 0x800), "{s:#?}");
+    // The count went on from the last read (4,000 cycles at 1 kHz): no restart fits, the
+    // answer stays where it was (and no correct card explains it).
+    let t = ok(&format!("{head}< 0010A0\n"));
+    assert!(t.trace.steps.iter().all(|s| s.event != TraceEvent::Restart), "{:#?}", t.trace.steps);
+    assert_eq!(t.summary.restarts, 0);
+}
+
+#[test]
+fn the_steps_held_after_an_answer_that_follows_a_silence_are_bounded() {
+    // No X:$0 read ever comes: past HELD_STEPS_MAX held steps the restart is written and the
+    // rest streams (memory bounded on any log); nothing is lost.
+    let n = pmacwd_capture::import::HELD_STEPS_MAX + 100;
+    let mut log = String::from("> RHX:$0\n< 000100\n> ???\n< (timeout)\n");
+    for _ in 0..n {
+        log.push_str("> ???\n< 000000000000\n");
+    }
+    let t = ok(&log);
+    assert_eq!(t.summary.restarts, 1);
+    let s = &t.trace.steps;
+    let restart = position(s, &TraceEvent::Restart);
+    let answers = s.iter().filter(|s| s.expect.reply.as_deref() == Some("000000000000")).count();
+    assert_eq!(answers, n);
+    assert!(
+        s[..restart].iter().all(|s| s.expect.reply.as_deref() != Some("000000000000")),
+        "the restart is before every answer"
+    );
+}

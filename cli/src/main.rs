@@ -200,6 +200,11 @@ enum Command {
         /// take before the verdict is undecided (0: no limit).
         #[arg(long, value_name = "SECONDS", default_value_t = 300)]
         host_time_seconds: u64,
+        /// The card's saved I40 (the watchdog counter's reload, SRM p.57), for a host log that
+        /// does not read it. Without it, replay searches the values the log admits and names
+        /// the one that explains it (docs/replay.md).
+        #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = crate::common::ranged(0i64, 65_535, " (I40's range, variables.yaml)"))]
+        i40: Option<i64>,
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
@@ -324,16 +329,17 @@ fn main() -> ExitCode {
         Command::Record(args) => record::record(args),
         Command::Probe(args) => probe::probe(args),
         Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
-        Command::Replay { file, format, specs, configuration, log_format, witness, host_time_seconds } => {
-            replay::replay_file(
-                &file,
+        Command::Replay { file, format, specs, configuration, log_format, witness, host_time_seconds, i40 } => {
+            replay::replay_file(replay::ReplayArgs {
+                file,
                 format,
                 specs,
                 configuration,
-                log_format.map(Into::into),
+                log_format: log_format.map(Into::into),
                 witness,
                 host_time_seconds,
-            )
+                i40,
+            })
         }
         Command::Margin(args) => margin::margin(args),
         Command::Timeline { trace, format, output, profile, specs } => {

@@ -10,15 +10,22 @@ pub enum Format {
     Json,
 }
 
-pub fn replay_file(
-    file: &std::path::Path,
-    format: Format,
-    specs: Option<PathBuf>,
-    configuration: Option<String>,
-    log_format: Option<pmacwd_capture::import::LogFormat>,
-    witness: Option<PathBuf>,
-    host_time_seconds: u64,
-) -> ExitCode {
+/// What `pmacwd replay` was given.
+pub struct ReplayArgs {
+    pub file: PathBuf,
+    pub format: Format,
+    pub specs: Option<PathBuf>,
+    pub configuration: Option<String>,
+    pub log_format: Option<pmacwd_capture::import::LogFormat>,
+    pub witness: Option<PathBuf>,
+    pub host_time_seconds: u64,
+    /// The card's saved I40 where the log does not read it.
+    pub i40: Option<i64>,
+}
+
+pub fn replay_file(args: ReplayArgs) -> ExitCode {
+    let ReplayArgs { file, format, specs, configuration, log_format, witness, host_time_seconds, i40 } = args;
+    let file = file.as_path();
     let spec = match load_spec(&specs) {
         Ok(s) => s,
         Err(code) => return code,
@@ -36,6 +43,7 @@ pub fn replay_file(
         placement: pmacwd_capture::import::Placement::AtReads,
         host_time_limit: (host_time_seconds > 0).then(|| std::time::Duration::from_secs(host_time_seconds)),
         deadline: None,
+        card_i40: i40,
     };
     let explained = report::explain_as(&spec, file, import);
     ticker.finish();

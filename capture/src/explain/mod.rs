@@ -19,6 +19,7 @@ pub mod observe;
 pub mod report;
 pub mod search;
 pub mod sim;
+pub mod unknown;
 pub mod witness;
 
 use pmacwd_model::controller::{Controller, Ghost};

@@ -80,6 +80,9 @@ pub struct Report {
     pub placed_apart: bool,
     /// The search placing the log by host time ran past its limit: the verdict is undecided.
     pub host_time_unfinished: bool,
+    /// The log never reads I40: the values tried and the one that explains it
+    /// ([`super::unknown`]).
+    pub i40_open: Option<super::unknown::OpenI40>,
 }
 
 impl Report {
@@ -113,7 +116,28 @@ pub fn explain(spec: &Spec, path: &Path, import_configuration: Option<&str>) -> 
 /// host time, and that verdict stands: a poll spread between reads (bit 12 flipping
 /// between two `???` 0.1 s apart) is not called impossible for want of time the log shows
 /// passed (issue 36).
+///
+/// A log under the `host-log` configuration that never reads I40 leaves the card's I40 open:
+/// the values the log admits are tried ([`super::unknown`]).
 pub fn explain_as(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> Result<Report, SpecError> {
+    if let Some(v) = import_configuration.card_i40 {
+        let source = Source::open_with(spec, path, import_configuration)?;
+        if let Some(read) = source.card().and_then(|c| c.i40).filter(|read| *read != v) {
+            return Err(SpecError::whole_file(
+                path,
+                format!("--i40 {v}: the capture itself says the card's I40 is {read} (a read before any write, or its card: header)"),
+            ));
+        }
+    }
+    match super::unknown::explain(spec, path, import_configuration)? {
+        Some(report) => Ok(report),
+        None => explain_timed(spec, path, import_configuration),
+    }
+}
+
+/// [`explain_as`] with the card as the capture (and `--i40`) says it: at the reads' instants,
+/// then by host time.
+pub fn explain_timed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> Result<Report, SpecError> {
     use crate::import::Placement;
     let first = explain_placed(spec, path, import_configuration)?;
     if first.explained() || import_configuration.placement == Placement::HostTime || !first.placed_apart {
@@ -160,7 +184,7 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
     let configuration = source.configuration().to_string();
     let description = source.description().to_string();
     let profiles = source.profiles(spec, path)?;
-    let card = source.card();
+    let card = source.card_as(&import_configuration);
     let (observed, untimed, placed_apart) = scan(spec, source)?;
     if !spec.check.configurations.contains_key(&configuration) {
         return Err(SpecError::at(
@@ -291,6 +315,7 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
         at_reads_failed: None,
         placed_apart,
         host_time_unfinished: false,
+        i40_open: None,
     })
 }
 
@@ -445,6 +470,27 @@ pub fn to_text(r: &Report) -> String {
         );
     }
     let _ = writeln!(s, "  {}", r.description.split_whitespace().collect::<Vec<_>>().join(" "));
+    if let Some(o) = &r.i40_open {
+        let highest = o.highest_read.map_or(String::new(), |h| format!("; the highest Y:$25/X:$25 read is {h}"));
+        let _ = match o.explaining {
+            Some(v) => writeln!(
+                s,
+                "  I40: the log does not read it (the card's own, SRM p.57): a card with I40 = {v} explains it \
+                 (tried {}{highest})",
+                super::unknown::list(&o.tried)
+            ),
+            None => writeln!(
+                s,
+                "  I40: the log does not read it (the card's own, SRM p.57): no card with I40 in {} explains it{}{highest}",
+                super::unknown::list(&o.tried),
+                match (&o.refuted, o.complete) {
+                    (Some(why), _) => format!(", nor with any other: {why}"),
+                    (None, true) => ", and these stand for every value the log admits".to_string(),
+                    (None, false) => String::new(),
+                }
+            ),
+        };
+    }
     let alive = r.lanes.iter().filter(|l| l.death.is_none()).count();
     let _ = writeln!(
         s,
@@ -556,6 +602,10 @@ pub fn to_text(r: &Report) -> String {
             "undecided: no explanation places the commands between X:$0 reads at the reads' instants, and the \
              search placing them by host time did not finish in its time limit (--host-time-seconds)"
                 .to_string()
+        } else if alive == 0 && r.i40_open.as_ref().is_some_and(|o| !o.complete) {
+            "undecided: the log does not read I40, and the values of I40 that were searched explain nothing; \
+             whether a card with another I40 explains it was not searched (read I40 in the log, or give --i40)"
+                .to_string()
         } else if alive == 0 && r.untimed.is_some() {
             "undecided: no explanation places every command at one instant, and the log has no servo counter \
              reads (X:$0) to place them in time; read RHX:$0 in every poll (docs/capturing.md)"
@@ -613,7 +663,10 @@ pub fn to_json(r: &Report) -> String {
         "file": r.file.display().to_string(), "events": r.events, "configuration": r.configuration,
         "explained": r.explained(), "undecided": r.undecided(),
         "placement": match r.placement { crate::import::Placement::AtReads => "at_reads", crate::import::Placement::HostTime => "host_time" },
-        "at_reads_failed": r.at_reads_failed, "readings": readings, "lanes": lanes, "profiles": profiles,
+        "at_reads_failed": r.at_reads_failed,
+        "i40_open": r.i40_open.as_ref().map(|o| serde_json::json!({"tried": o.tried, "explaining": o.explaining,
+            "complete": o.complete, "highest_read": o.highest_read, "refuted": o.refuted})),
+        "readings": readings, "lanes": lanes, "profiles": profiles,
         "explanation": r.witness.as_ref().map(|(label, w)| serde_json::json!({
             "readings": label, "cpu_type": w.cpu, "cpu_type_decided": w.cpu_decided, "story": w.story,
             "trace_steps": w.steps.len(),

@@ -146,7 +146,7 @@ fn read_only(step: &Step) -> bool {
 }
 
 /// A 24-bit word as a host reads it, sign-extended (Y:$25 and X:$25 are signed).
-fn signed_word(text: &str) -> Option<i32> {
+pub(crate) fn signed_word(text: &str) -> Option<i32> {
     let v = u32::from_str_radix(text.trim(), 16).ok().filter(|v| *v <= 0xFF_FFFF && !text.trim().is_empty())?;
     Some(((v << 8) as i32) >> 8)
 }
@@ -785,7 +785,7 @@ pub fn search_once(
     to_end: bool,
 ) -> Result<(Vec<Lane>, u64, Vec<u32>), SpecError> {
     let source = Source::open_with(spec, path, configuration)?;
-    let card = source.card();
+    let card = source.card_as(&configuration);
     let name = source.configuration().to_string();
     let mut lanes = defs
         .map(|(d, t)| Lane::new(spec, &name, card.as_ref(), d, record, t))

@@ -942,8 +942,30 @@ pub struct Importer {
     placement: Placement,
     /// Cycles already given to silent-gap steps since the last read or `$$$`: (min, max).
     gap: (u64, u64),
+    /// The steps from the first answer after a silence on, until an X:$0 read (or the log's
+    /// end) says whether the card restarted before that answer.
+    held: Option<Held>,
+    /// Exchanges with a timeout so far, and how many there were when the last hold began: one
+    /// silence, one restart before the answer after it.
+    timeouts: u64,
+    timeouts_when_held: u64,
     summary: Summary,
 }
+
+/// Steps held after a silence (issue 36): a tripped card does not communicate (UM p.215), so
+/// a card that answers after a silence was reset before that answer (INIT/ or power, which
+/// the host does not see). Where the reset came is the first answer; whether it came at all
+/// the next X:$0 read says (a count that goes on from the last read allows none).
+struct Held {
+    /// The line of the first answer after the silence.
+    line: usize,
+    steps: Vec<(usize, Step)>,
+}
+
+/// The most steps held while waiting for an X:$0 read after an answer that followed a
+/// silence; past it the reset is taken as shown (the answer needs it) and the next read counts
+/// from an unknown time since it. Bounds the importer's memory on any log.
+pub const HELD_STEPS_MAX: usize = 4096;
 
 impl Importer {
     /// An importer whose host time becomes servo cycles at `servo_hz`, placing commands
@@ -963,6 +985,9 @@ impl Importer {
             silent: false,
             anchor: None,
             gap: (0, 0),
+            held: None,
+            timeouts: 0,
+            timeouts_when_held: 0,
             summary: Summary::default(),
         }
     }
@@ -971,19 +996,148 @@ impl Importer {
         self.parser.err(line, column, msg)
     }
 
-    /// Reads line `line` of the log; returns the steps it completes.
-    pub fn line(&mut self, line: usize, raw: &str) -> Result<Vec<Step>, SpecError> {
+    /// Reads line `line` of the log; returns the steps it completes, each with the line of
+    /// the reply it comes from.
+    pub fn line(&mut self, line: usize, raw: &str) -> Result<Vec<(usize, Step)>, SpecError> {
         match self.parser.line(line, raw)? {
-            Some(ex) => self.exchange(&ex),
+            Some(ex) => self.exchange_held(&ex),
             None => Ok(Vec::new()),
         }
     }
 
-    /// Takes one record of the log (any format); returns the steps it completes.
-    pub fn record(&mut self, record: Record) -> Result<Vec<Step>, SpecError> {
+    /// Takes one record of the log (any format); returns the steps it completes, each with the
+    /// line (or packet) of the reply it comes from.
+    pub fn record(&mut self, record: Record) -> Result<Vec<(usize, Step)>, SpecError> {
         match self.parser.record(record)? {
-            Some(ex) => self.exchange(&ex),
+            Some(ex) => self.exchange_held(&ex),
             None => Ok(Vec::new()),
+        }
+    }
+
+    /// [`Self::exchange`], holding the steps from an answer after a silence until the next
+    /// X:$0 read says whether the card restarted before it ([`Held`]).
+    fn exchange_held(&mut self, ex: &Exchange) -> Result<Vec<(usize, Step)>, SpecError> {
+        let answered =
+            ex.commands.iter().any(|c| matches!(c.answer, Answer::Value(_) | Answer::Ack | Answer::Unseen(_)));
+        let reads_counter = ex.commands.iter().any(Self::is_counter_read);
+        let resets = ex.commands.iter().any(|c| c.command == HostCommand::Reset);
+        let silent_before = self.silent;
+        let was_held = self.held.is_some();
+        let steps: Vec<(usize, Step)> = self.exchange(ex)?.into_iter().map(|s| (ex.reply_line, s)).collect();
+        if resets {
+            // `$$$` restarts the card itself: what was held stands as it came.
+            let mut out = self.held.take().map(|h| h.steps).unwrap_or_default();
+            out.extend(steps);
+            return Ok(out);
+        }
+        if reads_counter && was_held {
+            let held = self.held.take().expect("checked");
+            return Ok(self.release(held, steps));
+        }
+        if ex.commands.iter().any(|c| c.answer == Answer::Timeout) {
+            self.timeouts += 1;
+        }
+        if silent_before && answered && !reads_counter && !was_held && self.timeouts != self.timeouts_when_held {
+            self.timeouts_when_held = self.timeouts;
+            self.held = Some(Held { line: ex.reply_line, steps });
+            return Ok(Vec::new());
+        }
+        match &mut self.held {
+            Some(h) => {
+                h.steps.extend(steps);
+                if h.steps.len() > HELD_STEPS_MAX {
+                    let held = self.held.take().expect("checked");
+                    // The next read counts from an unknown time since the reset.
+                    self.last_read = None;
+                    self.summary.restarts += 1;
+                    return Ok(self.restarted(held, None, "no X:$0 read came within the steps held for one"));
+                }
+                Ok(Vec::new())
+            }
+            None => Ok(steps),
+        }
+    }
+
+    /// The held steps, now that the X:$0 read whose steps are `read` came: with the reset
+    /// before the first answer if the read shows a restart, as they came if it does not (the
+    /// search then finds that no correct card answers there).
+    fn release(&mut self, held: Held, read: Vec<(usize, Step)>) -> Vec<(usize, Step)> {
+        let restart_at = read.iter().position(|(_, s)| s.event == TraceEvent::Restart);
+        let Some(at) = restart_at else {
+            let mut out = held.steps;
+            out.extend(read);
+            return out;
+        };
+        // The read's count `v` is the cycles since the reset, which now comes before the held
+        // answer: what the held steps and the read's gap take is at most `v` each (MODEL: taken
+        // on their own, as an unknown wait is, docs/replay.md).
+        let line = read[at].0;
+        let mut rest = read;
+        let after: Vec<(usize, Step)> = rest.split_off(at + 1);
+        let v: u64 = after
+            .iter()
+            .take_while(|(_, s)| matches!(s.event, TraceEvent::Elapsed { .. }))
+            .map(|(_, s)| match s.event {
+                TraceEvent::Elapsed { cycles_max, cycles_min } => u64::from(cycles_max.unwrap_or(cycles_min)),
+                _ => 0,
+            })
+            .sum();
+        let mut out = self.restarted(held, Some(v), &format!("the X:$0 read at line {line} shows the restart"));
+        for (n, mut s) in after {
+            if let TraceEvent::Elapsed { cycles_min, .. } = &mut s.event {
+                *cycles_min = 0;
+            }
+            out.push((n, s));
+        }
+        out
+    }
+
+    /// The held steps with the reset before the first answer: a `restart`, then the steps with
+    /// their leading gap (host time since the last silent command) from 0, since the reset may
+    /// have come anywhere in it, and at most `v` cycles when a read bounds it.
+    /// (The restart is counted by the caller: a read that shows it has counted it already.)
+    fn restarted(&mut self, held: Held, v: Option<u64>, shown: &str) -> Vec<(usize, Step)> {
+        let Held { line, steps } = held;
+        let mut out = vec![(
+            line,
+            Step {
+                event: TraceEvent::Restart,
+                expect: Expect::default(),
+                note: Some(format!(
+                    "the card answered after a silence: a tripped card does not communicate (UM p.215), so it was \
+                     reset (INIT/ or power, unseen) before this answer; {shown}"
+                )),
+            },
+        )];
+        let leading = steps.iter().take_while(|(_, s)| matches!(s.event, TraceEvent::Elapsed { .. })).count();
+        if leading == 0 {
+            let gap = elapsed_steps(0, v, Some("between the unseen reset and the answer after it".into()));
+            out.extend(gap.into_iter().map(|s| (line, s)));
+        }
+        for (i, (n, mut s)) in steps.into_iter().enumerate() {
+            if i < leading {
+                if let TraceEvent::Elapsed { cycles_min, cycles_max } = &mut s.event {
+                    *cycles_min = 0;
+                    if let Some(v) = v {
+                        let v = u32::try_from(v).unwrap_or(u32::MAX);
+                        *cycles_max = Some(cycles_max.map_or(v, |m| m.min(v)));
+                    }
+                }
+            }
+            out.push((n, s));
+        }
+        out
+    }
+
+    /// The end of the log's steps: what is still held, with the reset its answer needs (no
+    /// X:$0 read came after it to say otherwise).
+    pub fn flush(&mut self) -> Vec<(usize, Step)> {
+        match self.held.take() {
+            Some(held) => {
+                self.summary.restarts += 1;
+                self.restarted(held, None, "no X:$0 read after it")
+            }
+            None => Vec::new(),
         }
     }
 
@@ -1301,8 +1455,9 @@ pub fn import(file: &Path, text: &str, configuration: &str) -> Result<Imported, 
     let mut importer = Importer::new(file, hz);
     let mut trace = header(file, configuration);
     for (i, raw) in text.lines().enumerate() {
-        trace.steps.extend(importer.line(i + 1, raw)?);
+        trace.steps.extend(importer.line(i + 1, raw)?.into_iter().map(|(_, s)| s));
     }
+    trace.steps.extend(importer.flush().into_iter().map(|(_, s)| s));
     let summary = importer.finish()?;
     let card = (!from_log.card.is_empty()).then_some(from_log.card);
     Ok(Imported { trace, card, from_log, summary })
@@ -1493,14 +1648,10 @@ impl ImportStream {
             }
             let Some(importer) = self.importer.as_mut() else { return Ok(None) };
             match self.records.next_record().map_err(hint)? {
-                Some(r) => {
-                    let n = match &r {
-                        Record::Command { line, .. } | Record::Reply { line, .. } => *line,
-                    };
-                    self.queue.extend(importer.record(r).map_err(hint)?.into_iter().map(|s| (n, s)));
-                }
+                Some(r) => self.queue.extend(importer.record(r).map_err(hint)?),
                 None => {
-                    let importer = self.importer.take().expect("checked above");
+                    let mut importer = self.importer.take().expect("checked above");
+                    self.queue.extend(importer.flush());
                     self.summary = Some(importer.finish().map_err(hint)?);
                 }
             }

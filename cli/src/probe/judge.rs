@@ -122,6 +122,7 @@ fn judge(spec: &Spec, dir: &Path, exchanges: &[Exchange], bound: Duration) -> Re
         placement: Placement::AtReads,
         host_time_limit: Some(bound),
         deadline: Some(Instant::now() + bound),
+        card_i40: None,
     };
     let judged = report::explain_as(spec, &path, import);
     let _ = std::fs::remove_file(&path);
