@@ -98,6 +98,18 @@ pub enum Plan {
 /// Runs `plan` from `card`; `None` if the model cannot follow it (a background cycle the load
 /// does not allow, a lead longer than the gap).
 pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool) -> Option<Sim<'a>> {
+    run_cached(cfg, card, plan, record, None)
+}
+
+/// [`run`], its stretches without a background cycle taken from `cache` where it has them
+/// (exact, [`Sim::servo_cached`]).
+pub fn run_cached<'a>(
+    cfg: &'a ModelConfig,
+    card: &Controller,
+    plan: Plan,
+    record: bool,
+    mut cache: Option<&mut sim::RunCache>,
+) -> Option<Sim<'a>> {
     let mut sim = Sim::new(cfg, card.clone(), record);
     match plan {
         Plan::Idle { cycles } => sim.servo(cycles),
@@ -146,7 +158,7 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
                     if j == 0 || u64::from(j) + sim.cycles > u64::from(last) {
                         return None;
                     }
-                    sim.servo(j);
+                    sim.servo_cached(j, cache.as_deref_mut());
                     if !sim.background() {
                         return None;
                     }
@@ -160,7 +172,7 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
                     if !sim.background() {
                         return None;
                     }
-                    sim.servo(s);
+                    sim.servo_cached(s, cache.as_deref_mut());
                     if !sim.background() {
                         return None;
                     }
@@ -198,7 +210,7 @@ pub fn run<'a>(cfg: &'a ModelConfig, card: &Controller, plan: Plan, record: bool
             if overrun_tail && tail > 0 {
                 sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
             }
-            sim.servo(tail);
+            sim.servo_cached(tail, cache.as_deref_mut());
         }
     }
     Some(sim)
@@ -520,11 +532,12 @@ fn group(cfg: &ModelConfig, runs: Vec<(Controller, Plan)>, merge_counter: bool) 
     }
     let mut by_state: HashMap<(Controller, u8), std::collections::BTreeMap<i32, Point>> = HashMap::new();
     let mut seen = std::collections::HashSet::new();
+    let mut cache = sim::RunCache::default();
     for (start, plan) in runs {
         if !seen.insert((start.counter, plan)) {
             continue;
         }
-        let Some(sim) = run(cfg, &start, plan, false) else { continue };
+        let Some(sim) = run_cached(cfg, &start, plan, false, Some(&mut cache)) else { continue };
         let mut end = sim.card;
         super::normalize(&mut end);
         let min = end.counter_min;

@@ -24,6 +24,19 @@ pub fn overrun_load(cfg: &ModelConfig, i8: u8) -> Load {
     Load { motors: 0, plc0_units: u16::try_from(units).unwrap_or(u16::MAX), background_units: 1 }
 }
 
+/// Runs without a background cycle worked out within one gap's plans (one configuration):
+/// from a card (X:$0 cleared), the furthest run known and the card it reached.
+#[derive(Default)]
+pub struct RunCache {
+    runs: std::collections::HashMap<Controller, (u32, Controller)>,
+}
+
+impl RunCache {
+    /// Shorter runs cost less than the lookup.
+    const CYCLES_MIN: u32 = 64;
+    const ENTRIES_MAX: usize = 1024;
+}
+
 /// A card being driven, with the events that drove it when `record` is on.
 pub struct Sim<'a> {
     pub cfg: &'a ModelConfig,
@@ -68,6 +81,40 @@ impl<'a> Sim<'a> {
         }
         self.cycles += u64::from(n);
         self.push(TraceEvent::Model(Event::Servo { cycles: n }));
+    }
+
+    /// [`Self::servo`], continuing a run from the same card that `cache` remembers when one
+    /// is there (a gap's plans run the same stretches without a background cycle again and
+    /// again: tails differing by a whole steady period start from the same card, a lead's
+    /// run-down is the same for every tail). Exact: the card `cache` gives is the one the
+    /// cycles reach; X:$0, which no rule reads, is kept out of the key and advanced.
+    pub fn servo_cached(&mut self, n: u32, cache: Option<&mut RunCache>) {
+        let Some(cache) = cache.filter(|_| self.events.is_none() && n >= RunCache::CYCLES_MIN) else {
+            return self.servo(n);
+        };
+        let base = self.card.servo_cycles;
+        let mut key = self.card.clone();
+        key.servo_cycles = 0;
+        let mut done = 0;
+        match cache.runs.get(&key) {
+            Some((d, after)) if *d <= n => {
+                done = *d;
+                self.card = after.clone();
+            }
+            _ => self.card = key.clone(),
+        }
+        for _ in done..n {
+            if self.frozen() {
+                break;
+            }
+            self.card.servo_cycle(self.cfg);
+        }
+        if cache.runs.len() >= RunCache::ENTRIES_MAX {
+            cache.runs.clear();
+        }
+        cache.runs.insert(key, (n, self.card.clone()));
+        self.card.servo_cycles = base.wrapping_add(self.card.servo_cycles) & self.cfg.servo_counter_mask;
+        self.cycles += u64::from(n);
     }
 
     /// Servo cycles without a background cycle until the card trips, at most `max`; returns
