@@ -60,6 +60,11 @@ pub static RESET: Check = Check {
     what: "$$$ resets the card: X:$0 restarts, Y:$25 and X:$25 start over, sticky bits clear",
     cite: "UM p.243, UM p.240",
 };
+pub static REINITIALIZE: Check = Check {
+    id: "reinitialize",
+    what: "$$$*** resets the card with the factory defaults in use; the next $$$ brings the saved values back",
+    cite: "UM p.243, SRM p.42, SRM p.57",
+};
 pub static TRIP: Check = Check {
     id: "trip-silence",
     what: "a card whose watchdog ran out does not communicate until INIT/ or a power cycle",
@@ -67,7 +72,7 @@ pub static TRIP: Check = Check {
 };
 
 /// Every check, in the order the report lists them.
-pub const CHECKS: [&Check; 13] = [
+pub const CHECKS: [&Check; 14] = [
     &CONFIGURATION,
     &SERVO_COUNTER,
     &STATUS,
@@ -80,6 +85,7 @@ pub const CHECKS: [&Check; 13] = [
     &STOP,
     &ERRORS,
     &RESET,
+    &REINITIALIZE,
     &TRIP,
 ];
 
@@ -136,6 +142,8 @@ pub enum Unit {
     /// load restored and bit 22 watched.
     Bit22,
     Reset,
+    /// `$$$***`, the factory defaults read, then `$$$` (the saved values back).
+    Reinitialize,
     /// The background starved until the card trips, then INIT/.
     Trip,
 }
@@ -162,6 +170,7 @@ impl Unit {
             Unit::StopIdle => "stop-idle-motors".into(),
             Unit::Bit22 => "bit22 (control port: PLC 0 overruns the RTI)".into(),
             Unit::Reset => "reset ($$$)".into(),
+            Unit::Reinitialize => "reinitialize ($$$*** then $$$)".into(),
             Unit::Trip => "trip (background starved) and INIT/".into(),
         }
     }
@@ -178,6 +187,7 @@ impl Unit {
             Unit::StopIdle => "stop",
             Unit::Bit22 => "bit22",
             Unit::Reset => "reset",
+            Unit::Reinitialize => "reinitialize",
             Unit::Trip => "trip",
         }
     }
@@ -189,7 +199,7 @@ impl Unit {
                 Touch::Reversible
             }
             Unit::Bit22 => Touch::Writes,
-            Unit::Reset => Touch::Resets,
+            Unit::Reset | Unit::Reinitialize => Touch::Resets,
             Unit::Trip => Touch::Trips,
         }
     }
@@ -214,6 +224,10 @@ impl Unit {
                 "raises PLC 0's load on the emulator's control port, then restores it and clears bit 22".into()
             }
             Unit::Reset => "sends $$$ (a reset: unsaved changes are lost)".into(),
+            Unit::Reinitialize => {
+                "sends $$$*** (the factory defaults in use) then $$$ (the saved values back; unsaved changes lost)"
+                    .into()
+            }
             Unit::Trip if control => {
                 "starves the background on the control port until the card trips, then INIT/ there".into()
             }
@@ -296,6 +310,7 @@ fn plan_all(seed: u64, allow: Allow, rounds: u32) -> Vec<Unit> {
     units.insert(0, Unit::Identity);
     if allow.reset && !allow.read_only {
         units.push(Unit::Reset);
+        units.push(Unit::Reinitialize);
     }
     if allow.trip && !allow.read_only {
         units.push(Unit::Trip);
@@ -497,6 +512,17 @@ impl Session<'_> {
                 self.send(&RESET, "$$$")?;
                 self.recovered(ms(3000))?;
                 self.polls(3, ms(40))?;
+            }
+            Unit::Reinitialize => {
+                self.polls(2, ms(30))?;
+                self.send(&REINITIALIZE, "$$$***")?;
+                self.recovered(ms(3000))?;
+                self.send(&REINITIALIZE, "I8 I40 I41")?;
+                self.polls(2, ms(30))?;
+                self.send(&RESET, "$$$")?;
+                self.recovered(ms(3000))?;
+                self.send(&REINITIALIZE, "I8 I40 I41")?;
+                self.polls(2, ms(30))?;
             }
             Unit::Trip => self.trip()?,
         }

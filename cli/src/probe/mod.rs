@@ -33,9 +33,9 @@ pub struct ProbeArgs {
     #[arg(long, allow_negative_numbers = true, value_name = "N", default_value_t = 1, value_parser = crate::common::ranged(1u32, 20, ""))]
     pub rounds: u32,
     /// Only these kinds of unit, comma-separated: identity, poll, i40, i41, errors, checksum,
-    /// stop, bit22, reset, trip (each still only where the --allow flags permit; bit22, which
+    /// stop, bit22, reset, reinitialize, trip (each still only where the --allow flags permit; bit22, which
     /// needs --control and --allow-writes, only when named: docs/probe.md says why).
-    #[arg(long, value_name = "KINDS", value_delimiter = ',', value_parser = ["identity", "poll", "i40", "i41", "errors", "checksum", "stop", "bit22", "reset", "trip"])]
+    #[arg(long, value_name = "KINDS", value_delimiter = ',', value_parser = ["identity", "poll", "i40", "i41", "errors", "checksum", "stop", "bit22", "reset", "reinitialize", "trip"])]
     pub units: Option<Vec<String>>,
     /// Where to write the host log (default: pmacwd-probe-SEED.log in the current directory).
     #[arg(long, value_name = "FILE")]
