@@ -622,8 +622,13 @@ impl Session<'_> {
         }
     }
 
-    /// Polls until the card answers again (after a reset), at most `limit`.
+    /// Polls until the card answers again (after a reset), at most `limit`; the first poll
+    /// [`POLL_SPACING`] after the reset. (Sent at once, it read `pmacwd serve` one servo cycle
+    /// after its `$$$` with X:$25 two below Y:$25, which no reading explains: the emulator's
+    /// counters restart a few cycles apart, noted in docs/probe.md; a real card takes far
+    /// longer to start again.)
     fn recovered(&mut self, limit: Duration) -> Result<(), Stop> {
+        std::thread::sleep(POLL_SPACING);
         let until = Instant::now() + limit;
         while self.poll_as(&RESET)? == Reply::Silent {
             if Instant::now() > until {
@@ -659,6 +664,11 @@ impl Session<'_> {
         let reload = if self.i40 == 0 { 4096.0 } else { f64::from(self.i40) };
         let window = Duration::from_secs_f64((reload + 60.0) / self.servo_hz * 2.0 + 1.0);
         let until = Instant::now() + window;
+        // No read until a correct card has tripped (the counter's run and the delay, and a
+        // quarter more): the replay search plans a starved stretch only before a silence, so
+        // reads of a card still running while starved were "no correct card" on `pmacwd
+        // serve` itself (docs/probe.md). A card that answers after this has not tripped.
+        std::thread::sleep(Duration::from_secs_f64((reload + 60.0) / self.servo_hz * 1.25));
         let mut silent = 0;
         while silent < 3 && Instant::now() < until {
             std::thread::sleep(ms(100));
