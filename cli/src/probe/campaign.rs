@@ -95,6 +95,14 @@ pub const START: usize = usize::MAX;
 /// The least time between two polls ([`Session::space_polls`]): 22 servo cycles at 2.25 kHz.
 pub const POLL_SPACING: Duration = Duration::from_millis(10);
 
+/// The longest a line without an X:$0 read is sent after one ([`Session::send`]).
+pub const READ_AGE_MAX: Duration = Duration::from_millis(4);
+
+/// The least time after an error before the next line: `pmacwd serve` answers a connection's
+/// errors at most one per 10 ms (docs/emulator.md), and an error answered late is a command
+/// host time places far from its read.
+pub const ERROR_SPACING: Duration = Duration::from_millis(11);
+
 /// The poll line (see [`Session::poll`]).
 pub const POLL: &str = "RHX:$0 RHY:$25 RHX:$25 RHX:$6 RHY:$6 ???";
 
@@ -346,15 +354,51 @@ pub struct Session<'a> {
     /// How long the probe waits for a card to come back after a trip without a control port.
     pub recover: Duration,
     pub last_poll: Option<Instant>,
+    /// When the last X:$0 read that the card answered was sent (None after a reset).
+    pub last_read: Option<Instant>,
+    /// When the card last answered an error.
+    pub last_error: Option<Instant>,
 }
 
 impl Session<'_> {
-    /// Sends one line, logs it under `check`.
+    /// Sends one line, logs it under `check`. A line without an X:$0 read goes at most
+    /// [`READ_AGE_MAX`] after one (one is sent first if need be), and at least
+    /// [`ERROR_SPACING`] after the last error: the replay search judges the campaign with each
+    /// command at the read before it, and a command host time places more than 10 ms after its
+    /// read makes the search judge the log again by host time (docs/replay.md), which judged
+    /// correct units faulty when a later unit had a fault (`serve --fault never-trips`).
     pub fn send(&mut self, check: &'static Check, line: &str) -> Result<Reply, Stop> {
+        let reads = line.split_whitespace().any(|c| c.eq_ignore_ascii_case("RHX:$0"));
+        if let Some(e) = self.last_error {
+            let since = e.elapsed();
+            if since < ERROR_SPACING {
+                std::thread::sleep(ERROR_SPACING - since);
+            }
+        }
+        if !reads && self.last_read.is_some_and(|r| r.elapsed() > READ_AGE_MAX) {
+            self.exchange(&SERVO_COUNTER, "RHX:$0")?;
+        }
+        self.exchange(check, line)
+    }
+
+    fn exchange(&mut self, check: &'static Check, line: &str) -> Result<Reply, Stop> {
+        let started = Instant::now();
         let sent = SystemTime::now();
         let reply = self.link.exchange(line).map_err(Stop::Link)?;
         let got = SystemTime::now();
         self.log.record(line, reply.clone(), sent, got, check, self.unit).map_err(Stop::Link)?;
+        if let Reply::Answers(a) = &reply {
+            if line.split_whitespace().next().is_some_and(|c| c.eq_ignore_ascii_case("RHX:$0")) && !a.is_empty() {
+                self.last_read = Some(started);
+            }
+            if a.last().is_some_and(|x| x.starts_with("ERR")) {
+                self.last_error = Some(Instant::now());
+            }
+        }
+        if line.trim() == "$$$" || line.trim() == "$$$***" {
+            // The search times the next read from the reset.
+            self.last_read = None;
+        }
         Ok(reply)
     }
 

@@ -161,6 +161,8 @@ pub fn probe(a: ProbeArgs) -> ExitCode {
             i40: 0,
             recover: Duration::from_secs(a.recover_seconds),
             last_poll: None,
+            last_read: None,
+            last_error: None,
         };
         if allow.reset && !allow.read_only {
             if let Err(e) = session.reset_first() {
