@@ -529,7 +529,8 @@ fn a_reinitialization_is_a_reset_whose_acknowledgement_is_the_link_s_as_for_doll
     // the link (MODEL, SRM p.37), and timed the next X:$0 read from the read before the reset.
     // After it the factory I40 = 0 is in use (UM p.243, SRM p.57) and X:$0 counts from it.
     // It starts with `$$$`: a first read's unbounded time since power-up is slow to search.
-    let log = "> $$$\n<\n> RHX:$0\n< 0000E5\n> I40=3000\n<\n> $$$***\n<\n> RHX:$0 I40\n< 000017 0\n> ???\n< 000000000000\n";
+    let log =
+        "> $$$\n<\n> RHX:$0\n< 0000E5\n> I40=3000\n<\n> $$$***\n<\n> RHX:$0 I40\n< 000017 0\n> ???\n< 000000000000\n";
     let t = pmacwd_capture::import::import(Path::new("s.log"), log, "i40-zero").unwrap();
     let elapsed: Vec<TraceEvent> =
         t.trace.steps.iter().map(|s| s.event.clone()).filter(|e| matches!(e, TraceEvent::Elapsed { .. })).collect();

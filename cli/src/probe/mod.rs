@@ -47,8 +47,8 @@ pub struct ProbeArgs {
     /// (I7999, I8191), and, with --control, PLC 0 loads on the emulator.
     #[arg(long)]
     pub allow_writes: bool,
-    /// Also `$$$` (a reset: unsaved changes are lost); the campaign then starts with one, which
-    /// makes its judgment fast (docs/probe.md).
+    /// Also `$$$`, and `$$$***` then `$$$` (resets: unsaved changes are lost); the campaign
+    /// then starts with a `$$$`, which makes its judgment fast (docs/probe.md).
     #[arg(long)]
     pub allow_reset: bool,
     /// Also starve the background until the watchdog trips (a PLC 0 download, or --control's
