@@ -4,8 +4,8 @@ a dict of variables, a loop answering lines), for `pmacwd probe` to test (cli/te
 
 Written from the manuals, not from the emulator: the Ethernet protocol of port 1025 as
 docs/emulator.md gives it (an 8-byte header, VR_DOWNLOAD 0x40 with VR_PMAC_GETRESPONSE 0xBF
-and the line; the answer in I3 = 2 / I6 = 1 framing, SRM p.37-38), and the watchdog registers
-of specs/variables.yaml.
+and the line; the answer framed as I3 = 2 (SRM p.37-38) and I6 = 1 (PMAC2 SRM p.25) say), and
+the watchdog registers of specs/variables.yaml.
 
     python3 sim.py [--port N] [--faults x25,i41,ranges]
 
@@ -33,14 +33,15 @@ SERVO_HZ = 8_388_608_000 / I10
 # down each servo cycle and a background cycle reloads it (SRM p.57, UM p.215).
 BACKGROUND_CYCLES = 3
 
-# What the card holds after power-up and `$$$` (the values "saved"): SRM p.37 I3, SRM p.38
-# I6 (2 and 1: ACK-ended lines and error numbers, what host drivers set), p.42 I8 = 2, p.57
-# I40 = 0 and I41 = 0.
+# What the card holds after power-up and `$$$` (the values "saved"): I3 = 2 (SRM p.37) and
+# I6 = 1 (PMAC2 SRM p.25), ACK-ended lines and error numbers, what host drivers set; the
+# defaults I8 = 2 (SRM p.42), I40 = 0 and I41 = 0 (SRM p.57).
 SAVED = {3: 2, 6: 1, 8: 2, 10: I10, 40: 0, 41: 0}
-# The firmware defaults `$$$***` puts in use (UM p.243): I3 = 1 and I6 = 1 in the manual; this
-# simulator keeps its framing (I3 = 2) so that a host driver goes on reading it.
+# The firmware defaults `$$$***` puts in use (UM p.243): I3's is 1 (SRM p.37); this simulator
+# keeps its framing (I3 = 2) so that a host driver goes on reading it.
 FACTORY = {3: 2, 6: 1, 8: 2, 10: I10, 40: 0, 41: 0}
-# SRM p.42, p.57, p.37-38: the ranges of the variables with one; others take any integer.
+# The ranges of the variables with one (SRM p.37, PMAC2 SRM p.25, SRM p.42, SRM p.57); the
+# others take any integer.
 RANGES = {3: (0, 3), 6: (0, 3), 8: (0, 255), 40: (0, 65535), 41: (0, 15)}
 # SRM p.57: I41's four bits and the I-variable ranges each one locks.
 LOCKS = [(1, 100, 4899), (2, 5100, 6699), (4, 6800, 7999), (8, 8000, 8191)]
@@ -121,7 +122,10 @@ class Card:
         # FAULT (ranges): any value is taken.
         lo, hi = RANGES.get(n, (-(2**47), 2**47 - 1))
         if "ranges" not in self.faults and not lo <= value <= hi:
-            return None  # SRM p.42, p.57: out of range, refused, nothing changes
+            # Refused, nothing changed: the model's reading of the ranges (SRM p.42, p.57), which
+            # the probe checks. UM p.243 ("Limited Range") says a card takes such a value
+            # modulo the range, without an error: see docs/probe.md, Limits.
+            return None
         # FAULT (i41): I41 locks nothing.
         locked = any(self.ivars[41] & bit and first <= n <= last for bit, first, last in LOCKS)
         if "i41" not in self.faults and locked:
@@ -156,11 +160,11 @@ class Card:
         if w.startswith("#") and w.endswith("K") and w[1:-1].isdigit():
             return b""
         if w.startswith("I"):
-            name, _, value = w[1:].partition("=")
+            name, eq, value = w[1:].partition("=")
             if not name.isdigit() or int(name) > 8191:
-                return None
+                return None  # Turbo PMAC has I0..I8191
             n = int(name)
-            if not _:
+            if not eq:
                 self.advance()
                 return str(self.ivars.get(n, 0)).encode()
             try:
