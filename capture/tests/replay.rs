@@ -521,3 +521,28 @@ fn placed_by_host_time_the_reads_of_one_poll_still_aim_the_gap_before_it() {
         r.lanes.iter().map(|l| l.candidates_peak).collect::<Vec<_>>()
     );
 }
+
+#[test]
+fn a_reinitialization_is_a_reset_whose_acknowledgement_is_the_link_s_as_for_dollar_dollar_dollar() {
+    // Issue 31: `$$$***` acknowledged, as `pmacwd serve` acknowledges it, was "no correct card":
+    // the importer held its acknowledgement to the model's no-reply where it leaves `$$$`'s to
+    // the link (MODEL, SRM p.37), and timed the next X:$0 read from the read before the reset.
+    // After it the factory I40 = 0 is in use (UM p.243, SRM p.57) and X:$0 counts from it.
+    // It starts with `$$$`: a first read's unbounded time since power-up is slow to search.
+    let log =
+        "> $$$\n<\n> RHX:$0\n< 0000E5\n> I40=3000\n<\n> $$$***\n<\n> RHX:$0 I40\n< 000017 0\n> ???\n< 000000000000\n";
+    let t = pmacwd_capture::import::import(Path::new("s.log"), log, "i40-zero").unwrap();
+    let elapsed: Vec<TraceEvent> =
+        t.trace.steps.iter().map(|s| s.event.clone()).filter(|e| matches!(e, TraceEvent::Elapsed { .. })).collect();
+    assert_eq!(
+        elapsed.last(),
+        Some(&TraceEvent::Elapsed { cycles_min: 0x17, cycles_max: Some(0x17) }),
+        "the read after the reset is timed from it: {elapsed:?}"
+    );
+    let r = replay_log("reinitialize", log);
+    assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+    // The factory I40 after it, not the value written before: a card that kept 3000 is no
+    // correct card.
+    let r = replay_log("reinitialize-kept", &log.replace("000017 0", "000017 3000"));
+    assert!(!r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+}

@@ -1,6 +1,8 @@
 //! `pmacwd probe` against `pmacwd serve`: a correct emulator passes under its profile, which
 //! the probe names supported; an emulator broken on purpose (`serve --fault`, hidden) is caught
-//! and the broken behaviour named.
+//! and the broken behaviour named. And against a small simulator in Python
+//! (`probe_sim/sim.py`), as a simulator author would write one: its faults are named, and its
+//! mended variant passes.
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
@@ -16,20 +18,35 @@ impl Drop for Serve {
 
 /// `pmacwd serve` on a free port, broken by `fault` if given; its address.
 fn serve(fault: Option<&str>) -> Serve {
+    serve_with(fault, false).0
+}
+
+/// `pmacwd serve`, with its control port if `control`: the card's address and the control's.
+fn serve_with(fault: Option<&str>, control: bool) -> (Serve, String) {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_pmacwd"));
-    cmd.args(["serve", "--listen", "127.0.0.1:0", "--no-control"]);
+    cmd.args(["serve", "--listen", "127.0.0.1:0"]);
+    if control {
+        cmd.args(["--control", "127.0.0.1:0"]);
+    } else {
+        cmd.arg("--no-control");
+    }
     if let Some(f) = fault {
         cmd.args(["--fault", f]);
     }
-    let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::null()).spawn().expect("pmacwd serve");
+    started(cmd)
+}
+
+/// Starts `cmd`, whose first line of standard output names the address(es) it listens on.
+fn started(mut cmd: Command) -> (Serve, String) {
+    let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::null()).spawn().expect("the server");
     let mut line = String::new();
     BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line).expect("the first line");
-    let addr = line
+    let mut addrs = line
         .split_whitespace()
-        .find(|w| w.starts_with("127.0.0.1:"))
-        .unwrap_or_else(|| panic!("no address in `{line}`"))
-        .to_string();
-    Serve(child, addr)
+        .filter_map(|w| w.find("127.0.0.1:").map(|at| w[at..].trim_end_matches([',', ')']).to_string()));
+    let addr = addrs.next().unwrap_or_else(|| panic!("no address in `{line}`"));
+    let control = addrs.next().unwrap_or_default();
+    (Serve(child, addr), control)
 }
 
 /// `pmacwd probe` with `args` against `addr`: exit code and standard output.
@@ -71,6 +88,64 @@ fn each_broken_behaviour_is_caught_and_named() {
         assert_eq!(code, 1, "{fault}: {out}");
         assert!(out.contains(named), "{fault} should be named {named}: {out}");
     }
+}
+
+#[test]
+fn a_card_that_never_trips_is_caught_by_the_trip_unit_which_a_correct_emulator_passes() {
+    // The trip unit reads nothing while the background starves, then polls: a correct card is
+    // silent (UM p.215), `--fault never-trips` answers on. The two run side by side.
+    let run = |fault: Option<&'static str>| {
+        std::thread::spawn(move || {
+            let (s, control) = serve_with(fault, true);
+            let out = probe(&s.1, &["--units", "trip", "--allow-trip", "--control", &control]);
+            drop(s);
+            out
+        })
+    };
+    let (broken, correct) = (run(Some("never-trips")), run(None));
+    let (code, out) = broken.join().unwrap();
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("trip-silence x1"), "{out}");
+    assert!(out.contains("the card never went silent"), "{out}");
+    let (code, out) = correct.join().unwrap();
+    assert_eq!(code, 0, "{out}");
+    assert!(out.contains("faults: none"), "{out}");
+}
+
+/// `python3 probe_sim/sim.py` with `args` on a free port, or None without python3.
+fn python_sim(args: &[&str]) -> Option<Serve> {
+    if Command::new("python3").arg("--version").output().is_err() {
+        eprintln!("python3 is not installed: the Python simulator was NOT probed");
+        return None;
+    }
+    let mut cmd = Command::new("python3");
+    cmd.arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/probe_sim/sim.py")).args(["--port", "0"]).args(args);
+    Some(started(cmd).0)
+}
+
+#[test]
+fn a_python_simulator_s_faults_are_named_and_its_mended_variant_passes() {
+    // As first written, sim.py has X:$25 follow Y:$25 (UM p.240), I41 lock nothing (SRM p.57)
+    // and any I-variable take any value (SRM p.42, p.57). Every unit polls X:$25, so that
+    // fault shows in each and hides the others (a unit is named for its first fault).
+    let Some(naive) = python_sim(&[]) else { return };
+    let (code, out) = probe(&naive.1, &[]);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("watchdog-minimum x"), "{out}");
+    // Each of the other two alone, with the units that show it.
+    for (faults, units, named) in [("i41", "i41", "i41-lockout x2"), ("ranges", "errors", "error-numbers x1")] {
+        let Some(sim) = python_sim(&["--faults", faults]) else { return };
+        let (code, out) = probe(&sim.1, &["--units", units]);
+        assert_eq!(code, 1, "{faults}: {out}");
+        assert!(out.contains(named), "{faults} should be named {named}: {out}");
+    }
+    // Mended, it passes, and the report says which reading it takes: it never sets bit 12,
+    // which the M83 profile reads as a firmware checksum error's bit, never set on a sound card.
+    let Some(mended) = python_sim(&["--faults", ""]) else { return };
+    let (code, out) = probe(&mended.1, &[]);
+    assert_eq!(code, 0, "{out}");
+    assert!(out.contains("faults: none"), "{out}");
+    assert!(out.contains("um-215-m83: supported"), "{out}");
 }
 
 #[test]

@@ -914,6 +914,11 @@ fn elapsed_steps(min: u64, max: Option<u64>, note: Option<String>) -> Vec<Step> 
 
 /// Servo cycles in `ns` of host time at `hz`, widened by [`CLOCK_TOLERANCE_PERCENT`]: the
 /// fewest (rounded down) or the most (rounded up).
+/// `$$$` or `$$$***`: the card resets rather than answers (UM p.243).
+fn is_reset(command: &HostCommand) -> bool {
+    matches!(command, HostCommand::Reset | HostCommand::Reinitialize)
+}
+
 fn cycles_in(ns: i128, hz: u32, most: bool) -> u64 {
     let ns = ns.max(0) as u128;
     let pct = if most { 100 + CLOCK_TOLERANCE_PERCENT } else { 100 - CLOCK_TOLERANCE_PERCENT } as u128;
@@ -1161,7 +1166,7 @@ impl Importer {
             }
         }
         let first = self.summary.exchanges == 1;
-        let resets = ex.commands.iter().any(|c| c.command == HostCommand::Reset);
+        let resets = ex.commands.iter().any(|c| is_reset(&c.command));
         if first && self.placement == Placement::HostTime && ex.at.is_some() && !reads_counter && !resets {
             // Placed by host time from the first exchange on; the card ran an unknown time
             // before the log starts (as before a first X:$0 read), not from power-on.
@@ -1268,9 +1273,13 @@ impl Importer {
             } else if c.command == HostCommand::ReadHex(Register::ServoCycles) && c.answer == Answer::Ack {
                 return Err(self.err(ex.reply_line, 1, "X:$0 reply `` is not a 24-bit hex word".into()));
             }
-            if c.command == HostCommand::Reset {
+            if is_reset(&c.command) {
                 // The card restarts its servo counter, and resets rather than answers: what the
-                // log shows after `$$$` is the link's, not the model's, so it is kept as a note.
+                // log shows after `$$$` (or `$$$***`, a reset with the factory defaults, UM
+                // p.243) is the link's, not the model's, so it is kept as a note. MODEL: SRM p.37
+                // has the card acknowledge every valid command line (I3 = 1..3), and no page
+                // read says whether a reset's acknowledgement goes out before the card restarts;
+                // the emulator acknowledges both, as its own capture expects (docs/emulator.md).
                 self.last_read = None;
                 self.reset_pending = true;
                 self.silent = false;

@@ -60,6 +60,11 @@ pub static RESET: Check = Check {
     what: "$$$ resets the card: X:$0 restarts, Y:$25 and X:$25 start over, sticky bits clear",
     cite: "UM p.243, UM p.240",
 };
+pub static REINITIALIZE: Check = Check {
+    id: "reinitialize",
+    what: "$$$*** resets the card with the factory defaults in use; the next $$$ brings the saved values back",
+    cite: "UM p.243, SRM p.42, SRM p.57",
+};
 pub static TRIP: Check = Check {
     id: "trip-silence",
     what: "a card whose watchdog ran out does not communicate until INIT/ or a power cycle",
@@ -67,7 +72,7 @@ pub static TRIP: Check = Check {
 };
 
 /// Every check, in the order the report lists them.
-pub const CHECKS: [&Check; 13] = [
+pub const CHECKS: [&Check; 14] = [
     &CONFIGURATION,
     &SERVO_COUNTER,
     &STATUS,
@@ -80,6 +85,7 @@ pub const CHECKS: [&Check; 13] = [
     &STOP,
     &ERRORS,
     &RESET,
+    &REINITIALIZE,
     &TRIP,
 ];
 
@@ -88,6 +94,14 @@ pub const START: usize = usize::MAX;
 
 /// The least time between two polls ([`Session::space_polls`]): 22 servo cycles at 2.25 kHz.
 pub const POLL_SPACING: Duration = Duration::from_millis(10);
+
+/// The longest a line without an X:$0 read is sent after one ([`Session::send`]).
+pub const READ_AGE_MAX: Duration = Duration::from_millis(4);
+
+/// The least time after an error before the next line: `pmacwd serve` answers a connection's
+/// errors at most one per 10 ms (docs/emulator.md), and an error answered late is a command
+/// host time places far from its read.
+pub const ERROR_SPACING: Duration = Duration::from_millis(11);
 
 /// The poll line (see [`Session::poll`]).
 pub const POLL: &str = "RHX:$0 RHY:$25 RHX:$25 RHX:$6 RHY:$6 ???";
@@ -136,6 +150,8 @@ pub enum Unit {
     /// load restored and bit 22 watched.
     Bit22,
     Reset,
+    /// `$$$***`, the factory defaults read, then `$$$` (the saved values back).
+    Reinitialize,
     /// The background starved until the card trips, then INIT/.
     Trip,
 }
@@ -162,6 +178,7 @@ impl Unit {
             Unit::StopIdle => "stop-idle-motors".into(),
             Unit::Bit22 => "bit22 (control port: PLC 0 overruns the RTI)".into(),
             Unit::Reset => "reset ($$$)".into(),
+            Unit::Reinitialize => "reinitialize ($$$*** then $$$)".into(),
             Unit::Trip => "trip (background starved) and INIT/".into(),
         }
     }
@@ -178,6 +195,7 @@ impl Unit {
             Unit::StopIdle => "stop",
             Unit::Bit22 => "bit22",
             Unit::Reset => "reset",
+            Unit::Reinitialize => "reinitialize",
             Unit::Trip => "trip",
         }
     }
@@ -189,7 +207,7 @@ impl Unit {
                 Touch::Reversible
             }
             Unit::Bit22 => Touch::Writes,
-            Unit::Reset => Touch::Resets,
+            Unit::Reset | Unit::Reinitialize => Touch::Resets,
             Unit::Trip => Touch::Trips,
         }
     }
@@ -214,6 +232,10 @@ impl Unit {
                 "raises PLC 0's load on the emulator's control port, then restores it and clears bit 22".into()
             }
             Unit::Reset => "sends $$$ (a reset: unsaved changes are lost)".into(),
+            Unit::Reinitialize => {
+                "sends $$$*** (the factory defaults in use) then $$$ (the saved values back; unsaved changes lost)"
+                    .into()
+            }
             Unit::Trip if control => {
                 "starves the background on the control port until the card trips, then INIT/ there".into()
             }
@@ -296,6 +318,7 @@ fn plan_all(seed: u64, allow: Allow, rounds: u32) -> Vec<Unit> {
     units.insert(0, Unit::Identity);
     if allow.reset && !allow.read_only {
         units.push(Unit::Reset);
+        units.push(Unit::Reinitialize);
     }
     if allow.trip && !allow.read_only {
         units.push(Unit::Trip);
@@ -331,15 +354,51 @@ pub struct Session<'a> {
     /// How long the probe waits for a card to come back after a trip without a control port.
     pub recover: Duration,
     pub last_poll: Option<Instant>,
+    /// When the last X:$0 read that the card answered was sent (None after a reset).
+    pub last_read: Option<Instant>,
+    /// When the card last answered an error.
+    pub last_error: Option<Instant>,
 }
 
 impl Session<'_> {
-    /// Sends one line, logs it under `check`.
+    /// Sends one line, logs it under `check`. A line without an X:$0 read goes at most
+    /// [`READ_AGE_MAX`] after one (one is sent first if need be), and at least
+    /// [`ERROR_SPACING`] after the last error: the replay search judges the campaign with each
+    /// command at the read before it, and a command host time places more than 10 ms after its
+    /// read makes the search judge the log again by host time (docs/replay.md), which judged
+    /// correct units faulty when a later unit had a fault (`serve --fault never-trips`).
     pub fn send(&mut self, check: &'static Check, line: &str) -> Result<Reply, Stop> {
+        let reads = line.split_whitespace().any(|c| c.eq_ignore_ascii_case("RHX:$0"));
+        if let Some(e) = self.last_error {
+            let since = e.elapsed();
+            if since < ERROR_SPACING {
+                std::thread::sleep(ERROR_SPACING - since);
+            }
+        }
+        if !reads && self.last_read.is_some_and(|r| r.elapsed() > READ_AGE_MAX) {
+            self.exchange(&SERVO_COUNTER, "RHX:$0")?;
+        }
+        self.exchange(check, line)
+    }
+
+    fn exchange(&mut self, check: &'static Check, line: &str) -> Result<Reply, Stop> {
+        let started = Instant::now();
         let sent = SystemTime::now();
         let reply = self.link.exchange(line).map_err(Stop::Link)?;
         let got = SystemTime::now();
         self.log.record(line, reply.clone(), sent, got, check, self.unit).map_err(Stop::Link)?;
+        if let Reply::Answers(a) = &reply {
+            if line.split_whitespace().next().is_some_and(|c| c.eq_ignore_ascii_case("RHX:$0")) && !a.is_empty() {
+                self.last_read = Some(started);
+            }
+            if a.last().is_some_and(|x| x.starts_with("ERR")) {
+                self.last_error = Some(Instant::now());
+            }
+        }
+        if line.trim() == "$$$" || line.trim() == "$$$***" {
+            // The search times the next read from the reset.
+            self.last_read = None;
+        }
         Ok(reply)
     }
 
@@ -498,6 +557,17 @@ impl Session<'_> {
                 self.recovered(ms(3000))?;
                 self.polls(3, ms(40))?;
             }
+            Unit::Reinitialize => {
+                self.polls(2, ms(30))?;
+                self.send(&REINITIALIZE, "$$$***")?;
+                self.recovered(ms(3000))?;
+                self.send(&REINITIALIZE, "I8 I40 I41")?;
+                self.polls(2, ms(30))?;
+                self.send(&RESET, "$$$")?;
+                self.recovered(ms(3000))?;
+                self.send(&REINITIALIZE, "I8 I40 I41")?;
+                self.polls(2, ms(30))?;
+            }
             Unit::Trip => self.trip()?,
         }
         Ok(())
@@ -596,8 +666,13 @@ impl Session<'_> {
         }
     }
 
-    /// Polls until the card answers again (after a reset), at most `limit`.
+    /// Polls until the card answers again (after a reset), at most `limit`; the first poll
+    /// [`POLL_SPACING`] after the reset. (Sent at once, it read `pmacwd serve` one servo cycle
+    /// after its `$$$` with X:$25 two below Y:$25, which no reading explains: the emulator's
+    /// counters restart a few cycles apart, noted in docs/probe.md; a real card takes far
+    /// longer to start again.)
     fn recovered(&mut self, limit: Duration) -> Result<(), Stop> {
+        std::thread::sleep(POLL_SPACING);
         let until = Instant::now() + limit;
         while self.poll_as(&RESET)? == Reply::Silent {
             if Instant::now() > until {
@@ -633,6 +708,11 @@ impl Session<'_> {
         let reload = if self.i40 == 0 { 4096.0 } else { f64::from(self.i40) };
         let window = Duration::from_secs_f64((reload + 60.0) / self.servo_hz * 2.0 + 1.0);
         let until = Instant::now() + window;
+        // No read until a correct card has tripped (the counter's run and the delay, and a
+        // quarter more): the replay search plans a starved stretch only before a silence, so
+        // reads of a card still running while starved were "no correct card" on `pmacwd
+        // serve` itself (docs/probe.md). A card that answers after this has not tripped.
+        std::thread::sleep(Duration::from_secs_f64((reload + 60.0) / self.servo_hz * 1.25));
         let mut silent = 0;
         while silent < 3 && Instant::now() < until {
             std::thread::sleep(ms(100));

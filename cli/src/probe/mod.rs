@@ -33,9 +33,9 @@ pub struct ProbeArgs {
     #[arg(long, allow_negative_numbers = true, value_name = "N", default_value_t = 1, value_parser = crate::common::ranged(1u32, 20, ""))]
     pub rounds: u32,
     /// Only these kinds of unit, comma-separated: identity, poll, i40, i41, errors, checksum,
-    /// stop, bit22, reset, trip (each still only where the --allow flags permit; bit22, which
+    /// stop, bit22, reset, reinitialize, trip (each still only where the --allow flags permit; bit22, which
     /// needs --control and --allow-writes, only when named: docs/probe.md says why).
-    #[arg(long, value_name = "KINDS", value_delimiter = ',', value_parser = ["identity", "poll", "i40", "i41", "errors", "checksum", "stop", "bit22", "reset", "trip"])]
+    #[arg(long, value_name = "KINDS", value_delimiter = ',', value_parser = ["identity", "poll", "i40", "i41", "errors", "checksum", "stop", "bit22", "reset", "reinitialize", "trip"])]
     pub units: Option<Vec<String>>,
     /// Where to write the host log (default: pmacwd-probe-SEED.log in the current directory).
     #[arg(long, value_name = "FILE")]
@@ -47,8 +47,8 @@ pub struct ProbeArgs {
     /// (I7999, I8191), and, with --control, PLC 0 loads on the emulator.
     #[arg(long)]
     pub allow_writes: bool,
-    /// Also `$$$` (a reset: unsaved changes are lost); the campaign then starts with one, which
-    /// makes its judgment fast (docs/probe.md).
+    /// Also `$$$`, and `$$$***` then `$$$` (resets: unsaved changes are lost); the campaign
+    /// then starts with a `$$$`, which makes its judgment fast (docs/probe.md).
     #[arg(long)]
     pub allow_reset: bool,
     /// Also starve the background until the watchdog trips (a PLC 0 download, or --control's
@@ -161,6 +161,8 @@ pub fn probe(a: ProbeArgs) -> ExitCode {
             i40: 0,
             recover: Duration::from_secs(a.recover_seconds),
             last_poll: None,
+            last_read: None,
+            last_error: None,
         };
         if allow.reset && !allow.read_only {
             if let Err(e) = session.reset_first() {
