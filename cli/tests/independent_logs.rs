@@ -66,6 +66,19 @@ enum Misjudged {
 
 const KNOWN_FAILURES: &[Known] = &[
     Known {
+        // `RHX:$0 ???` every 5 s at 1.13 kHz with I8 = 5 (gaps of 5,600 cycles, longer than the
+        // reload period, issue 36): two polls, over 30 s.
+        log: "status-every-5-s-is-slow.log",
+        families: "status-slow",
+        misjudged: Misjudged::Slow,
+    },
+    Known {
+        // PLC 0 overrunning, then disabled, then `$$$`: the first 120 lines take over 30 s.
+        log: "dollar-reset-is-slow.log",
+        families: "dollar-reset",
+        misjudged: Misjudged::Slow,
+    },
+    Known {
         // A starvation trip on a card with I8 = 7, I40 = 1000: the gap before the first
         // timeout (the plans that end tripped) takes minutes.
         log: "starvation-trip-is-slow.log",

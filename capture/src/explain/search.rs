@@ -193,7 +193,7 @@ impl Reader {
                     step.event,
                     TraceEvent::Restart
                         | TraceEvent::Model(Event::Reset(_))
-                        | TraceEvent::Model(Event::Command(HostCommand::Reset))
+                        | TraceEvent::Model(Event::Command(HostCommand::Reset | HostCommand::Reinitialize))
                         | TraceEvent::Model(Event::ClearRtiReentry)
                 );
                 if resets {

@@ -369,7 +369,13 @@ pub fn build(
                     now += u64::from(*cycles);
                 }
                 card.apply(cfg, e);
-                if matches!(e, Event::Command(pmacwd_specs::vocab::command::HostCommand::Reset)) {
+                if matches!(
+                    e,
+                    Event::Command(
+                        pmacwd_specs::vocab::command::HostCommand::Reset
+                            | pmacwd_specs::vocab::command::HostCommand::Reinitialize
+                    )
+                ) {
                     lowest_min = card.counter_min;
                 }
                 steps.push(WitnessStep::new(step.clone()));

@@ -912,13 +912,13 @@ fn elapsed_steps(min: u64, max: Option<u64>, note: Option<String>) -> Vec<Step> 
     steps
 }
 
-/// Servo cycles in `ns` of host time at `hz`, widened by [`CLOCK_TOLERANCE_PERCENT`]: the
-/// fewest (rounded down) or the most (rounded up).
 /// `$$$` or `$$$***`: the card resets rather than answers (UM p.243).
 fn is_reset(command: &HostCommand) -> bool {
     matches!(command, HostCommand::Reset | HostCommand::Reinitialize)
 }
 
+/// Servo cycles in `ns` of host time at `hz`, widened by [`CLOCK_TOLERANCE_PERCENT`]: the
+/// fewest (rounded down) or the most (rounded up).
 fn cycles_in(ns: i128, hz: u32, most: bool) -> u64 {
     let ns = ns.max(0) as u128;
     let pct = if most { 100 + CLOCK_TOLERANCE_PERCENT } else { 100 - CLOCK_TOLERANCE_PERCENT } as u128;
@@ -1025,7 +1025,7 @@ impl Importer {
         let answered =
             ex.commands.iter().any(|c| matches!(c.answer, Answer::Value(_) | Answer::Ack | Answer::Unseen(_)));
         let reads_counter = ex.commands.iter().any(Self::is_counter_read);
-        let resets = ex.commands.iter().any(|c| c.command == HostCommand::Reset);
+        let resets = ex.commands.iter().any(|c| is_reset(&c.command));
         let silent_before = self.silent;
         let was_held = self.held.is_some();
         let steps: Vec<(usize, Step)> = self.exchange(ex)?.into_iter().map(|s| (ex.reply_line, s)).collect();
