@@ -210,7 +210,7 @@ pub fn run_cached<'a>(
             if overrun_tail && tail > 0 {
                 sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
             }
-            sim.servo_cached(tail, cache.as_deref_mut());
+            sim.servo_cached(tail, cache);
         }
     }
     Some(sim)
