@@ -203,7 +203,7 @@ enum Command {
         /// The card's saved I40 (the watchdog counter's reload, SRM p.57), for a host log that
         /// does not read it. Without it, replay searches the values the log admits and names
         /// the one that explains it (docs/replay.md).
-        #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = crate::common::ranged(0i64, 65_535, " (I40's range, variables.yaml)"))]
+        #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = common::ranged(0i64, 65_535, " (I40's range, variables.yaml)"))]
         i40: Option<i64>,
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Text)]
