@@ -3,6 +3,7 @@
 //! one `Card` behind a lock; every event that reaches the core also goes to the capture when
 //! the session is recorded.
 
+use crate::buffers::BufferId;
 use crate::capture::CaptureWriter;
 use crate::capture_queue::{CaptureQueue, Record, FINISH_WAIT};
 use crate::control::{Control, HELP};
@@ -16,7 +17,7 @@ use pmacwd_core as core;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::grammar::{Addressing, Assigned, Command, Env, Gather, Jog, VarKind, Vars, VARIABLE_MAX};
+use pmacwd_specs::grammar::{Addressing, Assigned, Command, Env, Gather, Jog, Listing, VarKind, Vars, VARIABLE_MAX};
 use pmacwd_specs::vocab::command::{HostCommand, Motion, MotorCommand, Register};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::vocab::Buffer;
@@ -248,6 +249,8 @@ pub struct Card {
     tripped_seen: bool,
     /// Each motor's trajectory, and the home flags the control port placed (`card/motion.rs`).
     motors: Motors,
+    /// Motion program and PLC buffers (`buffers.rs`).
+    buffers: crate::buffers::Buffers,
     /// A deliberately broken behaviour (`serve --fault`, `fault.rs`); none by default.
     pub(crate) fault: crate::fault::FaultState,
 }
@@ -287,6 +290,7 @@ impl Card {
             console: None,
             tripped_seen: false,
             motors: Motors::default(),
+            buffers: Default::default(),
             fault: Default::default(),
         }
     }
@@ -553,9 +557,23 @@ impl Card {
             Command::Reinitialize => out.push(self.core_answer(&HostCommand::Reinitialize)),
             Command::Checksum => out.push(self.core_answer(&HostCommand::Checksum)),
             Command::WriteIMemory(n, v) => out.push(self.core_answer(&HostCommand::WriteIMemory(n, v))),
-            Command::Close => out.push(self.core_answer(&HostCommand::Close)),
-            Command::OpenPlc(n) => out.push(self.core_answer(&HostCommand::Open(Buffer::Plc(n)))),
-            Command::OpenProgram(n) => out.push(self.core_answer(&HostCommand::Open(Buffer::Program(n)))),
+            Command::Close => {
+                out.push(self.core_answer(&HostCommand::Close));
+                self.buffers.close();
+            }
+            // The buffer takes the program text that follows until CLOSE (`card/line.rs`).
+            Command::OpenPlc(n) => {
+                out.push(self.core_answer(&HostCommand::Open(Buffer::Plc(n))));
+                if self.buffer_open() {
+                    self.buffers.open(BufferId::Plc(n));
+                }
+            }
+            Command::OpenProgram(n) => {
+                out.push(self.core_answer(&HostCommand::Open(Buffer::Program(n))));
+                if self.buffer_open() {
+                    self.buffers.open(BufferId::Program(n));
+                }
+            }
             Command::Feed { cs, percent } => {
                 self.memory.set_feed(cs, percent);
                 out.push(self.grammar_answer(&c));
@@ -698,15 +716,29 @@ impl Card {
             // MODEL: user PLC programs are not run (their CPU load is the control port's
             // `plc0` and `background`); switching them is acknowledged.
             Command::PlcSwitch => out.push(Answer::Nothing),
-            // MODEL: the emulator keeps no program or kinematics text (a buffer's checksum is
-            // the core's), so every listing is empty.
-            Command::List(_) => out.push(Answer::Nothing),
+            // The stored lines, one answer each (`buffers.rs`, MODEL there for the form).
+            // MODEL: no kinematics buffers are kept (`OPEN FORWARD` is not read), so their
+            // listings are empty.
+            Command::List(l) => {
+                let lines = match l {
+                    Listing::Program { number, start, length } => {
+                        self.buffers.list(BufferId::Program(number), start, length)
+                    }
+                    Listing::Plc { number, start, length } => self.buffers.list(BufferId::Plc(number), start, length),
+                    Listing::Forward { .. } | Listing::Inverse { .. } => &[],
+                };
+                if lines.is_empty() {
+                    out.push(Answer::Nothing);
+                }
+                out.extend(lines.iter().map(|l| data(l.clone())));
+            }
             // Look-ahead buffers and the temporary buffers the EPICS driver's C.S. groups
             // define and delete: nothing the emulator runs uses them.
             Command::DefineLookahead { .. } | Command::DeleteAllTemps => out.push(Answer::Nothing),
             Command::Save => {
                 self.store.save();
                 self.mvars.save();
+                self.buffers.save();
                 out.push(Answer::Nothing);
             }
             // Data gathering to the level dls-pmaccontrol uses it: GATHER and ENDGATHER start
@@ -801,8 +833,14 @@ impl Card {
             self.memory.reset();
             self.motors.reset();
             match command {
-                HostCommand::Reinitialize => self.mvars.reinitialize(),
-                _ => self.mvars.reset(),
+                HostCommand::Reinitialize => {
+                    self.mvars.reinitialize();
+                    self.buffers.reinitialize();
+                }
+                _ => {
+                    self.mvars.reset();
+                    self.buffers.reset();
+                }
             }
             let line = match command {
                 HostCommand::Reinitialize => {
@@ -889,6 +927,7 @@ impl Card {
                 self.memory.reset();
                 self.motors.reset();
                 self.mvars.reset();
+                self.buffers.reset();
                 let faults: Vec<&str> =
                     [(r.dpram_fault, "DPRAM fault"), (r.flash_fault, "flash fault"), (r.bootstrap, "bootstrap mode")]
                         .into_iter()

@@ -3,6 +3,7 @@
 //! captures in the trace format. `docs/emulator.md` is the user's guide.
 
 pub mod bounded;
+pub mod buffers;
 pub mod capture;
 pub mod capture_queue;
 pub mod card;
