@@ -186,8 +186,9 @@ impl Card {
     /// Reads the line from `from` on. While a program buffer is open, what comes before CLOSE
     /// is program text for it, not on-line commands (UM p.46: "P1=1 ... stored in the buffer
     /// if one is open"): the buffer keeps it (`buffers.rs`) and it is acknowledged. The capture
-    /// keeps it as an exchange without answers (the model holds no program text). Text that
-    /// the buffers have no room for ends the line with ERR003.
+    /// keeps it as a note (the model holds no program text; read as on-line commands, `CLEAR`
+    /// would be ERR003 to it). Text that the buffers have no room for ends the line with
+    /// ERR003.
     fn open_segment(&mut self, run: &mut LineRun, from: usize, addressing: &mut Addressing) {
         let mut at = from.min(run.line.len());
         let mut refused = None;
@@ -198,10 +199,10 @@ impl Card {
                 if let Err(why) = self.buffers.enter(&text) {
                     refused = Some(why);
                 }
-                let before = *addressing;
-                let reply = if refused.is_some() { None } else { Some(Vec::new()) };
-                if reply.is_some() {
-                    self.capture_record(|| Record::Line { line: text, addressing: before, reply });
+                if refused.is_none() {
+                    self.capture_record(|| {
+                        Record::Note(format!("`{text}`: program text for the open buffer (the model keeps none)"))
+                    });
                 }
             }
             if refused.is_none() {
