@@ -453,6 +453,9 @@ impl Card {
         // then, not at the end of the cycles run (`card/program.rs`).
         let mut left = n;
         while left > 0 {
+            // A jog that came to rest since (refused by a limit, or arrived) ends in the core
+            // first (`card/motion.rs`).
+            self.conclude_jogs();
             let piece = left.min(self.cycles_to_program_event());
             self.run_piece(piece);
             left -= piece;
@@ -486,6 +489,9 @@ impl Card {
         // output off, UM p.215), then stay within what the core says of each motor.
         self.advance_motion(tripped_at.map_or(n, |c| c.saturating_sub(first)));
         self.sync_motion();
+        if tripped_at.is_none() {
+            self.conclude_jogs();
+        }
         // The supply trips at its event, not in a servo cycle: a trip found here is the
         // watchdog's, its strobe stopped for want of a background cycle (UM p.215, SRM p.57).
         if let Some(cycle) = tripped_at {

@@ -159,6 +159,24 @@ impl Axis {
         self.move_timer = true;
     }
 
+    /// The time (ms) until a move to a position arrives, limits aside (`None`: no move to a
+    /// position is under way, or it does not arrive within a dozen pieces).
+    pub fn time_to_arrive(&self) -> Option<f64> {
+        let Goal::Position { target, speed } = self.goal else { return None };
+        // Long enough for any move a piece at a time, short enough to keep the sum exact.
+        const LONG: f64 = 1.0e9;
+        let mut copy = *self;
+        let mut used = 0.0;
+        for _ in 0..PIECES_PER_ADVANCE_MAX {
+            let left = copy.towards(target, speed, LONG);
+            used += LONG - left;
+            if copy.goal == Goal::Hold {
+                return Some(used);
+            }
+        }
+        None
+    }
+
     /// A program's move from rest that must end within `ms` (the servo cycles the core gives
     /// it): it goes to its target in exactly that time, accelerating for half of it.
     pub fn fit_move(&mut self, ms: f64) {

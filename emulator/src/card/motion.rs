@@ -11,17 +11,20 @@
 //!   ends where the core says motion stops);
 //! - a kill, a trip, a reset or a deactivated motor (Ixx00 = 0) stops the trajectory at once.
 //!
-//! A jog to a position that arrives leaves the core's motor jogging (the model's jogs end only
-//! by a stop command, MODEL as in the core); the status words report it at rest and in position
-//! from the trajectory.
+//! A jog that comes to rest (at its target, at a limit, or refused by one) ends in the core as
+//! the stop that ends a jog, `J/`, with nothing left to decelerate: the model's jogs end only
+//! by a stop command, and a card's motor is then closed-loop at rest, from which a program may
+//! start (`Card::conclude_jogs`). The status words report it from the trajectory.
 
 use super::Card;
+use crate::capture_queue::Record;
 use crate::framing::Answer;
 use crate::trajectory::{Axis, Goal, Homing, Limits};
 use pmacwd_core as core;
 use pmacwd_core::motion::{MotorState, MOTORS_MAX};
+use pmacwd_specs::grammar::Command;
 use pmacwd_specs::grammar::Jog;
-use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand};
+use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, HostCommand, Motion, MotorCommand};
 
 /// A commanded position is kept within this many counts of zero (MODEL: the card's motor
 /// position range is +/-2^35 counts at the default scale, SRM p.95 for Ixx13; the bound keeps
@@ -379,6 +382,39 @@ impl Card {
                     }
                 }
             }
+        }
+    }
+
+    /// The times (ms) at which the jogs to a position under way arrive.
+    pub(super) fn jog_arrivals(&self) -> impl Iterator<Item = f64> + '_ {
+        (1..=(MOTORS_MAX as u8)).filter_map(move |n| {
+            let jogging = self.core_state(n).is_some_and(|m| m.state == MotorState::Jogging);
+            self.axis(n).filter(|_| jogging).and_then(Axis::time_to_arrive)
+        })
+    }
+
+    /// A jog the core still has under way whose trajectory has come to rest (at its target, at
+    /// a limit, or refused by one) has ended: the core hears the stop that ends a jog, `J/`
+    /// (UM p.217 row 1), with nothing left to decelerate (one servo cycle), and a capture
+    /// records it as the exchange `#nJ/`. MODEL: the model's jogs end only by a stop command;
+    /// a card's jog to a position ends at its target with the motor closed-loop at rest, from
+    /// which a program may start (UM p.319).
+    pub(super) fn conclude_jogs(&mut self) {
+        for n in 1..=self.cfg.motion.motors.min(MOTORS_MAX as u8) {
+            let jogging = self.core_state(n).is_some_and(|m| m.state == MotorState::Jogging);
+            let still = self.axis(n).is_some_and(|a| a.at_rest() && a.homing == Homing::None);
+            if !(jogging && still) {
+                continue;
+            }
+            let motion = Motion::Motor(n, MotorCommand::JogStop);
+            let usual = self.cfg.motion.decel_cycles;
+            self.cfg.motion.decel_cycles = 1;
+            self.core.command(&self.cfg, pmacwd_bridge::core_command(&HostCommand::Motion(motion)), &mut self.store);
+            self.cfg.motion.decel_cycles = usual;
+            self.capture_record(|| Record::Commands {
+                commands: vec![(format!("#{n}J/"), Ok(Command::Motion(motion)))],
+                reply: Some(Vec::new()),
+            });
         }
     }
 

@@ -679,9 +679,11 @@ impl Card {
     }
 
     /// How many servo cycles run before the soonest move or dwell of an executing program
-    /// ends (at least 1; `u64::MAX` with none).
+    /// ends, or a jog to a position arrives (`card/motion.rs`), at least 1; `u64::MAX` with
+    /// none.
     pub(super) fn cycles_to_program_event(&self) -> u64 {
-        let soonest = self.programs.iter().filter(|r| r.executing).map(|r| r.left).fold(f64::INFINITY, f64::min);
+        let programs = self.programs.iter().filter(|r| r.executing).map(|r| r.left);
+        let soonest = programs.chain(self.jog_arrivals()).fold(f64::INFINITY, f64::min);
         if !soonest.is_finite() {
             return u64::MAX;
         }
