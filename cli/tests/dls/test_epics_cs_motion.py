@@ -147,6 +147,22 @@ class EpicsCsMoves(unittest.TestCase):
         self.until_done(3.0)
         self.assertEqual(self.positions(), (2000.0, -1500.0))
 
+    def test_a_cs_move_after_a_motor_record_move_of_one_of_its_motors(self):
+        # pmacAxis::move on motor 1 (test_epics_motion.py), done when in position; then the
+        # C.S. move runs from where motor 1 stands.
+        self.ask("I122=2.000000 I120=100.000000 #1 J=500.00")
+        deadline = time.monotonic() + 3.0
+        while time.monotonic() < deadline:
+            (status,) = self.ask("#1?")
+            if int(status[6:], 16) & 1:
+                break
+            time.sleep(POLL_S)
+        self.assertEqual(self.positions(), (500.0, 0.0))
+        self.move(X, 1.5, 300.0, 50.0)
+        seen = self.until_done(3.0)
+        self.assertTrue(seen[0][1], "the program ran")
+        self.assertEqual(self.positions(), (1500.0, 0.0))
+
     def test_a_deferred_move_moves_both_axes_together(self):
         self.ask(f"&{CS}e")
         deferred = f" I{CS + 50}87=100.000000Q7{X}={1.0:.12f} I{CS + 50}87=100.000000Q7{Y}={-1.0:.12f}"
