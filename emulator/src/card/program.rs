@@ -25,6 +25,10 @@
 
 use super::Card;
 use crate::capture_queue::Record;
+use crate::motor_status::{
+    CS_AMPLIFIER_FAULT, CS_AXIS_BITS_SHIFT, CS_CONTINUOUS_REQUEST, CS_IN_POSITION, CS_MOVE_BY_TIME, CS_RUNNING_PROGRAM,
+    CS_RUNTIME_ERROR, CS_SINGLE_STEP, IN_POSITION,
+};
 use crate::program::{statements, Statement, AXES};
 use pmacwd_bridge::core_command;
 use pmacwd_core::motion::{Program, MOTORS_MAX};
@@ -623,22 +627,22 @@ impl Card {
         let Some(run) = self.programs.get(usize::from(cs).saturating_sub(1)) else { return (0, 0, 0) };
         let core = self.core_program(cs);
         let running = core == Program::Running && !run.ended || core == Program::Held;
-        let mut a = u32::from(running);
+        let mut a = if running { CS_RUNNING_PROGRAM } else { 0 };
         if run.single_step && run.executing {
-            a |= 1 << 1;
+            a |= CS_SINGLE_STEP;
         }
         if run.time_mode {
-            a |= 1 << 3;
+            a |= CS_MOVE_BY_TIME;
         }
         if run.executing && !run.single_step {
-            a |= 1 << 4;
+            a |= CS_CONTINUOUS_REQUEST;
         }
-        for axis in 0..AXES.len() {
+        for axis in 0..AXES.len() as u32 {
             if run.inc & (1 << axis) != 0 {
-                a |= 1 << (6 + 2 * axis);
+                a |= 1 << (CS_AXIS_BITS_SHIFT + 2 * axis);
             }
             if run.frax & (1 << axis) != 0 {
-                a |= 1 << (7 + 2 * axis);
+                a |= 1 << (CS_AXIS_BITS_SHIFT + 1 + 2 * axis);
             }
         }
         let members: Vec<u8> = (1..=self.cfg.motion.motors)
@@ -650,14 +654,14 @@ impl Card {
         let in_position = if defined.is_empty() { &members } else { &defined };
         let mut b = 0;
         let busy = run.executing && run.left > 0.0;
-        if !busy && in_position.iter().all(|n| motor_words(*n).1 & crate::motor_status::IN_POSITION != 0) {
-            b |= 1 << 17;
+        if !busy && in_position.iter().all(|n| motor_words(*n).1 & IN_POSITION != 0) {
+            b |= CS_IN_POSITION;
         }
         if members.iter().any(|n| self.core.motor(&self.cfg, *n).is_some_and(|m| m.amplifier_fault_status)) {
-            b |= 1 << 20;
+            b |= CS_AMPLIFIER_FAULT;
         }
         if run.runtime_error {
-            b |= 1 << 22;
+            b |= CS_RUNTIME_ERROR;
         }
         (a, b, 0)
     }
