@@ -538,6 +538,45 @@ fn the_emulator_s_capture_of_motors_that_move_replays_as_consistent() {
     std::fs::remove_file(&path).ok();
 }
 
+#[test]
+fn the_emulator_s_capture_of_a_motion_program_replays_as_consistent() {
+    // Issue 30: a program's end is heard by the core as `Q` and `&1E` as a `J/` per killed
+    // motor; the capture records each as an exchange, so that the model, which has no event
+    // for either, follows the core: a K refused while the program runs (ERR001, UM p.319) and
+    // accepted once it has ended is explained.
+    use pmacwd_emulator::control::Control;
+    let spec = pmacwd_specs::Spec::embedded().unwrap();
+    let path = std::env::temp_dir().join(format!("pmacwd-record-program-{}.jsonl", std::process::id()));
+    let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
+    let mut card = Card::default_card(Clock::Virtual);
+    card.record(CaptureWriter::new(out, "program", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap())
+        .unwrap();
+    let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
+    let step = |cycles: u32| assert!(server.with_card(|c| c.control(Control::Step { cycles })).starts_with("ok"));
+    {
+        let mut c = TcpStream::connect(server.local_addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        assert_eq!(ask(&mut c, "i6=1 i3=2 ver"), b"1.947\r\x06");
+        for line in ["OPEN PROG 10", "CLEAR", "LINEAR ABS TM(Q70)", "X(Q77)", "DWELL0", "CLOSE", "&1#1->1000X"] {
+            assert_eq!(ask(&mut c, line), b"\x06", "{line}");
+        }
+        assert_eq!(ask(&mut c, "LIST PROG 10"), b"LINEAR ABS TM(Q70)\rX(Q77)\rDWELL0\r\x06");
+        assert_eq!(ask(&mut c, "&1E"), b"\x06");
+        assert_eq!(ask(&mut c, "&1Q70=200 Q77=1 B10R"), b"\x06");
+        step(100);
+        assert_eq!(ask(&mut c, "#1K"), b"\x07ERR001\r", "the program runs");
+        step(1000);
+        assert_eq!(ask(&mut c, "#1P"), b"1000\r\x06");
+        assert_eq!(ask(&mut c, "#1K ???").len(), 14, "the program has ended: K is taken");
+    }
+    assert!(server.with_card(|c| c.finish_recording()).is_empty());
+    server.stop();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.contains("&1Q") && text.contains("#8J/"), "{text}");
+    assert_explained_by_default(&spec, &path);
+    std::fs::remove_file(&path).ok();
+}
+
 /// Sends one control line and reads its reply line.
 fn control_line(addr: std::net::SocketAddr, line: &str) -> String {
     use std::io::BufRead;

@@ -52,6 +52,11 @@ const PAGES_NOT_YET_IN_THE_MATRIX: &[(&str, &str)] = &[
     ("SRM p.108", "emulator motion: Ixx27's default (variables.yaml)"),
     ("SRM p.152", "emulator motion: Ixx92's default (variables.yaml)"),
     ("SRM p.402", "emulator motion: V reports counts per servo cycle"),
+    ("SRM p.31", "emulator motion programs (issue 30): the move and axis attribute commands it executes"),
+    ("SRM p.188", "emulator motion programs: Isx87 (TA), the minimum move time, what Isx87 reports"),
+    ("SRM p.189", "emulator motion programs: Isx88 (TS), Isx89 (F, TM), Isx90, feedrate mode at power-up"),
+    ("UM p.48", "emulator: program buffers, CLEAR, one buffer open at a time"),
+    ("UM p.272", "emulator motion programs: modal commands, then the axis moves of a line together"),
 ];
 
 fn workspace_root() -> PathBuf {

@@ -35,6 +35,8 @@ pub enum Record {
     Commands { commands: Vec<(String, Result<Command, Unreadable>)>, reply: Option<Vec<u8>> },
     /// An event the bench caused (a control command).
     Event(Step),
+    /// A note for the next step (program text sent to an open buffer: the model keeps none).
+    Note(String),
     /// Recording stopped: the capture ends with this note.
     Stopped(String),
 }
@@ -50,7 +52,7 @@ impl Record {
                     commands.iter().map(|(t, _)| t.len() + FIXED).sum::<usize>() + reply.as_ref().map_or(0, Vec::len)
                 }
                 Record::Event(_) => FIXED,
-                Record::Stopped(s) => s.len(),
+                Record::Note(s) | Record::Stopped(s) => s.len(),
             }
     }
 }
@@ -157,6 +159,10 @@ fn write_all(
             Record::Line { line, addressing, reply } => capture.exchange_addressed(line, *addressing, reply.as_deref()),
             Record::Commands { commands, reply } => capture.commands(commands, reply.as_deref()),
             Record::Event(step) => capture.event(step.clone()),
+            Record::Note(note) => {
+                capture.note(note.clone());
+                Ok(())
+            }
             Record::Stopped(why) => {
                 capture.note(why.clone());
                 Ok(())

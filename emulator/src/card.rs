@@ -3,21 +3,23 @@
 //! one `Card` behind a lock; every event that reaches the core also goes to the capture when
 //! the session is recorded.
 
+use crate::buffers::BufferId;
 use crate::capture::CaptureWriter;
 use crate::capture_queue::{CaptureQueue, Record, FINISH_WAIT};
 use crate::control::{Control, HELP};
 use crate::framing::{framing_write_out_of_range, Answer, Framing};
 use crate::memory::{format_value, HostDefaults, Memory};
-use crate::motor_status::{cs_words, hex_words, motor_words};
+use crate::motor_status::{hex_words, motor_words};
 use crate::mvar::MemoryMap;
 use motion::Motors;
 use pmacwd_bridge::{core_command, core_event, spec_load};
 use pmacwd_core as core;
+use pmacwd_core::motion::Program;
 use pmacwd_core::IVariableStore;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::grammar::{Addressing, Assigned, Command, Env, Gather, Jog, VarKind, Vars, VARIABLE_MAX};
-use pmacwd_specs::vocab::command::{HostCommand, Motion, MotorCommand, Register};
+use pmacwd_specs::grammar::{Addressing, Assigned, Command, Env, Gather, Jog, Listing, VarKind, Vars, VARIABLE_MAX};
+use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, HostCommand, Motion, MotorCommand, Register};
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::vocab::Buffer;
 use pmacwd_trace::jsonl::step_line;
@@ -28,6 +30,7 @@ use std::time::Instant;
 mod line;
 mod memory_access;
 mod motion;
+mod program;
 
 pub use line::{LineRun, Progress, RANGE_PART_MAX};
 
@@ -248,6 +251,10 @@ pub struct Card {
     tripped_seen: bool,
     /// Each motor's trajectory, and the home flags the control port placed (`card/motion.rs`).
     motors: Motors,
+    /// Motion program and PLC buffers (`buffers.rs`).
+    buffers: crate::buffers::Buffers,
+    /// Each coordinate system's program as it executes (`card/program.rs`).
+    programs: [program::CsRun; 16],
     /// A deliberately broken behaviour (`serve --fault`, `fault.rs`); none by default.
     pub(crate) fault: crate::fault::FaultState,
 }
@@ -287,6 +294,8 @@ impl Card {
             console: None,
             tripped_seen: false,
             motors: Motors::default(),
+            buffers: Default::default(),
+            programs: std::array::from_fn(|_| program::CsRun::default()),
             fault: Default::default(),
         }
     }
@@ -439,6 +448,25 @@ impl Card {
     /// it: the `run` step of the trace format. Stops early once tripped (a tripped card does
     /// nothing until INIT/ or power, UM p.215).
     fn run(&mut self, n: u64) {
+        // A program's move or dwell that ends within the cycles ends in its own cycle, so
+        // that what the program does next (a stop at its end, which the core hears) happens
+        // then, not at the end of the cycles run (`card/program.rs`).
+        let mut left = n;
+        while left > 0 {
+            // A jog that came to rest since (refused by a limit, or arrived) ends in the core
+            // first (`card/motion.rs`).
+            self.conclude_jogs();
+            let piece = left.min(self.cycles_to_program_event());
+            self.run_piece(piece);
+            left -= piece;
+            if self.core.tripped() {
+                break;
+            }
+        }
+    }
+
+    /// [`Card::run`] for cycles in which no program move or dwell ends before the last.
+    fn run_piece(&mut self, n: u64) {
         let first = self.cycles;
         self.cycles = self.cycles.saturating_add(n);
         if let Some(c) = &mut self.capture {
@@ -461,6 +489,9 @@ impl Card {
         // output off, UM p.215), then stay within what the core says of each motor.
         self.advance_motion(tripped_at.map_or(n, |c| c.saturating_sub(first)));
         self.sync_motion();
+        if tripped_at.is_none() {
+            self.conclude_jogs();
+        }
         // The supply trips at its event, not in a servo cycle: a trip found here is the
         // watchdog's, its strobe stopped for want of a background cycle (UM p.215, SRM p.57).
         if let Some(cycle) = tripped_at {
@@ -514,14 +545,6 @@ impl Card {
         y & (core::bits::PLC_BUFFER_OPEN | core::bits::MOTION_BUFFER_OPEN) != 0
     }
 
-    /// The core's motors of coordinate system `cs`.
-    fn members(&self, cs: u8) -> Vec<pmacwd_bridge::MotorStatus> {
-        (1..=self.cfg.motion.motors)
-            .filter_map(|n| pmacwd_bridge::motor_status(&self.core, &self.cfg, n))
-            .filter(|m| m.coordinate_system == cs)
-            .collect()
-    }
-
     /// One command's answers: one for most, one per variable for a range, none for a write.
     /// `addressing` is the connection's as it stands after the command was read.
     fn command(&mut self, c: Command, addressing: Addressing, out: &mut Vec<Answer>) {
@@ -553,12 +576,39 @@ impl Card {
             Command::Reinitialize => out.push(self.core_answer(&HostCommand::Reinitialize)),
             Command::Checksum => out.push(self.core_answer(&HostCommand::Checksum)),
             Command::WriteIMemory(n, v) => out.push(self.core_answer(&HostCommand::WriteIMemory(n, v))),
-            Command::Close => out.push(self.core_answer(&HostCommand::Close)),
-            Command::OpenPlc(n) => out.push(self.core_answer(&HostCommand::Open(Buffer::Plc(n)))),
-            Command::OpenProgram(n) => out.push(self.core_answer(&HostCommand::Open(Buffer::Program(n)))),
+            Command::Close => {
+                out.push(self.core_answer(&HostCommand::Close));
+                self.buffers.close();
+            }
+            // The buffer takes the program text that follows until CLOSE (`card/line.rs`).
+            Command::OpenPlc(n) => {
+                out.push(self.core_answer(&HostCommand::Open(Buffer::Plc(n))));
+                if self.buffer_open() {
+                    self.buffers.open(BufferId::Plc(n));
+                }
+            }
+            Command::OpenProgram(n) => {
+                out.push(self.core_answer(&HostCommand::Open(Buffer::Program(n))));
+                if self.buffer_open() {
+                    self.buffers.open(BufferId::Program(n));
+                }
+            }
             Command::Feed { cs, percent } => {
                 self.memory.set_feed(cs, percent);
+                // %0 holds a running program as H does (UM p.217); a non-zero % resumes it.
+                let usual = self.cfg.motion.decel_cycles;
+                let held = self.core_program(cs) == Program::Held;
+                if percent == 0.0 {
+                    if let Some(cycles) = self.stop_cycles(&Motion::CoordinateSystem(cs, CsCommand::Feedrate(0))) {
+                        self.cfg.motion.decel_cycles = cycles;
+                    }
+                }
                 out.push(self.grammar_answer(&c));
+                self.cfg.motion.decel_cycles = usual;
+                if percent != 0.0 && held {
+                    self.run_program(cs, false);
+                }
+                self.sync_motion();
             }
             // Motion and stop commands, jogs to a target or by a distance, and homing: the
             // core hears what the vocabulary makes of them (`HostCommand::from_grammar`), and
@@ -569,14 +619,31 @@ impl Card {
                 if let Some(cycles) = self.stop_cycles(&m) {
                     self.cfg.motion.decel_cycles = cycles;
                 }
+                // R and S start a program only when the core's was not running already.
+                let was_running = match m {
+                    Motion::CoordinateSystem(cs, _) => self.core_program(cs) == Program::Running,
+                    _ => false,
+                };
                 out.push(self.grammar_answer(&c));
                 self.cfg.motion.decel_cycles = usual;
                 match m {
                     Motion::Motor(n, MotorCommand::JogPlus) => self.start_jog(n, Jog::Plus),
                     Motion::Motor(n, MotorCommand::JogMinus) => self.start_jog(n, Jog::Minus),
+                    Motion::CoordinateSystem(cs, CsCommand::Run) if !was_running => self.run_program(cs, false),
+                    Motion::CoordinateSystem(cs, CsCommand::Step) if !was_running => self.run_program(cs, true),
+                    Motion::CoordinateSystem(cs, CsCommand::Quit | CsCommand::EndOfMove) => self.quit_program(cs),
+                    Motion::Global(GlobalCommand::QuitAll) => (1..=16).for_each(|cs| self.quit_program(cs)),
                     _ => {}
                 }
                 self.sync_motion();
+            }
+            Command::Begin { cs, program } => {
+                out.push(self.grammar_answer(&c));
+                self.begin_program(cs, program);
+            }
+            Command::Enable(cs) => {
+                self.enable(cs);
+                out.push(Answer::Nothing);
             }
             Command::Jog(n, jog) => {
                 out.push(self.grammar_answer(&c));
@@ -590,11 +657,15 @@ impl Card {
             }
             Command::MotorStatus(n) => {
                 let bits = self.motion_bits(n);
-                let (x, y) = motor_words(pmacwd_bridge::motor_status(&self.core, &self.cfg, n).as_ref(), &bits);
+                let (x, y) = motor_words(self.reported_motor(n).as_ref(), &bits);
                 out.push(data(hex_words(&[x, y])));
             }
             Command::CsStatus(cs) => {
-                let (a, b, c) = cs_words(&self.members(cs));
+                let words = |n: u8| {
+                    let bits = self.motion_bits(n);
+                    motor_words(self.reported_motor(n).as_ref(), &bits)
+                };
+                let (a, b, c) = self.cs_status(cs, &words);
                 out.push(data(hex_words(&[a, b, c])));
             }
             // Positions, velocities and following errors from the trajectories.
@@ -698,15 +769,29 @@ impl Card {
             // MODEL: user PLC programs are not run (their CPU load is the control port's
             // `plc0` and `background`); switching them is acknowledged.
             Command::PlcSwitch => out.push(Answer::Nothing),
-            // MODEL: the emulator keeps no program or kinematics text (a buffer's checksum is
-            // the core's), so every listing is empty.
-            Command::List(_) => out.push(Answer::Nothing),
+            // The stored lines, one answer each (`buffers.rs`, MODEL there for the form).
+            // MODEL: no kinematics buffers are kept (`OPEN FORWARD` is not read), so their
+            // listings are empty.
+            Command::List(l) => {
+                let lines = match l {
+                    Listing::Program { number, start, length } => {
+                        self.buffers.list(BufferId::Program(number), start, length)
+                    }
+                    Listing::Plc { number, start, length } => self.buffers.list(BufferId::Plc(number), start, length),
+                    Listing::Forward { .. } | Listing::Inverse { .. } => &[],
+                };
+                if lines.is_empty() {
+                    out.push(Answer::Nothing);
+                }
+                out.extend(lines.iter().map(|l| data(l.clone())));
+            }
             // Look-ahead buffers and the temporary buffers the EPICS driver's C.S. groups
             // define and delete: nothing the emulator runs uses them.
             Command::DefineLookahead { .. } | Command::DeleteAllTemps => out.push(Answer::Nothing),
             Command::Save => {
                 self.store.save();
                 self.mvars.save();
+                self.buffers.save();
                 out.push(Answer::Nothing);
             }
             // Data gathering to the level dls-pmaccontrol uses it: GATHER and ENDGATHER start
@@ -800,9 +885,16 @@ impl Card {
         if matches!(command, HostCommand::Reset | HostCommand::Reinitialize) && reply != core::Reply::Silence {
             self.memory.reset();
             self.motors.reset();
+            self.reset_programs();
             match command {
-                HostCommand::Reinitialize => self.mvars.reinitialize(),
-                _ => self.mvars.reset(),
+                HostCommand::Reinitialize => {
+                    self.mvars.reinitialize();
+                    self.buffers.reinitialize();
+                }
+                _ => {
+                    self.mvars.reset();
+                    self.buffers.reset();
+                }
             }
             let line = match command {
                 HostCommand::Reinitialize => {
@@ -888,7 +980,9 @@ impl Card {
                 // volatile and the saved values come back (UM p.243).
                 self.memory.reset();
                 self.motors.reset();
+                self.reset_programs();
                 self.mvars.reset();
+                self.buffers.reset();
                 let faults: Vec<&str> =
                     [(r.dpram_fault, "DPRAM fault"), (r.flash_fault, "flash fault"), (r.bootstrap, "bootstrap mode")]
                         .into_iter()
@@ -1156,7 +1250,9 @@ mod tests {
         assert_eq!(v.len(), 52, "{v:?}");
         assert_eq!(v[0], "0", "I65: identity not set");
         assert_eq!(v[1].len(), 12, "??? is 12 hex digits");
-        assert_eq!(v[2], "000000000000000000");
+        // &1??: no program; X, Y and Z the feedrate axes (SRM p.285 bits 19, 21, 23; MODEL:
+        // the power-up FRAX, card/program.rs); not in position, every motor killed.
+        assert_eq!(v[2], "A80000000000000000");
         assert_eq!(v[3], "100", "feedrate override 100%");
         // Motor 1: activated, open loop (killed at power-up), in C.S. 1; at 0; no amp fault.
         assert_eq!(&v[4..10], ["850000008000", "0", "0", "0", "0", "0"]);

@@ -3,6 +3,7 @@
 //! captures in the trace format. `docs/emulator.md` is the user's guide.
 
 pub mod bounded;
+pub mod buffers;
 pub mod capture;
 pub mod capture_queue;
 pub mod card;
@@ -15,6 +16,7 @@ pub mod listen;
 pub mod memory;
 pub mod motor_status;
 pub mod mvar;
+pub mod program;
 pub mod protocol;
 pub mod proxy;
 pub mod server;

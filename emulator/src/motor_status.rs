@@ -5,7 +5,7 @@
 //! constant.
 
 use pmacwd_bridge::MotorStatus;
-use pmacwd_core::motion::{Program, Stop};
+use pmacwd_core::motion::Stop;
 use pmacwd_specs::vocab::observation::MotorState;
 
 /// First word (X), SRM p.282-283.
@@ -147,15 +147,19 @@ pub fn motor_words(status: Option<&MotorStatus>, motion: &MotionBits) -> (u32, u
     (x, y)
 }
 
-/// First word bit 0 of `&n??`: the C.S. is running a motion program (SRM p.285).
+/// `&n??` bits (SRM p.285-286), composed in `card/program.rs`. First word: running a motion
+/// program, single-step mode, moves specified by time, continuous motion requested; bits 6
+/// and 7 axis A's incremental mode and feedrate use, then two bits for each of B, C, U, V, W,
+/// X, Y, Z up to bits 22 and 23.
 pub const CS_RUNNING_PROGRAM: u32 = 1 << 0;
-
-/// `&n??` as three words from the motors of that coordinate system: "running program" when
-/// its program runs (the core's `Program::Running`); the other bits are constant 0.
-pub fn cs_words(members: &[MotorStatus]) -> (u32, u32, u32) {
-    let running = members.iter().any(|m| m.program == Program::Running);
-    (if running { CS_RUNNING_PROGRAM } else { 0 }, 0, 0)
-}
+pub const CS_SINGLE_STEP: u32 = 1 << 1;
+pub const CS_MOVE_BY_TIME: u32 = 1 << 3;
+pub const CS_CONTINUOUS_REQUEST: u32 = 1 << 4;
+pub const CS_AXIS_BITS_SHIFT: u32 = 6;
+/// Second word: in position, amplifier fault, run-time error.
+pub const CS_IN_POSITION: u32 = 1 << 17;
+pub const CS_AMPLIFIER_FAULT: u32 = 1 << 20;
+pub const CS_RUNTIME_ERROR: u32 = 1 << 22;
 
 /// Words as the card prints them: six hex digits each, the first word first (SRM p.284).
 pub fn hex_words(words: &[u32]) -> String {
@@ -171,7 +175,7 @@ mod tests {
         MotorStatus {
             view: MotorView { state, amplifier_enabled: amp, ..MotorView::default() },
             coordinate_system: cs,
-            program: Program::None,
+            program: pmacwd_core::motion::Program::None,
             stop: None,
         }
     }
@@ -206,11 +210,7 @@ mod tests {
     }
 
     #[test]
-    fn a_program_running_shows_in_the_coordinate_system_status() {
-        let mut m = status(MotorState::Program, true, 1);
-        assert_eq!(cs_words(&[m]), (0, 0, 0), "no program pointed at");
-        m.program = Program::Running;
-        assert_eq!(cs_words(&[m]).0, CS_RUNNING_PROGRAM);
-        assert_eq!(hex_words(&[1, 0, 0]).len(), 18);
+    fn the_coordinate_system_words_print_as_eighteen_digits() {
+        assert_eq!(hex_words(&[CS_RUNNING_PROGRAM, CS_IN_POSITION, 0]), "000001020000000000");
     }
 }

@@ -148,6 +148,57 @@ impl Axis {
         }
     }
 
+    /// Starts a motion program's move to `target` (counts from power-up) at most `speed`
+    /// (counts/ms), accelerating and decelerating at `accel`: a linear move of its coordinate
+    /// system (`card/program.rs`). The move timer runs while it moves (SRM p.283).
+    pub fn program_move(&mut self, target: f64, speed: f64, accel: f64) {
+        self.accel = accel;
+        self.homing = Homing::None;
+        self.limit_stop = false;
+        self.goal = Goal::Position { target, speed };
+        self.move_timer = true;
+    }
+
+    /// The time (ms) until a move to a position arrives, limits aside (`None`: no move to a
+    /// position is under way, or it does not arrive within a dozen pieces).
+    pub fn time_to_arrive(&self) -> Option<f64> {
+        let Goal::Position { target, speed } = self.goal else { return None };
+        // Long enough for any move a piece at a time, short enough to keep the sum exact.
+        const LONG: f64 = 1.0e9;
+        let mut copy = *self;
+        let mut used = 0.0;
+        for _ in 0..PIECES_PER_ADVANCE_MAX {
+            let left = copy.towards(target, speed, LONG);
+            used += LONG - left;
+            if copy.goal == Goal::Hold {
+                return Some(used);
+            }
+        }
+        None
+    }
+
+    /// A program's move from rest that must end within `ms` (the servo cycles the core gives
+    /// it): it goes to its target in exactly that time, accelerating for half of it.
+    pub fn fit_move(&mut self, ms: f64) {
+        if let Goal::Position { target, .. } = self.goal {
+            let d = (target - self.pos).abs();
+            if ms > 0.0 && d > 0.0 && self.vel.abs() <= VELOCITY_EPS {
+                self.accel = 4.0 * d / (ms * ms);
+                self.goal = Goal::Position { target, speed: 2.0 * d / ms };
+            }
+        }
+    }
+
+    /// Ends a program's move exactly at `target` (the move's time is up: what rounding left
+    /// of it is taken at once).
+    pub fn finish_move(&mut self, target: f64) {
+        if let Goal::Position { target: t, .. } = self.goal {
+            if t == target {
+                self.arrive(target);
+            }
+        }
+    }
+
     /// Starts a homing search at `velocity` (its sign the direction, SRM p.101 Ixx23).
     pub fn home(&mut self, velocity: f64, accel: f64) {
         self.accel = accel;

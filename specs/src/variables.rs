@@ -86,12 +86,22 @@ pub struct HostMVariable {
 /// Motors 1..=32 of a Turbo PMAC, which `xx` in `Ixx24` and `Mxx90` runs over.
 pub const MOTOR_NUMBERS: std::ops::RangeInclusive<u16> = 1..=32;
 
-/// The variable numbers `I10` or `Ixx24` (`letter` `I`) stands for: one number, or one per
-/// motor (`xx` = 01..32, so I124 ... I3224). `None` when the text is neither form or a number
-/// is beyond 8191.
+/// Coordinate systems 1..=16 of a Turbo PMAC, which `sx` in `Isx87` runs over.
+pub const COORDINATE_SYSTEM_NUMBERS: std::ops::RangeInclusive<u16> = 1..=16;
+
+/// The variable numbers `I10`, `Ixx24` or `Isx87` (`letter` `I`) stands for: one number, one
+/// per motor (`xx` = 01..32, so I124 ... I3224), or one per coordinate system (`sx` = 51..66,
+/// so I5187 ... I6687, SRM p.188). `None` when the text is none of these or a number is beyond
+/// 8191.
 pub fn variable_numbers(text: &str, letter: char) -> Option<Vec<u16>> {
     let rest = text.strip_prefix(letter)?;
-    let numbers: Vec<u16> = if let Some(offset) = rest.strip_prefix("xx") {
+    let numbers: Vec<u16> = if let Some(offset) = rest.strip_prefix("sx").filter(|_| letter == 'I') {
+        if offset.len() != 2 || !offset.bytes().all(|b| b.is_ascii_digit()) {
+            return None;
+        }
+        let offset: u16 = offset.parse().ok()?;
+        COORDINATE_SYSTEM_NUMBERS.map(|s| 5000 + s * 100 + offset).collect()
+    } else if let Some(offset) = rest.strip_prefix("xx") {
         if offset.len() != 2 || !offset.bytes().all(|b| b.is_ascii_digit()) {
             return None;
         }
@@ -198,7 +208,7 @@ impl Variables {
             if variable_numbers(&v.number, 'I').is_none() {
                 return Err(map.error(
                     &format!("host_i_variables.{i}.number"),
-                    format!("`{}` is neither `I<n>` nor `Ixx<nn>` within I0..I8191", v.number),
+                    format!("`{}` is none of `I<n>`, `Ixx<nn>`, `Isx<nn>` within I0..I8191", v.number),
                 ));
             }
         }
@@ -306,6 +316,9 @@ mod host_tests {
         let per_motor = variable_numbers("Ixx24", 'I').unwrap();
         assert_eq!((per_motor.len(), per_motor[0], per_motor[31]), (32, 124, 3224));
         assert_eq!(variable_numbers("Mxx90", 'M').unwrap()[7], 890);
+        let per_cs = variable_numbers("Isx87", 'I').unwrap();
+        assert_eq!((per_cs.len(), per_cs[0], per_cs[15]), (16, 5187, 6687));
+        assert_eq!(variable_numbers("Msx87", 'M'), None);
         for bad in ["I", "I8192", "Ix24", "Ixx2", "M10", "I1a"] {
             assert_eq!(variable_numbers(bad, 'I'), None, "{bad}");
         }

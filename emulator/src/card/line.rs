@@ -185,22 +185,43 @@ impl Card {
 
     /// Reads the line from `from` on. While a program buffer is open, what comes before CLOSE
     /// is program text for it, not on-line commands (UM p.46: "P1=1 ... stored in the buffer
-    /// if one is open"); the emulator keeps no program text: it is acknowledged and dropped
-    /// (MODEL: the core models a buffer's checksum, not its contents). The capture keeps it
-    /// as an exchange without answers, as it kept the whole line before.
+    /// if one is open"): the buffer keeps it (`buffers.rs`) and it is acknowledged. The capture
+    /// keeps it as a note (the model holds no program text; read as on-line commands, `CLEAR`
+    /// would be ERR003 to it). Text that the buffers have no room for ends the line with
+    /// ERR003.
     fn open_segment(&mut self, run: &mut LineRun, from: usize, addressing: &mut Addressing) {
         let mut at = from.min(run.line.len());
+        let mut refused = None;
         if self.buffer_open() {
             let skip = find_close(&run.line[at..]).unwrap_or(run.line.len() - at);
             let text = String::from_utf8_lossy(&run.line[at..at + skip]).trim().to_string();
             if !text.is_empty() {
-                let before = *addressing;
-                self.capture_record(|| Record::Line { line: text, addressing: before, reply: Some(Vec::new()) });
+                if let Err(why) = self.buffers.enter(&text) {
+                    refused = Some(why);
+                }
+                if refused.is_none() {
+                    self.capture_record(|| {
+                        Record::Note(format!("`{text}`: program text for the open buffer (the model keeps none)"))
+                    });
+                }
             }
-            at += skip;
+            if refused.is_none() {
+                at += skip;
+            }
         }
         run.segment_at = at;
-        run.queue = pieces(&run.line[at..], addressing).into();
+        run.queue = match refused {
+            Some(why) => {
+                let at_text = String::from_utf8_lossy(&run.line[at..]).chars().take(80).collect();
+                std::iter::once(Piece {
+                    command: Err(Unreadable { at: at_text, offset: 0, why }),
+                    start: 0,
+                    end: run.line.len() - at,
+                })
+                .collect()
+            }
+            None => pieces(&run.line[at..], addressing).into(),
+        };
         run.addressing_after = *addressing;
     }
 }

@@ -11,17 +11,20 @@
 //!   ends where the core says motion stops);
 //! - a kill, a trip, a reset or a deactivated motor (Ixx00 = 0) stops the trajectory at once.
 //!
-//! A jog to a position that arrives leaves the core's motor jogging (the model's jogs end only
-//! by a stop command, MODEL as in the core); the status words report it at rest and in position
-//! from the trajectory.
+//! A jog that comes to rest (at its target, at a limit, or refused by one) ends in the core as
+//! the stop that ends a jog, `J/`, with nothing left to decelerate: the model's jogs end only
+//! by a stop command, and a card's motor is then closed-loop at rest, from which a program may
+//! start (`Card::conclude_jogs`). The status words report it from the trajectory.
 
 use super::Card;
+use crate::capture_queue::Record;
 use crate::framing::Answer;
 use crate::trajectory::{Axis, Goal, Homing, Limits};
 use pmacwd_core as core;
 use pmacwd_core::motion::{MotorState, MOTORS_MAX};
+use pmacwd_specs::grammar::Command;
 use pmacwd_specs::grammar::Jog;
-use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand};
+use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, HostCommand, Motion, MotorCommand};
 
 /// A commanded position is kept within this many counts of zero (MODEL: the card's motor
 /// position range is +/-2^35 counts at the default scale, SRM p.95 for Ixx13; the bound keeps
@@ -75,7 +78,7 @@ fn sane_speed(v: f64) -> f64 {
     }
 }
 
-fn sane_accel(a: f64) -> f64 {
+pub(super) fn sane_accel(a: f64) -> f64 {
     if a.is_finite() && a > 0.0 {
         a.clamp(ACCEL_MIN, ACCEL_MAX)
     } else {
@@ -83,7 +86,7 @@ fn sane_accel(a: f64) -> f64 {
     }
 }
 
-fn sane_position(p: f64) -> f64 {
+pub(super) fn sane_position(p: f64) -> f64 {
     if p.is_finite() {
         p.clamp(-POSITION_MAX, POSITION_MAX)
     } else {
@@ -256,10 +259,36 @@ impl Card {
     /// length, nothing is moving): the longest any motor it stops needs to come to rest at its
     /// rate, 1..=255.
     pub(super) fn stop_cycles(&self, m: &Motion) -> Option<u8> {
+        let dt = self.servo_period_ms();
+        let cycles = |ms: f64| Some((ms / dt).ceil().clamp(1.0, STOP_CYCLES_MAX) as u8);
+        // A program's stops (`card/program.rs`): S runs one move, which the core ends after
+        // the cycles it is given: the most the core's counter holds (MODEL: the move is not
+        // known before the program executes; a longer move is cut there). Q and / finish the
+        // move under way; H, \ and <CTRL-O> stop on the path in the program's acceleration
+        // time (MODEL: Isx95 is not modelled).
+        match *m {
+            Motion::CoordinateSystem(_, CsCommand::Step) => return Some(STOP_CYCLES_MAX as u8),
+            Motion::CoordinateSystem(cs, CsCommand::Quit | CsCommand::EndOfMove) => {
+                return self.program_move_left(cs).and_then(cycles)
+            }
+            Motion::Global(GlobalCommand::QuitAll) => {
+                return (1..=16).filter_map(|cs| self.program_move_left(cs)).reduce(f64::max).and_then(cycles)
+            }
+            Motion::CoordinateSystem(cs, CsCommand::Hold | CsCommand::QuickStop | CsCommand::Feedrate(0)) => {
+                return self.program_move_left(cs).and_then(|_| cycles(self.program_accel_time(cs)))
+            }
+            Motion::Global(GlobalCommand::HoldAll) => {
+                return (1..=16)
+                    .filter(|cs| self.program_move_left(*cs).is_some())
+                    .map(|cs| self.program_accel_time(cs))
+                    .reduce(f64::max)
+                    .and_then(cycles)
+            }
+            _ => {}
+        }
         if !self.motors.any_moving() {
             return None;
         }
-        let dt = self.servo_period_ms();
         let motors = self.cfg.motion.motors.min(MOTORS_MAX as u8);
         let in_cs =
             |cs: u8| (1..=motors).filter(move |n| self.core_state(*n).is_some_and(|m| m.coordinate_system == cs));
@@ -281,9 +310,13 @@ impl Card {
 
     /// Keeps every trajectory within its core motor's state (see the module's doc).
     pub(super) fn sync_motion(&mut self) {
+        self.sync_programs();
         let dt = self.servo_period_ms();
         for n in 1..=(MOTORS_MAX as u8) {
+            let in_program = self.in_program_move(n);
             let core = self.core_state(n);
+            let program_left =
+                core.filter(|_| in_program).and_then(|m| self.program_move_left(m.coordinate_system)).unwrap_or(0.0);
             let active = self.activated(n);
             let Some(axis) = self.axis_mut(n) else { continue };
             match core {
@@ -314,6 +347,29 @@ impl Card {
                             axis.stop_within(ms);
                         }
                     }
+                    // A program's move goes on while the core runs the motor's program; a Q or /
+                    // the core carries out leaves it the cycles the core gives (a move that needs
+                    // longer decelerates to rest within them, MODEL as for the stops above).
+                    MotorState::Program if in_program => {
+                        if let Some((_, cycles)) = m.stop {
+                            let ms = f64::from(cycles.max(1)) * dt;
+                            let needs = match axis.goal {
+                                Goal::Position { .. } => program_left,
+                                Goal::Stop { rate } => axis.stop_time(rate),
+                                Goal::Hold | Goal::Velocity { .. } => 0.0,
+                            };
+                            if needs > ms + dt / 2.0 && !matches!(axis.goal, Goal::Stop { .. }) {
+                                if axis.vel == 0.0 {
+                                    // Under S, a move from rest longer than the core's longest
+                                    // stop (255 cycles) goes faster, to arrive when the core's
+                                    // step ends (MODEL).
+                                    axis.fit_move(ms);
+                                } else {
+                                    axis.stop_within(ms);
+                                }
+                            }
+                        }
+                    }
                     MotorState::Killed | MotorState::Closed | MotorState::Holding | MotorState::Program => {
                         if !axis.at_rest() || axis.homing != Homing::None {
                             axis.halt();
@@ -329,12 +385,56 @@ impl Card {
         }
     }
 
+    /// The times (ms) at which the jogs to a position under way arrive.
+    pub(super) fn jog_arrivals(&self) -> impl Iterator<Item = f64> + '_ {
+        (1..=(MOTORS_MAX as u8)).filter_map(move |n| {
+            let jogging = self.core_state(n).is_some_and(|m| m.state == MotorState::Jogging);
+            self.axis(n).filter(|_| jogging).and_then(Axis::time_to_arrive)
+        })
+    }
+
+    /// A jog the core still has under way whose trajectory has come to rest (at its target, at
+    /// a limit, or refused by one) has ended: the core hears the stop that ends a jog, `J/`
+    /// (UM p.217 row 1), with nothing left to decelerate (one servo cycle), and a capture
+    /// records it as the exchange `#nJ/`. MODEL: the model's jogs end only by a stop command;
+    /// a card's jog to a position ends at its target with the motor closed-loop at rest, from
+    /// which a program may start (UM p.319).
+    pub(super) fn conclude_jogs(&mut self) {
+        for n in 1..=self.cfg.motion.motors.min(MOTORS_MAX as u8) {
+            let jogging = self.core_state(n).is_some_and(|m| m.state == MotorState::Jogging);
+            let still = self.axis(n).is_some_and(|a| a.at_rest() && a.homing == Homing::None);
+            if !(jogging && still) {
+                continue;
+            }
+            let motion = Motion::Motor(n, MotorCommand::JogStop);
+            let usual = self.cfg.motion.decel_cycles;
+            self.cfg.motion.decel_cycles = 1;
+            self.core.command(&self.cfg, pmacwd_bridge::core_command(&HostCommand::Motion(motion)), &mut self.store);
+            self.cfg.motion.decel_cycles = usual;
+            self.capture_record(|| Record::Commands {
+                commands: vec![(format!("#{n}J/"), Ok(Command::Motion(motion)))],
+                reply: Some(Vec::new()),
+            });
+        }
+    }
+
     /// Moves every trajectory on by `cycles` servo cycles.
     pub(super) fn advance_motion(&mut self, cycles: u64) {
+        let ms = cycles as f64 * self.servo_period_ms();
+        if self.programs_executing() {
+            // Programs execute their next statements as each move or dwell ends
+            // (`card/program.rs`).
+            self.advance_programs(ms, &mut |card, t| card.advance_axes(t));
+        } else {
+            self.advance_axes(ms);
+        }
+    }
+
+    /// Moves every trajectory on by `ms`.
+    fn advance_axes(&mut self, ms: f64) {
         if !self.motors.any_moving() {
             return;
         }
-        let ms = cycles as f64 * self.servo_period_ms();
         for n in 1..=(MOTORS_MAX as u8) {
             let offset = self.motor_i(n, 26) / 16.0;
             let k = usize::from(n - 1);

@@ -229,6 +229,14 @@ pub enum Command {
     Undefine {
         cs: Option<u8>,
     },
+    /// `B{n}` of C.S. `cs`: point it at the top of motion program n (SRM p.295); the core hears
+    /// its `B` (`CsCommand::Begin`).
+    Begin {
+        cs: u8,
+        program: Option<u16>,
+    },
+    /// `E` of C.S. `cs`: enable its motors (the EPICS driver's `&1E`).
+    Enable(u8),
     /// `OPEN PLC n`, `OPEN PROG n`, `CLOSE`.
     OpenPlc(u8),
     OpenProgram(u16),
@@ -301,6 +309,8 @@ impl Command {
             | Command::HomeZero(_)
             | Command::AxisDefine { .. }
             | Command::Undefine { .. }
+            | Command::Begin { .. }
+            | Command::Enable(_)
             | Command::OpenPlc(_)
             | Command::OpenProgram(_)
             | Command::Close
@@ -741,11 +751,16 @@ impl Parser<'_, '_> {
             b'H' => self.cs_command(CsCommand::Hold),
             b'R' => self.cs_command(CsCommand::Run),
             b'S' => self.cs_command(CsCommand::Step),
+            // `B{constant}`: point the C.S. at the top of program {constant} (SRM p.295); `B`
+            // alone at the top of the program it points at. MODEL: the line-label fraction
+            // (`B3.025`) is not read.
             b'B' => {
-                // `B` or `B{program}`: the program number is not kept (the core runs none).
-                self.number();
-                self.cs_command(CsCommand::Begin)
+                Command::Begin { cs: self.addressing.cs, program: self.number().and_then(|n| u16::try_from(n).ok()) }
             }
+            // `E`: the EPICS driver sends `&{cs}E` "to make sure axes are enabled" before each
+            // C.S. move (pmacHardwareTurbo::getCSEnableCommand). MODEL: the pages at hand do not
+            // describe it; it closes the loop of each killed motor of the C.S., as J/ does.
+            b'E' => Command::Enable(self.addressing.cs),
             _ => return Err(self.error(start, "not an on-line command of the card")),
         })
     }
@@ -1253,6 +1268,9 @@ impl fmt::Display for Command {
             Command::AxisReport { cs, motor } => write!(f, "&{cs}#{motor}->"),
             Command::Undefine { cs: Some(cs) } => write!(f, "&{cs}UNDEFINE"),
             Command::Undefine { cs: None } => f.write_str("UNDEFINE ALL"),
+            Command::Begin { cs, program: Some(n) } => write!(f, "&{cs}B{n}"),
+            Command::Begin { cs, program: None } => write!(f, "&{cs}B"),
+            Command::Enable(cs) => write!(f, "&{cs}E"),
             Command::OpenPlc(n) => write!(f, "OPEN PLC {n}"),
             Command::OpenProgram(n) => write!(f, "OPEN PROG {n}"),
             Command::Close => f.write_str("CLOSE"),

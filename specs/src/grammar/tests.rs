@@ -199,6 +199,10 @@ fn the_epics_driver_s_lines_read_whole() {
         ("WL:$10000,$400000000801,$400000000802", 1),
         ("ms0,i912 ms0,i913 i124 i123 i126", 5),
         (" &1#1->, &1#2->, #1? #1P", 4),
+        // pmacCSAxis::move: the enable, then the move line (issue 30).
+        ("&1e", 1),
+        ("&1&1Q70=500.000000 I5187=100.000000Q77=2.000000000000 B10R", 5),
+        ("&1 I5187=100.000000Q77=1.000000000000 I5187=100.000000Q78=-1.000000000000 Q70=800.000000 B10R", 7),
     ] {
         assert_eq!(ok(line).len(), n, "{line}");
     }
@@ -230,6 +234,16 @@ fn keywords_win_over_single_letters() {
         [Command::List(Listing::Program { number: 3, start: Some(10), length: Some(5) })]
     );
     assert_eq!(ok("LIST PLC 2"), [Command::List(Listing::Plc { number: 2, start: None, length: None })]);
+    // SRM p.295: B{constant} points at program {constant}; E (the EPICS driver's enable).
+    assert_eq!(
+        ok("&2B10R B E"),
+        [
+            Command::Begin { cs: 2, program: Some(10) },
+            Command::Motion(Motion::CoordinateSystem(2, CsCommand::Run)),
+            Command::Begin { cs: 2, program: None },
+            Command::Enable(2),
+        ]
+    );
     // UM p.243, SRM p.295, SRM p.57 (the memory write is the vocabulary's pseudo-command).
     assert_eq!(
         ok("$$$***CHKS checksum <memory-write i130=$10>I130"),
