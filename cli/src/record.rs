@@ -86,7 +86,12 @@ pub fn record(a: RecordArgs) -> ExitCode {
         verbose: a.verbose,
         thread_stack_bytes: None,
     };
-    let proxy = match Proxy::start(Recorder::new(capture, servo_hz, a.virtual_time), options) {
+    // The capture is written by a thread of its own, so that a stalled sink holds no session.
+    let recorder = match Recorder::new(capture, servo_hz, a.virtual_time) {
+        Ok(r) => r,
+        Err(e) => return unusable(format!("{}: cannot start the capture's writer: {e}", a.out.display())),
+    };
+    let proxy = match Proxy::start(recorder, options) {
         Ok(p) => p,
         Err(e) => return unusable(format!("cannot listen: {e}")),
     };

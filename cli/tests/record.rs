@@ -46,7 +46,7 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
         verbose: false,
         thread_stack_bytes: None,
     };
-    let proxy = Proxy::start(Recorder::new(capture, model.servo_hz, false), options).unwrap();
+    let proxy = Proxy::start(Recorder::new(capture, model.servo_hz, false).unwrap(), options).unwrap();
 
     {
         let mut c = TcpStream::connect(proxy.local_addr).unwrap();
@@ -184,7 +184,7 @@ fn every_recorded_reply_is_the_one_the_client_received_however_fast_or_impatient
         verbose: false,
         thread_stack_bytes: None,
     };
-    let proxy = Proxy::start(Recorder::new(capture, model.servo_hz, true), options).unwrap();
+    let proxy = Proxy::start(Recorder::new(capture, model.servo_hz, true).unwrap(), options).unwrap();
     let mut control = ControlClient(std::io::BufReader::new(TcpStream::connect(proxy.control_addr.unwrap()).unwrap()));
 
     let mut received: Vec<(String, String)> = Vec::new();
@@ -273,7 +273,7 @@ fn a_session_whose_thread_cannot_start_is_closed_and_the_proxy_keeps_accepting()
         verbose: false,
         thread_stack_bytes: Some(1 << 60),
     };
-    let proxy = Proxy::start(Recorder::new(capture, 2250, false), options).unwrap();
+    let proxy = Proxy::start(Recorder::new(capture, 2250, false).unwrap(), options).unwrap();
     for k in 0..3 {
         let mut c = TcpStream::connect(proxy.local_addr).unwrap();
         c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
@@ -322,7 +322,7 @@ fn proxy_to_an_emulator() -> (Server, Proxy, SharedBuffer) {
         verbose: false,
         thread_stack_bytes: None,
     };
-    let proxy = Proxy::start(Recorder::new(capture, 2250, true), options).unwrap();
+    let proxy = Proxy::start(Recorder::new(capture, 2250, true).unwrap(), options).unwrap();
     (server, proxy, buffer)
 }
 
@@ -415,7 +415,7 @@ fn a_reply_longer_than_the_proxy_keeps_is_forwarded_whole_and_recorded_cut() {
         verbose: false,
         thread_stack_bytes: None,
     };
-    let proxy = Proxy::start(Recorder::new(capture, 2250, false), options).unwrap();
+    let proxy = Proxy::start(Recorder::new(capture, 2250, false).unwrap(), options).unwrap();
     {
         let mut c = TcpStream::connect(proxy.local_addr).unwrap();
         c.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
@@ -669,7 +669,7 @@ fn a_host_that_does_not_wait_for_a_silent_card_is_closed_past_the_bound_on_waiti
         verbose: false,
         thread_stack_bytes: None,
     };
-    let proxy = Proxy::start(Recorder::new(capture, 2250, false), options).unwrap();
+    let proxy = Proxy::start(Recorder::new(capture, 2250, false).unwrap(), options).unwrap();
     let mut c = TcpStream::connect(proxy.local_addr).unwrap();
     c.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
     let mut request = Header::getresponse(3).to_bytes().to_vec();

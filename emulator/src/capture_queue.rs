@@ -1,7 +1,8 @@
-//! `serve --record` off the card's lock (issue 33): the card hands each record to a queue and
-//! a thread of its own writes the capture. A sink that stops taking bytes (a FIFO nobody
-//! reads, a full or hung disk) used to block the write under the card's lock, and with it
-//! every host and the control port. Now the card never waits for the sink: when the records
+//! Captures written off every lock a host shares (issue 33): `serve --record`'s card and
+//! `pmacwd record`'s proxy (`proxy::Recorder`) hand each record to a queue and a thread of its
+//! own writes the capture. A sink that stops taking bytes (a FIFO nobody reads, a full or hung
+//! disk) used to block the write under the card's lock (the proxy's recorder lock), and with
+//! it every host and the control port. Now neither waits for the sink: when the records
 //! waiting pass [`QUEUE_BYTES_MAX`], recording stops, standard error says so at once, and the
 //! capture ends with a note saying why once the sink takes it. The capture then holds every
 //! exchange up to that point and nothing after it, so its replay judges a true prefix of the
@@ -25,17 +26,19 @@ pub const QUEUE_BYTES_MAX: usize = 4 << 20;
 /// How long the end of a recording waits for the writer to write what is queued.
 pub const FINISH_WAIT: Duration = Duration::from_secs(5);
 
-/// What the card records, in the order it happened.
+/// What the card (or the proxy) records, in the order it happened.
 pub enum Record {
     /// A whole line and its reply (`None`: silence), read again with the card's grammar from
-    /// `addressing`: a line the card answered at once (a tripped card, a byte above 127).
+    /// `addressing`: a line the card answered at once (a tripped card, a byte above 127), and
+    /// every exchange `pmacwd record` sees.
     Line { line: String, addressing: Addressing, reply: Option<Vec<u8>> },
     /// Commands run in one hold of the card's lock and their answers: see
     /// [`CaptureWriter::commands`].
     Commands { commands: Vec<(String, Result<Command, Unreadable>)>, reply: Option<Vec<u8>> },
     /// An event the bench caused (a control command).
     Event(Step),
-    /// A note for the next step (program text sent to an open buffer: the model keeps none).
+    /// A note for the next step ([`CaptureWriter::note`]): program text sent to an open buffer
+    /// (the model keeps none), a proxy's own remarks.
     Note(String),
     /// Recording stopped: the capture ends with this note.
     Stopped(String),
@@ -75,21 +78,24 @@ pub struct CaptureQueue {
     failed: Arc<AtomicBool>,
     steps: Arc<AtomicU64>,
     done: mpsc::Receiver<Vec<String>>,
+    /// Who speaks on standard error: `pmacwd serve`, `pmacwd record`.
+    who: &'static str,
 }
 
 impl CaptureQueue {
-    /// Starts the writer thread for `capture` (its header is already written).
-    pub fn start(capture: CaptureWriter<Box<dyn Write + Send>>) -> io::Result<CaptureQueue> {
+    /// Starts the writer thread for `capture` (its header is already written); `who` names
+    /// the program in the messages on standard error (`pmacwd serve`).
+    pub fn start(capture: CaptureWriter<Box<dyn Write + Send>>, who: &'static str) -> io::Result<CaptureQueue> {
         let (to_writer, from_card) = mpsc::channel::<Queued>();
         let (done_tx, done) = mpsc::sync_channel(1);
         let queued_bytes = Arc::new(AtomicUsize::new(0));
         let failed = Arc::new(AtomicBool::new(false));
         let steps = Arc::new(AtomicU64::new(capture.steps));
         let (q, f, st) = (queued_bytes.clone(), failed.clone(), steps.clone());
-        spawn("serve: capture writer".into(), None, move || {
-            let _ = done_tx.send(write_all(capture, &from_card, &q, &f, &st));
+        spawn(format!("{who}: capture writer"), None, move || {
+            let _ = done_tx.send(write_all(capture, &from_card, &q, &f, &st, who));
         })?;
-        Ok(CaptureQueue { to_writer: Some(to_writer), cycles: 0, queued_bytes, failed, steps, done })
+        Ok(CaptureQueue { to_writer: Some(to_writer), cycles: 0, queued_bytes, failed, steps, done, who })
     }
 
     /// Whether records are still being written.
@@ -103,9 +109,9 @@ impl CaptureQueue {
     }
 
     /// Queues `record` without waiting; stops recording, with a message on standard error,
-    /// when the sink has fallen [`QUEUE_BYTES_MAX`] behind.
-    pub fn send(&mut self, record: Record) {
-        let Some(tx) = &self.to_writer else { return };
+    /// when the sink has fallen [`QUEUE_BYTES_MAX`] behind. Whether it was queued.
+    pub fn send(&mut self, record: Record) -> bool {
+        let Some(tx) = &self.to_writer else { return false };
         let bytes = record.bytes();
         let waiting = self.queued_bytes.fetch_add(bytes, Ordering::Relaxed) + bytes;
         if waiting > QUEUE_BYTES_MAX {
@@ -113,17 +119,19 @@ impl CaptureQueue {
             let why = format!(
                 "recording stopped: the capture's sink took nothing while {waiting} bytes of records waited (at most {QUEUE_BYTES_MAX}): a FIFO nobody reads, a full or hung disk; the capture holds the session up to here, and nothing after it"
             );
-            to_stderr(format_args!("pmacwd serve: {why}"));
+            to_stderr(format_args!("{}: {why}", self.who));
             // One small record past the bound, so that the capture itself says why it ends.
             let _ = tx.send(Queued { cycles_before: 0, record: Record::Stopped(why) });
             self.to_writer = None;
-            return;
+            return false;
         }
         let queued = Queued { cycles_before: std::mem::take(&mut self.cycles), record };
         if tx.send(queued).is_err() {
             // The writer ended (the sink failed, and the writer said so).
             self.to_writer = None;
+            return false;
         }
+        true
     }
 
     /// Ends the recording: waits up to `wait` for the writer to write what is queued. Returns
@@ -151,6 +159,7 @@ fn write_all(
     queued_bytes: &AtomicUsize,
     failed: &AtomicBool,
     steps: &AtomicU64,
+    who: &str,
 ) -> Vec<String> {
     for Queued { cycles_before, record } in from_card.iter() {
         queued_bytes.fetch_sub(record.bytes(), Ordering::Relaxed);
@@ -171,7 +180,7 @@ fn write_all(
         steps.store(capture.steps, Ordering::Relaxed);
         if let Err(e) = written {
             // A full disk must not stop the emulator: say so once and stop recording.
-            to_stderr(format_args!("pmacwd serve: recording stopped: {e}"));
+            to_stderr(format_args!("{who}: recording stopped: {e}"));
             failed.store(true, Ordering::Relaxed);
             return vec![format!("recording stopped: {e}")];
         }
@@ -204,7 +213,7 @@ mod tests {
         let capture =
             CaptureWriter::new(Box::new(sink.clone()) as Box<dyn Write + Send>, "t", "i40-zero", Timing::Exact)
                 .unwrap();
-        let mut q = CaptureQueue::start(capture).unwrap();
+        let mut q = CaptureQueue::start(capture, "test").unwrap();
         q.elapse(2);
         q.elapse(3);
         q.send(Record::Line {
@@ -240,7 +249,7 @@ mod tests {
             Timing::Exact,
         )
         .unwrap();
-        let mut q = CaptureQueue::start(capture).unwrap();
+        let mut q = CaptureQueue::start(capture, "test").unwrap();
         q.send(Record::Line { line: "???".into(), addressing: Addressing::default(), reply: None });
         let (_, notes) = q.finish(FINISH_WAIT);
         assert!(notes.iter().any(|n| n.contains("no space left")), "{notes:?}");

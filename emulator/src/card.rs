@@ -382,7 +382,7 @@ impl Card {
     /// Records every exchange and event from now on, through a writer thread of its own; an
     /// error when the system will not start it.
     pub fn record(&mut self, capture: CaptureWriter<Box<dyn Write + Send>>) -> std::io::Result<()> {
-        self.capture = Some(CaptureQueue::start(capture)?);
+        self.capture = Some(CaptureQueue::start(capture, "pmacwd serve")?);
         Ok(())
     }
 

@@ -10,8 +10,8 @@
 //! ACK, or with the CR after an error's number; a reply whose end the framing does not show
 //! (a bare BEL under I6 = 0 or 2, I3 = 0 or 1) ends when the host sends its next request. A
 //! request that gets no reply byte for `silence` is a silence (a tripped card, UM p.215), even
-//! when the host gave up on it sooner. Each reply is written to the capture before its bytes
-//! go on to the host, so a fast host cannot overtake its own exchange.
+//! when the host gave up on it sooner. Each reply is handed to the capture (its queue) before
+//! its bytes go on to the host, so a fast host cannot overtake its own exchange.
 //!
 //! Control commands (`--control-listen`) reach the card only after every host request
 //! forwarded before them has its reply or its silence recorded, so an INIT/ sent after a silent
@@ -20,14 +20,21 @@
 //! Time is the proxy's clock times the servo rate, or, with `--virtual-time`, the `step`
 //! commands seen on the proxied control interface of a `pmacwd serve --virtual-time`.
 //! Concurrent sessions share one timeline, in the order their exchanges complete.
+//!
+//! The capture is written by a thread of its own through the bounded queue of
+//! [`crate::capture_queue`], as `serve --record`'s: a sink that stops taking bytes (a FIFO
+//! nobody reads, a full disk) never holds a session; past the queue's bound recording stops,
+//! and the capture ends with a note saying why.
 
 use crate::bounded::{accepted, room_for_a_thread, spawn, CountedLog, Table};
 use crate::capture::{CaptureWriter, Timing};
+use crate::capture_queue::{CaptureQueue, Record, FINISH_WAIT};
 use crate::control::{read_line_max, CONTROL_LINE_BYTES_MAX};
 use crate::framing::{ACK, BEL, CR};
 use crate::listen::bind;
 use crate::protocol::{read_or_end, trim_line, Header, Request, HEADER_BYTES, VR_PMAC_GETBUFFER};
 use crate::server::CONTROL_CLIENTS_MAX;
+use pmacwd_specs::grammar::Addressing;
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_trace::{Expect, Step, TraceEvent, STEP_CYCLES_MAX};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
@@ -91,9 +98,10 @@ pub struct RecordOptions {
     pub thread_stack_bytes: Option<usize>,
 }
 
-/// The shared timeline and the capture.
+/// The shared timeline and the capture: records go to the capture's writer thread without
+/// waiting for its sink (`capture_queue`).
 pub struct Recorder {
-    capture: CaptureWriter<Box<dyn Write + Send>>,
+    capture: CaptureQueue,
     start: Instant,
     servo_hz: u32,
     virtual_time: bool,
@@ -106,16 +114,21 @@ pub struct Recorder {
 }
 
 impl Recorder {
-    pub fn new(capture: CaptureWriter<Box<dyn Write + Send>>, servo_hz: u32, virtual_time: bool) -> Recorder {
-        Recorder {
-            capture,
+    /// Starts the capture's writer thread; an error when the system will not start it.
+    pub fn new(
+        capture: CaptureWriter<Box<dyn Write + Send>>,
+        servo_hz: u32,
+        virtual_time: bool,
+    ) -> io::Result<Recorder> {
+        Ok(Recorder {
+            capture: CaptureQueue::start(capture, "pmacwd record")?,
             start: Instant::now(),
             servo_hz,
             virtual_time,
             cycles_written: 0,
             exchanges: 0,
             not_recorded: BTreeMap::new(),
-        }
+        })
     }
 
     /// The timing a capture made with these options has.
@@ -141,11 +154,17 @@ impl Recorder {
         }
     }
 
-    fn exchange(&mut self, at: Instant, line: &str, reply: Option<&[u8]>) -> io::Result<()> {
+    fn exchange(&mut self, at: Instant, line: &str, reply: Option<&[u8]>) {
         self.advance_to(at);
-        self.exchanges += 1;
         self.note_not_recorded();
-        self.capture.exchange(line, reply)
+        let record = Record::Line {
+            line: line.to_string(),
+            addressing: Addressing::default(),
+            reply: reply.map(<[u8]>::to_vec),
+        };
+        if self.capture.send(record) {
+            self.exchanges += 1;
+        }
     }
 
     /// An event of the card (a control reply). A `servo` step longer than a trace reader takes
@@ -153,13 +172,16 @@ impl Recorder {
     /// several, the expectations and note on the last; `servo 0` ran nothing and is a note,
     /// since a reader refuses a step of no cycles. Before, such a capture's own `replay`
     /// refused it (exit 2).
-    fn event(&mut self, at: Instant, step: Step) -> io::Result<()> {
+    fn event(&mut self, at: Instant, step: Step) {
         self.advance_to(at);
         self.note_not_recorded();
-        let TraceEvent::Model(Event::Servo { cycles }) = step.event else { return self.capture.event(step) };
+        let TraceEvent::Model(Event::Servo { cycles }) = step.event else {
+            self.capture.send(Record::Event(step));
+            return;
+        };
         if cycles == 0 {
-            self.capture.note("control `servo 0`: no servo cycle ran".into());
-            return Ok(());
+            self.capture_note("control `servo 0`: no servo cycle ran".into());
+            return;
         }
         let mut left = cycles;
         while left > STEP_CYCLES_MAX {
@@ -168,10 +190,10 @@ impl Recorder {
                 expect: Expect::default(),
                 note: None,
             };
-            self.capture.event(part)?;
+            self.capture.send(Record::Event(part));
             left -= STEP_CYCLES_MAX;
         }
-        self.capture.event(Step { event: TraceEvent::Model(Event::Servo { cycles: left }), ..step })
+        self.capture.send(Record::Event(Step { event: TraceEvent::Model(Event::Servo { cycles: left }), ..step }));
     }
 
     /// A request forwarded to the card that the capture does not record (READREADY, FLUSH,
@@ -188,17 +210,20 @@ impl Recorder {
         }
         let counts: Vec<String> =
             std::mem::take(&mut self.not_recorded).into_iter().map(|(code, n)| format!("0x{code:02X} x {n}")).collect();
-        self.capture.note(format!("requests forwarded, not recorded (code x count): {}", counts.join(", ")));
+        self.capture_note(format!("requests forwarded, not recorded (code x count): {}", counts.join(", ")));
     }
 
     fn capture_note(&mut self, note: String) {
-        self.capture.note(note);
+        self.capture.send(Record::Note(note));
     }
 
-    pub fn finish(mut self) -> io::Result<(u64, u64, Vec<String>)> {
+    /// Ends the capture, waiting at most [`FINISH_WAIT`] for its sink to take what is queued:
+    /// (exchanges, steps written, notes that found no step, a failed or stalled sink's among
+    /// them).
+    pub fn finish(mut self) -> (u64, u64, Vec<String>) {
         self.note_not_recorded();
-        let steps = self.capture.steps;
-        Ok((self.exchanges, steps, self.capture.finish()?))
+        let (steps, notes) = self.capture.finish(FINISH_WAIT);
+        (self.exchanges, steps, notes)
     }
 }
 
@@ -224,15 +249,10 @@ impl Shared {
     fn recorder(&self) -> MutexGuard<'_, Option<Recorder>> {
         self.recorder.lock().unwrap_or_else(|e| e.into_inner())
     }
-    fn record(&self, f: impl FnOnce(&mut Recorder) -> io::Result<()>) {
-        let mut r = self.recorder();
-        if let Some(rec) = r.as_mut() {
-            if let Err(e) = f(rec) {
-                crate::bounded::to_stderr(format_args!(
-                    "pmacwd record: writing the capture failed: {e}; recording stopped"
-                ));
-                *r = None;
-            }
+    /// Hands records to the capture's writer; never waits for its sink.
+    fn record(&self, f: impl FnOnce(&mut Recorder)) {
+        if let Some(rec) = self.recorder().as_mut() {
+            f(rec);
         }
     }
     /// Milliseconds since the start, plus one: 0 is a connection's `NEVER_SPOKE`.
@@ -439,7 +459,6 @@ impl Session {
             let n = self.unsolicited_bytes;
             shared.record(|r| {
                 r.capture_note(format!("{n} reply bytes came with no request waiting: forwarded, not recorded"));
-                Ok(())
             });
             self.unsolicited_bytes = 0;
         }
@@ -578,10 +597,8 @@ impl Proxy {
         if let Some(a) = self.control_addr {
             let _ = TcpStream::connect(a);
         }
-        match self.shared.recorder().take() {
-            Some(r) => r.finish(),
-            None => Ok((0, 0, vec!["the capture was closed early after a write error".into()])),
-        }
+        let recorder = self.shared.recorder().take();
+        Ok(recorder.map_or_else(|| (0, 0, Vec::new()), Recorder::finish))
     }
 }
 
@@ -739,7 +756,6 @@ fn requests_to_card(
                              {waited} ms without a reply byte (a silent card, a host that does not wait), when \
                              it sent another: session closed, the waiting ones recorded as silent"
                         ));
-                        Ok(())
                     });
                     s.finish(shared);
                     shared.log(&format!("a session had {n} requests waiting for a silent card: closed"));
@@ -756,7 +772,6 @@ fn requests_to_card(
             let not_recorded = |shared: &Shared| {
                 shared.record(|r| {
                     r.count_not_recorded(code);
-                    Ok(())
                 })
             };
             match request {
@@ -796,7 +811,6 @@ fn requests_to_card(
                     s.finish(shared);
                     shared.record(|r| {
                         r.capture_note(format!("{e}: the rest of this session was forwarded, not recorded"));
-                        Ok(())
                     });
                     drop(s);
                     if card.write_all(&header).is_err() {
@@ -930,7 +944,6 @@ fn control_session(client: TcpStream, card: TcpStream, shared: &Shared, last_act
                     text.trim_end(),
                     limit.as_millis()
                 ));
-                Ok(())
             });
         }
         to_card.write_all(&line)?;
@@ -962,7 +975,6 @@ fn control_session(client: TcpStream, card: TcpStream, shared: &Shared, last_act
                 Ok(step) => shared.record(|r| r.event(at, step)),
                 Err(e) => shared.record(|r| {
                     r.capture_note(format!("control reply `{json}` not understood: {e}"));
-                    Ok(())
                 }),
             }
         }

@@ -1,6 +1,7 @@
 //! Issue 33's hostile clients against `pmacwd serve`, each test written before its fix and
-//! seen failing: a line whose reply is far larger than the line, a capture sink that stalls,
-//! and connections that never speak pushing out a client that does.
+//! seen failing: a line whose reply is far larger than the line, a capture sink that stalls
+//! (under `serve --record` and under `pmacwd record` in front of `serve`), and connections that
+//! never speak pushing out a client that does.
 
 use pmacwd_emulator::capture::{CaptureWriter, Timing};
 use pmacwd_emulator::card::{Card, Clock};
@@ -8,7 +9,7 @@ use pmacwd_emulator::protocol::{Header, REPLY_PACKET_BYTES};
 use pmacwd_emulator::server::{ServeOptions, Server};
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
-use std::sync::mpsc;
+use std::sync::{mpsc, Arc, Mutex};
 use std::time::{Duration, Instant};
 
 fn connect(s: &Server) -> TcpStream {
@@ -162,6 +163,100 @@ fn a_stalled_capture_sink_does_not_freeze_hosts_or_the_control_port() {
     drop(release_tx);
     let (_, left) = s.stop_then(|c| c.finish_recording_counted());
     assert!(left.iter().any(|n| n.contains("recording stopped")), "{left:?}");
+}
+
+/// Takes the capture's header, then blocks on its first write until the test releases it (or
+/// drops the sender); from then on keeps what it is given.
+struct StalledThenKept {
+    header_taken: bool,
+    release: Option<mpsc::Receiver<()>>,
+    kept: Arc<Mutex<Vec<u8>>>,
+}
+
+impl Write for StalledThenKept {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.header_taken {
+            if let Some(release) = self.release.take() {
+                let _ = release.recv();
+            }
+            self.kept.lock().unwrap().extend_from_slice(buf);
+        }
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.header_taken = true;
+        Ok(())
+    }
+}
+
+#[test]
+fn a_stalled_capture_sink_does_not_freeze_the_recording_proxy_s_hosts_or_its_control_port() {
+    // Before: `pmacwd record` wrote each exchange and event under the lock its host sessions
+    // and control sessions share, so a sink that stopped taking bytes held every session (the
+    // first reply never came). Now, as under `serve --record`, records go to a writer thread
+    // through the bounded queue of `capture_queue`; when it is full, recording stops, and the
+    // capture ends with a note saying why once the sink takes it.
+    use pmacwd_emulator::proxy::{Proxy, RecordOptions, Recorder};
+    let options = ServeOptions {
+        control: Some(std::net::SocketAddr::from(([127, 0, 0, 1], 0))),
+        ..ServeOptions::free_loopback_port(8)
+    };
+    let s = Server::start(Card::default_card(Clock::Virtual), options).unwrap();
+    let (release_tx, release_rx) = mpsc::channel();
+    let kept = Arc::new(Mutex::new(Vec::new()));
+    let sink: Box<dyn Write + Send> =
+        Box::new(StalledThenKept { header_taken: false, release: Some(release_rx), kept: kept.clone() });
+    let capture = CaptureWriter::new(sink, "stalled", "i40-zero", Timing::Exact).unwrap();
+    let loopback = std::net::SocketAddr::from(([127, 0, 0, 1], 0));
+    let options = RecordOptions {
+        listen: loopback,
+        target: s.local_addr.to_string(),
+        control: Some((loopback, s.control_addr.unwrap().to_string())),
+        servo_hz: 2250,
+        virtual_time: true,
+        silence: Duration::from_secs(1),
+        sessions: None,
+        verbose: false,
+        thread_stack_bytes: None,
+    };
+    let proxy = Proxy::start(Recorder::new(capture, 2250, true).unwrap(), options).unwrap();
+    let open = || {
+        let c = TcpStream::connect(proxy.local_addr).unwrap();
+        c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        c.set_nodelay(true).unwrap();
+        c
+    };
+    let mut host = open();
+    let long = "??? ".repeat(373);
+    let mut first = vec![0u8; REPLY_PACKET_BYTES];
+    for _ in 0..2000 {
+        // Each long line is one exchange of about 3 KB (the line and the packet fetched):
+        // about 1,400 of them fill the queue.
+        send_line(&mut host, &long);
+        host.read_exact(&mut first).expect("the first packet of the reply, the sink stalled or not");
+    }
+    let mut other = open();
+    send_line(&mut other, "???");
+    let mut status = [0u8; 14];
+    other.read_exact(&mut status).expect("another host is answered");
+    assert_eq!(&status, b"001000000000\r\x06");
+    let mut control = std::io::BufReader::new(TcpStream::connect(proxy.control_addr.unwrap()).unwrap());
+    control.get_ref().set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    for command in ["servo 10\n", "state\n"] {
+        control.get_mut().write_all(command.as_bytes()).unwrap();
+        let mut reply = String::new();
+        std::io::BufRead::read_line(&mut control, &mut reply).expect("the control port answers");
+        assert!(reply.starts_with("ok"), "{command}: {reply}");
+    }
+    drop(release_tx);
+    let (_, _, left) = proxy.stop().unwrap();
+    s.stop();
+    assert!(
+        left.iter().any(|n| n.contains("recording stopped: the capture's sink took nothing")),
+        "the capture ends saying why: {left:?}"
+    );
+    let written = String::from_utf8(kept.lock().unwrap().clone()).unwrap();
+    assert!(written.lines().count() > 1000, "the exchanges before the stop are in the capture");
 }
 
 #[test]

@@ -414,7 +414,7 @@ fn the_recording_proxy_keeps_at_most_its_sessions_open_and_a_newcomer_closes_the
         verbose: false,
         thread_stack_bytes: None,
     };
-    let proxy = Proxy::start(Recorder::new(capture, 2250, true), options).unwrap();
+    let proxy = Proxy::start(Recorder::new(capture, 2250, true).unwrap(), options).unwrap();
     let open = |_| {
         let mut c = TcpStream::connect(proxy.local_addr).unwrap();
         c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();

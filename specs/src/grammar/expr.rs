@@ -323,6 +323,22 @@ impl fmt::Display for Expr {
     }
 }
 
+/// The most characters a decimal constant may have, as written and as printed by
+/// [`number_text`]. MODEL: a bound on the reader's work; no host writes a constant this long.
+pub const NUMBER_TEXT_MAX: usize = 40;
+
+/// A decimal constant's text (digits and at most one dot, no sign) as its value; `None` when
+/// it holds no digit, or when its value prints longer than [`NUMBER_TEXT_MAX`] (40 nines round
+/// to 1e40, 41 digits; `.` and 38 zeros and a 1 prints as `0.` and 39 digits), so that every
+/// constant read prints as text that reads back (found by the fuzz target `card_grammar`).
+pub fn decimal_value(text: &str) -> Option<f64> {
+    if !text.bytes().any(|c| c.is_ascii_digit()) {
+        return None;
+    }
+    let v = text.parse::<f64>().ok()?;
+    (number_text(v).len() <= NUMBER_TEXT_MAX).then_some(v)
+}
+
 /// A constant as the card would print it: whole numbers without a fraction, others with as
 /// many digits as they need (Rust's shortest round-trip form).
 pub fn number_text(v: f64) -> String {
@@ -527,15 +543,12 @@ impl ExprParser<'_> {
                 break;
             }
             self.i += 1;
-            if self.i - start > 40 {
+            if self.i - start > NUMBER_TEXT_MAX {
                 return None;
             }
         }
         let text = std::str::from_utf8(&self.s[start..self.i]).ok()?;
-        if !text.bytes().any(|c| c.is_ascii_digit()) {
-            return None;
-        }
-        text.parse::<f64>().ok().map(Expr::Const)
+        decimal_value(text).map(Expr::Const)
     }
 }
 

@@ -477,17 +477,13 @@ impl Parser<'_, '_> {
             while let Some(c) = self.peek() {
                 if c == b'.' && !dot && !self.starts_with("..") {
                     dot = true;
-                } else if !c.is_ascii_digit() || self.i - from >= 40 {
+                } else if !c.is_ascii_digit() || self.i - from >= expr::NUMBER_TEXT_MAX {
                     break;
                 }
                 self.i += 1;
             }
             let text = std::str::from_utf8(&self.s[from..self.i]).ok()?;
-            if text.bytes().any(|c| c.is_ascii_digit()) {
-                text.parse::<f64>().ok()
-            } else {
-                None
-            }
+            expr::decimal_value(text)
         };
         match magnitude {
             Some(m) => Some(if negative { -m } else { m }),

@@ -296,3 +296,33 @@ fn printing_a_command_and_reading_it_again_gives_the_same_text() {
         assert_eq!(again.to_string(), printed);
     }
 }
+
+#[test]
+fn a_number_whose_printed_form_is_longer_than_a_number_may_be_is_refused_so_every_print_reads_back() {
+    // Found by the fuzz target card_grammar (2026-11-27, after 381,000 runs): a constant is
+    // read from at most 40 characters, but 40 nines round to 1e40, which prints as 41 digits,
+    // and `.` with 38 zeros and a 1 is 1e-39, which prints as `0.` and 39 digits: the printed
+    // command did not read back as one command. `I41=999-(40 nines)-5` printed as
+    // `I41=999-10000000000000000000000000000000000000000-5`, read back as 2 commands.
+    let nines = "9".repeat(40);
+    let tiny = format!(".{}1", "0".repeat(38));
+    for line in [
+        format!("I41=999-{nines}-5"),
+        format!("I41={nines}"),
+        format!("P1={tiny}"),
+        format!("#1J={nines}"),
+        format!("#1J=-{nines}"),
+        format!("&1%{tiny}"),
+        "I41=999-10000000000000000000-10000000000000000000000000000000000000000-99999-5".to_string(),
+    ] {
+        for c in parse(&line).into_iter().flatten() {
+            let printed = c.to_string();
+            let again = parse(&printed);
+            assert_eq!(again.len(), 1, "{line}: `{printed}` reads as {again:?}");
+            assert_eq!(again[0].as_ref().map(ToString::to_string).as_deref(), Ok(printed.as_str()), "{line}");
+        }
+    }
+    // A number of 40 characters that prints within 40 is still read.
+    assert_eq!(ok(&format!("P1={}", "9".repeat(15))), [write(VarKind::P, 1, 999_999_999_999_999.0, 1)]);
+    assert_eq!(ok(&format!("P1=0.{}1", "0".repeat(37))).len(), 1);
+}
