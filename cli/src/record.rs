@@ -46,7 +46,7 @@ pub struct RecordArgs {
     #[arg(long, allow_negative_numbers = true, value_name = "MS", default_value_t = 1000, value_parser = crate::common::ranged(1u64, 3_600_000, " ms (at most an hour)"))]
     pub silence_ms: u64,
     /// Stop after this many host sessions have ended (default: run until killed; every
-    /// exchange is on disk as soon as it completes).
+    /// exchange goes to the capture's writer as it completes, and is on disk shortly after).
     #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = crate::common::ranged(1u64, u64::MAX, ""))]
     pub sessions: Option<u64>,
     /// Log sessions, and each one whose card could not be reached or whose thread could not

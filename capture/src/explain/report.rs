@@ -129,10 +129,68 @@ pub fn explain_as(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
             ));
         }
     }
-    match super::unknown::explain(spec, path, import_configuration)? {
-        Some(report) => Ok(report),
+    match super::unknown::evidence(spec, path, import_configuration)? {
+        Some(e) => explain_open_i40(spec, path, import_configuration, &e),
         None => explain_timed(spec, path, import_configuration),
     }
+}
+
+/// Judges a capture whose I40 the log leaves open, trying the values it admits one after the
+/// other ([`super::unknown`]): the first that explains it is the verdict; none explaining, the
+/// report that came furthest, impossible when the values stand for all (or the capture shows
+/// what no card shows whatever its I40), else undecided.
+fn explain_open_i40(
+    spec: &Spec,
+    path: &Path,
+    import: ImportAs<'_>,
+    e: &super::unknown::Evidence,
+) -> Result<Report, SpecError> {
+    use super::unknown::OpenI40;
+    let (tries, complete) = e.values(spec);
+    let mut last: Option<Report> = None;
+    let mut tried = Vec::new();
+    for v in tries {
+        tried.push(v);
+        let mut r = explain_timed(spec, path, ImportAs { card_i40: Some(i64::from(v)), ..import })?;
+        let explained = r.explained();
+        r.i40_open = Some(OpenI40 {
+            tried: tried.clone(),
+            explaining: explained.then_some(v),
+            complete,
+            highest_read: e.highest_read(),
+            refuted: None,
+        });
+        if explained {
+            return Ok(r);
+        }
+        // The report kept is the one that came furthest.
+        let latest = |r: &Report| r.lanes.iter().filter_map(|l| l.death.as_ref().map(|d| d.event)).max();
+        if last.as_ref().is_none_or(|l| latest(&r) > latest(l) || (r.undecided() && !l.undecided())) {
+            last = Some(r);
+        } else if let Some(l) = &mut last {
+            l.i40_open = r.i40_open;
+        }
+    }
+    let Some(mut r) = last else {
+        return Err(SpecError::whole_file(path, "no value of I40 in its range is admitted by what the log reads"));
+    };
+    if !complete {
+        let refuted = super::unknown::refutation(spec, path, import)?;
+        if let Some(o) = &mut r.i40_open {
+            o.complete = refuted.is_some();
+            o.refuted = refuted;
+        }
+    }
+    if !r.i40_open.as_ref().is_some_and(|o| o.complete) && r.untimed.is_none() {
+        let tried = r.i40_open.as_ref().map(|o| o.tried.clone()).unwrap_or_default();
+        r.untimed = Some(format!(
+            "warning: the log does not read I40 (the card's own, SRM p.57): no card with I40 in {} explains it, \
+             and the other values the log admits were not searched; read I40 in the log (docs/capturing.md) or \
+             give the card's value with --i40",
+            super::unknown::list(&tried)
+        ));
+    }
+    Ok(r)
 }
 
 /// [`explain_as`] with the card as the capture (and `--i40`) says it: at the reads' instants,

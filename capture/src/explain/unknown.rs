@@ -16,7 +16,6 @@
 //!   else reads it (a tripped card is silent, UM p.215, and the log has no silence). A run that
 //!   explains the log under one I40 explains it under 65,535, so trying 65,535 decides.
 
-use super::report::{self, Report};
 use crate::replay::{ImportAs, Source};
 use pmacwd_specs::vocab::command::{HostCommand, Register};
 use pmacwd_specs::vocab::event::Event;
@@ -48,8 +47,8 @@ pub struct OpenI40 {
     pub refuted: Option<String>,
 }
 
-/// What the capture shows that bears on I40, read once.
-struct Evidence {
+/// What the capture shows that bears on I40, read once ([`evidence`]).
+pub struct Evidence {
     highest_read: Option<i32>,
     silent: bool,
     configured: u16,
@@ -86,7 +85,7 @@ fn register_read(step: &pmacwd_trace::Step) -> Option<i32> {
 
 /// Reads the capture for what bears on I40, when the capture leaves it open: a capture under
 /// the `host-log` configuration whose `card:` (what the log read) has no I40, and no `--i40`.
-fn evidence(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Option<Evidence>, SpecError> {
+pub fn evidence(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Option<Evidence>, SpecError> {
     if import.card_i40.is_some() {
         return Ok(None);
     }
@@ -141,56 +140,17 @@ fn values(e: &Evidence, range: (i64, i64)) -> (Vec<u16>, bool) {
     }
 }
 
-/// Judges a capture whose I40 the log leaves open, trying the values it admits; `None` when
-/// the capture says what I40 is (or under a configuration the user chose).
-pub fn explain(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Option<Report>, SpecError> {
-    let Some(e) = evidence(spec, path, import)? else { return Ok(None) };
-    let range = (spec.variables.i_variables.i40.range.min, spec.variables.i_variables.i40.range.max);
-    let (tries, complete) = values(&e, range);
-    let mut last: Option<Report> = None;
-    let mut tried = Vec::new();
-    for v in tries {
-        tried.push(v);
-        let mut r = report::explain_timed(spec, path, ImportAs { card_i40: Some(i64::from(v)), ..import })?;
-        let explained = r.explained();
-        r.i40_open = Some(OpenI40 {
-            tried: tried.clone(),
-            explaining: explained.then_some(v),
-            complete,
-            highest_read: e.highest_read,
-            refuted: None,
-        });
-        if explained {
-            return Ok(Some(r));
-        }
-        // The report kept is the one that came furthest.
-        let latest = |r: &Report| r.lanes.iter().filter_map(|l| l.death.as_ref().map(|d| d.event)).max();
-        if last.as_ref().is_none_or(|l| latest(&r) > latest(l) || (r.undecided() && !l.undecided())) {
-            last = Some(r);
-        } else if let Some(l) = &mut last {
-            l.i40_open = r.i40_open;
-        }
+impl Evidence {
+    /// The values to try, in order, and whether they stand for every value the log admits
+    /// ([`values`]), within I40's range of `variables.yaml`.
+    pub fn values(&self, spec: &Spec) -> (Vec<u16>, bool) {
+        let r = &spec.variables.i_variables.i40.range;
+        values(self, (r.min, r.max))
     }
-    let Some(mut r) = last else {
-        return Err(SpecError::whole_file(path, "no value of I40 in its range is admitted by what the log reads"));
-    };
-    if !complete {
-        let refuted = refutation(spec, path, import)?;
-        if let Some(o) = &mut r.i40_open {
-            o.complete = refuted.is_some();
-            o.refuted = refuted;
-        }
+
+    pub fn highest_read(&self) -> Option<i32> {
+        self.highest_read
     }
-    if !r.i40_open.as_ref().is_some_and(|o| o.complete) && r.untimed.is_none() {
-        let tried = r.i40_open.as_ref().map(|o| o.tried.clone()).unwrap_or_default();
-        r.untimed = Some(format!(
-            "warning: the log does not read I40 (the card's own, SRM p.57): no card with I40 in {} explains it, \
-             and the other values the log admits were not searched; read I40 in the log (docs/capturing.md) or \
-             give the card's value with --i40",
-            list(&tried)
-        ));
-    }
-    Ok(Some(r))
 }
 
 /// What the capture shows that no correct card shows whatever its I40, read from the steps
