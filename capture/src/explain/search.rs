@@ -146,7 +146,7 @@ fn read_only(step: &Step) -> bool {
 }
 
 /// A 24-bit word as a host reads it, sign-extended (Y:$25 and X:$25 are signed).
-pub(crate) fn signed_word(text: &str) -> Option<i32> {
+fn signed_word(text: &str) -> Option<i32> {
     let v = u32::from_str_radix(text.trim(), 16).ok().filter(|v| *v <= 0xFF_FFFF && !text.trim().is_empty())?;
     Some(((v << 8) as i32) >> 8)
 }
@@ -431,7 +431,7 @@ pub(super) fn compare_windowed(
 }
 
 /// The Y:$25 value a step reads, if it reads one.
-fn counter_read(step: &Step) -> Option<i32> {
+pub(crate) fn counter_read(step: &Step) -> Option<i32> {
     match (&step.event, step.expect.reply.as_deref()) {
         (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::WatchdogCounter))), Some(r)) => signed_word(r),
         _ => None,
@@ -440,7 +440,7 @@ fn counter_read(step: &Step) -> Option<i32> {
 }
 
 /// The X:$25 value a step reads, if it reads one.
-fn min_read(step: &Step) -> Option<i32> {
+pub(crate) fn min_read(step: &Step) -> Option<i32> {
     match (&step.event, step.expect.reply.as_deref()) {
         (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::WatchdogMinimum))), Some(r)) => signed_word(r),
         _ => None,

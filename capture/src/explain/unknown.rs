@@ -17,7 +17,7 @@
 //!   explains the log under one I40 explains it under 65,535, so trying 65,535 decides.
 
 use crate::replay::{ImportAs, Source};
-use pmacwd_specs::vocab::command::{HostCommand, Register};
+use pmacwd_specs::vocab::command::HostCommand;
 use pmacwd_specs::vocab::event::Event;
 use pmacwd_specs::{Spec, SpecError};
 use pmacwd_trace::TraceEvent;
@@ -70,19 +70,6 @@ fn writes_i40(step: &pmacwd_trace::Step) -> bool {
     }
 }
 
-fn register_read(step: &pmacwd_trace::Step) -> Option<i32> {
-    let register = match &step.event {
-        TraceEvent::Model(Event::Command(HostCommand::ReadHex(r))) => *r,
-        _ => return step.expect.counter.or(step.expect.counter_min),
-    };
-    match register {
-        Register::WatchdogCounter | Register::WatchdogMinimum => {
-            step.expect.reply.as_deref().and_then(super::search::signed_word)
-        }
-        _ => None,
-    }
-}
-
 /// Reads the capture for what bears on I40, when the capture leaves it open: a capture under
 /// the `host-log` configuration whose `card:` (what the log read) has no I40, and no `--i40`.
 pub fn evidence(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Option<Evidence>, SpecError> {
@@ -101,7 +88,7 @@ pub fn evidence(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Option
     while let Some((_, step)) = source.next_step()? {
         written |= writes_i40(&step);
         if !written {
-            if let Some(v) = register_read(&step) {
+            if let Some(v) = super::search::counter_read(&step).or(super::search::min_read(&step)) {
                 e.highest_read = Some(e.highest_read.map_or(v, |h| h.max(v)));
             }
         }
@@ -182,9 +169,7 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
         if resets {
             lowest = None;
         }
-        if let (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::WatchdogMinimum))), Some(v)) =
-            (&step.event, step.expect.reply.as_deref().and_then(super::search::signed_word))
-        {
+        if let Some(v) = super::search::min_read(&step) {
             if let Some((before, at)) = lowest.filter(|(before, _)| v > *before) {
                 return Ok(Some(format!(
                     "line {line}: X:$25 rose from {before:06X} (line {at}) to {v:06X} with no reset between: it is \
