@@ -23,7 +23,7 @@ use super::sim::{self, Sim};
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::ChecksumTarget;
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::profiles::StrobeStop;
+use pmacwd_specs::profiles::{RtiWarningLatch, StrobeStop};
 use pmacwd_specs::vocab::event::Event;
 use std::collections::HashMap;
 
@@ -79,8 +79,14 @@ pub enum Plan {
     /// than an RTI period.
     Starved { cycles: u32, heavy: u32 },
     /// `lead`, then background cycles whenever the load allows (one fewer if `skip`), the last
-    /// one `tail` servo cycles before the end of the gap; with `overrun_tail`, PLC 0 takes
-    /// longer than an RTI period during the tail.
+    /// one `tail` servo cycles before the end of the gap.
+    /// `overrun_last`: PLC 0 takes longer than an RTI period for the gap's last `overrun_last`
+    /// cycles (0: never). Equal to `tail`, the tail is a run-down with the RTI overrunning;
+    /// longer, background cycles still complete where the overrunning PLC 0 leaves them CPU
+    /// time (UM p.236: PLC 0 starts only at an RTI that finds the previous task set done, so a
+    /// PLC 0 just over one period overruns every other RTI and the background runs between;
+    /// under the level reading of bit 9, SRM p.290, the bit then reads set or clear by where
+    /// the gap ends in that pattern).
     /// `heavy`: PLC 0 takes longer than an RTI period for the first `heavy` cycles, in which
     /// no background cycle completes.
     /// `fault`: memory is corrupted at the start of the gap, for the checksum to find.
@@ -91,7 +97,7 @@ pub enum Plan {
         lead: Lead,
         skip: bool,
         tail: u32,
-        overrun_tail: bool,
+        overrun_last: u32,
     },
 }
 
@@ -133,7 +139,7 @@ pub fn run_cached<'a>(
             // A tripped card's servo cycles change nothing; written for the witness's timing.
             sim.servo(cycles - ran as u32);
         }
-        Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_tail } => {
+        Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_last } => {
             if let Some(area) = fault {
                 sim.event(Event::ChecksumFault(area));
             }
@@ -180,8 +186,20 @@ pub fn run_cached<'a>(
                 }
             };
             let middle = u64::from(last).checked_sub(sim.cycles)? as u32;
+            // The middle's last cycles under the overrunning PLC 0: they come at the end of its
+            // final greedy stretch (a plan that would need them earlier is another plan's).
+            let overrun_middle = overrun_last.saturating_sub(tail);
+            let greedy_end = |sim: &mut Sim, n: u32| -> Option<()> {
+                let light = n.checked_sub(overrun_middle)?;
+                sim.greedy(light);
+                if overrun_middle > 0 {
+                    sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
+                    sim.greedy(overrun_middle);
+                }
+                Some(())
+            };
             if middle == 0 {
-                if !lead_ends_with_background || skip {
+                if !lead_ends_with_background || skip || overrun_middle > 0 {
                     return None;
                 }
             } else {
@@ -192,25 +210,29 @@ pub fn run_cached<'a>(
                         0 | 1 => return None,
                         2 => {
                             sim.servo(1);
-                            sim.greedy(1);
+                            greedy_end(&mut sim, 1)?;
                         }
                         _ => {
                             sim.greedy(1);
                             sim.servo(1);
-                            sim.greedy(middle - 2);
+                            greedy_end(&mut sim, middle - 2)?;
                         }
                     }
                 } else {
-                    sim.greedy(middle);
+                    greedy_end(&mut sim, middle)?;
                 }
                 if !sim.card.tripped() && sim.card.ghost.cycles_since_background != 0 {
                     return None;
                 }
             }
-            if overrun_tail && tail > 0 {
+            if overrun_last > 0 && overrun_last <= tail {
+                // PLC 0 starts overrunning within the tail.
+                sim.servo_cached(tail - overrun_last, cache);
                 sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
+                sim.servo(overrun_last);
+            } else {
+                sim.servo_cached(tail, cache);
             }
-            sim.servo_cached(tail, cache);
         }
     }
     Some(sim)
@@ -482,12 +504,23 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
                 if must_trip && heavy == 0 && super::run_down(cfg, r, tail) > 0 {
                     continue;
                 }
+                // PLC 0 overrunning at the end of the gap: through the tail (a run-down), or,
+                // under the level reading of bit 9 (SRM p.290), for every phase of its pattern
+                // of an overrun every other RTI with background cycles between (`overrun_last`).
+                let mut overruns = vec![0];
+                if overrun_wanted && tail > 0 {
+                    overruns.push(tail);
+                }
+                if hints.rti_warning_seen && cfg.profile.choices.rti_warning_latch == RtiWarningLatch::Level {
+                    let period = u32::from(card.i8) + 1;
+                    overruns.extend((period + 1..=3 * period).filter(|o| *o > tail));
+                }
                 for &lead in &leads {
-                    for (skip, overrun_tail) in [(false, false), (true, false), (false, true), (true, true)]
-                        .into_iter()
-                        .filter(|(_, o)| !o || overrun_wanted)
-                    {
+                    for (skip, &overrun_last) in [false, true].into_iter().flat_map(|s| overruns.iter().map(move |o| (s, o))) {
                         let Some(span) = cycles.checked_sub(tail + heavy) else { continue };
+                        if overrun_last > tail && overrun_last > span + tail {
+                            continue;
+                        }
                         let lead = match lead {
                             // A lead deeper than the gap allows is the deepest the gap allows.
                             // (With `skip`, one more cycle without a background cycle must fit.)
@@ -495,7 +528,7 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
                             Lead::Stretch(s) => Lead::Stretch(s.min(span.saturating_sub(1 + 2 * u32::from(skip)))),
                             l => l,
                         };
-                        plans.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_tail });
+                        plans.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_last });
                     }
                 }
             }

@@ -106,7 +106,7 @@ fn realize<'a>(
     }
     let heavies = 0..=3 * (u32::from(card.i8) + 1) + 2;
     for (base, heavy) in [*plan_hi, *plan_lo].into_iter().flat_map(|b| heavies.clone().map(move |h| (b, h))) {
-        if let Plan::Schedule { cycles, fault, tail, overrun_tail, .. } = base {
+        if let Plan::Schedule { cycles, fault, tail, overrun_last, .. } = base {
             if heavy >= cycles {
                 continue;
             }
@@ -134,7 +134,7 @@ fn realize<'a>(
             }
             for lead in leads {
                 for skip in [false, true] {
-                    tries.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_tail });
+                    tries.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_last });
                 }
             }
         }
@@ -304,7 +304,7 @@ pub fn build(
                             card.counter
                         ))
                     }
-                    Plan::Starved { heavy: 1.., .. } | Plan::Schedule { overrun_tail: true, .. } => {
+                    Plan::Starved { heavy: 1.., .. } | Plan::Schedule { overrun_last: 1.., .. } => {
                         story.push(format!(
                             "{between}: PLC 0 (or another RTI task) ran longer than an RTI period and the RTI \
                          overran (bits 22 and 9, SRM p.289-290)"
