@@ -28,6 +28,9 @@ struct GapGen {
     background_percent: u32,
     /// PLC 0 longer than an RTI period for the first cycles of the gap.
     overrun_cycles: u32,
+    /// PLC 0 just over an RTI period for the gap's last cycles, background cycles completing
+    /// (at `background_percent`) where it leaves them CPU time: it overruns every other RTI.
+    overrun_end_cycles: u32,
     fault: Option<ChecksumTarget>,
     /// The supply dips at this cycle of the gap.
     dip_at: Option<u32>,
@@ -43,6 +46,7 @@ fn gap_gen() -> impl Strategy<Value = GapGen> {
         1u32..400,
         prop_oneof![Just(0u32), Just(100), 1u32..100],
         prop_oneof![8 => Just(0u32), 1 => 1u32..12],
+        prop_oneof![8 => Just(0u32), 1 => 1u32..24],
         prop_oneof![20 => Just(None), 1 => Just(Some(ChecksumTarget::Firmware)), 1 => Just(Some(ChecksumTarget::UserProgram))],
         prop_oneof![30 => Just(None), 1 => (0u32..400).prop_map(Some)],
         prop_oneof![15 => Just(false), 1 => Just(true)],
@@ -55,10 +59,11 @@ fn gap_gen() -> impl Strategy<Value = GapGen> {
             }),
         any::<u64>(),
     )
-        .prop_map(|(cycles, background_percent, overrun_cycles, fault, dip_at, restart, observe, seed)| GapGen {
+        .prop_map(|(cycles, background_percent, overrun_cycles, overrun_end_cycles, fault, dip_at, restart, observe, seed)| GapGen {
             cycles,
             background_percent,
             overrun_cycles,
+            overrun_end_cycles,
             fault,
             dip_at: dip_at.map(|d| d % cycles),
             restart,
@@ -136,7 +141,8 @@ fn generate(spec: &Spec, cfg: &ModelConfig, cpu: u8, gaps: &[GapGen]) -> String 
             card.background_cycle(cfg);
         }
         for c in 0..g.cycles {
-            let load = if c < g.overrun_cycles { heavy(card.i8) } else { light };
+            let overrun_end = g.cycles - c <= g.overrun_end_cycles;
+            let load = if c < g.overrun_cycles || overrun_end { heavy(card.i8) } else { light };
             if card.load != load {
                 card.apply(cfg, &Event::Load(load));
             }
@@ -145,8 +151,8 @@ fn generate(spec: &Spec, cfg: &ModelConfig, cpu: u8, gaps: &[GapGen]) -> String 
                 card.apply(cfg, &Event::Supply { millivolts: 5000 });
             }
             card.servo_cycle(cfg);
-            // While PLC 0 overruns, no background cycle completes (the search's plans do not
-            // use CPU time saved from before an overrun for one).
+            // While PLC 0 overruns at the start, no background cycle completes (the search's
+            // plans do not use CPU time saved from before an overrun for one).
             if c >= g.overrun_cycles && card.background_possible() && rng.below(100) < g.background_percent {
                 card.background_cycle(cfg);
             }
@@ -263,6 +269,7 @@ fn healthy(spec: &Spec, polls: usize) -> String {
             cycles: 200 + i as u32 * 7,
             background_percent: 30,
             overrun_cycles: 0,
+            overrun_end_cycles: 0,
             fault: None,
             dip_at: None,
             restart: false,

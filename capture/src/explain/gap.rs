@@ -44,6 +44,8 @@ pub struct Hints {
     pub rti_warning_seen: bool,
     /// A status read shows bit 13 set.
     pub checksum_error_seen: bool,
+    /// A status read shows bit 13 clear.
+    pub checksum_clear_seen: bool,
     /// Servo cycles of short gaps (at most this many in all) between the end of this gap and
     /// the reads above: a log placed by host time has a few cycles between the commands of
     /// one poll, and the reads still aim the plans, each value shifted by up to this many.
@@ -76,8 +78,10 @@ pub enum Plan {
     Undervoltage { cycles: u32 },
     /// No background cycle completes in the whole gap (or until the card trips); for the
     /// first `heavy` cycles (all of them if `heavy >= cycles`) because PLC 0 takes longer
-    /// than an RTI period.
-    Starved { cycles: u32, heavy: u32 },
+    /// than an RTI period, and PLC 0 overruns again for the last `overrun_last` cycles (where
+    /// the gap ends in its pattern of an overrun every other RTI decides bit 9 under its
+    /// level reading, SRM p.290).
+    Starved { cycles: u32, heavy: u32, overrun_last: u32 },
     /// `lead`, then background cycles whenever the load allows (one fewer if `skip`), the last
     /// one `tail` servo cycles before the end of the gap.
     /// `overrun_last`: PLC 0 takes longer than an RTI period for the gap's last `overrun_last`
@@ -98,6 +102,10 @@ pub enum Plan {
         skip: bool,
         tail: u32,
         overrun_last: u32,
+        /// With PLC 0 overrunning in the middle: no background cycle completes in the `hold`
+        /// cycles before the middle's last, so the CPU time they had stays the background's
+        /// (the model's credit) and the last can complete in a cycle PLC 0 took whole.
+        hold: u8,
     },
 }
 
@@ -126,20 +134,28 @@ pub fn run_cached<'a>(
             sim.event(Event::Supply { millivolts: cfg.supply_min_millivolts.max(5000) });
             sim.servo(cycles);
         }
-        Plan::Starved { cycles, heavy } => {
+        Plan::Starved { cycles, heavy, overrun_last } => {
+            let light_until = u64::from(cycles.checked_sub(overrun_last)?);
             let mut ran = 0u64;
             if heavy > 0 {
                 sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
-                ran = sim.servo_until_trip(u64::from(heavy.min(cycles)));
+                ran = sim.servo_until_trip(u64::from(heavy).min(light_until));
                 if heavy < cycles {
                     sim.event(Event::Load(sim::light_load()));
                 }
+            } else if sim.card.load != sim::light_load() {
+                // A PLC 0 that overran at the end of the last gap is not running on by itself.
+                sim.event(Event::Load(sim::light_load()));
             }
-            ran += sim.servo_until_trip(u64::from(cycles) - ran);
+            ran += sim.servo_until_trip(light_until.saturating_sub(ran));
+            if overrun_last > 0 && !sim.card.tripped() {
+                sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
+                ran += sim.servo_until_trip(u64::from(cycles) - ran);
+            }
             // A tripped card's servo cycles change nothing; written for the witness's timing.
             sim.servo(cycles - ran as u32);
         }
-        Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_last } => {
+        Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_last, hold } => {
             if let Some(area) = fault {
                 sim.event(Event::ChecksumFault(area));
             }
@@ -189,12 +205,26 @@ pub fn run_cached<'a>(
             // The middle's last cycles under the overrunning PLC 0: they come at the end of its
             // final greedy stretch (a plan that would need them earlier is another plan's).
             let overrun_middle = overrun_last.saturating_sub(tail);
+            // Background cycles whenever the load allows for `n` cycles, the last of them
+            // ending one; PLC 0 overrunning for the last `overrun_middle`, and none completing
+            // in the `hold` cycles before the last (their CPU time stays the background's).
             let greedy_end = |sim: &mut Sim, n: u32| -> Option<()> {
-                let light = n.checked_sub(overrun_middle)?;
-                sim.greedy(light);
-                if overrun_middle > 0 {
-                    sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
-                    sim.greedy(overrun_middle);
+                let hold = u32::from(hold);
+                let switch_at = n.checked_sub(overrun_middle)?;
+                if hold > 0 && (overrun_middle == 0 || hold + 1 > n) {
+                    return None;
+                }
+                let bulk = switch_at.min(n - 1 - hold);
+                sim.greedy(bulk);
+                for i in bulk..n {
+                    if i == switch_at && overrun_middle > 0 {
+                        sim.event(Event::Load(sim::overrun_load(cfg, sim.card.i8)));
+                    }
+                    if i + 1 + hold >= n && i + 1 < n {
+                        sim.servo(1);
+                    } else {
+                        sim.greedy(1);
+                    }
                 }
                 Some(())
             };
@@ -389,7 +419,7 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
         let shift = i64::from(hints.shift);
         let counter_fits = |v: i64| hints.counter.is_none_or(|c| (v - shift..=v).contains(&i64::from(c)));
         if may_be_silent || counter_fits(starved_counter) {
-            plans.push(Plan::Starved { cycles, heavy: 0 });
+            plans.push(Plan::Starved { cycles, heavy: 0, overrun_last: 0 });
         }
         // After the starved plans: where both end in the same tripped card, the explanation
         // keeps the first (a trip the log's own readings point at).
@@ -403,7 +433,7 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
         // when the last one ended right at its start.
         let tail_top = if reload_first { cycles } else { cycles.saturating_sub(1) };
         let tail_max = u64::from(tail_top).min((i64::from(r) + delay + 2).max(0) as u64) as u32;
-        let tails: Vec<u32> = match hints.counter {
+        let mut tails: Vec<u32> = match hints.counter {
             Some(c) if hints.silent == Some(false) || hints.silent.is_none() => {
                 let mut t = std::collections::BTreeSet::new();
                 let k = i64::from(r) - i64::from(c);
@@ -430,13 +460,40 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
             // interval; near zero, where the strobe stops, every tail is tried.
             _ => unread_tails(card, r, tail_max).into_iter().collect(),
         };
-        let overrun_wanted = (hints.rti_reentry_seen && !card.status.rti_reentry) || hints.rti_warning_seen;
+        // An overrun is wanted where a status read shows bit 22 or bit 9 that the card does not
+        // hold yet (bit 22 is sticky, SRM p.289; bit 9 too under its sticky reading, SRM p.290).
+        // Once they are held, what an overrun does to the card besides is to take CPU time from
+        // the background, and a light load leaves every background schedule open already.
+        let level = cfg.profile.choices.rti_warning_latch == RtiWarningLatch::Level;
+        let overrun_wanted = (hints.rti_reentry_seen && !card.status.rti_reentry)
+            || (hints.rti_warning_seen && (level || !card.status.rti_warning));
         if overrun_wanted || may_be_silent {
-            plans.push(Plan::Starved { cycles, heavy: cycles });
+            plans.push(Plan::Starved { cycles, heavy: cycles, overrun_last: 0 });
+        }
+        // PLC 0 overrunning at the end of the gap, with background cycles between its overruns
+        // (a PLC 0 just over one period overruns every other RTI, UM p.236): under the level
+        // reading of bit 9 (SRM p.290) a read shows it set or clear by where the gap ends in
+        // that pattern, and background cycles between the overruns (on CPU time saved before
+        // PLC 0 took a whole cycle) keep X:$25 near the reload; its last I8+2 to 3(I8+1)
+        // cycles meet every phase. Y:$25, unread, may then come from a tail no background
+        // cycle could end under a light load: every tail of the pattern is tried.
+        let end_overruns: Vec<u32> = if overrun_wanted {
+            let period = u32::from(card.i8) + 1;
+            (period + 1..=3 * period).filter(|o| *o < cycles).collect()
+        } else {
+            Vec::new()
+        };
+        if hints.counter.is_none() && !end_overruns.is_empty() {
+            let top = (3 * (u32::from(card.i8) + 1)).min(tail_max);
+            tails.extend((0..=top).filter(|t| !tails.contains(t)).collect::<Vec<_>>());
+            tails.sort_unstable();
         }
         if overrun_wanted && counter_fits(starved_counter) {
             for heavy in 1..(3 * (u32::from(card.i8) + 1) + 3).min(cycles) {
-                plans.push(Plan::Starved { cycles, heavy });
+                plans.push(Plan::Starved { cycles, heavy, overrun_last: 0 });
+            }
+            for &overrun_last in &end_overruns {
+                plans.push(Plan::Starved { cycles, heavy: 0, overrun_last });
             }
         }
         // PLC 0 longer than an RTI period at the start of the gap, for as long as it takes
@@ -492,7 +549,14 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
                     }
                 }
             }
-            let faults: &[Option<ChecksumTarget>] = if hints.checksum_error_seen && card.checksum.error.is_none() {
+            let corrupted = card.checksum.firmware != card.checksum.firmware_reference
+                || card.checksum.program != card.checksum.program_reference;
+            let faults: &[Option<ChecksumTarget>] = if card.checksum.error.is_none()
+                && (hints.checksum_error_seen || (hints.checksum_clear_seen && corrupted))
+            {
+                // A corruption for the checksum to find; or, where a corruption the engine has
+                // not found yet is not found by the next status read, the memory changed again
+                // (the model's fault event flips the same word back).
                 &[None, Some(ChecksumTarget::Firmware), Some(ChecksumTarget::UserProgram)]
             } else {
                 &[None]
@@ -504,19 +568,18 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
                 if must_trip && heavy == 0 && super::run_down(cfg, r, tail) > 0 {
                     continue;
                 }
-                // PLC 0 overrunning at the end of the gap: through the tail (a run-down), or,
-                // under the level reading of bit 9 (SRM p.290), for every phase of its pattern
-                // of an overrun every other RTI with background cycles between (`overrun_last`).
+                // PLC 0 overrunning at the end of the gap: through the tail (a run-down), or
+                // for every phase of its pattern, with background cycles between its overruns
+                // (`end_overruns`).
                 let mut overruns = vec![0];
                 if overrun_wanted && tail > 0 {
                     overruns.push(tail);
                 }
-                if hints.rti_warning_seen && cfg.profile.choices.rti_warning_latch == RtiWarningLatch::Level {
-                    let period = u32::from(card.i8) + 1;
-                    overruns.extend((period + 1..=3 * period).filter(|o| *o > tail));
-                }
+                overruns.extend(end_overruns.iter().filter(|o| **o != tail));
                 for &lead in &leads {
-                    for (skip, &overrun_last) in [false, true].into_iter().flat_map(|s| overruns.iter().map(move |o| (s, o))) {
+                    for (skip, &overrun_last) in
+                        [false, true].into_iter().flat_map(|s| overruns.iter().map(move |o| (s, o)))
+                    {
                         let Some(span) = cycles.checked_sub(tail + heavy) else { continue };
                         if overrun_last > tail && overrun_last > span + tail {
                             continue;
@@ -528,7 +591,11 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
                             Lead::Stretch(s) => Lead::Stretch(s.min(span.saturating_sub(1 + 2 * u32::from(skip)))),
                             l => l,
                         };
-                        plans.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_last });
+                        let holds =
+                            if overrun_last > tail { u8::try_from(u32::from(card.i8) + 1).unwrap_or(0) } else { 0 };
+                        for hold in 0..=holds {
+                            plans.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_last, hold });
+                        }
                     }
                 }
             }

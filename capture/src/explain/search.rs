@@ -261,6 +261,7 @@ impl Reader {
                         h.rti_reentry_seen |= on("rti_reentry");
                         h.rti_warning_seen |= in_window && on("rti_warning");
                         h.checksum_error_seen |= on("checksum_error");
+                        h.checksum_clear_seen |= !on("checksum_error");
                     }
                 }
                 _ => {}
@@ -269,6 +270,9 @@ impl Reader {
                 h.rti_reentry_seen |= name == "rti_reentry";
                 h.rti_warning_seen |= in_window && name == "rti_warning";
                 h.checksum_error_seen |= name == "checksum_error";
+            }
+            for name in &step.expect.status_clear {
+                h.checksum_clear_seen |= name == "checksum_error";
             }
             status_read |= !step.expect.status_set.is_empty() || !step.expect.status_clear.is_empty();
             if status_read && !in_window {

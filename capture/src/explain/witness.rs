@@ -102,11 +102,11 @@ fn realize<'a>(
     let mut tries = vec![*plan_hi, *plan_lo];
     // A Y:$25 the search merged from a starved gap and a scheduled one (`gap::group`).
     if let (Some(_), Plan::Schedule { cycles, .. } | Plan::Starved { cycles, .. }) = (need_counter, plan_hi) {
-        tries.push(Plan::Starved { cycles: *cycles, heavy: 0 });
+        tries.push(Plan::Starved { cycles: *cycles, heavy: 0, overrun_last: 0 });
     }
     let heavies = 0..=3 * (u32::from(card.i8) + 1) + 2;
     for (base, heavy) in [*plan_hi, *plan_lo].into_iter().flat_map(|b| heavies.clone().map(move |h| (b, h))) {
-        if let Plan::Schedule { cycles, fault, tail, overrun_last, .. } = base {
+        if let Plan::Schedule { cycles, fault, tail, overrun_last, hold, .. } = base {
             if heavy >= cycles {
                 continue;
             }
@@ -134,7 +134,7 @@ fn realize<'a>(
             }
             for lead in leads {
                 for skip in [false, true] {
-                    tries.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_last });
+                    tries.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_last, hold });
                 }
             }
         }
@@ -258,7 +258,7 @@ pub fn build(
                 let need = targets.get(&at).copied();
                 let starved = match plan_hi {
                     Plan::Schedule { cycles, .. } if starve.contains(&at) => {
-                        gap::run(cfg, &card, Plan::Starved { cycles: *cycles, heavy: 0 }, true)
+                        gap::run(cfg, &card, Plan::Starved { cycles: *cycles, heavy: 0, overrun_last: 0 }, true)
                             .filter(|sim| end.same_but_counters(&sim.card))
                     }
                     _ => None,
@@ -276,7 +276,7 @@ pub fn build(
                         "{between}: the logic supply dipped below its minimum (about 4.75 V, UM p.215) and the \
                          card tripped"
                     )),
-                    Plan::Starved { cycles, heavy } if sim.card.tripped() && !card.tripped() => {
+                    Plan::Starved { cycles, heavy, .. } if sim.card.tripped() && !card.tripped() => {
                         let (edge, trip) = strobe_and_trip(cfg, &card, sim.events.as_deref().unwrap_or_default());
                         let at = |t: u64| {
                             format!(
@@ -304,12 +304,12 @@ pub fn build(
                             card.counter
                         ))
                     }
-                    Plan::Starved { heavy: 1.., .. } | Plan::Schedule { overrun_last: 1.., .. } => {
-                        story.push(format!(
-                            "{between}: PLC 0 (or another RTI task) ran longer than an RTI period and the RTI \
+                    Plan::Starved { heavy: 1.., .. }
+                    | Plan::Starved { overrun_last: 1.., .. }
+                    | Plan::Schedule { overrun_last: 1.., .. } => story.push(format!(
+                        "{between}: PLC 0 (or another RTI task) ran longer than an RTI period and the RTI \
                          overran (bits 22 and 9, SRM p.289-290)"
-                        ))
-                    }
+                    )),
                     Plan::Schedule { heavy: 1.., .. } => story.push(format!(
                         "{between}: an RTI task set (PLC 0, move planning) ran longer than an RTI period, so the \
                          next RTI overran (bits 22 and 9, SRM p.289-290)"
