@@ -330,6 +330,11 @@ pub struct CardConfig {
     /// 4.75 V". Written by replay into an explanation.
     #[serde(default)]
     pub supply_min_millivolts: Option<u32>,
+    /// The card's own checksum pass length, in background cycles, for both areas (UM p.217
+    /// computes the checksums "continually ... as a background task" and gives no length).
+    /// Written by replay into an explanation.
+    #[serde(default)]
+    pub checksum_pass_cycles: Option<u32>,
 }
 
 impl CardConfig {
@@ -346,6 +351,7 @@ impl CardConfig {
             ("i41", self.i41),
             ("hardware_delay_cycles", self.hardware_delay_cycles.map(i64::from)),
             ("supply_min_millivolts", self.supply_min_millivolts.map(i64::from)),
+            ("checksum_pass_cycles", self.checksum_pass_cycles.map(i64::from)),
         ]
         .into_iter()
         .filter_map(|(k, v)| v.map(|v| (k, v)))
@@ -425,6 +431,14 @@ impl ModelConfig {
                 ));
             }
             self.supply_min_millivolts = mv;
+        }
+        if let Some(n) = card.checksum_pass_cycles {
+            let n = u8::try_from(n).ok().filter(|n| *n >= 1).ok_or_else(|| {
+                format!(
+                    "card: checksum_pass_cycles = {n} is outside the pass lengths admitted, 1..=255 background cycles"
+                )
+            })?;
+            self.pass_cycles = PassCycles { firmware: n, user_program: n };
         }
         Ok(self)
     }
@@ -513,6 +527,23 @@ mod tests {
         // The stated figure lies inside its band.
         let (lo, hi) = derived_delay_band(&spec, 2250, 25);
         assert!((lo..=hi).contains(&derived_delay_cycles(2250, 25)));
+    }
+
+    #[test]
+    fn a_card_may_say_its_own_checksum_pass_length_from_1_to_255_background_cycles() {
+        let (spec, cfg) = config("host-log");
+        assert_eq!(cfg.pass_cycles, PassCycles { firmware: 1, user_program: 1 });
+        let card = CardConfig { checksum_pass_cycles: Some(3), ..CardConfig::default() };
+        assert_eq!(
+            cfg.clone().with_card(&spec, &card).unwrap().pass_cycles,
+            PassCycles { firmware: 3, user_program: 3 }
+        );
+        for n in [0, 256] {
+            let e =
+                cfg.clone().with_card(&spec, &CardConfig { checksum_pass_cycles: Some(n), ..CardConfig::default() });
+            let e = e.unwrap_err();
+            assert!(e.contains(&format!("checksum_pass_cycles = {n}")) && e.contains("1..=255"), "{e}");
+        }
     }
 
     #[test]

@@ -433,7 +433,7 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
         // when the last one ended right at its start.
         let tail_top = if reload_first { cycles } else { cycles.saturating_sub(1) };
         let tail_max = u64::from(tail_top).min((i64::from(r) + delay + 2).max(0) as u64) as u32;
-        let mut tails: Vec<u32> = match hints.counter {
+        let tails: Vec<u32> = match hints.counter {
             Some(c) if hints.silent == Some(false) || hints.silent.is_none() => {
                 let mut t = std::collections::BTreeSet::new();
                 let k = i64::from(r) - i64::from(c);
@@ -483,10 +483,13 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
         } else {
             Vec::new()
         };
+        // The tails of those plans (below, without an overrun at the gap's start: with one, the
+        // bits are set already and the end is a light load's).
+        let mut end_tails = tails.clone();
         if hints.counter.is_none() && !end_overruns.is_empty() {
             let top = (3 * (u32::from(card.i8) + 1)).min(tail_max);
-            tails.extend((0..=top).filter(|t| !tails.contains(t)).collect::<Vec<_>>());
-            tails.sort_unstable();
+            end_tails.extend((0..=top).filter(|t| !tails.contains(t)));
+            end_tails.sort_unstable();
         }
         if overrun_wanted && counter_fits(starved_counter) {
             for heavy in 1..(3 * (u32::from(card.i8) + 1) + 3).min(cycles) {
@@ -561,7 +564,8 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
             } else {
                 &[None]
             };
-            for (&tail, &fault) in tails.iter().flat_map(|t| faults.iter().map(move |f| (t, f))) {
+            let tails_here = if heavy == 0 { &end_tails } else { &tails };
+            for (&tail, &fault) in tails_here.iter().flat_map(|t| faults.iter().map(move |f| (t, f))) {
                 // Without an overrun first, a schedule trips only in its tail (a lead or a
                 // middle that would trip fails its next background cycle): a tail in which the
                 // counter, reloaded at its start, cannot reach zero leaves the card answering.
@@ -575,7 +579,9 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
                 if overrun_wanted && tail > 0 {
                     overruns.push(tail);
                 }
-                overruns.extend(end_overruns.iter().filter(|o| **o != tail));
+                if heavy == 0 {
+                    overruns.extend(end_overruns.iter().filter(|o| **o != tail));
+                }
                 for &lead in &leads {
                     for (skip, &overrun_last) in
                         [false, true].into_iter().flat_map(|s| overruns.iter().map(move |o| (s, o)))
@@ -591,8 +597,13 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
                             Lead::Stretch(s) => Lead::Stretch(s.min(span.saturating_sub(1 + 2 * u32::from(skip)))),
                             l => l,
                         };
-                        let holds =
-                            if overrun_last > tail { u8::try_from(u32::from(card.i8) + 1).unwrap_or(0) } else { 0 };
+                        // Holding background cycles back matters where Y:$25 is read and fixes
+                        // the tail; unread, another tail gives what a hold would.
+                        let holds = if overrun_last > tail && hints.counter.is_some() {
+                            u8::try_from(u32::from(card.i8) + 1).unwrap_or(0)
+                        } else {
+                            0
+                        };
                         for hold in 0..=holds {
                             plans.push(Plan::Schedule { cycles, fault, heavy, lead, skip, tail, overrun_last, hold });
                         }

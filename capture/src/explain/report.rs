@@ -492,11 +492,13 @@ fn tolerances_text(t: &Tolerances, lane: Option<&LaneSummary>) -> String {
     let tried = lane.map_or(String::new(), |l| {
         format!(" ({} of the {} cards the bands admit searched)", l.tolerances_tried, l.tolerances_admitted)
     });
+    let pass = t.checksum_pass_cycles;
     format!(
-        "the card's own tolerances: a hardware delay of {} servo cycles and a supply threshold of {} mV; UM \
-         p.215 gives the strobe minimum and the supply minimum only approximately, and the stated figures do \
-         not explain the capture, these do (within the bands of watchdog.yaml){tried}",
-        t.hardware_delay_cycles, t.supply_min_millivolts
+        "the card's own tolerances: a hardware delay of {} servo cycles, a supply threshold of {} mV and \
+         checksum passes of {} background cycles (firmware) and {} (user program); UM p.215 gives the strobe \
+         minimum and the supply minimum only approximately and UM p.217 no pass length, and the stated figures \
+         do not explain the capture, these do (within the bands of watchdog.yaml){tried}",
+        t.hardware_delay_cycles, t.supply_min_millivolts, pass.firmware, pass.user_program
     )
 }
 
@@ -712,6 +714,8 @@ pub fn to_json(r: &Report) -> String {
                 "candidates_peak": l.candidates_peak,
                 "tolerances": {"hardware_delay_cycles": l.tolerances.hardware_delay_cycles,
                     "supply_min_millivolts": l.tolerances.supply_min_millivolts,
+                    "checksum_pass_cycles": {"firmware": l.tolerances.checksum_pass_cycles.firmware,
+                        "user_program": l.tolerances.checksum_pass_cycles.user_program},
                     "searched": l.tolerances_tried, "admitted": l.tolerances_admitted}})
         })
         .collect();
@@ -732,7 +736,9 @@ pub fn to_json(r: &Report) -> String {
             "reproduces": matches!(w.checked, Some(Ok(_))),
             "lowest_counter_min": w.lowest_min,
             "card_tolerances": w.tolerances.map(|t| serde_json::json!({
-                "hardware_delay_cycles": t.hardware_delay_cycles, "supply_min_millivolts": t.supply_min_millivolts})),
+                "hardware_delay_cycles": t.hardware_delay_cycles, "supply_min_millivolts": t.supply_min_millivolts,
+                "checksum_pass_cycles": {"firmware": t.checksum_pass_cycles.firmware,
+                    "user_program": t.checksum_pass_cycles.user_program}})),
         })),
         "diagnosis": r.diagnosis.as_ref().map(|d| serde_json::json!({"possible": d.possible, "ruled_out": d.ruled_out})),
     })

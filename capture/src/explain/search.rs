@@ -8,8 +8,9 @@ use super::sim::Sim;
 use super::{normalize, CANDIDATES_MAX};
 use crate::replay::Source;
 use pmacwd_model::controller::Controller;
-use pmacwd_specs::check::{ResetEvent, ResetKind};
+use pmacwd_specs::check::{PassCycles, ResetEvent, ResetKind};
 use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::profiles::Bit12Meaning;
 use pmacwd_specs::profiles::Profile;
 use pmacwd_specs::status::WordId;
 use pmacwd_specs::vocab::command::{HostCommand, Register};
@@ -64,17 +65,28 @@ pub struct Death {
 /// threshold, each within the band of `watchdog.yaml`. Constant for a card, so initial
 /// nondeterminism: a lane is searched under the stated values first and under the others only
 /// if those do not explain the capture.
+///
+/// The checksum pass length is the card's own in the same way (UM p.217 gives none): a host
+/// log sees it only through the area bit 12 shows (SRM p.289) and when a corruption is found,
+/// so the lengths up to [`PASS_CYCLES_MAX`] are searched where a lane compared either.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tolerances {
     pub hardware_delay_cycles: u32,
     pub supply_min_millivolts: u32,
+    pub checksum_pass_cycles: PassCycles,
 }
+
+/// The longest checksum pass, in background cycles, the search tries as the card's own. MODEL
+/// (search): with background cycles free to come or not in every servo cycle, a few lengths
+/// give a read every checksum area a longer one would.
+pub const PASS_CYCLES_MAX: u8 = 4;
 
 impl Tolerances {
     pub fn of(cfg: &ModelConfig) -> Tolerances {
         Tolerances {
             hardware_delay_cycles: cfg.hardware_delay_cycles,
             supply_min_millivolts: cfg.supply_min_millivolts,
+            checksum_pass_cycles: cfg.pass_cycles,
         }
     }
 
@@ -82,7 +94,9 @@ impl Tolerances {
     /// by their distance from them. Supply thresholds differ only by which of the capture's
     /// supply levels (`levels`, in millivolts) they call low, so one threshold stands for each
     /// such class.
-    pub fn variants(cfg: &ModelConfig, levels: &[u32]) -> Vec<Tolerances> {
+    /// With `passes`, also every checksum pass length up to [`PASS_CYCLES_MAX`] (the stated one
+    /// first).
+    pub fn variants(cfg: &ModelConfig, levels: &[u32], passes: bool) -> Vec<Tolerances> {
         let stated = Tolerances::of(cfg);
         let (dlo, dhi) = cfg.hardware_delay_band;
         let mut delays: Vec<u32> = (dlo..=dhi).chain([stated.hardware_delay_cycles]).collect();
@@ -98,13 +112,24 @@ impl Tolerances {
         thresholds.dedup_by_key(|t| class(*t));
         let supplies = std::iter::once(stated.supply_min_millivolts).chain(thresholds);
         let supplies: Vec<u32> = supplies.collect();
-        let mut out = Vec::with_capacity(delays.len() * supplies.len());
+        let mut out = Vec::with_capacity(delays.len() * supplies.len() + usize::from(PASS_CYCLES_MAX));
         for s in &supplies {
             for d in &delays {
-                out.push(Tolerances { hardware_delay_cycles: *d, supply_min_millivolts: *s });
+                out.push(Tolerances { hardware_delay_cycles: *d, supply_min_millivolts: *s, ..stated });
             }
         }
         out.sort_by_key(|t| t.supply_min_millivolts != stated.supply_min_millivolts);
+        // The pass lengths with the stated delay and supply only. MODEL (search): a log that
+        // needs both a pass and a delay or threshold of its own is not searched (each such
+        // pass would search the bands again, for every impossible log).
+        if passes {
+            out.extend(
+                (1..=PASS_CYCLES_MAX)
+                    .map(|n| PassCycles { firmware: n, user_program: n })
+                    .filter(|p| *p != stated.checksum_pass_cycles)
+                    .map(|p| Tolerances { checksum_pass_cycles: p, ..stated }),
+            );
+        }
         out
     }
 }
@@ -129,6 +154,9 @@ pub struct Lane {
     /// hardware delay of the band: if none did, every card of the band behaves alike (the
     /// model reads the delay only there, UM p.215) and the others need not be searched.
     pub delay_mattered: bool,
+    /// A status read compared what the checksum engine decides (bit 12 as the area, SRM
+    /// p.289, or bit 13): the card's pass length could have judged it differently.
+    pub pass_mattered: bool,
 }
 
 /// The capture's steps with a window to look ahead.
@@ -483,6 +511,7 @@ impl Lane {
         if let Some(t) = tolerances {
             cfg.hardware_delay_cycles = t.hardware_delay_cycles;
             cfg.supply_min_millivolts = t.supply_min_millivolts;
+            cfg.pass_cycles = t.checksum_pass_cycles;
         }
         // A capture reads the card's real 24-bit servo counter (as `pmacwd run` does). The
         // load starts as the configuration's first; in unseen gaps it is the search's choice.
@@ -512,6 +541,7 @@ impl Lane {
             peak: 4,
             memo: gap::Memo::default(),
             delay_mattered: false,
+            pass_mattered: false,
         })
     }
 
@@ -682,6 +712,16 @@ impl Lane {
                 if c.card.cycles_since_strobe > self.cfg.hardware_delay_band.0 {
                     self.delay_mattered = true;
                 }
+                // A status word compared: bit 12 shows the checksum area (SRM p.289), or bit 13
+                // a corruption found, when the card's pass length may have put it elsewhere.
+                if matches!(reply, Reply::Status { .. })
+                    && (cfg.profile.choices.bit12_meaning == Bit12Meaning::PromChecksumActive
+                        || c.card.checksum.error.is_some()
+                        || c.card.checksum.firmware != c.card.checksum.firmware_reference
+                        || c.card.checksum.program != c.card.checksum.program_reference)
+                {
+                    self.pass_mattered = true;
+                }
                 let obs = observation(spec, cfg, &c.card, c.cpu, reply);
                 match compare_windowed(spec, cfg, &step.expect, &c.card, &obs) {
                     Ok(_) => insert(c, &mut next)?,
@@ -737,11 +777,13 @@ pub fn search(
         return Ok((lanes, events));
     }
     // A lane in which no strobe stopped long enough for the delay to count is judged alike by
-    // every card of the delay band: only its supply variants (if any) are searched.
+    // every card of the delay band: only its supply variants (if any) are searched. The pass
+    // lengths come last in each list, searched only when no lane explains the capture under
+    // the cards before them (below).
     let variants: Vec<Vec<Tolerances>> = lanes
         .iter()
         .map(|l| {
-            let mut v = Tolerances::variants(&l.cfg, &levels);
+            let mut v = Tolerances::variants(&l.cfg, &levels, l.pass_mattered);
             if !l.delay_mattered {
                 let stated = l.tolerances.hardware_delay_cycles;
                 v.retain(|t| t.hardware_delay_cycles == stated);
@@ -749,11 +791,53 @@ pub fn search(
             v
         })
         .collect();
-    for (l, v) in lanes.iter_mut().zip(&variants) {
-        // The cards the bands admit, all judged: those searched, and those the search showed
-        // alike (no strobe stopped long enough for their delays to differ).
-        l.tolerances_admitted = Tolerances::variants(&l.cfg, &levels).len().max(v.len());
+    let bands: Vec<usize> = variants
+        .iter()
+        .zip(&lanes)
+        .map(|(v, l)| v.iter().filter(|t| t.checksum_pass_cycles == l.tolerances.checksum_pass_cycles).count())
+        .collect();
+    // The cards the bands admit, all judged: those searched, and those the search showed alike
+    // (no strobe stopped long enough for their delays to differ).
+    let admitted = |l: &Lane, with_passes: bool| {
+        let all = Tolerances::variants(&l.cfg, &levels, false).len();
+        all + if with_passes && l.pass_mattered { usize::from(PASS_CYCLES_MAX) - 1 } else { 0 }
+    };
+    for (l, b) in lanes.iter_mut().zip(&bands) {
+        l.tolerances_admitted = admitted(l, false).max(*b);
     }
+    let first: Vec<Vec<Tolerances>> = variants.iter().zip(&bands).map(|(v, b)| v[..*b].to_vec()).collect();
+    retry_variants(spec, path, configuration, record, &mut lanes, &first, &vec![0; first.len()])?;
+    // MODEL (search): the card's own pass length is searched only where the stated one leaves
+    // the capture unexplained under every reading: a search per length for every lane that
+    // dies for a reading of its own would multiply the time of every log placed by host time.
+    // A reading ruled out while another explains is ruled out at the stated pass length.
+    // Nor in a search placed by host time, where each pass length of an impossible log took
+    // minutes (x25-rising.log: over 10 minutes against about 2 before, release build).
+    let at_reads = configuration.placement == crate::import::Placement::AtReads;
+    if at_reads && !lanes.iter().any(Lane::alive) && variants.iter().zip(&bands).any(|(v, b)| v.len() > *b) {
+        for l in lanes.iter_mut() {
+            l.tolerances_admitted = admitted(l, true);
+        }
+        // Index 0 stands for the card already searched, as in the first round.
+        let passes: Vec<Vec<Tolerances>> = variants.iter().zip(&bands).map(|(v, b)| v[b - 1..].to_vec()).collect();
+        let base: Vec<usize> = bands.iter().map(|b| b - 1).collect();
+        retry_variants(spec, path, configuration, record, &mut lanes, &passes, &base)?;
+    }
+    Ok((lanes, events))
+}
+
+/// Searches each dead lane `i` again under `variants[i][k]` for every `k` from 1 (0 is the
+/// card it was searched under), one pass over the capture per `k`, keeping the lane that came
+/// furthest; `tried_base[i]` cards were searched before these.
+fn retry_variants(
+    spec: &Spec,
+    path: &Path,
+    configuration: crate::replay::ImportAs<'_>,
+    record: bool,
+    lanes: &mut [Lane],
+    variants: &[Vec<Tolerances>],
+    tried_base: &[usize],
+) -> Result<(), SpecError> {
     for k in 1.. {
         let retry: Vec<usize> = (0..lanes.len()).filter(|i| !lanes[*i].alive() && variants[*i].len() > k).collect();
         if retry.is_empty() {
@@ -763,17 +847,17 @@ pub fn search(
         // The first pass read the whole capture (and refused it if any of it was unusable).
         let (found, _, _) = search_once(spec, path, configuration, again, record, false)?;
         for (i, mut l) in retry.into_iter().zip(found) {
-            l.tolerances_tried = k + 1;
+            l.tolerances_tried = tried_base[i] + k + 1;
             l.tolerances_admitted = lanes[i].tolerances_admitted;
             let latest = |l: &Lane| l.death.as_ref().map(|d| d.event);
             if l.alive() || latest(&l) > latest(&lanes[i]) {
                 lanes[i] = l;
             } else {
-                lanes[i].tolerances_tried = k + 1;
+                lanes[i].tolerances_tried = tried_base[i] + k + 1;
             }
         }
     }
-    Ok((lanes, events))
+    Ok(())
 }
 
 /// One pass over the capture with each lane under its tolerances (`None`: the stated ones).
