@@ -234,10 +234,7 @@ fn the_known_failures_are_still_misjudged() {
     for known in KNOWN_FAILURES {
         let log = root.join(known.log);
         assert!(log.exists(), "{} is missing", log.display());
-        let limit = match known.misjudged {
-            Misjudged::Slow | Misjudged::RejectedSlowly => SLOW_LIMIT,
-            _ => Duration::from_secs(120),
-        };
+        let limit = SLOW_LIMIT;
         let result = pmacwd(&["replay", log.to_str().expect("utf-8")], limit);
         let still = match (&known.misjudged, &result) {
             (Misjudged::Slow, None) => true,
@@ -245,7 +242,6 @@ fn the_known_failures_are_still_misjudged() {
             (Misjudged::Slow, Some((code, _))) => *code != 0,
             (Misjudged::RejectedSlowly, None) => true,
             (Misjudged::RejectedSlowly, Some((code, _))) => *code != 1,
-            _ => false,
         };
         if !still {
             let what = match &result {
