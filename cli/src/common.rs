@@ -227,7 +227,72 @@ pub fn threads_flag(text: &str) -> Result<usize, String> {
     }
 }
 
-/// `--format` of `pmacwd import` (`--log-format` of `pmacwd replay`): the kind of log.
+/// `--format` of every command that prints a report: text for a person, or one JSON document
+/// for a program. One type for every command, so that the flag reads and behaves the same
+/// everywhere (issue 34); the documents' schemas are in docs/json.md.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Lines for a person to read.
+    Text,
+    /// One JSON document on standard output, with `command` and `version` (docs/json.md).
+    Json,
+}
+
+impl Format {
+    /// `--format`, or JSON when the old `--json` flag of `decode` and `margin` was given (clap
+    /// refuses the two together).
+    pub fn or_json(self, json: bool) -> Format {
+        if json {
+            Format::Json
+        } else {
+            self
+        }
+    }
+}
+
+/// The schema versions of the JSON documents `--format json` prints, one per document kind
+/// (docs/json.md, which gives every field). A version goes up when a field is removed or
+/// renamed, or changes its type, unit or meaning; a field may be added without a new version,
+/// so a reader ignores fields it does not know.
+pub mod json_version {
+    /// `pmacwd check --format json`.
+    pub const CHECK: u32 = 1;
+    /// `pmacwd run --format json`.
+    pub const RUN: u32 = 1;
+    /// `pmacwd conform --format json`.
+    pub const CONFORM: u32 = 1;
+    /// `pmacwd decode --format json`.
+    pub const DECODE: u32 = 1;
+    /// `pmacwd replay --format json`.
+    pub const REPLAY: u32 = 1;
+    /// `pmacwd margin --format json`.
+    pub const MARGIN: u32 = 1;
+    /// `pmacwd requirements --format json`.
+    pub const REQUIREMENTS: u32 = 1;
+    /// `pmacwd probe --format json`.
+    pub const PROBE: u32 = 1;
+}
+
+/// A report as the JSON document `--format json` prints: the object with `command` (the
+/// subcommand that printed it) and `version` (its schema's, [`json_version`]) added.
+pub fn json_document(command: &str, version: u32, report: serde_json::Value) -> serde_json::Value {
+    let mut object = match report {
+        serde_json::Value::Object(o) => o,
+        // Every report is an object; anything else is kept whole under `report`.
+        other => std::iter::once(("report".to_string(), other)).collect(),
+    };
+    object.insert("command".to_string(), serde_json::Value::from(command));
+    object.insert("version".to_string(), serde_json::Value::from(version));
+    serde_json::Value::Object(object)
+}
+
+/// [`json_document`] of a report already written as JSON text (the capture crate's reports).
+pub fn json_document_of_text(command: &str, version: u32, report: &str) -> serde_json::Value {
+    let value = serde_json::from_str(report).unwrap_or_else(|_| serde_json::Value::String(report.to_string()));
+    json_document(command, version, value)
+}
+
+/// `--log-format` of `pmacwd import` and `pmacwd replay`: the kind of log.
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
 pub enum LogFormatArg {
     /// `> command` / `< reply` lines.

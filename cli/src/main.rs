@@ -20,7 +20,7 @@ mod serve;
 mod timeline;
 
 use clap::{Parser, Subcommand};
-use replay::Format;
+use common::Format;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -111,7 +111,7 @@ enum Command {
         #[arg(long)]
         no_conformance: bool,
         /// Output format: text (with a summary table at the end), or one JSON document
-        /// (docs/commands.md gives its schema).
+        /// (docs/json.md gives its schema).
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
     },
@@ -145,7 +145,7 @@ enum Command {
         /// Run only under this profile (default: the profiles each trace names).
         #[arg(long, value_name = "NAME")]
         profile: Option<String>,
-        /// Output format: text, or one JSON document (docs/commands.md gives its schema).
+        /// Output format: text, or one JSON document (docs/json.md gives its schema).
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
     },
@@ -159,8 +159,11 @@ enum Command {
         /// The reply: 12 hex characters, `BOOTSTRAP PROM`, `BEL ERRnnn CR` or `ERRnnn`.
         #[arg(value_name = "REPLY")]
         reply: String,
-        /// Print JSON instead of text.
-        #[arg(long)]
+        /// Output format: text, or one JSON document (docs/json.md gives its schema).
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
+        /// The same as `--format json`: the flag before `--format`, kept for scripts.
+        #[arg(long, conflicts_with = "format")]
         json: bool,
         /// Spec directory to take the bit descriptions from instead of the embedded one.
         #[arg(long, value_name = "DIR")]
@@ -187,7 +190,7 @@ enum Command {
         #[arg(long, value_name = "NAME")]
         configuration: Option<String>,
         /// Read FILE as this kind of log (default: by its content). `--format` is the report's
-        /// own format here, so the log's is `--log-format` (docs/capturing.md).
+        /// own format, as for every command, so the log's is `--log-format` (docs/capturing.md).
         #[arg(long, value_enum, value_name = "FORMAT")]
         log_format: Option<common::LogFormatArg>,
         /// Write the explanation as a trace: the capture with every unseen gap replaced by the
@@ -205,7 +208,7 @@ enum Command {
         /// the one that explains it (docs/replay.md).
         #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = common::ranged(0i64, 65_535, " (I40's range, variables.yaml)"))]
         i40: Option<i64>,
-        /// Output format.
+        /// Output format: text, or one JSON document (docs/json.md gives its schema).
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
         /// Spec directory to use instead of the embedded one.
@@ -241,7 +244,8 @@ enum Command {
         /// The trace: YAML or JSON Lines.
         #[arg(value_name = "TRACE")]
         trace: PathBuf,
-        /// Output format.
+        /// Output format. No JSON: the CSV is the data in a form programs read, one row per
+        /// change (docs/json.md says why).
         #[arg(long, value_enum, default_value_t = timeline::TimelineFormat::Csv)]
         format: timeline::TimelineFormat,
         /// Write to FILE instead of standard output.
@@ -275,9 +279,9 @@ enum Command {
     /// reason.
     #[command(after_help = "Exit codes: 0 printed, 2 unusable input (the spec directory).")]
     Requirements {
-        /// Output format.
-        #[arg(long, value_name = "FORMAT", default_value = "text", value_parser = ["text", "json"])]
-        format: String,
+        /// Output format: text, or one JSON document (docs/json.md gives its schema).
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
         /// Spec directory to use instead of the embedded one.
         #[arg(long, value_name = "DIR")]
         specs: Option<PathBuf>,
@@ -285,7 +289,7 @@ enum Command {
     /// Turn a log (a host log, an EPICS asyn trace, a pcap capture) into a trace.
     ///
     /// The log format and how to capture one from a real controller: docs/capturing.md. Writes
-    /// JSON Lines (or YAML with --yaml) to --out, or to standard output.
+    /// JSON Lines (or YAML with --format yaml) to --out, or to standard output.
     #[command(after_help = "Exit codes: 0 imported, 2 unusable input (the log's file, line and column say where).")]
     Import {
         /// The log: `> command` and `< reply` lines, an EPICS asyn trace or a pcap/pcapng
@@ -298,13 +302,17 @@ enum Command {
         /// The check.yaml configuration the trace names (CPU costs, hardware delay, I-variables).
         #[arg(long, value_name = "NAME", default_value = pmacwd_capture::import::DEFAULT_CONFIGURATION)]
         configuration: String,
-        /// Write YAML instead of JSON Lines.
-        #[arg(long)]
+        /// Output format: the trace as JSON Lines (jsonl) or YAML (yaml), docs/trace-format.md.
+        /// The log's kind is --log-format (docs/commands.md).
+        #[arg(long, value_name = "FORMAT", default_value = "jsonl", value_parser = import::Form::parse)]
+        format: import::Form,
+        /// The same as `--format yaml`, kept for scripts.
+        #[arg(long, conflicts_with = "format")]
         yaml: bool,
         /// Read LOG as this kind of log (default: by its content): a host log, an EPICS asyn
         /// trace of the pmac driver, or a pcap/pcapng capture of port 1025 (docs/capturing.md).
-        #[arg(long, alias = "log-format", value_enum, value_name = "FORMAT")]
-        format: Option<common::LogFormatArg>,
+        #[arg(long, value_enum, value_name = "FORMAT")]
+        log_format: Option<common::LogFormatArg>,
     },
 }
 
@@ -328,7 +336,7 @@ fn main() -> ExitCode {
         Command::Control { commands, address } => control::control(control::ControlArgs { address, commands }),
         Command::Record(args) => record::record(args),
         Command::Probe(args) => probe::probe(args),
-        Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
+        Command::Decode { reply, format, json, specs } => decode::decode_reply(&reply, format.or_json(json), specs),
         Command::Replay { file, format, specs, configuration, log_format, witness, host_time_seconds, i40 } => {
             replay::replay_file(replay::ReplayArgs {
                 file,
@@ -345,9 +353,10 @@ fn main() -> ExitCode {
         Command::Timeline { trace, format, output, profile, specs } => {
             timeline::timeline(timeline::TimelineArgs { trace, format, output, profile, specs })
         }
-        Command::Requirements { format, specs } => requirements::requirements(&format, specs),
-        Command::Import { log, out, configuration, yaml, format } => {
-            import::import_log(&log, out, &configuration, yaml, format.map(Into::into))
+        Command::Requirements { format, specs } => requirements::requirements(format, specs),
+        Command::Import { log, out, configuration, format, yaml, log_format } => {
+            let form = if yaml { import::Form::Yaml } else { format };
+            import::import_log(&log, out, &configuration, form, log_format.map(Into::into))
         }
         Command::Check { specs, profile, configuration, witnesses, save, threads, no_conformance, format } => {
             check::check(check::CheckArgs {

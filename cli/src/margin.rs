@@ -2,7 +2,7 @@
 //! measured on the model (`pmacwd_capture::margin`), as text, JSON, or a plot of the margin
 //! against PLC 0 load.
 
-use crate::common::load_spec;
+use crate::common::{json_document, json_version, load_spec, Format};
 use pmacwd_capture::margin::{self, Margin, ReadingMargin};
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::{servo_hz_of_i10, CardConfig, ModelConfig};
@@ -49,8 +49,11 @@ pub struct MarginArgs {
     /// background cycle was.
     #[arg(long, value_name = "VALUE", requires = "x25", allow_negative_numbers = true, value_parser = clap::value_parser!(i32).range(-8_388_608..=8_388_607))]
     pub y25: Option<i32>,
-    /// Print JSON instead of text.
-    #[arg(long)]
+    /// Output format: text, or one JSON document (docs/json.md gives its schema).
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    pub format: Format,
+    /// The same as `--format json`: the flag before `--format`, kept for scripts.
+    #[arg(long, conflicts_with = "format")]
     pub json: bool,
     /// Also draw the margin against PLC 0 load as an SVG plot.
     #[arg(long, value_name = "FILE")]
@@ -148,8 +151,8 @@ pub fn margin(a: MarginArgs) -> ExitCode {
         }
     }
     let rows: Vec<Row> = rows.into_iter().map(|(_, r)| r).collect();
-    if a.json {
-        println!("{}", to_json(&a.configuration, load, &rows));
+    if a.format.or_json(a.json) == Format::Json {
+        println!("{}", json_document("margin", json_version::MARGIN, to_json(&a.configuration, load, &rows)));
     } else {
         print!("{}", to_text(&a.configuration, load, &rows));
     }
@@ -271,7 +274,7 @@ fn to_text(configuration: &str, load: Load, rows: &[Row]) -> String {
     s
 }
 
-fn to_json(configuration: &str, load: Load, rows: &[Row]) -> String {
+fn to_json(configuration: &str, load: Load, rows: &[Row]) -> serde_json::Value {
     let profiles: Vec<serde_json::Value> = rows
         .iter()
         .map(|r| {
@@ -306,7 +309,6 @@ fn to_json(configuration: &str, load: Load, rows: &[Row]) -> String {
         "load": {"motors": load.motors, "plc0_units": load.plc0_units, "background_units": load.background_units},
         "cycle_units": c.cpu.cycle_units, "profiles": profiles,
     })
-    .to_string()
 }
 
 /// Margin in ms against PLC 0 units per RTI, one line per profile, from no PLC 0 to twice

@@ -771,6 +771,75 @@ fn check_run_and_conform_print_one_json_document_that_agrees_with_their_text_and
     assert!(doc["coverage"]["events"].as_object().unwrap().values().any(|n| n.as_u64() > Some(0)));
 }
 
+/// The schema version docs/json.md gives for the document of `pmacwd COMMAND --format json`:
+/// its section's heading reads ``## `pmacwd COMMAND --format json`, version N``.
+fn documented_version(command: &str) -> u64 {
+    let docs = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/json.md")).unwrap();
+    let heading = format!("## `pmacwd {command} --format json`, version ");
+    let line =
+        docs.lines().find(|l| l.starts_with(&heading)).unwrap_or_else(|| panic!("no `{heading}` in docs/json.md"));
+    line[heading.len()..].trim().parse().unwrap_or_else(|_| panic!("{line}: no version number"))
+}
+
+#[test]
+fn every_command_that_prints_a_report_takes_format_json_and_prints_one_document_with_its_schema_version() {
+    // Issue 34: one convention. Each document names its command and carries the version of its
+    // schema, the one docs/json.md documents; the old `--json` of decode and margin is the
+    // same flag. (probe's document: cli/tests/probe.rs, against a running emulator.)
+    let cases: &[(&str, &[&str])] = &[
+        (
+            "check",
+            &["check", "--configuration", "lockout", "--profile", "um-215", "--threads", "1", "--no-conformance"],
+        ),
+        ("run", &["run", "specs/captures/reload-to-4095.jsonl", "--profile", "um-215"]),
+        ("conform", &["conform", "--cases", "2", "--max-len", "20", "--seed", "1", "--no-exhaustive"]),
+        ("decode", &["decode", "400000080000"]),
+        ("replay", &["replay", "specs/captures/reload-to-4095.jsonl"]),
+        ("margin", &["margin", "--profile", "um-215"]),
+        ("requirements", &["requirements"]),
+    ];
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
+    for (command, args) in cases {
+        let out = pmacwd().current_dir(root).args(*args).args(["--format", "json"]).output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let doc: serde_json::Value =
+            serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{args:?}: not one JSON document: {e}\n{stdout}"));
+        assert_eq!(doc["command"].as_str(), Some(*command), "{args:?}");
+        assert_eq!(doc["version"].as_u64(), Some(documented_version(command)), "{args:?}: {stdout}");
+        if let Some(exit) = doc.get("exit") {
+            assert_eq!(exit.as_i64(), out.status.code().map(i64::from), "{args:?}");
+        }
+    }
+    for args in [&["decode", "400000080000"][..], &["margin", "--profile", "um-215"]] {
+        let new = pmacwd().args(args).args(["--format", "json"]).output().unwrap();
+        let old = pmacwd().args(args).arg("--json").output().unwrap();
+        assert_eq!((old.status.code(), &old.stdout), (new.status.code(), &new.stdout), "{args:?} --json");
+        let both = pmacwd().args(args).args(["--json", "--format", "text"]).output().unwrap();
+        assert_eq!(both.status.code(), Some(2), "{args:?} --json --format text");
+        assert!(String::from_utf8_lossy(&both.stderr).contains("cannot be used with"), "{args:?}");
+    }
+}
+
+#[test]
+fn import_s_format_names_the_trace_written_and_a_kind_of_log_there_points_at_log_format() {
+    let log = concat!(env!("CARGO_MANIFEST_DIR"), "/../specs/captures/host-session.log");
+    let yaml = pmacwd().args(["import", log, "--format", "yaml"]).output().unwrap();
+    let old = pmacwd().args(["import", log, "--yaml"]).output().unwrap();
+    assert_eq!((yaml.status.code(), &yaml.stdout), (old.status.code(), &old.stdout));
+    assert!(String::from_utf8_lossy(&yaml.stdout).starts_with("version: 1\n"));
+    let jsonl = pmacwd().args(["import", log, "--format", "jsonl", "--log-format", "host-log"]).output().unwrap();
+    assert_eq!(jsonl.stdout, pmacwd().args(["import", log]).output().unwrap().stdout);
+    for kind in ["asyn", "pcap", "host-log"] {
+        let out = pmacwd().args(["import", log, "--format", kind]).output().unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(&format!("name it with --log-format {kind}")), "{err}");
+    }
+    let out = pmacwd().args(["import", log, "--format", "json"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("give --format jsonl"));
+}
+
 #[test]
 fn requirements_prints_the_matrix_by_page_and_figures_that_add_up() {
     let out = pmacwd().args(["requirements", "--format", "json"]).output().unwrap();
