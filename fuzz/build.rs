@@ -70,6 +70,8 @@ fn main() {
             item("common.rs", &common, "pub fn threads_flag("),
             item("common.rs", &common, "pub enum LogFormatArg {"),
             item("common.rs", &common, "pub enum Format {"),
+            item("common.rs", &common, "pub fn card_reading("),
+            item("common.rs", &common, "pub fn micros("),
         ]
         .join("\n"),
         [

@@ -217,6 +217,45 @@ pub fn servo_hz(text: &str) -> Result<u32, String> {
     })
 }
 
+/// `--x25` / `--y25` of `pmacwd margin`: a watchdog counter value as the card gives it. The
+/// reply of `RHX:$25` / `RHY:$25` is six hex digits (`000FF0`; `FFFFFF` is -1, the counter
+/// gone below zero, SRM p.57), `$` and up to six hex digits is the card's own notation for a
+/// hex value (`$FF0`), and anything else is decimal (`4080`, `-1`).
+///
+/// MODEL: the counter's word is 24 bits wide (six hex digits, as the reply shows), read as two's
+/// complement, so `$800000` to `$FFFFFF` are -8,388,608 to -1. Six decimal digits are read as
+/// the reply form, hex (`004080` is $4080, 16,512): a decimal reading has fewer digits or a sign.
+pub fn card_reading(text: &str) -> Result<i32, String> {
+    const USAGE: &str = "give the reading as RHX:$25 replies it, six hex digits (000FF0; FFFFFF is -1), as $ and up \
+                         to six hex digits ($FF0), or in decimal (4080, -1)";
+    let t = text.trim();
+    let hex = |digits: &str| -> Option<i32> {
+        if digits.is_empty() || digits.len() > 6 || !digits.chars().all(|c| c.is_ascii_hexdigit()) {
+            return None;
+        }
+        let word = i32::from_str_radix(digits, 16).ok()?;
+        Some(if word >= 0x80_0000 { word - 0x100_0000 } else { word })
+    };
+    let value = if let Some(digits) = t.strip_prefix('$') {
+        hex(digits)
+    } else if t.len() == 6 && t.chars().all(|c| c.is_ascii_hexdigit()) {
+        hex(t)
+    } else {
+        t.parse::<i32>().ok().filter(|v| (-0x80_0000..0x80_0000).contains(v))
+    };
+    value.ok_or_else(|| format!("`{t}`: {USAGE}"))
+}
+
+/// `--plc0-us` / `--background-us` of `pmacwd margin`: a time in microseconds, 0 or more (a
+/// decimal number: `133.3`); converted to CPU units by the configuration
+/// (`pmacwd_capture::margin::units_of_us`).
+pub fn micros(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(us) if us.is_finite() && us >= 0.0 => Ok(us),
+        _ => Err("give a time in microseconds, 0 or more (133.3)".to_string()),
+    }
+}
+
 /// `--threads`: 1 to the machine's cores, as [`threads`] checks it, refused at parse time too
 /// when the number does not even fit.
 pub fn threads_flag(text: &str) -> Result<usize, String> {

@@ -223,9 +223,12 @@ enum Command {
     /// the longest run the load makes (motors, PLC 0 and background in CPU units), the margin
     /// between them in servo cycles and ms (also with the shortest hardware delay the strobe
     /// minimum's band admits), and whether PLC 0 overruns the RTI or starves the background.
-    /// --plot FILE.svg draws the margin against PLC 0 load (docs/commands.md). With --x25 (and
-    /// --y25) read from a card, also what those readings prove: the longest run without a
-    /// background cycle since reset, and the servo cycles that were left to a trip then.
+    /// Loads in CPU units or in microseconds (--plc0-us, --background-us); a warning where the
+    /// margin rises with the load one unit either side. --plot FILE.svg draws the margin
+    /// against PLC 0 load, the load given marked (docs/commands.md). With --x25 (and --y25)
+    /// read from a card (000FF0 as RHX:$25 replies, $FF0, or decimal), also what those
+    /// readings prove: the longest run without a background cycle since reset, and the servo
+    /// cycles that were left to a trip then.
     #[command(
         after_help = "Exit codes: 0 measured, 1 the load trips the card under the default profile or no profile's card can show the readings, 2 unusable arguments."
     )]
