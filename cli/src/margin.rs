@@ -446,10 +446,13 @@ fn to_json(
     })
 }
 
+/// A plotted line: (PLC 0 units, margin in ms) at every unit.
+type Curve = Vec<(f64, f64)>;
+
 /// Profiles whose curves are the same, point for point: one line each, in the order of
 /// `curves`; each group's first name leads and the rest are "same as" it.
-fn coinciding(curves: Vec<(String, Vec<(f64, f64)>)>) -> Vec<(Vec<String>, Vec<(f64, f64)>)> {
-    let mut groups: Vec<(Vec<String>, Vec<(f64, f64)>)> = Vec::new();
+fn coinciding(curves: Vec<(String, Curve)>) -> Vec<(Vec<String>, Curve)> {
+    let mut groups: Vec<(Vec<String>, Curve)> = Vec::new();
     for (name, pts) in curves {
         match groups.iter_mut().find(|(_, p)| *p == pts) {
             Some((names, _)) => names.push(name),
@@ -470,7 +473,7 @@ fn plot(path: &std::path::Path, rows: &[&Row], load: Load) -> Result<(), Box<dyn
     let span = u32::from(cfg.cpu.cycle_units) * period * 2;
     let plc0_max =
         span.max(u32::from(load.plc0_units) + u32::from(cfg.cpu.cycle_units)).min(u32::from(u16::MAX)) as u16;
-    let curves: Vec<(String, Vec<(f64, f64)>)> = rows
+    let curves: Vec<(String, Curve)> = rows
         .iter()
         .map(|r| {
             // Every unit: the band where PLC 0 takes exactly the spare time and starves the
