@@ -81,7 +81,8 @@ enum Command {
     /// Model-check every profile at the bounded configurations of specs/check.yaml.
     ///
     /// Prints, per configuration and profile: states, depth, time, and every property with its
-    /// verdict; the shortest counterexample of a violated property.
+    /// verdict; the shortest counterexample of a violated property (docs/commands.md; what is
+    /// checked: docs/model.md).
     #[command(
         after_help = "Exit codes: 0 every property holds and the core agrees with the model, 1 a property is violated or the core diverged, 2 unusable input (spec directory, options, a run too large to check)."
     )]
@@ -153,7 +154,8 @@ enum Command {
     /// the EPICS pmac driver's hardware-problem mask flags it.
     ///
     /// REPLY is 12 hex characters (e.g. 400000080000), `BOOTSTRAP PROM`, or an error reply
-    /// (BEL ERRnnn CR, or ERRnnn as a log writes it). A malformed reply exits 2.
+    /// (BEL ERRnnn CR, or ERRnnn as a log writes it). A malformed reply exits 2
+    /// (docs/commands.md).
     #[command(after_help = "Exit codes: 0 explained, 2 not a reply a card sends.")]
     Decode {
         /// The reply: 12 hex characters, `BOOTSTRAP PROM`, `BEL ERRnnn CR` or `ERRnnn`.
@@ -241,7 +243,8 @@ enum Command {
     /// GTKWave (time in ns at the configuration's servo clock), or as an SVG plot of Y:$25 and
     /// X:$25 with the trip and the trace's reads marked. A capture with `elapsed` or `restart`
     /// steps leaves open what happened: `pmacwd replay CAPTURE --witness W.jsonl` first, then
-    /// `pmacwd timeline W.jsonl`. Expectations are not checked (that is `pmacwd run`).
+    /// `pmacwd timeline W.jsonl`. Expectations are not checked (that is `pmacwd run`;
+    /// docs/commands.md).
     #[command(after_help = "Exit codes: 0 written, 2 unusable input (or a trace with elapsed/restart steps).")]
     Timeline {
         /// The trace: YAML or JSON Lines.
@@ -269,8 +272,8 @@ enum Command {
     /// traces weighted toward the edges, and, unless --no-exhaustive, the exhaustive product of
     /// model and core at every bounded configuration of check.yaml. Then a coverage report: model
     /// events applied, status bits seen set, properties reached. A generated divergence is
-    /// shrunk, printed and saved as a regression trace. Exit 0 no divergence, 1 a divergence,
-    /// 2 unusable input.
+    /// shrunk, printed and saved as a regression trace (docs/conformance.md). Exit 0 no
+    /// divergence, 1 a divergence, 2 unusable input.
     #[command(after_help = "Exit codes: 0 no divergence, 1 a divergence (shrunk and saved), 2 unusable input.")]
     Conform(conform::ConformArgs),
     /// Print the requirements matrix: each normative statement of the manual pages, by page,

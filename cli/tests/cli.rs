@@ -1290,3 +1290,38 @@ fn margin_s_plot_marks_the_load_given_and_names_the_profiles_whose_curves_coinci
     // um-215, um-215-literal-plc and um-215-m83 make the same curve at i40-zero: one line.
     assert!(svg.contains("um-215 (default); same: um-215-literal-plc, um-215-m83"), "the legend groups them");
 }
+
+#[test]
+fn every_subcommand_s_help_names_its_docs_page_by_its_path_and_the_page_exists() {
+    // Issue 34: a help text points at the page that says more, by its path in the repository.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let subcommands = [
+        "serve",
+        "control",
+        "record",
+        "probe",
+        "check",
+        "explore",
+        "run",
+        "decode",
+        "replay",
+        "margin",
+        "timeline",
+        "conform",
+        "requirements",
+        "import",
+    ];
+    for sub in subcommands {
+        let out = pmacwd().args([sub, "--help"]).output().unwrap();
+        let help = String::from_utf8_lossy(&out.stdout);
+        let pages: Vec<&str> = help
+            .split(|c: char| c.is_whitespace() || "(),;:`".contains(c))
+            .filter(|w| w.starts_with("docs/") && w.contains(".md"))
+            .map(|w| w.split('#').next().unwrap().trim_end_matches('.'))
+            .collect();
+        assert!(!pages.is_empty(), "`pmacwd {sub} --help` names no docs page:\n{help}");
+        for page in pages {
+            assert!(root.join(page).is_file(), "`pmacwd {sub} --help` names {page}, which does not exist");
+        }
+    }
+}
