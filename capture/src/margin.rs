@@ -236,3 +236,100 @@ pub fn reload_cite(cfg: &ModelConfig) -> &'static str {
         "I40 = 0: 4095, SRM p.57, UM p.240"
     }
 }
+
+/// One CPU unit of `cfg` in microseconds: a servo cycle (1,000,000 / servo clock µs; the servo
+/// clock is I10's, SRM p.43, 2.25 kHz "(440 µsec cycle)" by default, UM p.236) over the
+/// configuration's `cpu.cycle_units`. check.yaml states every cost as units of a servo cycle:
+/// at i40-zero 100 of them, so that a motor's servo update at 1 unit is UM p.236's "approximately
+/// 1% of Turbo PMAC's computational power".
+///
+/// MODEL: a unit is a fixed share of a servo cycle, so at another servo clock (`--servo-hz`,
+/// `--i10`) a unit is that much longer or shorter; the manuals give the computational power
+/// only as this share.
+pub fn us_per_unit(cfg: &ModelConfig) -> f64 {
+    1_000_000.0 / f64::from(cfg.servo_hz) / f64::from(cfg.cpu.cycle_units)
+}
+
+/// A CPU time in microseconds as whole CPU units of `cfg` ([`us_per_unit`]), for a load a user
+/// measured in time (a PLC 0 scan, a background cycle). MODEL: rounded up, so the load is never
+/// less than the time given (a task that needs part of a unit holds the CPU for that unit);
+/// a time within a millionth of a unit of a whole number of units is that number. A time that
+/// is negative, not a number, or more units than a cost holds (65,535) is refused.
+pub fn units_of_us(cfg: &ModelConfig, us: f64) -> Result<u16, String> {
+    if !us.is_finite() || us < 0.0 {
+        return Err(format!("{us} µs: give a time of 0 µs or more"));
+    }
+    let exact = us / us_per_unit(cfg);
+    let units = (exact - 1e-6).ceil().max(0.0);
+    if units > f64::from(u16::MAX) {
+        return Err(format!(
+            "{us} µs is {units:.0} CPU units of {:.4} µs, more than a cost holds ({})",
+            us_per_unit(cfg),
+            u16::MAX
+        ));
+    }
+    Ok(units as u16)
+}
+
+/// Which cost of a load a neighbour changes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cost {
+    /// PLC 0's units per RTI.
+    Plc0,
+    /// One background cycle's units.
+    Background,
+}
+
+impl Cost {
+    /// The name JSON gives it: the load's field.
+    pub fn key(self) -> &'static str {
+        match self {
+            Cost::Plc0 => "plc0_units",
+            Cost::Background => "background_units",
+        }
+    }
+}
+
+/// Where the margin is not monotonic in one cost around a load: one unit less, the load's own
+/// and one unit more, with the margin at each (`None`: the card trips).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NotMonotonic {
+    pub cost: Cost,
+    pub units: Vec<u16>,
+    pub margin_cycles: Vec<Option<i64>>,
+}
+
+/// The loads one unit of PLC 0 and one unit of background below and above `load`, measured,
+/// and where the margin grows with the load among them: a more costly neighbour with more
+/// margin, or a cheaper one with less (a load that trips counts as less margin than any). The
+/// margin at one fixed cost is then no bound for a cost that varies around it. UM p.236: PLC 0
+/// runs "every real-time interrupt as long as the tasks from the previous RTI have been
+/// completed", so a PLC 0 that ends exactly at an RTI starves the background while one a unit
+/// longer lets the next RTI pass without a scan (`i40-zero`: 276 units trips, 275 and 277 do not).
+pub fn not_monotonic(cfg: &ModelConfig, load: Load) -> Vec<NotMonotonic> {
+    let at = measure(cfg, load).margin_cycles();
+    let mut found = Vec::new();
+    for cost in [Cost::Plc0, Cost::Background] {
+        let units = match cost {
+            Cost::Plc0 => load.plc0_units,
+            Cost::Background => load.background_units,
+        };
+        let with = |u: u16| match cost {
+            Cost::Plc0 => Load { plc0_units: u, ..load },
+            Cost::Background => Load { background_units: u, ..load },
+        };
+        let below = units.checked_sub(1).map(|u| (u, measure(cfg, with(u)).margin_cycles()));
+        let above = units.checked_add(1).map(|u| (u, measure(cfg, with(u)).margin_cycles()));
+        // `Option`'s order puts `None` (the card trips) below every margin.
+        let rising = below.is_some_and(|(_, m)| m < at) || above.is_some_and(|(_, m)| m > at);
+        if rising {
+            let points: Vec<(u16, Option<i64>)> = below.into_iter().chain([(units, at)]).chain(above).collect();
+            found.push(NotMonotonic {
+                cost,
+                units: points.iter().map(|p| p.0).collect(),
+                margin_cycles: points.iter().map(|p| p.1).collect(),
+            });
+        }
+    }
+    found
+}

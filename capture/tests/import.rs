@@ -521,12 +521,12 @@ fn a_log_read_in_the_wrong_format_says_which_format_it_looks_like() {
     // Read as a host log, the first line's stamp is one (a slash date), then no `>` follows.
     let e = stream(&field("epics-asyn-trace.txt"), Some(LogFormat::HostLog)).err().unwrap();
     assert_eq!(at(&e), (1, 25));
-    assert!(e.message.ends_with("this looks like an EPICS asyn trace: use --format asyn"), "{e}");
+    assert!(e.message.ends_with("this looks like an EPICS asyn trace: use --log-format asyn"), "{e}");
     let e = stream(&field("emulator-session.pcap"), Some(LogFormat::Asyn)).err().unwrap();
-    assert!(e.message.contains("this looks like a packet capture (pcap or pcapng): use --format pcap"), "{e}");
+    assert!(e.message.contains("this looks like a packet capture (pcap or pcapng): use --log-format pcap"), "{e}");
     let host = Scratch::new("host.log", b"> I10\n< 8388607\n");
     let e = stream(&host.0, Some(LogFormat::Pcap)).err().unwrap();
-    assert!(e.message.contains("this looks like a host log: use --format host-log"), "{e}");
+    assert!(e.message.contains("this looks like a host log: use --log-format host-log"), "{e}");
 }
 
 #[test]

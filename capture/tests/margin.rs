@@ -152,3 +152,48 @@ fn a_longer_plc0_first_spaces_the_background_cycles_out_and_only_then_starves_th
     assert!(running_loads >= 3 && last > 3, "intervals up to {last} over {running_loads} loads");
     assert_eq!(tripped_at, Some(276), "the PLC 0 that fills every RTI period starves the background");
 }
+
+#[test]
+fn microseconds_are_the_configuration_s_units_of_a_servo_cycle_rounded_up() {
+    // i40-zero: 100 units in a servo cycle of 1,000,000 / 2250 = 444.44 µs (UM p.236), so a
+    // unit is 4.444 µs and its 30 units of PLC 0 are 133.33 µs.
+    let cfg = config("um-215");
+    assert!((margin::us_per_unit(&cfg) - 4.444_444).abs() < 1e-5);
+    assert_eq!(margin::units_of_us(&cfg, 0.0), Ok(0));
+    assert_eq!(margin::units_of_us(&cfg, 133.333_333_333), Ok(30));
+    assert_eq!(margin::units_of_us(&cfg, 133.0), Ok(30));
+    // Past a whole unit, the part of the next one counts: the load is never less than given.
+    assert_eq!(margin::units_of_us(&cfg, 133.4), Ok(31));
+    assert_eq!(margin::units_of_us(&cfg, 1111.0), Ok(250));
+    for bad in [-1.0, f64::NAN, f64::INFINITY, 300_000.0] {
+        assert!(margin::units_of_us(&cfg, bad).is_err(), "{bad}");
+    }
+    // At another servo clock a unit is the same share of a shorter cycle.
+    let mut fast = cfg.clone();
+    fast.servo_hz = 4500;
+    assert_eq!(margin::units_of_us(&fast, 133.333_333_333), Ok(60));
+}
+
+#[test]
+fn a_plc0_ending_exactly_at_an_rti_makes_the_margin_rise_with_the_load_and_its_neighbours_say_so() {
+    // i40-zero under um-215: 275 units of PLC 0 leave a margin, 276 starve the background (it
+    // ends exactly at the RTI), 277 leave more margin than 275: not monotonic.
+    let cfg = config("um-215");
+    let at = |plc0_units: u16| Load { plc0_units, ..cfg.loads[0] };
+    for units in [276, 277] {
+        let found = margin::not_monotonic(&cfg, at(units));
+        assert_eq!(found.len(), 1, "{units}: {found:?}");
+        let n = &found[0];
+        assert_eq!(n.cost, margin::Cost::Plc0);
+        assert_eq!(n.units, vec![units - 1, units, units + 1]);
+        for (u, m) in n.units.iter().zip(&n.margin_cycles) {
+            assert_eq!(*m, margin::measure(&cfg, at(*u)).margin_cycles(), "{u}");
+        }
+        assert!(n.margin_cycles.contains(&None), "{n:?}");
+    }
+    // The shipped load and one unit short of the starving one are monotonic around them.
+    for units in [30, 275] {
+        assert_eq!(margin::not_monotonic(&cfg, at(units)), vec![], "{units}");
+    }
+    assert_eq!(margin::not_monotonic(&cfg, Load { plc0_units: 0, ..cfg.loads[0] }), vec![]);
+}

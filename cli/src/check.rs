@@ -2,10 +2,10 @@
 //! conformance summary of the core against the model; as text (with a summary table at the
 //! end) or as one JSON document (`--format json`, schema in `docs/commands.md`).
 
+use crate::common::Format;
 use crate::common::{load_spec, plural, scenario_library};
 use crate::conform::scenarios_on_core;
 use crate::progress::{thousands, Progress};
-use crate::replay::Format;
 use pmacwd_conformance::check::{format_report, planned_runs, report_json, run_observed, verdict, Selection};
 use pmacwd_conformance::path_trace::{paths_to_save, Outcome, SavedPath};
 use pmacwd_model::checker::RunReport;
@@ -135,7 +135,6 @@ pub fn check(a: CheckArgs) -> ExitCode {
         Format::Json => {
             let runs: Vec<serde_json::Value> = reports.iter().map(|r| report_json(r, &default_profile)).collect();
             let doc = serde_json::json!({
-                "command": "check",
                 "spec_dir": spec.dir.display().to_string(),
                 "threads": threads,
                 "runs": runs,
@@ -147,7 +146,7 @@ pub fn check(a: CheckArgs) -> ExitCode {
                 "saved": save.as_ref().map(|dir| serde_json::json!({"dir": dir.display().to_string(), "runs": saved_json})),
                 "exit": code,
             });
-            println!("{doc}");
+            println!("{}", crate::common::json_document("check", crate::common::json_version::CHECK, doc));
         }
     }
     if incomplete > 0 {

@@ -217,6 +217,45 @@ pub fn servo_hz(text: &str) -> Result<u32, String> {
     })
 }
 
+/// `--x25` / `--y25` of `pmacwd margin`: a watchdog counter value as the card gives it. The
+/// reply of `RHX:$25` / `RHY:$25` is six hex digits (`000FF0`; `FFFFFF` is -1, the counter
+/// gone below zero, SRM p.57), `$` and up to six hex digits is the card's own notation for a
+/// hex value (`$FF0`), and anything else is decimal (`4080`, `-1`).
+///
+/// MODEL: the counter's word is 24 bits wide (six hex digits, as the reply shows), read as two's
+/// complement, so `$800000` to `$FFFFFF` are -8,388,608 to -1. Six decimal digits are read as
+/// the reply form, hex (`004080` is $4080, 16,512): a decimal reading has fewer digits or a sign.
+pub fn card_reading(text: &str) -> Result<i32, String> {
+    const USAGE: &str = "give the reading as RHX:$25 replies it, six hex digits (000FF0; FFFFFF is -1), as $ and up \
+                         to six hex digits ($FF0), or in decimal (4080, -1)";
+    let t = text.trim();
+    let hex = |digits: &str| -> Option<i32> {
+        if digits.is_empty() || digits.len() > 6 || !digits.chars().all(|c| c.is_ascii_hexdigit()) {
+            return None;
+        }
+        let word = i32::from_str_radix(digits, 16).ok()?;
+        Some(if word >= 0x80_0000 { word - 0x100_0000 } else { word })
+    };
+    let value = if let Some(digits) = t.strip_prefix('$') {
+        hex(digits)
+    } else if t.len() == 6 && t.chars().all(|c| c.is_ascii_hexdigit()) {
+        hex(t)
+    } else {
+        t.parse::<i32>().ok().filter(|v| (-0x80_0000..0x80_0000).contains(v))
+    };
+    value.ok_or_else(|| format!("`{t}`: {USAGE}"))
+}
+
+/// `--plc0-us` / `--background-us` of `pmacwd margin`: a time in microseconds, 0 or more (a
+/// decimal number: `133.3`); converted to CPU units by the configuration
+/// (`pmacwd_capture::margin::units_of_us`).
+pub fn micros(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(us) if us.is_finite() && us >= 0.0 => Ok(us),
+        _ => Err("give a time in microseconds, 0 or more (133.3)".to_string()),
+    }
+}
+
 /// `--threads`: 1 to the machine's cores, as [`threads`] checks it, refused at parse time too
 /// when the number does not even fit.
 pub fn threads_flag(text: &str) -> Result<usize, String> {
@@ -227,7 +266,72 @@ pub fn threads_flag(text: &str) -> Result<usize, String> {
     }
 }
 
-/// `--format` of `pmacwd import` (`--log-format` of `pmacwd replay`): the kind of log.
+/// `--format` of every command that prints a report: text for a person, or one JSON document
+/// for a program. One type for every command, so that the flag reads and behaves the same
+/// everywhere (issue 34); the documents' schemas are in docs/json.md.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Lines for a person to read.
+    Text,
+    /// One JSON document on standard output, with `command` and `version` (docs/json.md).
+    Json,
+}
+
+impl Format {
+    /// `--format`, or JSON when the old `--json` flag of `decode` and `margin` was given (clap
+    /// refuses the two together).
+    pub fn or_json(self, json: bool) -> Format {
+        if json {
+            Format::Json
+        } else {
+            self
+        }
+    }
+}
+
+/// The schema versions of the JSON documents `--format json` prints, one per document kind
+/// (docs/json.md, which gives every field). A version goes up when a field is removed or
+/// renamed, or changes its type, unit or meaning; a field may be added without a new version,
+/// so a reader ignores fields it does not know.
+pub mod json_version {
+    /// `pmacwd check --format json`.
+    pub const CHECK: u32 = 1;
+    /// `pmacwd run --format json`.
+    pub const RUN: u32 = 1;
+    /// `pmacwd conform --format json`.
+    pub const CONFORM: u32 = 1;
+    /// `pmacwd decode --format json`.
+    pub const DECODE: u32 = 1;
+    /// `pmacwd replay --format json`.
+    pub const REPLAY: u32 = 1;
+    /// `pmacwd margin --format json`.
+    pub const MARGIN: u32 = 1;
+    /// `pmacwd requirements --format json`.
+    pub const REQUIREMENTS: u32 = 1;
+    /// `pmacwd probe --format json`.
+    pub const PROBE: u32 = 1;
+}
+
+/// A report as the JSON document `--format json` prints: the object with `command` (the
+/// subcommand that printed it) and `version` (its schema's, [`json_version`]) added.
+pub fn json_document(command: &str, version: u32, report: serde_json::Value) -> serde_json::Value {
+    let mut object = match report {
+        serde_json::Value::Object(o) => o,
+        // Every report is an object; anything else is kept whole under `report`.
+        other => std::iter::once(("report".to_string(), other)).collect(),
+    };
+    object.insert("command".to_string(), serde_json::Value::from(command));
+    object.insert("version".to_string(), serde_json::Value::from(version));
+    serde_json::Value::Object(object)
+}
+
+/// [`json_document`] of a report already written as JSON text (the capture crate's reports).
+pub fn json_document_of_text(command: &str, version: u32, report: &str) -> serde_json::Value {
+    let value = serde_json::from_str(report).unwrap_or_else(|_| serde_json::Value::String(report.to_string()));
+    json_document(command, version, value)
+}
+
+/// `--log-format` of `pmacwd import` and `pmacwd replay`: the kind of log.
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
 pub enum LogFormatArg {
     /// `> command` / `< reply` lines.

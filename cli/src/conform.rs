@@ -1,8 +1,8 @@
 //! `pmacwd conform`: the conformance suite against the compact core, with its coverage.
 
+use crate::common::Format;
 use crate::common::{load_spec, plural, scenario_library, trace_files, TraceFile};
 use crate::progress::{thousands, Progress};
-use crate::replay::Format;
 use pmacwd_conformance::check::{planned_runs, Selection};
 use pmacwd_conformance::runner::Divergence;
 use pmacwd_specs::Spec;
@@ -43,7 +43,7 @@ pub struct ConformArgs {
     /// Checker threads for the exhaustive part (default: the machine's cores).
     #[arg(long, allow_negative_numbers = true, value_name = "N", value_parser = crate::common::threads_flag)]
     pub threads: Option<usize>,
-    /// Output format: text, or one JSON document (docs/commands.md gives its schema).
+    /// Output format: text, or one JSON document (docs/json.md gives its schema).
     #[arg(long, value_enum, default_value_t = Format::Text)]
     pub format: Format,
 }
@@ -246,15 +246,18 @@ pub fn conform(a: ConformArgs) -> ExitCode {
         }
         Format::Json => println!(
             "{}",
-            serde_json::json!({
-                "command": "conform",
-                "scenarios": scenarios_json,
-                "generated": generated_json,
-                "exhaustive": exhaustive_json,
-                "coverage": coverage.report_json(&spec),
-                "seconds": start.elapsed().as_secs_f64(),
-                "exit": code,
-            })
+            crate::common::json_document(
+                "conform",
+                crate::common::json_version::CONFORM,
+                serde_json::json!({
+                    "scenarios": scenarios_json,
+                    "generated": generated_json,
+                    "exhaustive": exhaustive_json,
+                    "coverage": coverage.report_json(&spec),
+                    "seconds": start.elapsed().as_secs_f64(),
+                    "exit": code,
+                }),
+            )
         ),
     }
     ExitCode::from(code)

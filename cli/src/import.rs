@@ -15,11 +15,33 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-/// How the trace is written: JSON Lines or YAML, one step at a time.
-#[derive(Clone, Copy)]
-enum Form {
+/// How the trace is written: JSON Lines or YAML, one step at a time (`--format`; `--yaml` is
+/// `--format yaml`). The trace is import's report, so `--format` names its form as it names
+/// every other command's output (docs/json.md); the log's own kind is `--log-format`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Form {
     Jsonl,
     Yaml,
+}
+
+impl Form {
+    /// `--format` of `pmacwd import`, for clap's `value_parser`: `jsonl` or `yaml`. A kind of
+    /// log there (`--format asyn`, what import's `--format` meant before issue 34) is refused
+    /// with the flag it belongs to, and `json` with the form import writes.
+    pub fn parse(text: &str) -> Result<Form, String> {
+        match text {
+            "jsonl" => Ok(Form::Jsonl),
+            "yaml" => Ok(Form::Yaml),
+            "host-log" | "asyn" | "pcap" => Err(format!(
+                "`{text}` is a kind of log: name it with --log-format {text}; --format names the trace written, \
+                 jsonl or yaml (docs/commands.md)"
+            )),
+            "json" => Err("import writes a trace as JSON Lines, one JSON object a line (docs/trace-format.md): \
+                           give --format jsonl, or yaml"
+                .to_string()),
+            _ => Err("give jsonl or yaml (the trace written; the log's kind is --log-format)".to_string()),
+        }
+    }
 }
 
 impl Form {
@@ -46,7 +68,7 @@ pub fn import_log(
     log: &Path,
     out: Option<PathBuf>,
     configuration: &str,
-    yaml: bool,
+    form: Form,
     format: Option<pmacwd_capture::import::LogFormat>,
 ) -> ExitCode {
     let spec = match Spec::embedded() {
@@ -64,7 +86,6 @@ pub fn import_log(
         Ok(s) => s,
         Err(e) => return unusable(e),
     };
-    let form = if yaml { Form::Yaml } else { Form::Jsonl };
     match out {
         Some(path) => {
             let partial = partial_path(&path);
@@ -175,7 +196,7 @@ fn write_trace(stream: &mut ImportStream, form: Form, out: &mut dyn Write, log: 
             nodes.step(&pmacwd_trace::yaml_step(&step)).map_err(|n| {
                 format!(
                     "{}:{line}: the YAML trace would have {n} nodes with this step, more than the {} `run` \
-                     and `replay` read: import the log as JSON Lines (without --yaml), which they read a \
+                     and `replay` read: import the log as JSON Lines (--format jsonl), which they read a \
                      step at a time",
                     log.display(),
                     pmacwd_specs::yaml::NODES_MAX

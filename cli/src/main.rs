@@ -20,7 +20,7 @@ mod serve;
 mod timeline;
 
 use clap::{Parser, Subcommand};
-use replay::Format;
+use common::Format;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -81,7 +81,8 @@ enum Command {
     /// Model-check every profile at the bounded configurations of specs/check.yaml.
     ///
     /// Prints, per configuration and profile: states, depth, time, and every property with its
-    /// verdict; the shortest counterexample of a violated property.
+    /// verdict; the shortest counterexample of a violated property (docs/commands.md; what is
+    /// checked: docs/model.md).
     #[command(
         after_help = "Exit codes: 0 every property holds and the core agrees with the model, 1 a property is violated or the core diverged, 2 unusable input (spec directory, options, a run too large to check)."
     )]
@@ -111,7 +112,7 @@ enum Command {
         #[arg(long)]
         no_conformance: bool,
         /// Output format: text (with a summary table at the end), or one JSON document
-        /// (docs/commands.md gives its schema).
+        /// (docs/json.md gives its schema).
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
     },
@@ -145,7 +146,7 @@ enum Command {
         /// Run only under this profile (default: the profiles each trace names).
         #[arg(long, value_name = "NAME")]
         profile: Option<String>,
-        /// Output format: text, or one JSON document (docs/commands.md gives its schema).
+        /// Output format: text, or one JSON document (docs/json.md gives its schema).
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
     },
@@ -153,14 +154,18 @@ enum Command {
     /// the EPICS pmac driver's hardware-problem mask flags it.
     ///
     /// REPLY is 12 hex characters (e.g. 400000080000), `BOOTSTRAP PROM`, or an error reply
-    /// (BEL ERRnnn CR, or ERRnnn as a log writes it). A malformed reply exits 2.
+    /// (BEL ERRnnn CR, or ERRnnn as a log writes it). A malformed reply exits 2
+    /// (docs/commands.md).
     #[command(after_help = "Exit codes: 0 explained, 2 not a reply a card sends.")]
     Decode {
         /// The reply: 12 hex characters, `BOOTSTRAP PROM`, `BEL ERRnnn CR` or `ERRnnn`.
         #[arg(value_name = "REPLY")]
         reply: String,
-        /// Print JSON instead of text.
-        #[arg(long)]
+        /// Output format: text, or one JSON document (docs/json.md gives its schema).
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
+        /// The same as `--format json`: the flag before `--format`, kept for scripts.
+        #[arg(long, conflicts_with = "format")]
         json: bool,
         /// Spec directory to take the bit descriptions from instead of the embedded one.
         #[arg(long, value_name = "DIR")]
@@ -187,7 +192,7 @@ enum Command {
         #[arg(long, value_name = "NAME")]
         configuration: Option<String>,
         /// Read FILE as this kind of log (default: by its content). `--format` is the report's
-        /// own format here, so the log's is `--log-format` (docs/capturing.md).
+        /// own format, as for every command, so the log's is `--log-format` (docs/capturing.md).
         #[arg(long, value_enum, value_name = "FORMAT")]
         log_format: Option<common::LogFormatArg>,
         /// Write the explanation as a trace: the capture with every unseen gap replaced by the
@@ -205,7 +210,7 @@ enum Command {
         /// the one that explains it (docs/replay.md).
         #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = common::ranged(0i64, 65_535, " (I40's range, variables.yaml)"))]
         i40: Option<i64>,
-        /// Output format.
+        /// Output format: text, or one JSON document (docs/json.md gives its schema).
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
         /// Spec directory to use instead of the embedded one.
@@ -220,9 +225,12 @@ enum Command {
     /// the longest run the load makes (motors, PLC 0 and background in CPU units), the margin
     /// between them in servo cycles and ms (also with the shortest hardware delay the strobe
     /// minimum's band admits), and whether PLC 0 overruns the RTI or starves the background.
-    /// --plot FILE.svg draws the margin against PLC 0 load (docs/commands.md). With --x25 (and
-    /// --y25) read from a card, also what those readings prove: the longest run without a
-    /// background cycle since reset, and the servo cycles that were left to a trip then.
+    /// Loads in CPU units or in microseconds (--plc0-us, --background-us); a warning where the
+    /// margin rises with the load one unit either side. --plot FILE.svg draws the margin
+    /// against PLC 0 load, the load given marked (docs/commands.md). With --x25 (and --y25)
+    /// read from a card (000FF0 as RHX:$25 replies, $FF0, or decimal), also what those
+    /// readings prove: the longest run without a background cycle since reset, and the servo
+    /// cycles that were left to a trip then.
     #[command(
         after_help = "Exit codes: 0 measured, 1 the load trips the card under the default profile or no profile's card can show the readings, 2 unusable arguments."
     )]
@@ -235,13 +243,15 @@ enum Command {
     /// GTKWave (time in ns at the configuration's servo clock), or as an SVG plot of Y:$25 and
     /// X:$25 with the trip and the trace's reads marked. A capture with `elapsed` or `restart`
     /// steps leaves open what happened: `pmacwd replay CAPTURE --witness W.jsonl` first, then
-    /// `pmacwd timeline W.jsonl`. Expectations are not checked (that is `pmacwd run`).
+    /// `pmacwd timeline W.jsonl`. Expectations are not checked (that is `pmacwd run`;
+    /// docs/commands.md).
     #[command(after_help = "Exit codes: 0 written, 2 unusable input (or a trace with elapsed/restart steps).")]
     Timeline {
         /// The trace: YAML or JSON Lines.
         #[arg(value_name = "TRACE")]
         trace: PathBuf,
-        /// Output format.
+        /// Output format. No JSON: the CSV is the data in a form programs read, one row per
+        /// change (docs/json.md says why).
         #[arg(long, value_enum, default_value_t = timeline::TimelineFormat::Csv)]
         format: timeline::TimelineFormat,
         /// Write to FILE instead of standard output.
@@ -262,8 +272,8 @@ enum Command {
     /// traces weighted toward the edges, and, unless --no-exhaustive, the exhaustive product of
     /// model and core at every bounded configuration of check.yaml. Then a coverage report: model
     /// events applied, status bits seen set, properties reached. A generated divergence is
-    /// shrunk, printed and saved as a regression trace. Exit 0 no divergence, 1 a divergence,
-    /// 2 unusable input.
+    /// shrunk, printed and saved as a regression trace (docs/conformance.md). Exit 0 no
+    /// divergence, 1 a divergence, 2 unusable input.
     #[command(after_help = "Exit codes: 0 no divergence, 1 a divergence (shrunk and saved), 2 unusable input.")]
     Conform(conform::ConformArgs),
     /// Print the requirements matrix: each normative statement of the manual pages, by page,
@@ -275,9 +285,9 @@ enum Command {
     /// reason.
     #[command(after_help = "Exit codes: 0 printed, 2 unusable input (the spec directory).")]
     Requirements {
-        /// Output format.
-        #[arg(long, value_name = "FORMAT", default_value = "text", value_parser = ["text", "json"])]
-        format: String,
+        /// Output format: text, or one JSON document (docs/json.md gives its schema).
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
         /// Spec directory to use instead of the embedded one.
         #[arg(long, value_name = "DIR")]
         specs: Option<PathBuf>,
@@ -285,7 +295,7 @@ enum Command {
     /// Turn a log (a host log, an EPICS asyn trace, a pcap capture) into a trace.
     ///
     /// The log format and how to capture one from a real controller: docs/capturing.md. Writes
-    /// JSON Lines (or YAML with --yaml) to --out, or to standard output.
+    /// JSON Lines (or YAML with --format yaml) to --out, or to standard output.
     #[command(after_help = "Exit codes: 0 imported, 2 unusable input (the log's file, line and column say where).")]
     Import {
         /// The log: `> command` and `< reply` lines, an EPICS asyn trace or a pcap/pcapng
@@ -298,13 +308,17 @@ enum Command {
         /// The check.yaml configuration the trace names (CPU costs, hardware delay, I-variables).
         #[arg(long, value_name = "NAME", default_value = pmacwd_capture::import::DEFAULT_CONFIGURATION)]
         configuration: String,
-        /// Write YAML instead of JSON Lines.
-        #[arg(long)]
+        /// Output format: the trace as JSON Lines (jsonl) or YAML (yaml), docs/trace-format.md.
+        /// The log's kind is --log-format (docs/commands.md).
+        #[arg(long, value_name = "FORMAT", default_value = "jsonl", value_parser = import::Form::parse)]
+        format: import::Form,
+        /// The same as `--format yaml`, kept for scripts.
+        #[arg(long, conflicts_with = "format")]
         yaml: bool,
         /// Read LOG as this kind of log (default: by its content): a host log, an EPICS asyn
         /// trace of the pmac driver, or a pcap/pcapng capture of port 1025 (docs/capturing.md).
-        #[arg(long, alias = "log-format", value_enum, value_name = "FORMAT")]
-        format: Option<common::LogFormatArg>,
+        #[arg(long, value_enum, value_name = "FORMAT")]
+        log_format: Option<common::LogFormatArg>,
     },
 }
 
@@ -328,7 +342,7 @@ fn main() -> ExitCode {
         Command::Control { commands, address } => control::control(control::ControlArgs { address, commands }),
         Command::Record(args) => record::record(args),
         Command::Probe(args) => probe::probe(args),
-        Command::Decode { reply, json, specs } => decode::decode_reply(&reply, json, specs),
+        Command::Decode { reply, format, json, specs } => decode::decode_reply(&reply, format.or_json(json), specs),
         Command::Replay { file, format, specs, configuration, log_format, witness, host_time_seconds, i40 } => {
             replay::replay_file(replay::ReplayArgs {
                 file,
@@ -345,9 +359,10 @@ fn main() -> ExitCode {
         Command::Timeline { trace, format, output, profile, specs } => {
             timeline::timeline(timeline::TimelineArgs { trace, format, output, profile, specs })
         }
-        Command::Requirements { format, specs } => requirements::requirements(&format, specs),
-        Command::Import { log, out, configuration, yaml, format } => {
-            import::import_log(&log, out, &configuration, yaml, format.map(Into::into))
+        Command::Requirements { format, specs } => requirements::requirements(format, specs),
+        Command::Import { log, out, configuration, format, yaml, log_format } => {
+            let form = if yaml { import::Form::Yaml } else { format };
+            import::import_log(&log, out, &configuration, form, log_format.map(Into::into))
         }
         Command::Check { specs, profile, configuration, witnesses, save, threads, no_conformance, format } => {
             check::check(check::CheckArgs {

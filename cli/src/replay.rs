@@ -1,14 +1,8 @@
 //! `pmacwd replay`: a capture against the model under every profile.
 
-use crate::common::load_spec;
+use crate::common::{json_document_of_text, json_version, load_spec, Format};
 use std::path::PathBuf;
 use std::process::ExitCode;
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-pub enum Format {
-    Text,
-    Json,
-}
 
 /// What `pmacwd replay` was given.
 pub struct ReplayArgs {
@@ -76,7 +70,9 @@ pub fn replay_file(args: ReplayArgs) -> ExitCode {
             }
             match format {
                 Format::Text => print!("{}", report::to_text(&report)),
-                Format::Json => println!("{}", report::to_json(&report)),
+                Format::Json => {
+                    println!("{}", json_document_of_text("replay", json_version::REPLAY, &report::to_json(&report)))
+                }
             }
             if report.explained() {
                 ExitCode::SUCCESS

@@ -1,22 +1,22 @@
 //! `pmacwd requirements`: the requirements matrix (`specs/requirements.yaml`) by manual page,
 //! and its coverage figures.
 
-use crate::common::load_spec;
+use crate::common::{json_document, json_version, load_spec, Format};
 use pmacwd_specs::requirements::{one_line, Category, Requirements, Statement};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-pub fn requirements(format: &str, specs: Option<PathBuf>) -> ExitCode {
+pub fn requirements(format: Format, specs: Option<PathBuf>) -> ExitCode {
     let spec = match load_spec(&specs) {
         Ok(s) => s,
         Err(code) => return code,
     };
     let m = &spec.requirements;
     match format {
-        "json" => println!("{}", to_json(m)),
-        _ => print!("{}", to_text(m)),
+        Format::Json => println!("{}", json_document("requirements", json_version::REQUIREMENTS, to_json(m))),
+        Format::Text => print!("{}", to_text(m)),
     }
     ExitCode::SUCCESS
 }

@@ -1,7 +1,7 @@
 //! `pmacwd run`: traces on the reference model.
 
+use crate::common::Format;
 use crate::common::{load_spec, plural, scenario_library, trace_files};
-use crate::replay::Format;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -97,9 +97,11 @@ pub fn run_traces(paths: Vec<PathBuf>, specs: Option<PathBuf>, profile: Option<S
         Format::Text => println!("{passed} passed, {diverged} failed"),
         Format::Json => println!(
             "{}",
-            serde_json::json!({
-                "command": "run", "runs": results, "passed": passed, "failed": diverged, "exit": code,
-            })
+            crate::common::json_document(
+                "run",
+                crate::common::json_version::RUN,
+                serde_json::json!({"runs": results, "passed": passed, "failed": diverged, "exit": code}),
+            )
         ),
     }
     ExitCode::from(code)

@@ -771,6 +771,75 @@ fn check_run_and_conform_print_one_json_document_that_agrees_with_their_text_and
     assert!(doc["coverage"]["events"].as_object().unwrap().values().any(|n| n.as_u64() > Some(0)));
 }
 
+/// The schema version docs/json.md gives for the document of `pmacwd COMMAND --format json`:
+/// its section's heading reads ``## `pmacwd COMMAND --format json`, version N``.
+fn documented_version(command: &str) -> u64 {
+    let docs = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/json.md")).unwrap();
+    let heading = format!("## `pmacwd {command} --format json`, version ");
+    let line =
+        docs.lines().find(|l| l.starts_with(&heading)).unwrap_or_else(|| panic!("no `{heading}` in docs/json.md"));
+    line[heading.len()..].trim().parse().unwrap_or_else(|_| panic!("{line}: no version number"))
+}
+
+#[test]
+fn every_command_that_prints_a_report_takes_format_json_and_prints_one_document_with_its_schema_version() {
+    // Issue 34: one convention. Each document names its command and carries the version of its
+    // schema, the one docs/json.md documents; the old `--json` of decode and margin is the
+    // same flag. (probe's document: cli/tests/probe.rs, against a running emulator.)
+    let cases: &[(&str, &[&str])] = &[
+        (
+            "check",
+            &["check", "--configuration", "lockout", "--profile", "um-215", "--threads", "1", "--no-conformance"],
+        ),
+        ("run", &["run", "specs/captures/reload-to-4095.jsonl", "--profile", "um-215"]),
+        ("conform", &["conform", "--cases", "2", "--max-len", "20", "--seed", "1", "--no-exhaustive"]),
+        ("decode", &["decode", "400000080000"]),
+        ("replay", &["replay", "specs/captures/reload-to-4095.jsonl"]),
+        ("margin", &["margin", "--profile", "um-215"]),
+        ("requirements", &["requirements"]),
+    ];
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
+    for (command, args) in cases {
+        let out = pmacwd().current_dir(root).args(*args).args(["--format", "json"]).output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let doc: serde_json::Value =
+            serde_json::from_str(&stdout).unwrap_or_else(|e| panic!("{args:?}: not one JSON document: {e}\n{stdout}"));
+        assert_eq!(doc["command"].as_str(), Some(*command), "{args:?}");
+        assert_eq!(doc["version"].as_u64(), Some(documented_version(command)), "{args:?}: {stdout}");
+        if let Some(exit) = doc.get("exit") {
+            assert_eq!(exit.as_i64(), out.status.code().map(i64::from), "{args:?}");
+        }
+    }
+    for args in [&["decode", "400000080000"][..], &["margin", "--profile", "um-215"]] {
+        let new = pmacwd().args(args).args(["--format", "json"]).output().unwrap();
+        let old = pmacwd().args(args).arg("--json").output().unwrap();
+        assert_eq!((old.status.code(), &old.stdout), (new.status.code(), &new.stdout), "{args:?} --json");
+        let both = pmacwd().args(args).args(["--json", "--format", "text"]).output().unwrap();
+        assert_eq!(both.status.code(), Some(2), "{args:?} --json --format text");
+        assert!(String::from_utf8_lossy(&both.stderr).contains("cannot be used with"), "{args:?}");
+    }
+}
+
+#[test]
+fn import_s_format_names_the_trace_written_and_a_kind_of_log_there_points_at_log_format() {
+    let log = concat!(env!("CARGO_MANIFEST_DIR"), "/../specs/captures/host-session.log");
+    let yaml = pmacwd().args(["import", log, "--format", "yaml"]).output().unwrap();
+    let old = pmacwd().args(["import", log, "--yaml"]).output().unwrap();
+    assert_eq!((yaml.status.code(), &yaml.stdout), (old.status.code(), &old.stdout));
+    assert!(String::from_utf8_lossy(&yaml.stdout).starts_with("version: 1\n"));
+    let jsonl = pmacwd().args(["import", log, "--format", "jsonl", "--log-format", "host-log"]).output().unwrap();
+    assert_eq!(jsonl.stdout, pmacwd().args(["import", log]).output().unwrap().stdout);
+    for kind in ["asyn", "pcap", "host-log"] {
+        let out = pmacwd().args(["import", log, "--format", kind]).output().unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(&format!("name it with --log-format {kind}")), "{err}");
+    }
+    let out = pmacwd().args(["import", log, "--format", "json"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("give --format jsonl"));
+}
+
 #[test]
 fn requirements_prints_the_matrix_by_page_and_figures_that_add_up() {
     let out = pmacwd().args(["requirements", "--format", "json"]).output().unwrap();
@@ -1116,4 +1185,143 @@ fn import_as_yaml_stops_before_its_trace_is_longer_than_the_readers_take() {
     let done = pmacwd().arg("import").arg(&short).arg("--yaml").arg("--out").arg(&yaml).output().unwrap();
     assert_eq!(done.status.code(), Some(0), "{}", String::from_utf8_lossy(&done.stderr));
     pmacwd_trace::load(&yaml).unwrap();
+}
+
+/// `pmacwd margin --profile um-215 ARGS`: exit code, standard output, standard error.
+fn margin_um215(args: &[&str]) -> (Option<i32>, String, String) {
+    let out = pmacwd().args(["margin", "--profile", "um-215"]).args(args).output().unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn margin_reads_x25_and_y25_as_the_card_replies_them_in_hex_or_in_decimal() {
+    // Issue 34: `RHX:$25` replies six hex digits; $ and hex digits are the card's notation;
+    // anything else is decimal. Each form gives the same report as the decimal value.
+    let (code, decimal, _) = margin_um215(&["--x25", "4080", "--y25", "4092"]);
+    assert_eq!(code, Some(0), "{decimal}");
+    assert!(decimal.contains("readings: X:$25 = 000FF0 (4080), Y:$25 = 000FFC (4092)"), "{decimal}");
+    for (x, y) in [("000FF0", "000FFC"), ("$FF0", "$ffc"), ("000ff0", "4092")] {
+        assert_eq!(margin_um215(&["--x25", x, "--y25", y]).1, decimal, "--x25 {x} --y25 {y}");
+    }
+    // FFFFFF is -1: the counter below zero, which only the SRM p.57 reading shows.
+    let (_, minus, _) = margin_um215(&["--x25", "FFFFFF"]);
+    assert_eq!(minus, margin_um215(&["--x25", "-1"]).1);
+    assert!(minus.contains("X:$25 = FFFFFF (-1)"), "{minus}");
+    let (_, json, _) = margin_um215(&["--x25", "000FF0", "--format", "json"]);
+    let doc: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!((doc["x25"].as_i64(), doc["y25"].is_null()), (Some(4080), true), "{json}");
+    for bad in ["FF0", "0xFF0", "$", "$1000000", "0FF0FF0", "12.5", "8388608", "four"] {
+        let (code, out, err) = margin_um215(&["--x25", bad]);
+        assert_eq!(code, Some(2), "--x25 {bad}: {out}");
+        assert!(err.contains("give the reading as RHX:$25 replies it"), "--x25 {bad}: {err}");
+    }
+}
+
+#[test]
+fn margin_takes_plc0_and_background_times_in_microseconds_and_refuses_both_forms_of_one_load() {
+    // i40-zero: 100 units in a servo cycle of 444.4 µs (UM p.236), a unit 4.444 µs; the load
+    // in µs rounded up to units is measured as that many units.
+    let (code, us, _) = margin_um215(&["--plc0-us", "133.3", "--background-us", "1111", "--format", "json"]);
+    assert_eq!(code, Some(0));
+    let (_, units, _) = margin_um215(&["--plc0-units", "30", "--background-units", "250", "--format", "json"]);
+    let (us, units): (serde_json::Value, serde_json::Value) =
+        (serde_json::from_str(&us).unwrap(), serde_json::from_str(&units).unwrap());
+    assert_eq!(us["profiles"], units["profiles"]);
+    assert_eq!((us["load"]["plc0_units"].as_u64(), us["load"]["background_units"].as_u64()), (Some(30), Some(250)));
+    assert_eq!((us["load"]["plc0_us"].as_f64(), us["load"]["background_us"].as_f64()), (Some(133.3), Some(1111.0)));
+    assert!(units["load"]["plc0_us"].is_null());
+    assert!((us["us_per_unit"].as_f64().unwrap() - 4.4444).abs() < 1e-3, "{us}");
+    let (_, text, _) = margin_um215(&["--plc0-us", "133.4"]);
+    assert!(text.contains("load: 8 motors, PLC 0 31 units per RTI"), "{text}");
+    assert!(text.contains("in µs: PLC 0 133.4 µs = 31 units (30.015 exact, rounded up)"), "{text}");
+    // At twice the servo clock a unit is half as long.
+    let (_, fast, _) = margin_um215(&["--servo-hz", "4500", "--plc0-us", "133.3"]);
+    assert!(fast.contains("PLC 0 60 units per RTI"), "{fast}");
+    for both in [["--plc0-us", "10", "--plc0-units", "3"], ["--background-units", "3", "--background-us", "10"]] {
+        let (code, _, err) = margin_um215(&both);
+        assert_eq!(code, Some(2), "{both:?}");
+        assert!(err.contains("cannot be used with"), "{both:?}: {err}");
+    }
+    for bad in ["-1", "NaN", "inf", "1e9", "ten"] {
+        let (code, _, err) = margin_um215(&["--plc0-us", bad]);
+        assert_eq!(code, Some(2), "--plc0-us {bad}: {err}");
+        assert!(err.contains("--plc0-us") && !err.contains("panicked"), "{err}");
+    }
+}
+
+#[test]
+fn margin_warns_where_the_margin_rises_with_the_load_and_names_the_loads() {
+    // 276 units of PLC 0 end exactly at the RTI and starve the background; 277 do not.
+    let (code, text, _) = margin_um215(&["--plc0-units", "277"]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(
+        text.contains(
+            "warning: the margin is not monotonic in the load here: PLC 0 276 units: the card trips; 277 units: \
+             margin 4135 servo cycles; 278 units: margin 4135 servo cycles"
+        ),
+        "{text}"
+    );
+    let (code, json, _) = margin_um215(&["--plc0-units", "276", "--format", "json"]);
+    assert_eq!(code, Some(1));
+    let doc: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let n = &doc["profiles"][0]["not_monotonic"][0];
+    assert_eq!(n["load"], "plc0_units");
+    assert_eq!(n["units"], serde_json::json!([275, 276, 277]));
+    assert_eq!(n["margin_cycles"], serde_json::json!([3391, null, 4135]));
+    let (_, text, _) = margin_um215(&[]);
+    assert!(!text.contains("warning"), "{text}");
+}
+
+#[test]
+fn margin_s_plot_marks_the_load_given_and_names_the_profiles_whose_curves_coincide() {
+    let tmp = TempDir::new("margin-plot");
+    let svg = tmp.join("m.svg");
+    let out = pmacwd().args(["margin", "--plc0-units", "120", "--plot"]).arg(&svg).output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    let svg = std::fs::read_to_string(&svg).unwrap();
+    assert!(svg.contains("your load: PLC 0 120 units per RTI"), "the legend names the load given");
+    // A ring on each distinct line at the load's PLC 0, and the legend's own ring.
+    let rings = svg.matches("<circle").count();
+    assert!(rings >= 2, "{rings} rings");
+    // um-215, um-215-literal-plc and um-215-m83 make the same curve at i40-zero: one line.
+    assert!(svg.contains("um-215 (default); same: um-215-literal-plc, um-215-m83"), "the legend groups them");
+}
+
+#[test]
+fn every_subcommand_s_help_names_its_docs_page_by_its_path_and_the_page_exists() {
+    // Issue 34: a help text points at the page that says more, by its path in the repository.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let subcommands = [
+        "serve",
+        "control",
+        "record",
+        "probe",
+        "check",
+        "explore",
+        "run",
+        "decode",
+        "replay",
+        "margin",
+        "timeline",
+        "conform",
+        "requirements",
+        "import",
+    ];
+    for sub in subcommands {
+        let out = pmacwd().args([sub, "--help"]).output().unwrap();
+        let help = String::from_utf8_lossy(&out.stdout);
+        let pages: Vec<&str> = help
+            .split(|c: char| c.is_whitespace() || "(),;:`".contains(c))
+            .filter(|w| w.starts_with("docs/") && w.contains(".md"))
+            .map(|w| w.split('#').next().unwrap().trim_end_matches('.'))
+            .collect();
+        assert!(!pages.is_empty(), "`pmacwd {sub} --help` names no docs page:\n{help}");
+        for page in pages {
+            assert!(root.join(page).is_file(), "`pmacwd {sub} --help` names {page}, which does not exist");
+        }
+    }
 }

@@ -77,6 +77,21 @@ fn a_correct_emulator_passes_and_its_profile_is_named_supported() {
 }
 
 #[test]
+fn format_json_prints_the_report_as_one_document_with_its_schema_version() {
+    // Issue 34: the report alone on standard output (the seed and plan lines go to standard
+    // error), with `command` and the version docs/json.md gives.
+    let s = serve(None);
+    let (code, out) = probe(&s.1, &["--units", "poll", "--format", "json"]);
+    let doc: serde_json::Value =
+        serde_json::from_str(&out).unwrap_or_else(|e| panic!("not one JSON document: {e}\n{out}"));
+    let docs = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/json.md")).unwrap();
+    let heading = "## `pmacwd probe --format json`, version ";
+    let version: u64 = docs.lines().find_map(|l| l.strip_prefix(heading)).expect(heading).trim().parse().unwrap();
+    assert_eq!((doc["command"].as_str(), doc["version"].as_u64()), (Some("probe"), Some(version)), "{out}");
+    assert_eq!((doc["exit"].as_i64(), doc["seed"].as_u64()), (Some(i64::from(code)), Some(5)), "{out}");
+}
+
+#[test]
 fn each_broken_behaviour_is_caught_and_named() {
     for (fault, units, named) in [
         ("x25-not-latched", "poll", "watchdog-minimum x"),

@@ -1484,7 +1484,7 @@ pub enum LogFormat {
 }
 
 impl LogFormat {
-    /// The name `--format` takes.
+    /// The name `--log-format` takes.
     pub fn name(self) -> &'static str {
         match self {
             LogFormat::HostLog => "host-log",
@@ -1552,7 +1552,7 @@ pub fn open_records(path: &Path, format: LogFormat) -> Result<Box<dyn Records>, 
 /// format: the error alone would say why the file is not what it was taken for.
 pub fn with_format_hint(e: SpecError, path: &Path, format: LogFormat) -> SpecError {
     match looks_like(path) {
-        Ok(None) if !e.message.contains("--format") => SpecError {
+        Ok(None) if !e.message.contains("--log-format") => SpecError {
             message: format!(
                 "{}; this looks like no log pmacwd reads (a host log, an EPICS asyn trace, a pcap or pcapng \
                  capture: docs/capturing.md)",
@@ -1560,8 +1560,8 @@ pub fn with_format_hint(e: SpecError, path: &Path, format: LogFormat) -> SpecErr
             ),
             ..e
         },
-        Ok(Some(other)) if other != format && !e.message.contains("--format") => SpecError {
-            message: format!("{}; this looks like {}: use --format {}", e.message, other.describe(), other.name()),
+        Ok(Some(other)) if other != format && !e.message.contains("--log-format") => SpecError {
+            message: format!("{}; this looks like {}: use --log-format {}", e.message, other.describe(), other.name()),
             ..e
         },
         _ => e,

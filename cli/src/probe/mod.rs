@@ -9,8 +9,8 @@ mod log;
 mod report;
 mod wire;
 
+use crate::common::Format;
 use crate::common::{load_spec, unusable};
-use crate::replay::Format;
 use campaign::{Allow, Rng, Session, Touch};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -73,7 +73,8 @@ pub struct ProbeArgs {
     /// Print the plan and stop, without connecting.
     #[arg(long)]
     pub plan_only: bool,
-    /// Output format of the report.
+    /// Output format: text, or the report as one JSON document (docs/json.md gives its
+    /// schema; the seed and plan lines then go to standard error).
     #[arg(long, value_enum, default_value_t = Format::Text)]
     pub format: Format,
     /// Spec directory to use instead of the embedded one.
@@ -213,7 +214,7 @@ pub fn probe(a: ProbeArgs) -> ExitCode {
         verdict,
     };
     if json {
-        println!("{}", report::json(&run));
+        println!("{}", crate::common::json_document("probe", crate::common::json_version::PROBE, report::json(&run)));
     } else {
         print!("{}", report::text(&run));
     }

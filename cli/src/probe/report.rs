@@ -124,7 +124,7 @@ pub fn text(run: &Run) -> String {
     o
 }
 
-pub fn json(run: &Run) -> String {
+pub fn json(run: &Run) -> serde_json::Value {
     let v = &run.verdict;
     let readings: Vec<_> = v
         .readings
@@ -159,5 +159,4 @@ pub fn json(run: &Run) -> String {
         "profiles": profiles, "readings": readings,
         "fault_counts": counts, "faults": faults, "exit": run.exit(),
     })
-    .to_string()
 }
