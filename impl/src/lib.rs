@@ -485,6 +485,12 @@ impl Core {
         self.flags & TRIPPED != 0
     }
 
+    /// Whether the card is in bootstrap mode (a reset found the bootstrap jumper, SRM p.289):
+    /// it runs no servo, RTI or background tasks.
+    pub fn bootstrap(&self) -> bool {
+        self.flags & BOOTSTRAP != 0
+    }
+
     fn running(&self) -> bool {
         self.flags & (TRIPPED | BOOTSTRAP) == 0
     }
