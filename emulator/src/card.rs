@@ -236,6 +236,9 @@ pub struct Card {
     /// the last one completed: a host's line waits for the next one (UM p.236, `card/line.rs`).
     background_cycles: u64,
     background_at: Option<u64>,
+    /// Y:$00000B: the longest set of RTI tasks since power-up/reset, in timer increments (UM
+    /// p.239, `card/memory_access.rs`).
+    rti_time_max: u32,
     identity: Identity,
     /// Where records go when the session is recorded: a queue a thread of its own writes
     /// from, so that the card never waits for the capture's sink (`capture_queue`).
@@ -291,6 +294,7 @@ impl Card {
             cycles: 0,
             background_cycles: 0,
             background_at: None,
+            rti_time_max: 0,
             identity,
             capture: None,
             memory: Memory::new(defaults),
@@ -483,6 +487,10 @@ impl Card {
     /// that background cycle came.
     fn run_piece(&mut self, n: u64, to_background: bool) -> (u64, bool) {
         let first = self.cycles;
+        if n > 0 && !self.core.tripped() {
+            // The RTI tasks these cycles run, for Y:$00000B (UM p.239).
+            self.note_rti_time();
+        }
         let mut tripped_at = None;
         let mut ran = n;
         let mut background = false;
@@ -915,6 +923,8 @@ impl Card {
         let reply = self.core.command(&self.cfg, core_command(command), &mut self.store);
         if matches!(command, HostCommand::Reset | HostCommand::Reinitialize) && reply != core::Reply::Silence {
             self.memory.reset();
+            // UM p.239: Y:$00000B is the largest RTI time "since the last power-up/reset".
+            self.rti_time_max = 0;
             self.motors.reset();
             self.reset_programs();
             match command {
@@ -1010,6 +1020,7 @@ impl Card {
                 // A power cycle or INIT/ restarts the card as `$$$` does: active memory is
                 // volatile and the saved values come back (UM p.243).
                 self.memory.reset();
+                self.rti_time_max = 0;
                 self.motors.reset();
                 self.reset_programs();
                 self.mvars.reset();

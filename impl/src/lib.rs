@@ -19,6 +19,7 @@ pub mod motion;
 pub mod proofs;
 pub mod rti;
 mod stretch;
+pub mod timers;
 
 pub use counter::StrobeStop;
 pub use motion::{MotionCommand, MotionConfig, MotorStatus};
