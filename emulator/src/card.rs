@@ -234,6 +234,7 @@ pub struct Card {
     cycles: u64,
     /// Background cycles completed since power-up, and the servo cycle (of `cycles`) in which
     /// the last one completed: a host's line waits for the next one (UM p.236, `card/line.rs`).
+    /// A reset's end counts as one ([`Card::reset_ends_as_a_background_cycle`]).
     background_cycles: u64,
     background_at: Option<u64>,
     /// Y:$00000B: the longest set of RTI tasks since power-up/reset, in timer increments (UM
@@ -292,8 +293,8 @@ impl Card {
             store: FlashIVariables::new(&flash, &factory),
             clock,
             cycles: 0,
-            background_cycles: 0,
-            background_at: None,
+            background_cycles: 1,
+            background_at: Some(0),
             rti_time_max: 0,
             identity,
             capture: None,
@@ -532,6 +533,15 @@ impl Card {
             self.watch_trip_at("the watchdog timer ran out: no background cycle reloaded its counter in time", cycle);
         }
         (ran, background)
+    }
+
+    /// MODEL: a card leaves power-up or reset with its watchdog counter loaded as at the end
+    /// of a background cycle (UM p.215; the core's restart), and enters its background loop:
+    /// a line that arrives in that instant (virtual time) is answered by it, as by a background
+    /// cycle that completed in it (`card/line.rs`).
+    fn reset_ends_as_a_background_cycle(&mut self) {
+        self.background_cycles = self.background_cycles.saturating_add(1);
+        self.background_at = Some(self.cycles);
     }
 
     pub fn tripped(&mut self) -> bool {
@@ -925,6 +935,7 @@ impl Card {
             self.memory.reset();
             // UM p.239: Y:$00000B is the largest RTI time "since the last power-up/reset".
             self.rti_time_max = 0;
+            self.reset_ends_as_a_background_cycle();
             self.motors.reset();
             self.reset_programs();
             match command {
@@ -1021,6 +1032,7 @@ impl Card {
                 // volatile and the saved values come back (UM p.243).
                 self.memory.reset();
                 self.rti_time_max = 0;
+                self.reset_ends_as_a_background_cycle();
                 self.motors.reset();
                 self.reset_programs();
                 self.mvars.reset();

@@ -167,3 +167,24 @@ fn on_the_wall_clock_a_starving_card_answers_a_background_cycle_apart_and_a_heal
     assert!(median <= Duration::from_micros(1780 + 1000), "median {median:?}");
     s.stop();
 }
+
+#[test]
+fn in_virtual_time_a_line_in_the_instant_a_reset_ends_is_answered_in_it() {
+    // MODEL: a reset leaves the counter loaded as a background cycle does (UM p.215), and
+    // the card enters its background loop: the instant counts as a background cycle's end.
+    let mut card = virtual_card(266, 0);
+    let cycles = |c: &mut Card| field(&control(c, "state"), "cycles");
+    card.line(b"???").unwrap();
+    assert_eq!(cycles(&mut card), 0, "at power-up");
+    control(&mut card, "step 10");
+    control(&mut card, "init");
+    card.line(b"???").unwrap();
+    assert_eq!(cycles(&mut card), 10, "after INIT/");
+    card.line(b"$$$").unwrap();
+    card.line(b"???").unwrap();
+    assert_eq!(cycles(&mut card), 10, "after $$$");
+    // A step that ends between background cycles: the next line waits for one.
+    control(&mut card, "step 10");
+    card.line(b"???").unwrap();
+    assert!(cycles(&mut card) > 20, "75 servo cycles apart under PLC 0 = 266");
+}

@@ -197,7 +197,8 @@ impl Card {
     /// made due, so the reply never leaves before that cycle's time, `servo_hz`); in virtual
     /// time the card runs the cycles itself, as the host's wait lets them pass (recorded as a
     /// `run` step in a capture), and a line that arrives in the instant a background cycle
-    /// completed, such as a second line sent with no step between, is answered by that one.
+    /// completed, such as a second line sent with no step between, or the instant a reset
+    /// ended (`Card::reset_ends_as_a_background_cycle`), is answered by that one.
     /// Every waiting line, from any connection, is answered by the same background cycle (the
     /// pages at hand do not say how a card shares its command slot among the Ethernet port's
     /// connections; one line per background cycle would make one host wait for all the
