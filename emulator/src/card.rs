@@ -32,7 +32,7 @@ mod memory_access;
 mod motion;
 mod program;
 
-pub use line::{LineRun, Progress, RANGE_PART_MAX};
+pub use line::{LineRun, Progress, BACKGROUND_WAIT_MAX, RANGE_PART_MAX};
 
 /// What `ver` and `cid` answer: a firmware version (dls-pmaclib checks `^\d+\.\d+`) and a card
 /// ID (603382 is the Geo Brick, one of the three dls-pmaclib knows).
@@ -232,6 +232,14 @@ pub struct Card {
     clock: Clock,
     /// Servo cycles run since power-up (wall clock: against `start`).
     cycles: u64,
+    /// Background cycles completed since power-up, and the servo cycle (of `cycles`) in which
+    /// the last one completed: a host's line waits for the next one (UM p.236, `card/line.rs`).
+    /// A reset's end counts as one ([`Card::reset_ends_as_a_background_cycle`]).
+    background_cycles: u64,
+    background_at: Option<u64>,
+    /// Y:$00000B: the longest set of RTI tasks since power-up/reset, in timer increments (UM
+    /// p.239, `card/memory_access.rs`).
+    rti_time_max: u32,
     identity: Identity,
     /// Where records go when the session is recorded: a queue a thread of its own writes
     /// from, so that the card never waits for the capture's sink (`capture_queue`).
@@ -285,6 +293,9 @@ impl Card {
             store: FlashIVariables::new(&flash, &factory),
             clock,
             cycles: 0,
+            background_cycles: 1,
+            background_at: Some(0),
+            rti_time_max: 0,
             identity,
             capture: None,
             memory: Memory::new(defaults),
@@ -448,6 +459,12 @@ impl Card {
     /// it: the `run` step of the trace format. Stops early once tripped (a tripped card does
     /// nothing until INIT/ or power, UM p.215).
     fn run(&mut self, n: u64) {
+        self.run_until(n, false);
+    }
+
+    /// [`Card::run`], ending after the first servo cycle in which a background cycle completes
+    /// when `to_background`; the cycles run.
+    fn run_until(&mut self, n: u64, to_background: bool) -> u64 {
         // A program's move or dwell that ends within the cycles ends in its own cycle, so
         // that what the program does next (a stop at its end, which the core hears) happens
         // then, not at the end of the cycles run (`card/program.rs`).
@@ -457,22 +474,27 @@ impl Card {
             // first (`card/motion.rs`).
             self.conclude_jogs();
             let piece = left.min(self.cycles_to_program_event());
-            self.run_piece(piece);
-            left -= piece;
-            if self.core.tripped() {
+            let (ran, background) = self.run_piece(piece, to_background);
+            left -= ran;
+            if self.core.tripped() || background {
                 break;
             }
         }
+        n - left
     }
 
-    /// [`Card::run`] for cycles in which no program move or dwell ends before the last.
-    fn run_piece(&mut self, n: u64) {
+    /// [`Card::run`] for cycles in which no program move or dwell ends before the last; with
+    /// `to_background`, only up to the first background cycle. The cycles run, and whether
+    /// that background cycle came.
+    fn run_piece(&mut self, n: u64, to_background: bool) -> (u64, bool) {
         let first = self.cycles;
-        self.cycles = self.cycles.saturating_add(n);
-        if let Some(c) = &mut self.capture {
-            c.elapse(n);
+        if n > 0 && !self.core.tripped() {
+            // The RTI tasks these cycles run, for Y:$00000B (UM p.239).
+            self.note_rti_time();
         }
         let mut tripped_at = None;
+        let mut ran = n;
+        let mut background = false;
         for i in 0..n {
             if self.core.tripped() {
                 break;
@@ -483,11 +505,23 @@ impl Card {
             }
             if self.core.background_possible() {
                 self.core.background_cycle(&self.cfg);
+                self.background_cycles = self.background_cycles.saturating_add(1);
+                self.background_at = Some(first.saturating_add(i + 1));
+                if to_background {
+                    ran = i + 1;
+                    background = true;
+                    break;
+                }
             }
+        }
+        // A tripped card's clock runs on: the cycles pass whether or not the core runs them.
+        self.cycles = self.cycles.saturating_add(ran);
+        if let Some(c) = &mut self.capture {
+            c.elapse(ran);
         }
         // The trajectories move for the cycles the card ran (up to a trip, which forces every
         // output off, UM p.215), then stay within what the core says of each motor.
-        self.advance_motion(tripped_at.map_or(n, |c| c.saturating_sub(first)));
+        self.advance_motion(tripped_at.map_or(ran, |c| c.saturating_sub(first)));
         self.sync_motion();
         if tripped_at.is_none() {
             self.conclude_jogs();
@@ -498,6 +532,16 @@ impl Card {
             self.fault.tripped_at(self.core.register(&self.cfg, core::Register::ServoCycles), cycle);
             self.watch_trip_at("the watchdog timer ran out: no background cycle reloaded its counter in time", cycle);
         }
+        (ran, background)
+    }
+
+    /// MODEL: a card leaves power-up or reset with its watchdog counter loaded as at the end
+    /// of a background cycle (UM p.215; the core's restart), and enters its background loop:
+    /// a line that arrives in that instant (virtual time) is answered by it, as by a background
+    /// cycle that completed in it (`card/line.rs`).
+    fn reset_ends_as_a_background_cycle(&mut self) {
+        self.background_cycles = self.background_cycles.saturating_add(1);
+        self.background_at = Some(self.cycles);
     }
 
     pub fn tripped(&mut self) -> bool {
@@ -533,6 +577,11 @@ impl Card {
         loop {
             match self.line_step(&mut run, addressing, &mut out) {
                 Progress::More => {}
+                Progress::Waiting(wait) => {
+                    if !wait.is_zero() {
+                        std::thread::sleep(wait);
+                    }
+                }
                 Progress::Ended | Progress::Failed => return Some(out),
                 Progress::Silent => return None,
             }
@@ -884,6 +933,9 @@ impl Card {
         let reply = self.core.command(&self.cfg, core_command(command), &mut self.store);
         if matches!(command, HostCommand::Reset | HostCommand::Reinitialize) && reply != core::Reply::Silence {
             self.memory.reset();
+            // UM p.239: Y:$00000B is the largest RTI time "since the last power-up/reset".
+            self.rti_time_max = 0;
+            self.reset_ends_as_a_background_cycle();
             self.motors.reset();
             self.reset_programs();
             match command {
@@ -979,6 +1031,8 @@ impl Card {
                 // A power cycle or INIT/ restarts the card as `$$$` does: active memory is
                 // volatile and the saved values come back (UM p.243).
                 self.memory.reset();
+                self.rti_time_max = 0;
+                self.reset_ends_as_a_background_cycle();
                 self.motors.reset();
                 self.reset_programs();
                 self.mvars.reset();
@@ -1137,6 +1191,9 @@ mod tests {
             flash_fault: false,
             bootstrap: false,
         }));
+        // Still starved after INIT/, the card would never answer (`card/line.rs`): a light
+        // load first.
+        c.control(Control::Load { motors: None, plc0_units: Some(30), background_units: None });
         c.line(b"$$$");
         c.control(Control::Supply { millivolts: 4500 });
         let lines = lines.lock().unwrap();
@@ -1187,6 +1244,8 @@ mod tests {
         assert!(c.control(Control::parse("step 5000").unwrap()).starts_with("ok {\"run\":5000}"));
         assert_eq!(c.line(b"???"), None);
         c.control(Control::parse("init").unwrap());
+        // The load stays: the card, starved again, would trip before its background answers.
+        c.control(Control::parse("plc0 30").unwrap());
         assert_eq!(c.line(b"???").unwrap().last(), Some(&0x06), "answers again after INIT/");
     }
 

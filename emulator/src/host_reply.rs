@@ -61,6 +61,10 @@ impl HostReply {
             let mut card = card(Turn::Request)?;
             let progress = card.line_step(run, addressing, &mut self.waiting);
             drop(card);
+            if let Progress::Waiting(wait) = progress {
+                pause(wait);
+                continue;
+            }
             if progress != Progress::More {
                 self.run = None;
                 if progress == Progress::Silent {
@@ -113,11 +117,27 @@ impl HostReply {
             let mut scratch = Vec::new();
             while !host_gone() {
                 let Some(mut card) = card(Turn::Leftover) else { break };
-                if card.line_step(&mut run, addressing, &mut scratch) != Progress::More {
-                    break;
+                match card.line_step(&mut run, addressing, &mut scratch) {
+                    Progress::More => {}
+                    Progress::Waiting(wait) => {
+                        drop(card);
+                        pause(wait);
+                    }
+                    Progress::Ended | Progress::Failed | Progress::Silent => break,
                 }
                 scratch.clear();
             }
         }
+    }
+}
+
+/// A line waits for the card's background (`Progress::Waiting`) with the card's lock released:
+/// `wait` asleep, or, when it is zero (virtual time, where the card itself ran towards it),
+/// a yield so that others may take the card first.
+fn pause(wait: std::time::Duration) {
+    if wait.is_zero() {
+        std::thread::yield_now();
+    } else {
+        std::thread::sleep(wait);
     }
 }

@@ -94,6 +94,11 @@ impl Memory {
         }
     }
 
+    /// M-variable `n`'s card-defined value (`variables.yaml`, `host_m_variables`), if any.
+    pub fn constant(&self, n: u16) -> Option<i64> {
+        self.m_constant.get(usize::from(n)).copied().flatten()
+    }
+
     pub fn define_axis(&mut self, cs: u8, motor: u8, definition: String) {
         // A motor belongs to one C.S. at a time: a new definition moves it.
         self.axes.retain(|(_, m), _| *m != motor);

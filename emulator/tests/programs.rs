@@ -246,3 +246,29 @@ fn a_statement_the_emulator_does_not_execute_stops_the_program_with_a_run_time_e
     assert_eq!(cs_status(&mut c, 1)[1] & (1 << 22), 0);
     assert!(cs_done(&mut c, 1));
 }
+
+#[test]
+fn a_running_program_that_sets_a_locked_i_variable_is_ignored_without_error() {
+    // SRM p.57: with I41's controlling bit set, "a buffered program command" setting an
+    // I-variable of the locked range "is ignored (no error is generated)": the program runs
+    // on. Bit 0 locks the motor setup variables (I100..I4899), not P-variables or I5187's
+    // C.S. range; I41 = 0 lets the same program's write through.
+    let mut c = card();
+    download(
+        &mut c,
+        &["&1#1->1000X", "&1E", "OPEN PROG 5 CLEAR", "TM50 TA10", "I130=77 P1=1 X1", "I5187=20 P2=2 X2", "CLOSE"],
+    );
+    assert_eq!(values(&mut c, "I130"), ["2000"]);
+    values(&mut c, "I41=1 &1B5R");
+    step(&mut c, 2000.0);
+    assert!(cs_done(&mut c, 1), "the program ran to its end");
+    let [_, b, _] = cs_status(&mut c, 1);
+    assert_eq!(b & (1 << 22), 0, "no run-time error (SRM p.286)");
+    assert_eq!(position(&mut c, 1), 2000.0, "both moves after the locked write ran");
+    assert_eq!(values(&mut c, "I130 P1 P2 I5187"), ["2000", "1", "2", "20"], "only the locked write ignored");
+    // Unlocked, the same statement writes.
+    values(&mut c, "I41=0 &1B5R");
+    step(&mut c, 2000.0);
+    assert!(cs_done(&mut c, 1));
+    assert_eq!(values(&mut c, "I130"), ["77"]);
+}

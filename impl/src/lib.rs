@@ -19,6 +19,7 @@ pub mod motion;
 pub mod proofs;
 pub mod rti;
 mod stretch;
+pub mod timers;
 
 pub use counter::StrobeStop;
 pub use motion::{MotionCommand, MotionConfig, MotorStatus};
@@ -483,6 +484,12 @@ impl Core {
 
     pub fn tripped(&self) -> bool {
         self.flags & TRIPPED != 0
+    }
+
+    /// Whether the card is in bootstrap mode (a reset found the bootstrap jumper, SRM p.289):
+    /// it runs no servo, RTI or background tasks.
+    pub fn bootstrap(&self) -> bool {
+        self.flags & BOOTSTRAP != 0
     }
 
     fn running(&self) -> bool {

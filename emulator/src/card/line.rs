@@ -9,12 +9,26 @@
 //! own step: one `M0..8191->` would otherwise hold the lock for 8,192 answers. The answers
 //! and their framing are those of the whole range, since each variable's answer is framed on
 //! its own (SRM p.37-38).
+//!
+//! A line waits for the card's background (UM p.236: "Background Tasks ... command
+//! processing"; between each scan of a background PLC the card "will do its general
+//! housekeeping, and respond to a host command, if any"): its first command runs in the first
+//! background cycle that completes at or after the line arrives, so a card whose PLC 0 spaces
+//! the background cycles out answers late ("communications ... will become sluggish", UM
+//! p.236) before the watchdog trips it silent (UM p.215). See [`Card::background_turn`].
 
-use super::{find_close, Card};
+use super::{find_close, Card, Clock, CYCLES_PER_HOLD_MAX};
 use crate::capture_queue::Record;
 use crate::framing::Answer;
 use pmacwd_specs::grammar::{pieces, Addressing, Command, Piece, Unreadable, VarRange, Vars};
 use std::collections::VecDeque;
+use std::time::Duration;
+
+/// The longest a waiting line sleeps before it looks at the card again on the wall clock: a
+/// load change from the control port or another host (a starving card's next background
+/// cycle may be seconds away, or never come) is seen within this time. The server's catch-up
+/// interval.
+pub const BACKGROUND_WAIT_MAX: Duration = Duration::from_millis(100);
 
 /// The most variables of a range read answered in one step. 64 answers are formatted in a few
 /// microseconds, a few `???` round trips; a range of 8,192 is 128 steps.
@@ -31,6 +45,9 @@ pub enum Progress {
     Failed,
     /// The card is tripped: it answers nothing (UM p.215), and the rest of the line is lost.
     Silent,
+    /// The line waits for the background's turn (UM p.236): ask again after this time (zero:
+    /// at once, once the card's lock has been released for others), without the lock.
+    Waiting(Duration),
 }
 
 /// A command line and how far the card has answered it.
@@ -44,6 +61,9 @@ pub struct LineRun {
     /// The connection's addressing after the segment was read, which `#` and `&` report.
     addressing_after: Addressing,
     started: bool,
+    /// The background cycles the card had completed when the line arrived, less one when the
+    /// line arrived in the instant one completed (virtual time); none before the first step.
+    arrived: Option<u64>,
     ended: Option<Progress>,
 }
 
@@ -56,6 +76,7 @@ impl LineRun {
             segment_at: 0,
             addressing_after: Addressing::default(),
             started: false,
+            arrived: None,
             ended: None,
         }
     }
@@ -93,18 +114,23 @@ impl Card {
         if let Some(how) = run.ended {
             return how;
         }
-        self.catch_up();
         if !run.started {
+            if let Some(wait) = self.background_turn(run) {
+                return Progress::Waiting(wait);
+            }
             run.started = true;
             if let Some(how) = self.line_start(run, addressing, out) {
                 return how;
             }
-        } else if self.core.tripped() && !self.fault.answers_when_tripped() {
-            // Tripped between two commands of the line (the card's time runs between two holds
-            // of its lock): the rest gets no answer.
-            let commands = run.rest();
-            self.capture_record(|| Record::Commands { commands, reply: None });
-            return run.end(Progress::Silent);
+        } else {
+            self.catch_up();
+            if self.core.tripped() && !self.fault.answers_when_tripped() {
+                // Tripped between two commands of the line (the card's time runs between two
+                // holds of its lock): the rest gets no answer.
+                let commands = run.rest();
+                self.capture_record(|| Record::Commands { commands, reply: None });
+                return run.end(Progress::Silent);
+            }
         }
         let Some(piece) = run.queue.pop_front() else {
             self.framing().push_line_end(out);
@@ -158,6 +184,80 @@ impl Card {
             return run.end(Progress::Ended);
         }
         Progress::More
+    }
+
+    /// Whether `run`, not started yet, must still wait for the background's turn, and if so
+    /// how long before it asks again (UM p.236: command processing is a background task).
+    ///
+    /// MODEL: the card runs lazily, catching up on the servo cycles due when asked. A line
+    /// arrives at the card's instant once the cycles due have run; the background cycles
+    /// completed in those cycles came before it. Its first command runs in the first background
+    /// cycle completing at or after that instant: on the wall clock in a servo cycle still to
+    /// come, the card run up to it and no further (the cycles are those the wall clock has
+    /// made due, so the reply never leaves before that cycle's time, `servo_hz`); in virtual
+    /// time the card runs the cycles itself, as the host's wait lets them pass (recorded as a
+    /// `run` step in a capture), and a line that arrives in the instant a background cycle
+    /// completed, such as a second line sent with no step between, or the instant a reset
+    /// ended (`Card::reset_ends_as_a_background_cycle`), is answered by that one.
+    /// Every waiting line, from any connection, is answered by the same background cycle (the
+    /// pages at hand do not say how a card shares its command slot among the Ethernet port's
+    /// connections; one line per background cycle would make one host wait for all the
+    /// others, issue 33). A tripped card answers nothing (UM p.215), and a card in bootstrap
+    /// mode runs no background and answers from its bootstrap firmware at once (SRM p.289).
+    fn background_turn(&mut self, run: &mut LineRun) -> Option<Duration> {
+        let arrived = match run.arrived {
+            Some(a) => a,
+            None => {
+                self.catch_up();
+                let just_now = matches!(self.clock, Clock::Virtual) && self.background_at == Some(self.cycles);
+                let a = if just_now { self.background_cycles.saturating_sub(1) } else { self.background_cycles };
+                run.arrived = Some(a);
+                a
+            }
+        };
+        let go = |card: &Card| card.background_cycles > arrived || card.core.tripped() || card.core.bootstrap();
+        if go(self) {
+            return None;
+        }
+        match self.clock {
+            Clock::Virtual => {
+                self.run_until(u64::from(CYCLES_PER_HOLD_MAX), true);
+                (!go(self)).then_some(Duration::ZERO)
+            }
+            Clock::Wall { start, servo_hz } => {
+                // Up to the cycles due, stopping at the first background cycle.
+                let due = self.due_cycles().min(self.cycles.saturating_add(u64::from(CYCLES_PER_HOLD_MAX)));
+                self.run_until(due.saturating_sub(self.cycles), true);
+                if go(self) {
+                    return None;
+                }
+                // Not yet: sleep until the servo cycle the core's next background cycle falls
+                // in, as the load stands (looked for over at most BACKGROUND_WAIT_MAX).
+                let hz = u64::from(servo_hz.max(1));
+                let bound = u32::try_from(hz / 10).unwrap_or(u32::MAX).max(1);
+                let ahead = self.cycles_to_background(bound).unwrap_or(bound);
+                let at_ns = u128::from(self.cycles.saturating_add(u64::from(ahead))) * 1_000_000_000 / u128::from(hz);
+                let at = Duration::from_nanos(u64::try_from(at_ns).unwrap_or(u64::MAX));
+                Some(at.saturating_sub(start.elapsed()).min(BACKGROUND_WAIT_MAX))
+            }
+        }
+    }
+
+    /// In how many servo cycles the core's next background cycle completes under the load as
+    /// it stands, looked for over at most `bound` cycles on a copy of the core; `None` when it
+    /// does not come within them, or the card trips first.
+    pub(super) fn cycles_to_background(&self, bound: u32) -> Option<u32> {
+        let mut core = self.core;
+        for k in 1..=bound {
+            core.servo_cycle(&self.cfg);
+            if core.tripped() {
+                return None;
+            }
+            if core.background_possible() {
+                return Some(k);
+            }
+        }
+        None
     }
 
     /// The start of a line: a tripped card, or a byte above 127, answers the line at once

@@ -8,8 +8,15 @@ use crate::memory::format_value;
 use crate::mvar::{self, Definition};
 use pmacwd_bridge::core_command;
 use pmacwd_core as core;
+use pmacwd_core::timers;
 use pmacwd_specs::grammar::VarKind;
 use pmacwd_specs::vocab::command::{HostCommand, Register, Space};
+
+/// M70-M73 as a Geo Brick's M-variable file defines them (DiamondLightSource/pmac
+/// `etc/bootstrap/BRICK_M_variables.pmc:70-73`, the EPICS driver's CPU load, `pmacController.h:
+/// 197-200`): the phase period, the phase tasks, the servo tasks, the last RTI tasks.
+const BRICK_TIMER_M: [(u16, Space, u32); 4] =
+    [(70, Space::X, 0xFF_FF8C), (71, Space::X, 0x37), (72, Space::Y, 0x37), (73, Space::X, 0x0B)];
 
 impl Card {
     /// `Mn..m`: each value.
@@ -67,6 +74,15 @@ impl Card {
     /// definition points at (module `mvar`).
     pub(super) fn m_value(&mut self, n: u16) -> f64 {
         match self.mvars.definition(n) {
+            // M70-M73 with their card-defined values read the timer registers that a Geo
+            // Brick's M-variable file points them at (UM p.238-239; the EPICS driver's
+            // `etc/bootstrap/BRICK_M_variables.pmc:70-73`).
+            Definition::SelfReferenced if self.memory.constant(n).is_some() => {
+                match BRICK_TIMER_M.iter().find(|t| t.0 == n) {
+                    Some(&(_, space, address)) => f64::from(self.word_at(space, address)),
+                    None => self.memory.read(VarKind::M, n),
+                }
+            }
             Definition::SelfReferenced => self.memory.read(VarKind::M, n),
             Definition::Word { space, address, offset, width, format } => {
                 mvar::field_value(self.word_at(space, address), offset, width, format) as f64
@@ -91,6 +107,9 @@ impl Card {
     /// The 24-bit word at `space:address`: a core register read as `RH` reads it, half of an
     /// I-variable's storage (X the high 24 bits, Y the low), or a word the emulator keeps.
     pub(super) fn word_at(&mut self, space: Space, address: u32) -> u32 {
+        if let Some(v) = self.timer_word(space, address) {
+            return v;
+        }
         if let Some(r) = Register::at(space, address) {
             let read = core_command(&HostCommand::ReadHex(r));
             return match self.core.command(&self.cfg, read, &mut self.store) {
@@ -103,6 +122,66 @@ impl Card {
             return if space == Space::X { x } else { y };
         }
         self.mvars.word(space, address)
+    }
+
+    /// The foreground timer registers (UM p.238-239) under the load the card runs, through
+    /// the one mapping of the model's CPU units to timer increments (`pmacwd_core::timers`,
+    /// MODEL): X:$FFFF8C the phase period and X:$000037 the phase tasks (M70 and M71's values
+    /// in `variables.yaml`: the model has no phase tasks), Y:$000037 the servo tasks (the
+    /// motors' servo units), X:$00000B the RTI tasks (PLC 0, and the move planning while a
+    /// program plans moves, UM p.236), Y:$00000B the largest of those since power-up/reset.
+    /// `None` for any other address. A write there is kept and never read (MODEL: the firmware
+    /// writes these every interrupt).
+    fn timer_word(&mut self, space: Space, address: u32) -> Option<u32> {
+        let timers = match (space, address) {
+            (Space::X, 0xFF_FF8C) | (Space::X, 0x37) | (Space::Y, 0x37) | (Space::X, 0x0B) | (Space::Y, 0x0B) => {
+                self.timers()
+            }
+            _ => return None,
+        };
+        Some(match (space, address) {
+            (Space::X, 0xFF_FF8C) => timers.phase_period,
+            (Space::X, 0x37) => timers.phase_task,
+            (Space::Y, 0x37) => timers.servo_task,
+            (Space::X, _) => timers.rti_task,
+            _ => self.rti_time_max,
+        })
+    }
+
+    /// The model's CPU units as timer increments on this card (`pmacwd_core::timers`): the
+    /// phase period and phase tasks of M70 and M71's card-defined values, I7002 + 1 phase
+    /// interrupts a servo interrupt (SRM p.43), the configuration's units a servo cycle.
+    pub fn timer_scale(&self) -> timers::TimerScale {
+        let constant = |n| self.memory.constant(n).and_then(|v| u32::try_from(v).ok()).unwrap_or(0);
+        let i7002 = self.core.read_i(7002, &self.store).unwrap_or(0);
+        timers::TimerScale {
+            phase_period: constant(70),
+            phase_task: constant(71),
+            phases_per_servo: u32::try_from(i7002.saturating_add(1)).unwrap_or(1).max(1),
+            cycle_units: self.cfg.cycle_units,
+        }
+    }
+
+    /// The timer registers as the card's load stands, Y:$00000B's maximum brought up to date.
+    pub fn timers(&mut self) -> timers::Timers {
+        self.note_rti_time();
+        let servo = u32::from(self.core.load().motors).saturating_mul(u32::from(self.cfg.servo_units_per_motor));
+        self.timer_scale().timers(servo, self.rti_units())
+    }
+
+    /// Y:$00000B (UM p.239): the RTI time of the load as it stands joins the largest since
+    /// power-up/reset.
+    pub(super) fn note_rti_time(&mut self) {
+        let servo = u32::from(self.core.load().motors).saturating_mul(u32::from(self.cfg.servo_units_per_motor));
+        let now = self.timer_scale().rti_task(self.rti_units(), servo);
+        self.rti_time_max = self.rti_time_max.max(now);
+    }
+
+    /// The CPU units of the RTI's task set (UM p.236): PLC 0, and the planning of the next
+    /// move while a program executes moves (the core's own rule, `Core::rti_cycle`).
+    fn rti_units(&self) -> u32 {
+        let planning = if self.core.motion().plans_moves() { u32::from(self.cfg.move_planning_units) } else { 0 };
+        u32::from(self.core.load().plc0_units).saturating_add(planning)
     }
 
     /// Writes `value` where `d` points (an M-variable assignment or one value of a direct

@@ -527,8 +527,15 @@ mod tests {
     use super::super::{Card, Clock};
     use crate::control::Control;
 
+    /// The default card with a background cycle in every servo cycle (PLC 0 leaves 62 units a
+    /// cycle, UM p.236), so that a line sent right after a step is answered in that instant
+    /// (`card/line.rs`) and these tests count the motion's cycles exactly.
     fn card() -> Card {
-        Card::default_card(Clock::Virtual)
+        let mut c = Card::default_card(Clock::Virtual);
+        assert!(c
+            .control(Control::Load { motors: None, plc0_units: None, background_units: Some(60) })
+            .starts_with("ok"));
+        c
     }
 
     fn values(c: &mut Card, line: &str) -> Vec<String> {
