@@ -198,7 +198,7 @@ impl Motor {
 }
 
 /// The motors and coordinate systems of a card.
-#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Axes {
     /// Motor `m` is `motor_slots[m - 1]`, the first `motor_count` of them (fixed arrays: the
     /// checker clones the state every servo cycle of a time jump, so no allocation).
