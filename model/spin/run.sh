@@ -1,7 +1,8 @@
 #!/bin/sh
 # Generates, compiles and runs the SPIN twin of a checked configuration (issue 32), and prints
 # its state count and CPU time. Usage: model/spin/run.sh [MODEL] (default timing: the file
-# model/spin/MODEL.pml). Needs spin and gcc; installs spin from Debian when it is missing.
+# model/spin/MODEL.pml). Needs spin, gcc and /usr/bin/time; installs those missing from Debian
+# (as root).
 #
 # The flags, and why (each keeps pan's search an exhaustive search of the same state set as
 # `pmacwd check --configuration timing --profile um-215`):
@@ -19,16 +20,31 @@
 set -eu
 model=${1:-timing}
 here=$(cd "$(dirname "$0")" && pwd)
-if ! command -v spin >/dev/null 2>&1; then
-    # Debian bookworm's spin is 6.5.2 (the version measured in docs/model.md).
+# Debian bookworm's spin is 6.5.2 (the version measured in docs/model.md); gcc compiles pan,
+# /usr/bin/time (package time) measures it.
+missing=""
+command -v spin >/dev/null 2>&1 || missing="$missing spin"
+command -v gcc >/dev/null 2>&1 || missing="$missing gcc"
+[ -x /usr/bin/time ] || missing="$missing time"
+if [ -n "$missing" ]; then
     if [ "$(id -u)" = 0 ]; then
-        apt-get install -y spin >&2
+        apt-get install -y $missing >&2
     else
-        echo "run.sh: spin is not installed (apt-get install -y spin, as root)" >&2
+        echo "run.sh: not installed:$missing (apt-get install -y$missing, as root)" >&2
         exit 2
     fi
 fi
-work=${SPIN_WORK:-$(mktemp -d)}
+if [ ! -f "$here/$model.pml" ]; then
+    echo "run.sh: no twin $here/$model.pml (there are: $(cd "$here" && ls *.pml | sed 's/\.pml$//' | tr '\n' ' '))" >&2
+    exit 2
+fi
+# SPIN_WORK: where pan is built and kept; by default a temporary directory, removed after.
+if [ -n "${SPIN_WORK:-}" ]; then
+    work=$SPIN_WORK
+else
+    work=$(mktemp -d)
+    trap 'rm -rf "$work"' EXIT
+fi
 mkdir -p "$work"
 cp "$here/$model.pml" "$work/"
 cd "$work"
@@ -40,5 +56,5 @@ transitions=$(printf '%s\n' "$out" | sed -n 's/^ *\([0-9]*\) transitions.*/\1/p'
 errors=$(printf '%s\n' "$out" | sed -n 's/.*errors: \([0-9]*\).*/\1/p')
 cpu=$(printf '%s\n' "$out" | sed -n 's/^cpu \([0-9.]*\) \([0-9.]*\)$/\1 \2/p')
 echo "spin $(spin -V | sed 's/Spin Version \([^ ]*\).*/\1/') model $model: $states states, $transitions transitions, errors $errors"
-echo "pan user+sys: $cpu s (pan in $work)"
+echo "pan user+sys: $cpu s"
 [ "$errors" = 0 ]
