@@ -1,6 +1,7 @@
 //! Runs the benchmark's exhaustive check of `timing` (default profile, one thread) `N` times
-//! (`N` from the first argument, default 1), for an instruction count under valgrind that does
-//! not depend on the machine's load:
+//! (`N` from the first argument, default 1; the configuration from the second, default
+//! `timing`), for an instruction count under valgrind that does not depend on the machine's
+//! load:
 //!
 //! ```sh
 //! cargo build --release -p pmacwd-model --example check_instructions
@@ -17,8 +18,9 @@ use pmacwd_specs::Spec;
 
 fn main() {
     let n: u32 = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(1);
+    let configuration = std::env::args().nth(2).unwrap_or_else(|| "timing".into());
     let spec = Spec::embedded().expect("embedded specs load");
-    let cfg = pmacwd_specs::config::ModelConfig::from_spec(&spec, "timing", &spec.profiles.default_profile())
+    let cfg = pmacwd_specs::config::ModelConfig::from_spec(&spec, &configuration, &spec.profiles.default_profile())
         .expect("configuration resolves");
     for _ in 0..n {
         let states = WatchdogModel::new(cfg.clone()).check(1).states;

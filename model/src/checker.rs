@@ -587,7 +587,7 @@ fn mutate(
         (Canary::AmplifierFaultIgnored, Event::Background)
             if prev.axes.motors().iter().zip(next.axes.motors()).any(|(p, n)| !p.fault_status && n.fault_status) =>
         {
-            next.axes = prev.axes.clone();
+            next.axes = prev.axes;
         }
         (Canary::EndGatherKeepsGathering, Event::Command(HostCommand::EndGather)) => {
             next.status.data_gathering_on = prev.status.data_gathering_on;

@@ -119,7 +119,7 @@ pub struct Ghost {
 }
 
 /// The whole controller state.
-#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Controller {
     /// The hardware watchdog has tripped: latched reset state (UM p.215).
     pub trip: Option<TripCause>,
@@ -152,6 +152,105 @@ pub struct Controller {
     /// The motors and coordinate systems (`motion.rs`).
     pub axes: Axes,
     pub ghost: Ghost,
+}
+
+/// Written out rather than derived for `clone_from`: the derived one builds a whole new
+/// controller and drops the old, and the checker's leaps copy the controller into the same
+/// buffer every servo cycle (`checker.rs`, `advance_to_change`: about 4 million times in a check
+/// of `i40-zero`). Every field is destructured, so a field added to the controller is a compile
+/// error here until it is copied.
+impl Clone for Controller {
+    fn clone(&self) -> Controller {
+        let Controller {
+            trip,
+            supply_low,
+            bootstrap,
+            counter,
+            counter_min,
+            cycles_since_strobe,
+            rti_phase,
+            rti_remaining,
+            background_credit,
+            load,
+            i8,
+            i40,
+            i41,
+            other_i_variables,
+            status,
+            checksum,
+            servo_cycles,
+            outputs,
+            axes,
+            ghost,
+        } = self;
+        Controller {
+            trip: *trip,
+            supply_low: *supply_low,
+            bootstrap: *bootstrap,
+            counter: *counter,
+            counter_min: *counter_min,
+            cycles_since_strobe: *cycles_since_strobe,
+            rti_phase: *rti_phase,
+            rti_remaining: *rti_remaining,
+            background_credit: *background_credit,
+            load: *load,
+            i8: *i8,
+            i40: *i40,
+            i41: *i41,
+            other_i_variables: other_i_variables.clone(),
+            status: *status,
+            checksum: *checksum,
+            servo_cycles: *servo_cycles,
+            outputs: *outputs,
+            axes: *axes,
+            ghost: *ghost,
+        }
+    }
+
+    fn clone_from(&mut self, source: &Controller) {
+        let Controller {
+            trip,
+            supply_low,
+            bootstrap,
+            counter,
+            counter_min,
+            cycles_since_strobe,
+            rti_phase,
+            rti_remaining,
+            background_credit,
+            load,
+            i8,
+            i40,
+            i41,
+            other_i_variables,
+            status,
+            checksum,
+            servo_cycles,
+            outputs,
+            axes,
+            ghost,
+        } = source;
+        self.trip = *trip;
+        self.supply_low = *supply_low;
+        self.bootstrap = *bootstrap;
+        self.counter = *counter;
+        self.counter_min = *counter_min;
+        self.cycles_since_strobe = *cycles_since_strobe;
+        self.rti_phase = *rti_phase;
+        self.rti_remaining = *rti_remaining;
+        self.background_credit = *background_credit;
+        self.load = *load;
+        self.i8 = *i8;
+        self.i40 = *i40;
+        self.i41 = *i41;
+        self.other_i_variables.clone_from(other_i_variables);
+        self.status = *status;
+        self.checksum = *checksum;
+        self.servo_cycles = *servo_cycles;
+        self.outputs = *outputs;
+        self.axes = *axes;
+        self.ghost = *ghost;
+    }
 }
 
 /// What one servo cycle did, for monitors and traces.

@@ -23,6 +23,17 @@ impl Clone for IVariables {
             IVariables(self.0.clone())
         }
     }
+
+    /// In place, the buffer kept: the checker's leaps copy the controller into the same
+    /// buffer every servo cycle (`Controller::clone_from`).
+    #[inline]
+    fn clone_from(&mut self, source: &IVariables) {
+        if source.0.is_empty() {
+            self.0.clear();
+        } else {
+            self.0.clone_from(&source.0);
+        }
+    }
 }
 
 impl IVariables {
@@ -95,6 +106,51 @@ mod tests {
             );
             assert_eq!(ours.get(&n), map.get(&n));
             assert_eq!(ours.len(), map.len());
+        }
+    }
+
+    /// `clone_from` copies into the buffer it has: an empty source leaves it allocated (the
+    /// derived one dropped it), and a full one is copied whole.
+    #[test]
+    fn clone_from_keeps_the_buffer_and_copies_the_entries() {
+        let mut full = IVariables::new();
+        full.insert(130, 7);
+        full.insert(5100, -2);
+        let mut target = full.clone();
+        target.clone_from(&IVariables::new());
+        assert!(target.is_empty());
+        assert!(target.0.capacity() > 0, "the buffer is kept");
+        target.clone_from(&full);
+        assert_eq!(target, full);
+    }
+
+    /// The controller's hand-written `clone_from` gives what `clone` gives, from states that
+    /// differ in every part: a leap copies the controller with it every servo cycle.
+    #[test]
+    fn controller_clone_from_equals_clone() {
+        use crate::controller::Controller;
+        let spec = pmacwd_specs::Spec::embedded().unwrap();
+        let mut states = Vec::new();
+        for name in ["timing", "motion", "lockout", "i40-zero"] {
+            let cfg =
+                pmacwd_specs::config::ModelConfig::from_spec(&spec, name, &spec.profiles.default_profile()).unwrap();
+            let mut c = Controller::power_on(&cfg);
+            states.push(c.clone());
+            for _ in 0..5 {
+                c.servo_cycle(&cfg);
+            }
+            c.other_i_variables.insert(130, 3);
+            c.axes.motor_slots[1].state = pmacwd_specs::vocab::MotorState::Jogging;
+            c.ghost.recovered_by = Some(pmacwd_specs::check::ResetKind::Power);
+            states.push(c);
+        }
+        for a in &states {
+            for b in &states {
+                let mut target = a.clone();
+                target.clone_from(b);
+                assert_eq!(&target, b);
+                assert_eq!(&b.clone(), b);
+            }
         }
     }
 }

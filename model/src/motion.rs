@@ -198,7 +198,7 @@ impl Motor {
 }
 
 /// The motors and coordinate systems of a card.
-#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Axes {
     /// Motor `m` is `motor_slots[m - 1]`, the first `motor_count` of them (fixed arrays: the
     /// checker clones the state every servo cycle of a time jump, so no allocation).
@@ -701,18 +701,18 @@ mod tests {
         ];
         for k in 0..base.motors().len() {
             for (what, edit) in edits {
-                let mut changed = base.clone();
+                let mut changed = base;
                 edit(&mut changed.motors_mut()[k]);
                 assert!(changed.motion_signature() != base.motion_signature(), "motor {}: {what}", k + 1);
             }
             // Jog and Hold tell apart from each other too.
-            let (mut jog, mut hold) = (base.clone(), base.clone());
+            let (mut jog, mut hold) = (base, base);
             jog.motors_mut()[k].stop = Some(Stop::Jog);
             hold.motors_mut()[k].stop = Some(Stop::Hold);
             assert!(jog.motion_signature() != hold.motion_signature(), "motor {}: the stops", k + 1);
         }
         for cs in 0..base.programs().len() {
-            let mut changed = base.clone();
+            let mut changed = base;
             changed.programs_mut()[cs] = Program::Running;
             assert!(changed.motion_signature() != base.motion_signature(), "program of &{}", cs + 1);
         }
