@@ -79,7 +79,7 @@ pub struct Tolerances {
 /// The longest checksum pass, in background cycles, the search tries as the card's own. MODEL
 /// (search): with background cycles free to come or not in every servo cycle, a few lengths
 /// give a read every checksum area a longer one would.
-pub const PASS_CYCLES_MAX: u8 = 4;
+pub const PASS_CYCLES_MAX: u8 = 2;
 
 impl Tolerances {
     pub fn of(cfg: &ModelConfig) -> Tolerances {
