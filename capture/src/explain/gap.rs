@@ -19,13 +19,12 @@
 //! tests in `tests/explain.rs` generate model runs with random schedules and loads, hide what
 //! a host cannot see, and require the search to explain them.
 
-use super::sim::{self, Sim};
+use super::sim::{self, FastMap, FastSet, Sim};
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::ChecksumTarget;
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::{RtiWarningLatch, StrobeStop};
 use pmacwd_specs::vocab::event::Event;
-use std::collections::HashMap;
 
 /// What the steps right after a gap observe, before anything changes the card: the search
 /// aims its plans at these. (Hints only narrow what is tried; every successor is still
@@ -285,13 +284,13 @@ pub struct Outcome {
 /// A map that forgets everything when full: memory stays flat whatever the log's length, and a
 /// healthy log, which meets the same few cards over and over, fills it again at once.
 struct Bounded<K, V> {
-    map: HashMap<K, V>,
+    map: FastMap<K, V>,
     entries_max: usize,
 }
 
 impl<K: std::hash::Hash + Eq, V: Clone> Bounded<K, V> {
     fn new(entries_max: usize) -> Self {
-        Bounded { map: HashMap::new(), entries_max }
+        Bounded { map: FastMap::default(), entries_max }
     }
 
     /// The value for `key`, worked out by `make` the first time.
@@ -318,11 +317,13 @@ pub struct Memo {
     /// Whole gaps: a healthy poll asks for the same card, cycles and hints again and again
     /// (512 gaps of a few cards each: about 1 MB a lane).
     gaps: Bounded<(Controller, i32, u32, Hints), Vec<Outcome>>,
+    /// Stretches without a background cycle, for the plans of every gap (`sim::RunCache`).
+    runs: sim::RunCache,
 }
 
 impl Default for Memo {
     fn default() -> Memo {
-        Memo { trip: Bounded::new(4096), gaps: Bounded::new(512) }
+        Memo { trip: Bounded::new(4096), gaps: Bounded::new(512), runs: sim::RunCache::default() }
     }
 }
 
@@ -398,7 +399,7 @@ fn successors_uncached(
     }
     // Y:$25 read after short gaps says less of this gap's end than one read right after it:
     // the outcome keeps it as an interval, which the read then narrows.
-    group(cfg, runs, hints.counter.is_none() || hints.shift > 0)
+    group(cfg, runs, hints.counter.is_none() || hints.shift > 0, &mut memo.runs)
 }
 
 /// The plans tried from `card`.
@@ -633,7 +634,12 @@ fn unread_tails(card: &Controller, r: i32, tail_max: u32) -> std::collections::B
 /// MODEL (search): merged, Y:$25 and X:$25 are two intervals with X:$25 <= Y:$25, which
 /// allows pairs a run of the model would not reach together when both are read after a later
 /// gap; docs/replay.md, "What the search keeps", says where this matters.
-fn group(cfg: &ModelConfig, runs: Vec<(Controller, Plan)>, merge_counter: bool) -> Vec<Outcome> {
+fn group(
+    cfg: &ModelConfig,
+    runs: Vec<(Controller, Plan)>,
+    merge_counter: bool,
+    cache: &mut sim::RunCache,
+) -> Vec<Outcome> {
     struct Point {
         card: Controller,
         min_lo: i32,
@@ -641,14 +647,13 @@ fn group(cfg: &ModelConfig, runs: Vec<(Controller, Plan)>, merge_counter: bool) 
         plan_lo: Plan,
         start_hi: i32,
     }
-    let mut by_state: HashMap<(Controller, u8), std::collections::BTreeMap<i32, Point>> = HashMap::new();
-    let mut seen = std::collections::HashSet::new();
-    let mut cache = sim::RunCache::default();
+    let mut by_state: FastMap<(Controller, u8), std::collections::BTreeMap<i32, Point>> = FastMap::default();
+    let mut seen = FastSet::default();
     for (start, plan) in runs {
         if !seen.insert((start.counter, plan)) {
             continue;
         }
-        let Some(sim) = run_cached(cfg, &start, plan, false, Some(&mut cache)) else { continue };
+        let Some(sim) = run_cached(cfg, &start, plan, false, Some(&mut *cache)) else { continue };
         let mut end = sim.card;
         super::normalize(&mut end);
         let min = end.counter_min;

@@ -4,6 +4,7 @@ use super::gap::{self, Hints};
 use super::history::{Node, NodeKind};
 use super::lanes::LaneDef;
 use super::observe::observation;
+use super::sim::FastMap;
 use super::sim::Sim;
 use super::{normalize, CANDIDATES_MAX};
 use crate::replay::Source;
@@ -19,7 +20,7 @@ use pmacwd_specs::vocab::reply_text::{self, StatusReply};
 use pmacwd_specs::{Position, Spec, SpecError};
 use pmacwd_trace::compare::{compare, Mismatch};
 use pmacwd_trace::{Expect, Step, TraceEvent};
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -566,12 +567,12 @@ impl Lane {
         let cfg = &self.cfg;
         // Candidates that differ only in Y:$25 and X:$25 are kept together: one whose intervals
         // hold another's stands for it, and intervals that meet are one (see `absorb`).
-        let mut next: HashMap<(Controller, u8), Vec<Cand>> = HashMap::new();
+        let mut next: FastMap<(Controller, u8), Vec<Cand>> = FastMap::default();
         let mut count = 0usize;
         let mut first_failure: Option<(String, String, String)> = None;
         let before = self.cands.len();
         let label = super::lanes::label(&self.def.choices);
-        let mut insert = |c: Cand, next: &mut HashMap<(Controller, u8), Vec<Cand>>| -> Result<(), SpecError> {
+        let mut insert = |c: Cand, next: &mut FastMap<(Controller, u8), Vec<Cand>>| -> Result<(), SpecError> {
             let mut key = c.card.clone();
             key.counter_min = i32::MIN;
             key.counter = i32::MIN;

@@ -24,11 +24,21 @@ pub fn overrun_load(cfg: &ModelConfig, i8: u8) -> Load {
     Load { motors: 0, plc0_units: u16::try_from(units).unwrap_or(u16::MAX), background_units: 1 }
 }
 
-/// Runs without a background cycle worked out within one gap's plans (one configuration):
-/// from a card (X:$0 cleared), the furthest run known and the card it reached.
+/// A `HashMap` with a fast hasher: the search's keys are whole cards, its own states, not a
+/// client's input, so hashing them with SipHash's flood resistance bought nothing and cost a
+/// fifth of replay's time (issue 32). Fixed seed: the same capture is searched the same way.
+pub type FastMap<K, V> = std::collections::HashMap<K, V, foldhash::fast::FixedState>;
+/// The set of [`FastMap`].
+pub type FastSet<K> = std::collections::HashSet<K, foldhash::fast::FixedState>;
+
+/// Runs without a background cycle worked out from a card (X:$0 and X:$25 left out of it):
+/// the furthest run known and the card it reached. Kept by a lane across its gaps and the
+/// start cards of one gap, which meet the same stretches again and again: tails differing by a
+/// whole steady period start from the same card, a lead's run-down is the same for every
+/// tail, and cards that differ only in X:$25 run alike.
 #[derive(Default)]
 pub struct RunCache {
-    runs: std::collections::HashMap<Controller, (u32, Controller)>,
+    runs: FastMap<Controller, (u32, Controller)>,
 }
 
 impl RunCache {
@@ -84,24 +94,27 @@ impl<'a> Sim<'a> {
     }
 
     /// [`Self::servo`], continuing a run from the same card that `cache` remembers when one
-    /// is there (a gap's plans run the same stretches without a background cycle again and
-    /// again: tails differing by a whole steady period start from the same card, a lead's
-    /// run-down is the same for every tail). Exact: the card `cache` gives is the one the
-    /// cycles reach; X:$0, which no rule reads, is kept out of the key and advanced.
+    /// is there. Exact: the card `cache` gives is the one the cycles reach. X:$0 and X:$25,
+    /// which no rule reads (the model only writes them: `servo_cycle`, `background_cycle`),
+    /// are kept out of the key: X:$0 is advanced by the cycles run, and X:$25 is the lower of
+    /// the start's and the lowest the counter reached in the run (the run's own, from a key
+    /// whose X:$25 is the highest there is).
     pub fn servo_cached(&mut self, n: u32, cache: Option<&mut RunCache>) {
         let Some(cache) = cache.filter(|_| self.events.is_none() && n >= RunCache::CYCLES_MIN) else {
             return self.servo(n);
         };
         let base = self.card.servo_cycles;
+        let counter_min = self.card.counter_min;
         let mut key = self.card.clone();
         key.servo_cycles = 0;
+        key.counter_min = i32::MAX;
         let mut done = 0;
         match cache.runs.get(&key) {
             Some((d, after)) if *d <= n => {
                 done = *d;
-                self.card = after.clone();
+                self.card.clone_from(after);
             }
-            _ => self.card = key.clone(),
+            _ => self.card.clone_from(&key),
         }
         for _ in done..n {
             if self.frozen() {
@@ -114,6 +127,7 @@ impl<'a> Sim<'a> {
         }
         cache.runs.insert(key, (n, self.card.clone()));
         self.card.servo_cycles = base.wrapping_add(self.card.servo_cycles) & self.cfg.servo_counter_mask;
+        self.card.counter_min = self.card.counter_min.min(counter_min);
         self.cycles += u64::from(n);
     }
 
