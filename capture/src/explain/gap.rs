@@ -336,11 +336,7 @@ impl Memo {
 /// Servo cycles from `card` without a background cycle until it trips (at most `max`).
 fn cycles_to_trip(cfg: &ModelConfig, card: &Controller, max: u64) -> u64 {
     let mut probe = card.clone();
-    let mut n = 0;
-    while n < max && !probe.tripped() {
-        probe.servo_cycle(cfg);
-        n += 1;
-    }
+    let n = sim::run_without_background(&mut probe, cfg, max);
     if probe.tripped() {
         n
     } else {
@@ -419,7 +415,13 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
         // Whether Y:$25 as read can follow from `v` at the end of this gap.
         let shift = i64::from(hints.shift);
         let counter_fits = |v: i64| hints.counter.is_none_or(|c| (v - shift..=v).contains(&i64::from(c)));
-        if may_be_silent || counter_fits(starved_counter) {
+        // A card with no background cycle in the whole gap trips within its counter's run and
+        // the hardware delay (UM p.215; the strobe stops at the latest when the counter runs
+        // out, SRM p.57): past that, a starved plan ends tripped, which a command answered
+        // after the gap rules out.
+        let starved_may_answer = i64::from(cycles) <= i64::from(card.counter.max(0)) + delay + 2;
+        let starved_useful = may_be_silent || starved_may_answer;
+        if starved_useful && (may_be_silent || counter_fits(starved_counter)) {
             plans.push(Plan::Starved { cycles, heavy: 0, overrun_last: 0 });
         }
         // After the starved plans: where both end in the same tripped card, the explanation
@@ -468,7 +470,7 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
         let level = cfg.profile.choices.rti_warning_latch == RtiWarningLatch::Level;
         let overrun_wanted = (hints.rti_reentry_seen && !card.status.rti_reentry)
             || (hints.rti_warning_seen && (level || !card.status.rti_warning));
-        if overrun_wanted || may_be_silent {
+        if starved_useful && (overrun_wanted || may_be_silent) {
             plans.push(Plan::Starved { cycles, heavy: cycles, overrun_last: 0 });
         }
         // PLC 0 overrunning at the end of the gap, with background cycles between its overruns
@@ -492,7 +494,7 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
             end_tails.extend((0..=top).filter(|t| !tails.contains(t)));
             end_tails.sort_unstable();
         }
-        if overrun_wanted && counter_fits(starved_counter) {
+        if starved_useful && overrun_wanted && counter_fits(starved_counter) {
             for heavy in 1..(3 * (u32::from(card.i8) + 1) + 3).min(cycles) {
                 plans.push(Plan::Starved { cycles, heavy, overrun_last: 0 });
             }

@@ -32,19 +32,42 @@ pub type FastMap<K, V> = std::collections::HashMap<K, V, foldhash::fast::FixedSt
 pub type FastSet<K> = std::collections::HashSet<K, foldhash::fast::FixedState>;
 
 /// Runs without a background cycle worked out from a card (X:$0 and X:$25 left out of it):
-/// the furthest run known and the card it reached. Kept by a lane across its gaps and the
-/// start cards of one gap, which meet the same stretches again and again: tails differing by a
-/// whole steady period start from the same card, a lead's run-down is the same for every
-/// tail, and cards that differ only in X:$25 run alike.
+/// for each start card, the cards its run reached after so many cycles. Kept by a lane across
+/// its gaps and the start cards of one gap, which meet the same stretches again and again:
+/// tails differing by a whole steady period start from the same card, a lead's run-down is the
+/// same for every tail, and cards that differ only in X:$25 run alike. Every run asked for
+/// is kept as a point to go on from: the start cards of one gap each ask for the same tails
+/// in turn, and a run kept only at its furthest point would be run again from its start by
+/// the next start card's shorter tails.
 #[derive(Default)]
 pub struct RunCache {
-    runs: FastMap<Controller, (u32, Controller)>,
+    runs: FastMap<Controller, Vec<(u32, Controller)>>,
+    points: usize,
 }
 
 impl RunCache {
     /// Shorter runs cost less than the lookup.
     const CYCLES_MIN: u32 = 64;
-    const ENTRIES_MAX: usize = 1024;
+    /// Cards kept in all (about 400 bytes each with their keys): a lane's cache stays under
+    /// a megabyte, and forgets everything when full.
+    const POINTS_MAX: usize = 2048;
+
+    /// The furthest point of the run from `key` at or before `n` cycles.
+    fn best(&self, key: &Controller, n: u32) -> Option<&(u32, Controller)> {
+        self.runs.get(key)?.iter().rev().find(|(d, _)| *d <= n)
+    }
+
+    fn keep(&mut self, key: Controller, n: u32, card: &Controller) {
+        if self.points >= Self::POINTS_MAX {
+            self.runs.clear();
+            self.points = 0;
+        }
+        let points = self.runs.entry(key).or_default();
+        if let Err(at) = points.binary_search_by_key(&n, |(d, _)| *d) {
+            points.insert(at, (n, card.clone()));
+            self.points += 1;
+        }
+    }
 }
 
 /// A card being driven, with the events that drove it when `record` is on.
@@ -83,12 +106,7 @@ impl<'a> Sim<'a> {
         if n == 0 {
             return;
         }
-        for _ in 0..n {
-            if self.frozen() {
-                break;
-            }
-            self.card.servo_cycle(self.cfg);
-        }
+        run_without_background(&mut self.card, self.cfg, u64::from(n));
         self.cycles += u64::from(n);
         self.push(TraceEvent::Model(Event::Servo { cycles: n }));
     }
@@ -109,23 +127,17 @@ impl<'a> Sim<'a> {
         key.servo_cycles = 0;
         key.counter_min = i32::MAX;
         let mut done = 0;
-        match cache.runs.get(&key) {
-            Some((d, after)) if *d <= n => {
+        match cache.best(&key, n) {
+            Some((d, after)) => {
                 done = *d;
                 self.card.clone_from(after);
             }
-            _ => self.card.clone_from(&key),
+            None => self.card.clone_from(&key),
         }
-        for _ in done..n {
-            if self.frozen() {
-                break;
-            }
-            self.card.servo_cycle(self.cfg);
+        run_without_background(&mut self.card, self.cfg, u64::from(n - done));
+        if done < n {
+            cache.keep(key, n, &self.card);
         }
-        if cache.runs.len() >= RunCache::ENTRIES_MAX {
-            cache.runs.clear();
-        }
-        cache.runs.insert(key, (n, self.card.clone()));
         self.card.servo_cycles = base.wrapping_add(self.card.servo_cycles) & self.cfg.servo_counter_mask;
         self.card.counter_min = self.card.counter_min.min(counter_min);
         self.cycles += u64::from(n);
@@ -134,11 +146,7 @@ impl<'a> Sim<'a> {
     /// Servo cycles without a background cycle until the card trips, at most `max`; returns
     /// how many ran.
     pub fn servo_until_trip(&mut self, max: u64) -> u64 {
-        let mut n = 0u64;
-        while n < max && !self.card.tripped() {
-            self.card.servo_cycle(self.cfg);
-            n += 1;
-        }
+        let n = run_without_background(&mut self.card, self.cfg, max);
         self.cycles += n;
         let mut left = n;
         while left > 0 {
@@ -212,5 +220,123 @@ impl<'a> Sim<'a> {
             }
         }
         self.cycles += u64::from(n);
+    }
+}
+
+/// Runs up to `n` servo cycles of `card` with no background cycle completing, as
+/// `Controller::servo_cycle` does one by one; returns how many ran before the card froze
+/// (tripped, or in bootstrap: the model's servo cycle then changes nothing).
+///
+/// A run-down repeats itself: while the counter is above zero the strobe toggles every cycle
+/// it is due, and nothing in the servo cycle reads the counter but that test (Y:$25's value,
+/// X:$25, X:$0 and the ghost's count of cycles since the background are only written). So
+/// once the card is the same, those four aside, as one RTI period earlier, every further
+/// period until the counter could reach zero is the same again, and is leapt: the counter
+/// falls by the cycles leapt, X:$25 follows it, X:$0 and the ghost's count advance. The last
+/// stretch to zero and the trip are run cycle by cycle. Exact (`tests::a_leapt_run_down_is_the_run_cycle_by_cycle`).
+pub fn run_without_background(card: &mut Controller, cfg: &ModelConfig, n: u64) -> u64 {
+    let period = u64::from(card.i8) + 1;
+    let mut ran = 0u64;
+    let mut mark: Option<Controller> = None;
+    let mut since_mark = 0u64;
+    while ran < n {
+        if card.tripped() || card.bootstrap {
+            break;
+        }
+        card.servo_cycle(cfg);
+        ran += 1;
+        since_mark += 1;
+        if since_mark < period {
+            continue;
+        }
+        since_mark = 0;
+        let now = run_down_shape(card);
+        if mark.as_ref() != Some(&now) {
+            mark = Some(now);
+            continue;
+        }
+        mark = None;
+        // Every cycle leapt begins with the counter at 1 or more (so the strobe is allowed in
+        // each, as in the period just compared, whose counter was higher still).
+        let periods = ((n - ran) / period).min(u64::try_from(card.counter.max(0)).unwrap_or(0) / period);
+        let leap = periods * period;
+        if leap == 0 {
+            continue;
+        }
+        let Ok(leap_i32) = i32::try_from(leap) else { continue };
+        card.counter -= leap_i32;
+        card.counter_min = card.counter_min.min(card.counter);
+        card.servo_cycles = card.servo_cycles.wrapping_add(leap as u32) & cfg.servo_counter_mask;
+        card.ghost.cycles_since_background =
+            card.ghost.cycles_since_background.saturating_add(u32::try_from(leap).unwrap_or(u32::MAX));
+        ran += leap;
+    }
+    ran
+}
+
+/// A card without what a run-down only writes (see [`run_without_background`]).
+fn run_down_shape(card: &Controller) -> Controller {
+    let mut c = card.clone();
+    c.counter = 0;
+    c.counter_min = 0;
+    c.servo_cycles = 0;
+    c.ghost.cycles_since_background = 0;
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pmacwd_specs::Spec;
+
+    /// `n` servo cycles one by one, as the model runs them; how many ran before it froze.
+    fn plain(card: &mut Controller, cfg: &ModelConfig, n: u64) -> u64 {
+        let mut ran = 0;
+        while ran < n && !card.tripped() && !card.bootstrap {
+            card.servo_cycle(cfg);
+            ran += 1;
+        }
+        ran
+    }
+
+    #[test]
+    fn a_leapt_run_down_is_the_run_cycle_by_cycle() {
+        let spec = Spec::embedded().unwrap();
+        let mut compared = 0;
+        for profile in spec.profiles.all() {
+            for configuration in ["host-log", "i40-zero", "timing", "motion"] {
+                let cfg = ModelConfig::from_spec(&spec, configuration, &profile).unwrap();
+                for i8 in [0u8, 2, 5, 7] {
+                    for load in
+                        [light_load(), overrun_load(&cfg, i8), Load { motors: 1, plc0_units: 3, background_units: 2 }]
+                    {
+                        for counter in [-3, 0, 1, 7, 50, 4095, 4096, 40_000] {
+                            let mut start = Controller::power_on(&cfg);
+                            start.i8 = i8;
+                            start.apply(&cfg, &Event::Load(load));
+                            // A few cycles with background first, then the counter set.
+                            let mut sim = Sim::new(&cfg, start, false);
+                            sim.greedy(3);
+                            let mut start = sim.card;
+                            start.counter = counter;
+                            start.counter_min = start.counter_min.min(counter);
+                            for n in [0u64, 1, 5, 6, 13, 100, 4095, 4200, 41_000] {
+                                let (mut a, mut b) = (start.clone(), start.clone());
+                                let ran_a = run_without_background(&mut a, &cfg, n);
+                                let ran_b = plain(&mut b, &cfg, n);
+                                assert_eq!(
+                                    (ran_a, &a),
+                                    (ran_b, &b),
+                                    "{} {configuration} I8={i8} {load:?} counter {counter}, {n} cycles",
+                                    profile.name
+                                );
+                                compared += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(compared > 1000, "{compared}");
     }
 }
