@@ -19,6 +19,7 @@
 //! tests in `tests/explain.rs` generate model runs with random schedules and loads, hide what
 //! a host cannot see, and require the search to explain them.
 
+use super::key::CardKey;
 use super::sim::{self, FastMap, FastSet, Sim};
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::ChecksumTarget;
@@ -313,10 +314,10 @@ impl<K: std::hash::Hash + Eq, V: Clone> Bounded<K, V> {
 /// time.
 pub struct Memo {
     /// Servo cycles each card takes to trip without a background cycle (4,096 cards).
-    trip: Bounded<(Controller, u64), u64>,
+    trip: Bounded<(CardKey, u64), u64>,
     /// Whole gaps: a healthy poll asks for the same card, cycles and hints again and again
     /// (512 gaps of a few cards each: about 1 MB a lane).
-    gaps: Bounded<(Controller, i32, u32, Hints), Vec<Outcome>>,
+    gaps: Bounded<(CardKey, i32, u32, Hints), Vec<Outcome>>,
     /// Stretches without a background cycle, for the plans of every gap (`sim::RunCache`).
     runs: sim::RunCache,
 }
@@ -329,7 +330,7 @@ impl Default for Memo {
 
 impl Memo {
     fn cycles_to_trip(&mut self, cfg: &ModelConfig, card: &Controller, max: u64) -> u64 {
-        self.trip.get_or((card.clone(), max), || cycles_to_trip(cfg, card, max))
+        self.trip.get_or((CardKey(card.clone()), max), || cycles_to_trip(cfg, card, max))
     }
 }
 
@@ -355,7 +356,7 @@ pub fn successors(
     cycles: u32,
     hints: &Hints,
 ) -> Vec<Outcome> {
-    let key = (card.clone(), counter_lo, cycles, hints.clone());
+    let key = (CardKey(card.clone()), counter_lo, cycles, hints.clone());
     if let Some(out) = memo.gaps.map.get(&key) {
         return out.clone();
     }
@@ -649,7 +650,7 @@ fn group(
         plan_lo: Plan,
         start_hi: i32,
     }
-    let mut by_state: FastMap<(Controller, u8), std::collections::BTreeMap<i32, Point>> = FastMap::default();
+    let mut by_state: FastMap<(CardKey, u8), std::collections::BTreeMap<i32, Point>> = FastMap::default();
     let mut seen = FastSet::default();
     for (start, plan) in runs {
         if !seen.insert((start.counter, plan)) {
@@ -675,7 +676,7 @@ fn group(
             // (`Lead::ReloadFirst`), one that has just had one may not.
             key.counter = i32::MIN;
         }
-        let points = by_state.entry((key, kind)).or_default();
+        let points = by_state.entry((CardKey(key), kind)).or_default();
         match points.get_mut(&end.counter) {
             Some(p) => {
                 if min > p.card.counter_min {

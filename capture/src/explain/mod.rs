@@ -14,6 +14,7 @@
 
 pub mod gap;
 pub mod history;
+pub mod key;
 pub mod lanes;
 pub mod observe;
 pub mod report;

@@ -2,6 +2,7 @@
 
 use super::gap::{self, Hints};
 use super::history::{Node, NodeKind};
+use super::key::CardKey;
 use super::lanes::LaneDef;
 use super::observe::observation;
 use super::sim::FastMap;
@@ -567,16 +568,16 @@ impl Lane {
         let cfg = &self.cfg;
         // Candidates that differ only in Y:$25 and X:$25 are kept together: one whose intervals
         // hold another's stands for it, and intervals that meet are one (see `absorb`).
-        let mut next: FastMap<(Controller, u8), Vec<Cand>> = FastMap::default();
+        let mut next: FastMap<(CardKey, u8), Vec<Cand>> = FastMap::default();
         let mut count = 0usize;
         let mut first_failure: Option<(String, String, String)> = None;
         let before = self.cands.len();
         let label = super::lanes::label(&self.def.choices);
-        let mut insert = |c: Cand, next: &mut FastMap<(Controller, u8), Vec<Cand>>| -> Result<(), SpecError> {
+        let mut insert = |c: Cand, next: &mut FastMap<(CardKey, u8), Vec<Cand>>| -> Result<(), SpecError> {
             let mut key = c.card.clone();
             key.counter_min = i32::MIN;
             key.counter = i32::MIN;
-            let same = next.entry((key, c.cpu)).or_default();
+            let same = next.entry((CardKey(key), c.cpu)).or_default();
             if !absorb(same, c, record) {
                 count += 1;
             }

@@ -4,6 +4,7 @@
 //! rules here (`Controller::servo_cycle`, `background_cycle`, `apply`): a successor the search
 //! keeps is a state the model really reaches, and the events recorded are its witness.
 
+use super::key::CardKey;
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::Load;
 use pmacwd_specs::config::ModelConfig;
@@ -41,7 +42,7 @@ pub type FastSet<K> = std::collections::HashSet<K, foldhash::fast::FixedState>;
 /// the next start card's shorter tails.
 #[derive(Default)]
 pub struct RunCache {
-    runs: FastMap<Controller, Vec<(u32, Controller)>>,
+    runs: FastMap<CardKey, Vec<(u32, Controller)>>,
     points: usize,
 }
 
@@ -53,11 +54,11 @@ impl RunCache {
     const POINTS_MAX: usize = 2048;
 
     /// The furthest point of the run from `key` at or before `n` cycles.
-    fn best(&self, key: &Controller, n: u32) -> Option<&(u32, Controller)> {
+    fn best(&self, key: &CardKey, n: u32) -> Option<&(u32, Controller)> {
         self.runs.get(key)?.iter().rev().find(|(d, _)| *d <= n)
     }
 
-    fn keep(&mut self, key: Controller, n: u32, card: &Controller) {
+    fn keep(&mut self, key: CardKey, n: u32, card: &Controller) {
         if self.points >= Self::POINTS_MAX {
             self.runs.clear();
             self.points = 0;
@@ -123,16 +124,16 @@ impl<'a> Sim<'a> {
         };
         let base = self.card.servo_cycles;
         let counter_min = self.card.counter_min;
-        let mut key = self.card.clone();
-        key.servo_cycles = 0;
-        key.counter_min = i32::MAX;
+        let mut key = CardKey(self.card.clone());
+        key.0.servo_cycles = 0;
+        key.0.counter_min = i32::MAX;
         let mut done = 0;
         match cache.best(&key, n) {
             Some((d, after)) => {
                 done = *d;
                 self.card.clone_from(after);
             }
-            None => self.card.clone_from(&key),
+            None => self.card.clone_from(&key.0),
         }
         run_without_background(&mut self.card, self.cfg, u64::from(n - done));
         if done < n {
