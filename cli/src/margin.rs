@@ -504,9 +504,9 @@ fn converted(what: &str, us: Option<f64>, units: u16, cfg: &ModelConfig) -> Opti
     })
 }
 
-/// `PLC 0 275 units: margin 3391 servo cycles; 276 units: the card trips; 277 units: margin 4135
-/// servo cycles`.
-fn neighbours_text(n: &NotMonotonic) -> String {
+/// `PLC 0 275 units: margin 3391 servo cycles; 276 units: the card trips; 277 units: margin 4112
+/// to 4135 servo cycles`.
+fn neighbours_text(n: &Neighbours) -> String {
     let what = match n.cost {
         Cost::Plc0 => "PLC 0",
         Cost::Background => "background",
@@ -514,9 +514,10 @@ fn neighbours_text(n: &NotMonotonic) -> String {
     let points: Vec<String> = n
         .units
         .iter()
-        .zip(&n.margin_cycles)
+        .zip(&n.margins)
         .map(|(u, m)| match m {
-            Some(c) => format!("{u} units: margin {c} servo cycles"),
+            Some((lo, hi)) if lo == hi => format!("{u} units: margin {lo} servo cycles"),
+            Some((lo, hi)) => format!("{u} units: margin {lo} to {hi} servo cycles"),
             None => format!("{u} units: the card trips"),
         })
         .collect();
@@ -663,16 +664,68 @@ fn to_text(
             },
             if m.servo_overloaded { "MORE than a servo cycle (bit 20, SRM p.289)" } else { "fit the servo cycle" }
         );
-        for n in &r.not_monotonic {
-            let _ = writeln!(
-                s,
-                "  warning: the margin is not monotonic in the load here: {}; a load that varies around this one \
-                 can meet the least of these (UM p.236: PLC 0 runs each RTI only once the last RTI's tasks are done)",
-                neighbours_text(n)
-            );
-        }
+    }
+    // Each place the margin is not monotonic once, with the profiles it applies to (the
+    // profiles' margins differ by their reloads and delays, not by where they fall).
+    for (profiles, n) in not_monotonic_groups(rows) {
+        let _ = writeln!(
+            s,
+            "warning: the margin is not monotonic in the load here, under {}: {}; a load that varies around this \
+             one can meet the least of these (UM p.236: PLC 0 runs each RTI only once the last RTI's tasks are done)",
+            if profiles.len() == rows.len() && rows.len() > 1 {
+                format!("every profile measured ({})", profiles.join(", "))
+            } else {
+                profiles.join(", ")
+            },
+            neighbours_text(&n)
+        );
     }
     s
+}
+
+/// The profiles' [`NotMonotonic`] findings, one per place: the same cost, the same loads and the
+/// same loads tripping the card, with the names of the profiles it holds under and each load's
+/// margins over them (least, most).
+fn not_monotonic_groups(rows: &[Row]) -> Vec<(Vec<String>, Neighbours)> {
+    let mut groups: Vec<(Vec<String>, Neighbours)> = Vec::new();
+    for r in rows {
+        for n in &r.not_monotonic {
+            let trips: Vec<bool> = n.margin_cycles.iter().map(Option::is_none).collect();
+            let same = |g: &Neighbours| {
+                g.cost == n.cost
+                    && g.units == n.units
+                    && g.margins.iter().map(Option::is_none).collect::<Vec<_>>() == trips
+            };
+            match groups.iter_mut().find(|(_, g)| same(g)) {
+                Some((names, g)) => {
+                    names.push(r.profile.name.clone());
+                    for (m, new) in g.margins.iter_mut().zip(&n.margin_cycles) {
+                        if let (Some((lo, hi)), Some(c)) = (m.as_mut(), new) {
+                            *lo = (*lo).min(*c);
+                            *hi = (*hi).max(*c);
+                        }
+                    }
+                }
+                None => groups.push((
+                    vec![r.profile.name.clone()],
+                    Neighbours {
+                        cost: n.cost,
+                        units: n.units.clone(),
+                        margins: n.margin_cycles.iter().map(|m| m.map(|c| (c, c))).collect(),
+                    },
+                )),
+            }
+        }
+    }
+    groups
+}
+
+/// One place the margin is not monotonic, over the profiles it holds under: each load's margin
+/// as (least, most) over them, `None` where the card trips.
+struct Neighbours {
+    cost: Cost,
+    units: Vec<u16>,
+    margins: Vec<Option<(i64, i64)>>,
 }
 
 fn to_json(

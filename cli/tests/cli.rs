@@ -1383,9 +1383,21 @@ fn margin_warns_where_the_margin_rises_with_the_load_and_names_the_loads() {
     assert_eq!(code, Some(0), "{text}");
     assert!(
         text.contains(
-            "warning: the margin is not monotonic in the load here: PLC 0 276 units: the card trips; 277 units: \
-             margin 4135 servo cycles; 278 units: margin 4135 servo cycles"
+            "warning: the margin is not monotonic in the load here, under um-215: PLC 0 276 units: the card trips; \
+             277 units: margin 4135 servo cycles; 278 units: margin 4135 servo cycles"
         ),
+        "{text}"
+    );
+    // Under every profile: one warning, after the profiles, naming them, each load's margins
+    // over them as a range (they differ by reload and delay, not by where they fall).
+    let out = pmacwd().args(["margin", "--plc0-units", "277"]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(text.matches("not monotonic").count(), 1, "{text}");
+    let warning = text.lines().last().unwrap();
+    assert!(
+        warning.starts_with(
+            "warning: the margin is not monotonic in the load here, under every profile measured (um-215, srm-57, "
+        ) && warning.contains("PLC 0 276 units: the card trips; 277 units: margin 4112 to 4135 servo cycles"),
         "{text}"
     );
     let (code, json, _) = margin_um215(&["--plc0-units", "276", "--format", "json"]);
