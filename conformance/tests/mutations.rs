@@ -593,6 +593,20 @@ const MUTATIONS: &[Mutation] = &[
     },
     // Issue 34's remaining rows: the stop rows no mutation had tried, each column changed as
     // a misread of UM p.217's row would change it.
+    canary(
+        "BackgroundAheadOfRti",
+        "the background gets the time the servo update leaves before PLC 0 and the RTI tasks",
+        &[
+            "um236_background_in_remaining_time",
+            "um236_rti_fourth_priority",
+            "um236_plc0_higher_priority",
+            "um236_plc0_too_long_starves_background",
+            "srm42_large_plc0_with_small_i8_starves_the_background",
+        ],
+        "i40-zero",
+        Canary::BackgroundAheadOfRti,
+        &["while the RTI tasks are unfinished the background gets no time"],
+    ),
     Mutation {
         name: "CtrlARowNotImmediate",
         what: "<CTRL-A>'s row says it does not begin immediately",

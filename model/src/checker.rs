@@ -142,6 +142,10 @@ pub enum Canary {
     /// `ENDGATHER` leaves data gathering on (SRM p.289, p.307: bit 19 is 0 once gathering
     /// stops at ENDGATHER).
     EndGatherKeepsGathering,
+    /// The background gets the time the servo update leaves before the RTI tasks (UM p.236:
+    /// the RTI tasks have the higher priority, the background gets the time remaining). Applied
+    /// to each servo cycle.
+    BackgroundAheadOfRti,
     /// A servo cycle that decrements the counter takes 2 off it (SRM p.57: by 1). Applied to
     /// each servo cycle, so the cycle monitors see it.
     CounterDropsByTwo,
@@ -398,6 +402,14 @@ fn mutate_cycle(
 ) {
     match canary {
         Canary::CounterDropsByTwo if after.counter > 0 && after.counter < before.counter => after.counter -= 1,
+        // UM p.236's priorities broken: the background is given the whole of what the servo
+        // update leaves, whatever the RTI tasks still need (the credit is capped as the
+        // model's, so the state space stays finite).
+        Canary::BackgroundAheadOfRti if !after.tripped() && !after.bootstrap && !before.tripped() => {
+            let servo = u32::from(after.load.motors) * u32::from(cfg.cpu.servo_units_per_motor);
+            let free = u32::from(cfg.cpu.cycle_units).saturating_sub(servo);
+            after.background_credit = (before.background_credit + free).min(u32::from(after.load.background_units));
+        }
         Canary::PlcRestartsOnOverrun if report.rti_overrun => {
             report.rti_started = true;
             let planning = if after.axes.plans_moves() { u32::from(cfg.cpu.move_planning_units) } else { 0 };
