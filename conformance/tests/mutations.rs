@@ -594,6 +594,14 @@ const MUTATIONS: &[Mutation] = &[
     // Issue 34's remaining rows: the stop rows no mutation had tried, each column changed as
     // a misread of UM p.217's row would change it.
     canary(
+        "StarvationNeverTrips",
+        "a strobe gap longer than the hardware delay never trips the card",
+        &["um215_watchdog_fail_safe", "um236_starvation_trips_watchdog"],
+        "timing",
+        Canary::StarvationNeverTrips,
+        &["the card can trip on a starved background"],
+    ),
+    canary(
         "BackgroundAheadOfRti",
         "the background gets the time the servo update leaves before PLC 0 and the RTI tasks",
         &[

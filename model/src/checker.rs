@@ -142,6 +142,10 @@ pub enum Canary {
     /// `ENDGATHER` leaves data gathering on (SRM p.289, p.307: bit 19 is 0 once gathering
     /// stops at ENDGATHER).
     EndGatherKeepsGathering,
+    /// A strobe gap longer than the hardware delay never trips the card (UM p.215: the
+    /// watchdog's fail-safe shutdown; UM p.236: a starved background trips it). Applied to
+    /// each servo cycle.
+    StarvationNeverTrips,
     /// The background gets the time the servo update leaves before the RTI tasks (UM p.236:
     /// the RTI tasks have the higher priority, the background gets the time remaining). Applied
     /// to each servo cycle.
@@ -402,6 +406,19 @@ fn mutate_cycle(
 ) {
     match canary {
         Canary::CounterDropsByTwo if after.counter > 0 && after.counter < before.counter => after.counter -= 1,
+        // UM p.215 and UM p.236 broken: a strobe gap past the hardware delay leaves the card
+        // running, as if the watchdog were not there (the cycle's trip undone, its outputs and
+        // motors as before it; the gap held at the delay and the ghost's count of cycles
+        // without a background cycle as it was, so the state space stays finite).
+        Canary::StarvationNeverTrips
+            if after.trip == Some(crate::controller::TripCause::StrobeTimeout) && !before.tripped() =>
+        {
+            after.trip = None;
+            after.outputs = before.outputs;
+            after.axes = before.axes;
+            after.ghost = before.ghost;
+            after.cycles_since_strobe = cfg.hardware_delay_cycles;
+        }
         // UM p.236's priorities broken: the background is given the whole of what the servo
         // update leaves, whatever the RTI tasks still need (the credit is capped as the
         // model's, so the state space stays finite).
