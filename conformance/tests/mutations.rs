@@ -812,10 +812,10 @@ const SPEC_MUTATIONS: &[SpecMutation] = &[
         statements: &["um217_stop_row_slash"],
         file: "stop_commands.yaml",
         edits: &[("  - command: /\n", "begins_immediately: false", "begins_immediately: true")],
-        // The model check does not catch it at motion: "Q does not begin immediately" watches Q
-        // and <CTRL-Q> only. Nor does the row's "Stop at Prog Pt?" changed in the resolved
-        // configuration: / and Q take their program point from their stop (end of move, quit),
-        // which model/src/motion.rs's stop_rules_match_the_table holds to the printed column.
+        // Tried first on the row's "Stop at Prog Pt?" in the resolved configuration, which the
+        // model check did not catch: / and Q take their program point from their stop (end of
+        // move, quit), which model/src/motion.rs's stop_rules_match_the_table holds to the
+        // printed column; the model does not read that column.
         caught_by: Catch::Scenarios(&["slash-stops-at-the-end-of-the-currently-executing-move"]),
     },
     SpecMutation {
