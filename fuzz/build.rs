@@ -72,6 +72,7 @@ fn main() {
             item("common.rs", &common, "pub enum Format {"),
             item("common.rs", &common, "pub fn card_reading("),
             item("common.rs", &common, "pub fn micros("),
+            item("common.rs", &common, "pub fn percent("),
         ]
         .join("\n"),
         [

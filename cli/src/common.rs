@@ -256,6 +256,16 @@ pub fn micros(text: &str) -> Result<f64, String> {
     }
 }
 
+/// `--cpu-load` of `pmacwd margin`: a percentage of the CPU as the EPICS pmac driver shows it,
+/// 0 to 100 (a decimal number: `26.2`). The driver's figure is the foreground's share of the
+/// CPU (UM p.240), which cannot exceed the whole of it.
+pub fn percent(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(p) if p.is_finite() && (0.0..=100.0).contains(&p) => Ok(p),
+        _ => Err("give a CPU load of 0 to 100 percent (26.2)".to_string()),
+    }
+}
+
 /// `--threads`: 1 to the machine's cores, as [`threads`] checks it, refused at parse time too
 /// when the number does not even fit.
 pub fn threads_flag(text: &str) -> Result<usize, String> {

@@ -230,7 +230,11 @@ enum Command {
     /// against PLC 0 load, the load given marked (docs/commands.md). With --x25 (and --y25)
     /// read from a card (000FF0 as RHX:$25 replies, $FF0, or decimal), also what those
     /// readings prove: the longest run without a background cycle since reset, and the servo
-    /// cycles that were left to a trip then.
+    /// cycles that were left to a trip then. The load also in the EPICS pmac driver's figures:
+    /// the timer registers M70-M73 as it reads them (--m70 --m71 --m72 --m73) or its CPU load
+    /// (--cpu-load PERCENT, the CPULOAD PV), read back to motors and PLC 0 units through the
+    /// model's timer mapping; where they stand for more than one load, the one with the least
+    /// margin is measured.
     #[command(
         after_help = "Exit codes: 0 measured, 1 the load trips the card under the default profile or no profile's card can show the readings, 2 unusable arguments."
     )]

@@ -1253,6 +1253,129 @@ fn margin_takes_plc0_and_background_times_in_microseconds_and_refuses_both_forms
     }
 }
 
+/// The emulated Geo Brick's timer scale (`variables.yaml`: M70 = 13279, M71 = 1328, I7002 = 3),
+/// at i40-zero's 100 units a servo cycle.
+const BRICK: pmacwd_core::timers::TimerScale =
+    pmacwd_core::timers::TimerScale { phase_period: 13279, phase_task: 1328, phases_per_servo: 4, cycle_units: 100 };
+
+fn margin_json(args: &[&str]) -> serde_json::Value {
+    let (code, out, err) = margin_um215(&[args, &["--format", "json"]].concat());
+    assert!(matches!(code, Some(0 | 1)), "{args:?}: {err}");
+    serde_json::from_str(&out).unwrap()
+}
+
+#[test]
+fn margin_takes_the_epics_drivers_m70_to_m73_and_gives_the_margin_of_the_load_that_made_them() {
+    // Issue 34: load -> registers through the one mapping (pmacwd_core::timers) -> margin's
+    // inputs by its inverse -> the same load, the same margin; light, heavy, the starving 276
+    // units and a load that spans servo cycles.
+    for (motors, plc0) in [(8u8, 30u16), (8, 200), (16, 120), (8, 276), (0, 0), (32, 5)] {
+        let t = BRICK.timers(u32::from(motors), u32::from(plc0));
+        let regs = [t.phase_period, t.phase_task, t.servo_task, t.rti_task].map(|v| v.to_string());
+        let from_regs = margin_json(&["--m70", &regs[0], "--m71", &regs[1], "--m72", &regs[2], "--m73", &regs[3]]);
+        let direct = margin_json(&["--motors", &motors.to_string(), "--plc0-units", &plc0.to_string()]);
+        assert_eq!(from_regs["profiles"], direct["profiles"], "{motors} motors, PLC 0 {plc0}: {regs:?}");
+        assert_eq!(from_regs["load"], direct["load"]);
+        let f = &from_regs["figures"];
+        assert_eq!(f["candidates"], serde_json::json!([{"motors": motors, "plc0_units": plc0}]), "{f}");
+        // The driver's CPU load of the same registers, with the motors known: the load again
+        // among the readings, and a margin no larger than the load's own.
+        let percent = format!("{:.4}", t.load_ppm(4, 2) as f64 / 10_000.0);
+        let from_load = margin_json(&[
+            "--cpu-load",
+            &percent,
+            "--motors",
+            &motors.to_string(),
+            "--m70",
+            &regs[0],
+            "--m71",
+            &regs[1],
+        ]);
+        let c = &from_load["figures"]["candidates"];
+        assert!(
+            c.as_array().unwrap().contains(&serde_json::json!({"motors": motors, "plc0_units": plc0})),
+            "{percent}%: {c}"
+        );
+        let margin = |doc: &serde_json::Value| doc["profiles"][0]["margin_cycles"].as_i64();
+        assert!(margin(&from_load) <= margin(&direct), "{percent}%: {from_load}");
+    }
+    // A reading between two units' registers stands for both: the one with less margin is
+    // measured (here PLC 0 of 276 units, which starves the background, against 275).
+    let (at275, at276) = (BRICK.rti_task(275, 8), BRICK.rti_task(276, 8));
+    let between = margin_json(&[
+        "--m70",
+        "13279",
+        "--m71",
+        "1328",
+        "--m72",
+        &BRICK.servo_task(8).to_string(),
+        "--m73",
+        &((at275 + at276) / 2).to_string(),
+    ]);
+    assert_eq!(between["figures"]["chosen"], serde_json::json!({"motors": 8, "plc0_units": 276}), "{between}");
+    assert!(between["profiles"][0]["tripped"].as_bool().unwrap());
+    let (_, text, _) = margin_um215(&[
+        "--m70",
+        "13279",
+        "--m71",
+        "1328",
+        "--m72",
+        "3824",
+        "--m73",
+        &((at275 + at276) / 2).to_string(),
+    ]);
+    assert!(text.contains("not unique: 2 loads read so (motors 8, PLC 0 275 to 276 units)"), "{text}");
+}
+
+#[test]
+fn margin_s_cpu_load_alone_takes_the_split_between_servo_and_rti_with_the_least_margin() {
+    // The driver's CPULOAD says nothing of how it splits between the servo and the RTI tasks,
+    // nor (without M70/M71) of the phase tasks' share: every split is a reading, and the one
+    // with the smallest margin is measured; no reading has less.
+    let doc = margin_json(&["--cpu-load", "26.2"]);
+    let f = &doc["figures"];
+    assert_eq!(f["phase_share_assumed"], serde_json::json!(true));
+    let candidates = f["candidates"].as_array().unwrap();
+    assert!(candidates.len() > 20, "{f}");
+    let chosen = doc["profiles"][0]["margin_cycles"].as_i64();
+    for c in candidates.iter().step_by(5) {
+        let other = margin_json(&["--motors", &c["motors"].to_string(), "--plc0-units", &c["plc0_units"].to_string()]);
+        assert!(chosen <= other["profiles"][0]["margin_cycles"].as_i64(), "{c}: {other}");
+    }
+}
+
+#[test]
+fn margin_refuses_driver_figures_out_of_range_or_that_no_load_makes() {
+    let cases: &[(&[&str], &str)] = &[
+        (&["--m70", "0", "--m71", "0"], "give 1 to 16777215"),
+        (&["--m70", "16777216", "--m71", "0"], "give 1 to 16777215"),
+        (&["--m70", "13279", "--m71", "-1"], "give 0 to 16777215"),
+        (&["--m70", "13279", "--m71", "1328", "--m73", "1e3"], "give 0 to 16777215"),
+        (&["--m70", "13279", "--m71", "13279", "--m72", "0"], "--m71 13279: the phase tasks would take the whole"),
+        (&["--m72", "3824"], "the following required arguments were not provided"),
+        (&["--m70", "13279", "--m72", "3824"], "the following required arguments were not provided"),
+        (&["--m70", "13279", "--m71", "1328", "--m72", "3824", "--motors", "8"], "cannot be used with"),
+        (&["--m70", "13279", "--m71", "1328", "--m73", "9", "--plc0-units", "8"], "cannot be used with"),
+        (&["--cpu-load", "20", "--m70", "13279", "--m71", "1328", "--m73", "9"], "cannot be used with"),
+        (&["--cpu-load", "20", "--plc0-us", "9"], "cannot be used with"),
+        (&["--cpu-load", "100.5"], "give a CPU load of 0 to 100 percent"),
+        (&["--cpu-load", "-1"], "give a CPU load of 0 to 100 percent"),
+        (&["--cpu-load", "NaN"], "give a CPU load of 0 to 100 percent"),
+        (&["--cpu-load", "5", "--m70", "13279", "--m71", "1328"], "the phase tasks of --m70/--m71 alone make 10.00%"),
+        (
+            &["--cpu-load", "12", "--motors", "8", "--m70", "13279", "--m71", "1328"],
+            "and the servo tasks of 8 motors alone",
+        ),
+        (&["--m70", "13279", "--m71", "1328", "--m72", "16777215"], "--m72 16777215: more than the servo tasks of 255"),
+        (&["--i7002", "16", "--cpu-load", "20"], "give 0 to 15"),
+    ];
+    for (args, want) in cases {
+        let (code, out, err) = margin_um215(args);
+        assert_eq!(code, Some(2), "{args:?}: {out}{err}");
+        assert!(err.contains(want) && !err.contains("panicked"), "{args:?}: {err}");
+    }
+}
+
 #[test]
 fn margin_warns_where_the_margin_rises_with_the_load_and_names_the_loads() {
     // 276 units of PLC 0 end exactly at the RTI and starve the background; 277 do not.
@@ -1260,9 +1383,21 @@ fn margin_warns_where_the_margin_rises_with_the_load_and_names_the_loads() {
     assert_eq!(code, Some(0), "{text}");
     assert!(
         text.contains(
-            "warning: the margin is not monotonic in the load here: PLC 0 276 units: the card trips; 277 units: \
-             margin 4135 servo cycles; 278 units: margin 4135 servo cycles"
+            "warning: the margin is not monotonic in the load here, under um-215: PLC 0 276 units: the card trips; \
+             277 units: margin 4135 servo cycles; 278 units: margin 4135 servo cycles"
         ),
+        "{text}"
+    );
+    // Under every profile: one warning, after the profiles, naming them, each load's margins
+    // over them as a range (they differ by reload and delay, not by where they fall).
+    let out = pmacwd().args(["margin", "--plc0-units", "277"]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(text.matches("not monotonic").count(), 1, "{text}");
+    let warning = text.lines().last().unwrap();
+    assert!(
+        warning.starts_with(
+            "warning: the margin is not monotonic in the load here, under every profile measured (um-215, srm-57, "
+        ) && warning.contains("PLC 0 276 units: the card trips; 277 units: margin 4112 to 4135 servo cycles"),
         "{text}"
     );
     let (code, json, _) = margin_um215(&["--plc0-units", "276", "--format", "json"]);

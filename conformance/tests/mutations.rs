@@ -591,6 +591,57 @@ const MUTATIONS: &[Mutation] = &[
         caught_by: &["K is refused while the motor's coordinate system executes a program"],
         caught: true,
     },
+    // Issue 34's remaining rows: the stop rows no mutation had tried, each column changed as
+    // a misread of UM p.217's row would change it.
+    canary(
+        "StarvationNeverTrips",
+        "a strobe gap longer than the hardware delay never trips the card",
+        &["um215_watchdog_fail_safe", "um236_starvation_trips_watchdog"],
+        "timing",
+        Canary::StarvationNeverTrips,
+        &["the card can trip on a starved background"],
+    ),
+    canary(
+        "BackgroundAheadOfRti",
+        "the background gets the time the servo update leaves before PLC 0 and the RTI tasks",
+        &[
+            "um236_background_in_remaining_time",
+            "um236_rti_fourth_priority",
+            "um236_plc0_higher_priority",
+            "um236_plc0_too_long_starves_background",
+            "srm42_large_plc0_with_small_i8_starves_the_background",
+        ],
+        "i40-zero",
+        Canary::BackgroundAheadOfRti,
+        &["while the RTI tasks are unfinished the background gets no time"],
+    ),
+    Mutation {
+        name: "CtrlARowNotImmediate",
+        what: "<CTRL-A>'s row says it does not begin immediately",
+        statements: &["um217_stop_row_ctrl_a", "um217_stop_command_table"],
+        configuration: "motion",
+        change: Change::Config(|cfg| stop_row(cfg, "<CTRL-A>").begins_immediately = false),
+        caught_by: &["A begins immediately: no motor of the coordinate system runs its program or jogs after it"],
+        caught: true,
+    },
+    Mutation {
+        name: "CtrlQRowImmediate",
+        what: "<CTRL-Q>'s row says it begins immediately",
+        statements: &["um217_stop_row_ctrl_q"],
+        configuration: "motion",
+        change: Change::Config(|cfg| stop_row(cfg, "<CTRL-Q>").begins_immediately = true),
+        caught_by: &["Q does not begin immediately: the program's motors go on with their calculated moves"],
+        caught: true,
+    },
+    Mutation {
+        name: "BackslashRowOffThePath",
+        what: "\\'s row says it does not stop on the path",
+        statements: &["um217_stop_row_backslash"],
+        configuration: "motion",
+        change: Change::Config(|cfg| stop_row(cfg, "\\").stops_on_path = pmacwd_specs::facts::Tristate::No),
+        caught_by: &["H stops on the path: its motors end holding, and R can resume the program"],
+        caught: true,
+    },
     // Issue 35: before, the checker offered a supply reading only when it changed the rule's
     // own low flag, so with the threshold moved down no reading between the two came: this
     // mutation passed the model check. The checker now offers readings on both sides of the
@@ -702,7 +753,16 @@ const SPEC_MUTATIONS: &[SpecMutation] = &[
     SpecMutation {
         name: "ChecksumErrorOnBit14",
         what: "the checksum error bit named at X14 instead of X13",
-        statements: &["srm289_x13_any_checksum_error", "srm289_bit_one_when_true", "um217_user_mismatch_sets_bit_13"],
+        statements: &[
+            "srm289_x13_any_checksum_error",
+            "srm289_bit_one_when_true",
+            "um217_user_mismatch_sets_bit_13",
+            "um217_firmware_mismatch_sets_bits",
+        ],
+        // Issue 34: the same move breaks UM p.217's "sets ... bits 12 and 13" for a firmware
+        // mismatch (the status configuration injects both kinds). Placed on X14 in the resolved
+        // configuration instead, the bit is not caught: the monitors of bits 12 and 13 read the
+        // configuration's layout and move with it; X14's monitor reads SRM p.289's position.
         file: "status.yaml",
         edits: swap_names!("checksum_error", "leadscrew_compensation_on"),
         caught_by: Catch::Check("status", &[NOT_MODELLED_BITS]),
@@ -723,6 +783,48 @@ const SPEC_MUTATIONS: &[SpecMutation] = &[
         edits: swap_names!("cpu_type_bit1", "reserved_x23"),
         // The DSP56309 scenario has bit 1 clear, which moving it does not change.
         caught_by: Catch::Scenarios(&["a-dsp56321-card-sets-both-cpu-type-bits-of-global-status"]),
+    },
+    SpecMutation {
+        name: "SrmStrobeStopsAtZero",
+        what: "the SRM profile's strobe stops at 0 instead of below 0",
+        statements: &["srm57_below_zero_rti_stops_strobing"],
+        file: "profiles.yaml",
+        edits: &[("  srm-57:\n", "strobe_stop: below_zero", "strobe_stop: at_zero")],
+        caught_by: Catch::Scenarios(&["under-the-srm-reading-the-counter-goes-below-zero-before-the-trip"]),
+    },
+    SpecMutation {
+        name: "ServoCostFree",
+        what: "i40-zero's motors cost no servo time (servo_units_per_motor 0 instead of 1)",
+        statements: &["um236_servo_cost_per_motor"],
+        file: "check.yaml",
+        edits: &[("  i40-zero:\n", "servo_units_per_motor: 1", "servo_units_per_motor: 0")],
+        // Issue 34: not caught while the scenario's steps were `servo: 4141`, which lets no
+        // background cycle complete whatever the load (a stopped background trips any card):
+        // the scenario now runs `run:` steps, a background cycle after every servo cycle whose
+        // load allows one, so only a PLC 0 that takes the background's time trips it.
+        caught_by: Catch::Scenarios(&[
+            "a-plc0-that-fills-every-rti-period-starves-the-background-until-the-watchdog-trips",
+        ]),
+    },
+    SpecMutation {
+        name: "SlashRowImmediate",
+        what: "/'s row says it begins immediately",
+        statements: &["um217_stop_row_slash"],
+        file: "stop_commands.yaml",
+        edits: &[("  - command: /\n", "begins_immediately: false", "begins_immediately: true")],
+        // Tried first on the row's "Stop at Prog Pt?" in the resolved configuration, which the
+        // model check did not catch: / and Q take their program point from their stop (end of
+        // move, quit), which model/src/motion.rs's stop_rules_match_the_table holds to the
+        // printed column; the model does not read that column.
+        caught_by: Catch::Scenarios(&["slash-stops-at-the-end-of-the-currently-executing-move"]),
+    },
+    SpecMutation {
+        name: "AbortRowKills",
+        what: "A's row has no deceleration rate: A kills instead of stopping at Ixx15",
+        statements: &["um319_abort_breaks_in_at_ixx15"],
+        file: "stop_commands.yaml",
+        edits: &[("  - command: A\n", "decel_rate: Ixx15", "decel_rate: null")],
+        caught_by: Catch::Scenarios(&["a-aborts-the-program-at-once-at-ixx15-and-the-motors-come-to-rest"]),
     },
 ];
 
@@ -938,4 +1040,36 @@ fn docs_requirements_md_lists_every_mutation_and_every_statement_not_tried() {
         .map(|s| s.to_string())
         .collect();
     assert_eq!(listed, caught, "docs/requirements.md: the checked statements whose checks caught a mutation");
+    // The figures of the page's prose, computed here from the tables and the matrix: run with
+    // `-- --nocapture` to print them.
+    let tried_uncaught = tried.difference(&caught).count();
+    let model_caught = MUTATIONS.iter().filter(|m| m.caught).count();
+    let figures = [
+        format!(
+            "Of the {} checked statements, **{} have a check that caught a named mutation** of their rule, **{} tried \
+             without a check catching it**, and **{} were not tried**",
+            checked.len(),
+            caught.len(),
+            if tried_uncaught == 0 { "none was".to_string() } else { format!("{tried_uncaught} were") },
+            want.len()
+        ),
+        format!(
+            "{} mutations of the model ({model_caught} caught, {} known not to be caught",
+            MUTATIONS.len(),
+            MUTATIONS.len() - model_caught
+        ),
+        format!("and {} of the spec files (all caught)", SPEC_MUTATIONS.len()),
+        format!(
+            "runs the {} mutations of the model and the {} of the spec files",
+            MUTATIONS.len(),
+            SPEC_MUTATIONS.len()
+        ),
+        format!("{} statements, by page (the tables above say which mutation and which check)", caught.len()),
+        format!("{} statements, by page. Most are checked", want.len()),
+    ];
+    let prose = page.split_whitespace().collect::<Vec<_>>().join(" ");
+    for f in &figures {
+        println!("{f}");
+        assert!(prose.contains(f.as_str()), "docs/requirements.md does not say: {f}");
+    }
 }

@@ -104,6 +104,41 @@ impl TimerScale {
     }
 }
 
+/// The CPU units a timer reading stands for: the inverse of a mapping from units to a reading
+/// (`TimerScale::servo_task`, `TimerScale::rti_task`, or UM p.240's duty cycles of them),
+/// searched over `0..=max_units`. A card's task is no whole number of the model's units, so a
+/// reading lies between the readings of two unit counts, and a mapping that rounds can give
+/// one reading to several: the inverse is then not unique, and both ends are returned for the
+/// caller to choose from (a safety tool takes the one that leaves the smaller margin).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UnitsRange {
+    /// The fewest units whose reading is at least the reading given, or the most whose
+    /// reading is at most it, whichever is fewer.
+    pub least: u32,
+    /// The other of the two.
+    pub most: u32,
+}
+
+/// [`UnitsRange`] of `reading` under `reading_of`: the most units in `0..=max_units` whose
+/// reading is at most `reading` and the fewest whose reading is at least it, searched one unit
+/// at a time (so a mapping that is not monotonic, as UM p.240's subtractions can make the
+/// duty cycles, is inverted too). `None` when no unit count reads at most `reading` (it is
+/// below what no load at all reads) or none reads at least it (beyond `max_units`).
+pub fn units_of(reading: u64, max_units: u32, reading_of: impl Fn(u32) -> u64) -> Option<UnitsRange> {
+    let (mut below, mut above) = (None, None);
+    for units in 0..=max_units {
+        let r = reading_of(units);
+        if r <= reading {
+            below = Some(units);
+        }
+        if r >= reading && above.is_none() {
+            above = Some(units);
+        }
+    }
+    let (below, above) = (below?, above?);
+    Some(UnitsRange { least: below.min(above), most: below.max(above) })
+}
+
 impl Timers {
     /// The duty cycles, in parts per million of the CPU, that UM p.240's PLC computes from
     /// M70-M73 (P71 the phase tasks, P72 the servo tasks, P73 the RTI tasks; the EPICS driver's
@@ -128,6 +163,15 @@ impl Timers {
         let rti_net = m73.saturating_sub(p68.saturating_mul(m71)).saturating_sub(p67.saturating_mul(servo_net));
         let p73 = ppm(rti_net, m70.saturating_mul(p70).saturating_mul(u64::from(i8).saturating_add(1)));
         (p71, p72, p73)
+    }
+
+    /// The EPICS driver's CPU load, `P74 = 100 x (P71 + P72 + P73)` percent
+    /// (DiamondLightSource/pmac `pmacApp/src/pmacController.cpp:1850-1890`, after UM p.240's
+    /// PLC), in parts per million: the sum of [`Timers::duty_ppm`], each share rounded down, so
+    /// at most 3 ppm below the driver's floating-point figure.
+    pub fn load_ppm(&self, phases_per_servo: u32, i8: u8) -> u64 {
+        let (phase, servo, rti) = self.duty_ppm(phases_per_servo, i8);
+        phase.saturating_add(servo).saturating_add(rti)
     }
 }
 
@@ -169,6 +213,33 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn units_of_gives_back_the_units_of_every_register_and_both_neighbours_between_two() {
+        // Y:$000037 of 0 to 100 units of servo tasks, X:$00000B of 0 to 400 units of RTI tasks
+        // after 8 of servo: each register's inverse is the units charged, and a reading one
+        // increment short of a unit's register lies between it and the unit before.
+        for units in 0..=100u32 {
+            let reg = u64::from(BRICK.servo_task(units));
+            let back = units_of(reg, 255, |u| u64::from(BRICK.servo_task(u)));
+            assert_eq!(back, Some(UnitsRange { least: units, most: units }), "servo {units}");
+            if units > 0 {
+                let between = units_of(reg - 1, 255, |u| u64::from(BRICK.servo_task(u)));
+                assert_eq!(between, Some(UnitsRange { least: units - 1, most: units }), "servo {units} - 1");
+            }
+        }
+        for units in 0..=400u32 {
+            let reg = u64::from(BRICK.rti_task(units, 8));
+            let back = units_of(reg, 65_535, |u| u64::from(BRICK.rti_task(u, 8)));
+            assert_eq!(back, Some(UnitsRange { least: units, most: units }), "RTI {units}");
+        }
+        // The CPU load the driver computes: 30 units of PLC 0 after 8 motors, back to 30.
+        let ppm = |u: u32| BRICK.timers(8, u).load_ppm(4, 2);
+        assert_eq!(units_of(ppm(30), 65_535, ppm), Some(UnitsRange { least: 30, most: 30 }));
+        // Beyond the units searched, or below what no load reads: no inverse.
+        assert_eq!(units_of(u64::from(BRICK.servo_task(256)), 255, |u| u64::from(BRICK.servo_task(u))), None);
+        assert_eq!(units_of(ppm(0) - 1, 65_535, ppm), None);
     }
 
     #[test]

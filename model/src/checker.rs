@@ -142,6 +142,14 @@ pub enum Canary {
     /// `ENDGATHER` leaves data gathering on (SRM p.289, p.307: bit 19 is 0 once gathering
     /// stops at ENDGATHER).
     EndGatherKeepsGathering,
+    /// A strobe gap longer than the hardware delay never trips the card (UM p.215: the
+    /// watchdog's fail-safe shutdown; UM p.236: a starved background trips it). Applied to
+    /// each servo cycle.
+    StarvationNeverTrips,
+    /// The background gets the time the servo update leaves before the RTI tasks (UM p.236:
+    /// the RTI tasks have the higher priority, the background gets the time remaining). Applied
+    /// to each servo cycle.
+    BackgroundAheadOfRti,
     /// A servo cycle that decrements the counter takes 2 off it (SRM p.57: by 1). Applied to
     /// each servo cycle, so the cycle monitors see it.
     CounterDropsByTwo,
@@ -398,6 +406,27 @@ fn mutate_cycle(
 ) {
     match canary {
         Canary::CounterDropsByTwo if after.counter > 0 && after.counter < before.counter => after.counter -= 1,
+        // UM p.215 and UM p.236 broken: a strobe gap past the hardware delay leaves the card
+        // running, as if the watchdog were not there (the cycle's trip undone, its outputs and
+        // motors as before it; the gap held at the delay and the ghost's count of cycles
+        // without a background cycle as it was, so the state space stays finite).
+        Canary::StarvationNeverTrips
+            if after.trip == Some(crate::controller::TripCause::StrobeTimeout) && !before.tripped() =>
+        {
+            after.trip = None;
+            after.outputs = before.outputs;
+            after.axes = before.axes;
+            after.ghost = before.ghost;
+            after.cycles_since_strobe = cfg.hardware_delay_cycles;
+        }
+        // UM p.236's priorities broken: the background is given the whole of what the servo
+        // update leaves, whatever the RTI tasks still need (the credit is capped as the
+        // model's, so the state space stays finite).
+        Canary::BackgroundAheadOfRti if !after.tripped() && !after.bootstrap && !before.tripped() => {
+            let servo = u32::from(after.load.motors) * u32::from(cfg.cpu.servo_units_per_motor);
+            let free = u32::from(cfg.cpu.cycle_units).saturating_sub(servo);
+            after.background_credit = (before.background_credit + free).min(u32::from(after.load.background_units));
+        }
         Canary::PlcRestartsOnOverrun if report.rti_overrun => {
             report.rti_started = true;
             let planning = if after.axes.plans_moves() { u32::from(cfg.cpu.move_planning_units) } else { 0 };

@@ -315,6 +315,18 @@ pub const MONITORS: &[Monitor] = &[
         check: Check::Cycle(|_, prev, report, _| !report.rti_started || prev.rti_remaining == 0),
     },
     Monitor {
+        name: "while the RTI tasks are unfinished the background gets no time",
+        cite: "UM p.236",
+        sentence: "In the time not taken by any of the higher-priority tasks, Turbo PMAC will be executing background tasks.",
+        // A cycle that ends with RTI tasks (PLC 0, move planning) still to run gave them all
+        // the time the servo update left, so none went to the background: a PLC 0 that fills
+        // its RTI period starves the background (UM p.236, SRM p.42). Found missing by issue 34:
+        // no check of the model check saw a background given PLC 0's time.
+        check: Check::Cycle(|_, prev, _, next| {
+            implies!(next.rti_remaining > 0, next.background_credit <= prev.background_credit)
+        }),
+    },
+    Monitor {
         name: "the watchdog counter drops by at most one per servo cycle",
         cite: "SRM p.57",
         sentence: "Each servo interrupt cycle, Turbo PMAC decrements this counter by 1 automatically.",
