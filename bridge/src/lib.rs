@@ -12,7 +12,9 @@ use pmacwd_core as core;
 use pmacwd_core::motion as cm;
 use pmacwd_specs::check::{ChecksumTarget, MotionSetup, Processor, ResetKind, MOTORS_MAX};
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::profiles::{Bit12Meaning, EncoderLossClear, RtiWarningLatch, StrobeStop, Strober};
+use pmacwd_specs::profiles::{
+    Bit12Meaning, EncoderLossClear, OutOfRangeAssignment, RtiWarningLatch, StrobeStop, Strober,
+};
 use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand};
 use pmacwd_specs::vocab::observation::{MotionView, MotorState, MotorView, MOTORS_SHOWN};
 use pmacwd_specs::vocab::{Buffer, Event, HostCommand, Observation, Register, Reply};
@@ -37,6 +39,7 @@ pub fn core_config(cfg: &ModelConfig) -> core::Config {
                 EncoderLossClear::Intent => true,
                 EncoderLossClear::Literal => false,
             },
+            out_of_range_modulo: cfg.out_of_range == OutOfRangeAssignment::Modulo,
         },
         hardware_delay_cycles: cfg.hardware_delay_cycles,
         cycle_units: cfg.cpu.cycle_units,
