@@ -150,8 +150,8 @@ pub fn core_command(c: &HostCommand) -> core::Command {
         HostCommand::EndGather => core::Command::EndGather,
         HostCommand::WriteIMemory(n, v) => core::Command::WriteIMemory(*n, *v),
         HostCommand::DefaultI(n) => core::Command::DefaultI(*n),
-        HostCommand::Card { forgets, .. } => {
-            core::Command::CardOwn { forgets: forgets.map(|r| (r.first, r.count, r.step)) }
+        HostCommand::Card { forgets, past_lockout, .. } => {
+            core::Command::CardOwn { forgets: forgets.map(|r| (r.first, r.count, r.step)), past_lockout: *past_lockout }
         }
         HostCommand::Unrecognized(_) => core::Command::Unrecognized,
     }

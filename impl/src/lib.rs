@@ -327,9 +327,11 @@ pub enum Command {
     /// `I{n}=*`: the factory default (through I41, SRM p.57).
     DefaultI(u16),
     /// A command whose answer is the card's own; the I-variables of `forgets` (first, count,
-    /// step) take values this core cannot compute.
+    /// step) take values this core cannot compute; with `past_lockout` (a memory write or an
+    /// M-variable assignment, SRM p.57) those I41 locks too.
     CardOwn {
         forgets: Option<(u16, u16, u16)>,
+        past_lockout: bool,
     },
     Unrecognized,
 }
@@ -1068,11 +1070,13 @@ impl Core {
                     Reply::Ack
                 }
             },
-            Command::CardOwn { forgets } => {
+            // SRM p.57: I41 does not prevent a memory write or an M-variable assignment
+            // (`past_lockout`); an I-variable write to a locked variable is ignored.
+            Command::CardOwn { forgets, past_lockout } => {
                 if let Some((first, count, step)) = forgets {
                     for k in 0..count {
                         let n = first.saturating_add(k.saturating_mul(step));
-                        if !self.write_locked(n) {
+                        if past_lockout || !self.write_locked(n) {
                             store.forget(n);
                         }
                     }

@@ -36,7 +36,7 @@ fn a_full_small_store_refuses_the_next_write_with_err003_and_forgetting_frees_a_
     assert_eq!(cmd(&mut core, &mut store, Command::WriteI(131, 6)), Reply::Ack);
     assert_eq!(cmd(&mut core, &mut store, Command::WriteI(132, 7)), Reply::Error(3));
     assert_eq!(cmd(&mut core, &mut store, Command::ReadI(132)), Reply::CardOwn);
-    let forget = Command::CardOwn { forgets: Some((130, 1, 1)) };
+    let forget = Command::CardOwn { forgets: Some((130, 1, 1)), past_lockout: false };
     assert_eq!(cmd(&mut core, &mut store, forget), Reply::CardOwn);
     assert_eq!(
         cmd(&mut core, &mut store, Command::ReadI(130)),

@@ -636,10 +636,11 @@ impl Controller {
             },
             // The card's own commands: whatever they answer, the model has no rule for it. A
             // write the model cannot compute leaves the variables it wrote the card's own
-            // (unless I41 locked them: SRM p.57, the write is then ignored).
-            HostCommand::Card { forgets, .. } => {
+            // (unless I41 locked them: SRM p.57, the write is then ignored; but not a direct
+            // memory write or an M-variable assignment, which I41 "does not prevent").
+            HostCommand::Card { forgets, past_lockout, .. } => {
                 for n in forgets.iter().flat_map(|r| r.numbers()) {
-                    if !self.write_locked(cfg, n) {
+                    if *past_lockout || !self.write_locked(cfg, n) {
                         self.other_i_variables.remove(&n);
                     }
                 }
