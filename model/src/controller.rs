@@ -638,9 +638,26 @@ impl Controller {
             // write the model cannot compute leaves the variables it wrote the card's own
             // (unless I41 locked them: SRM p.57, the write is then ignored; but not a direct
             // memory write or an M-variable assignment, which I41 "does not prevent").
-            HostCommand::Card { forgets, past_lockout, .. } => {
+            HostCommand::Card { forgets, past_lockout: false, .. } => {
                 for n in forgets.iter().flat_map(|r| r.numbers()) {
-                    if *past_lockout || !self.write_locked(cfg, n) {
+                    if !self.write_locked(cfg, n) {
+                        self.other_i_variables.remove(&n);
+                    }
+                }
+                Reply::CardOwn
+            }
+            // Past the lockout, the range is usually every I-variable (a memory write): only
+            // the variables known are looked at, not the 8,192 numbers.
+            HostCommand::Card { forgets, past_lockout: true, .. } => {
+                if let Some(r) = forgets {
+                    let within = |n: u16| match (n.checked_sub(r.first), r.step) {
+                        (Some(0), _) => r.count > 0,
+                        (Some(d), step) if step > 0 => d % step == 0 && d / step < r.count,
+                        _ => false,
+                    };
+                    let known: Vec<u16> =
+                        self.other_i_variables.iter().map(|(n, _)| *n).filter(|n| within(*n)).collect();
+                    for n in known {
                         self.other_i_variables.remove(&n);
                     }
                 }
