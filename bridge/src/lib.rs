@@ -12,7 +12,9 @@ use pmacwd_core as core;
 use pmacwd_core::motion as cm;
 use pmacwd_specs::check::{ChecksumTarget, MotionSetup, Processor, ResetKind, MOTORS_MAX};
 use pmacwd_specs::config::ModelConfig;
-use pmacwd_specs::profiles::{Bit12Meaning, EncoderLossClear, RtiWarningLatch, StrobeStop, Strober};
+use pmacwd_specs::profiles::{
+    Bit12Meaning, EncoderLossClear, OutOfRangeAssignment, RtiWarningLatch, StrobeStop, Strober,
+};
 use pmacwd_specs::vocab::command::{CsCommand, GlobalCommand, Motion, MotorCommand};
 use pmacwd_specs::vocab::observation::{MotionView, MotorState, MotorView, MOTORS_SHOWN};
 use pmacwd_specs::vocab::{Buffer, Event, HostCommand, Observation, Register, Reply};
@@ -37,6 +39,7 @@ pub fn core_config(cfg: &ModelConfig) -> core::Config {
                 EncoderLossClear::Intent => true,
                 EncoderLossClear::Literal => false,
             },
+            out_of_range_modulo: cfg.out_of_range == OutOfRangeAssignment::Modulo,
         },
         hardware_delay_cycles: cfg.hardware_delay_cycles,
         cycle_units: cfg.cpu.cycle_units,
@@ -147,8 +150,8 @@ pub fn core_command(c: &HostCommand) -> core::Command {
         HostCommand::EndGather => core::Command::EndGather,
         HostCommand::WriteIMemory(n, v) => core::Command::WriteIMemory(*n, *v),
         HostCommand::DefaultI(n) => core::Command::DefaultI(*n),
-        HostCommand::Card { forgets, .. } => {
-            core::Command::CardOwn { forgets: forgets.map(|r| (r.first, r.count, r.step)) }
+        HostCommand::Card { forgets, past_lockout, .. } => {
+            core::Command::CardOwn { forgets: forgets.map(|r| (r.first, r.count, r.step)), past_lockout: *past_lockout }
         }
         HostCommand::Unrecognized(_) => core::Command::Unrecognized,
     }

@@ -366,6 +366,25 @@ fn reads_of_variables_no_rule_fixes_are_the_card_s_own_and_never_compared_with_a
 }
 
 #[test]
+fn a_memory_write_or_an_m_variable_assignment_may_change_an_i_variable_i41_locks() {
+    // SRM p.57: "I41 does not prevent changes to an I-variable by means of an M-variable
+    // assignment or a direct memory write command." I130 is written (7), locked by I41 bit 0,
+    // and an on-line write is ignored (it still reads 7). Then a memory write, whose address
+    // no page read places (docs/probe.md): I130 may have changed, so reading 11 is a correct
+    // card (issue 31: it was "no correct card", the write forgetting nothing). Without the
+    // memory write, 11 stays impossible.
+    let head = "> $$$\n<\n> I130=7\n<\n> I41=1\n<\n> I130=5\n<\n> I130\n< 7\n";
+    for (name, escape) in
+        [("wd", "> WD:$2082,11\n<\n"), ("mvar", "> M100->D:$2082 M100=11\n<\n"), ("wy", "> WY:$2082,11\n<\n")]
+    {
+        let r = replay_log(name, &format!("{head}{escape}> I130\n< 11\n> I41=0\n<\n"));
+        assert!(r.explained(), "{name}: {}", pmacwd_capture::explain::report::to_text(&r));
+    }
+    let r = replay_log("no-escape", &format!("{head}> I130\n< 11\n> I41=0\n<\n"));
+    assert!(!r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+}
+
+#[test]
 fn a_trip_expected_within_a_window_is_found_by_replay_as_by_run() {
     // Issue 36: `replay` ignored `window_cycles`, so a capture `pmacwd run` passes (a starved
     // card seen tripped by a host whose clock is not exact to the servo cycle) was "no correct

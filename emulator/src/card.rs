@@ -1402,6 +1402,34 @@ mod tests {
     }
 
     #[test]
+    fn under_the_modulo_reading_an_out_of_range_assignment_rolls_over_and_under_error_answers_err003() {
+        // UM p.243 ("Limited Range"): no error, the value rolled over by modulo arithmetic;
+        // the MODEL reading `error` (every profile's until one chooses modulo): ERR003 and the
+        // value kept. The emulator takes the reading from its configuration, through the core.
+        let spec = pmacwd_specs::Spec::embedded().unwrap();
+        for reading in pmacwd_specs::profiles::OutOfRangeAssignment::ALL {
+            let mut cfg =
+                pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile())
+                    .unwrap();
+            cfg.out_of_range = reading;
+            let mut c =
+                Card::power_on(pmacwd_bridge::core_config(&cfg), &SAVED_DEFAULT, Clock::Virtual, Identity::default());
+            let modulo = reading == pmacwd_specs::profiles::OutOfRangeAssignment::Modulo;
+            for (write, read, rolled) in [("I41=17", "I41", "1"), ("I40=65538", "I40", "2"), ("I8=257", "I8", "1")] {
+                let before = values(&c.line(read.as_bytes()).unwrap());
+                let reply = c.line(write.as_bytes()).unwrap();
+                let after = values(&c.line(read.as_bytes()).unwrap());
+                if modulo {
+                    assert_eq!((reply.as_slice(), after), (&b"\x06"[..], vec![rolled.to_string()]), "{write}");
+                } else {
+                    assert!(reply.starts_with(b"\x07ERR003"), "{write}: {reply:?}");
+                    assert_eq!(after, before, "{write} changes nothing");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn m_variables_read_the_watchdog_registers_as_rh_reads_them_and_writes_there_are_not_applied() {
         // UM p.246: an M-variable reads the register it points at. The firmware owns the
         // watchdog's registers: a write is not applied (MODEL), and the console says so once.

@@ -183,6 +183,9 @@ pub struct Profile {
     /// UM p.215's encoder-loss PLC clears a latched loss (the intended reading); otherwise
     /// its clear branch is read literally and never clears one.
     pub encoder_loss_clear_intended: bool,
+    /// UM p.243: an assignment outside I8's, I40's or I41's range rolls over into it by modulo
+    /// arithmetic without an error; otherwise it answers ERR003 and changes nothing (MODEL).
+    pub out_of_range_modulo: bool,
 }
 
 impl Profile {
@@ -194,6 +197,7 @@ impl Profile {
         bit12_firmware_error: false,
         rti_warning_sticky: false,
         encoder_loss_clear_intended: true,
+        out_of_range_modulo: false,
     };
     /// The profile `srm-57`.
     pub const SRM_57: Profile = Profile {
@@ -203,6 +207,7 @@ impl Profile {
         bit12_firmware_error: false,
         rti_warning_sticky: false,
         encoder_loss_clear_intended: true,
+        out_of_range_modulo: false,
     };
 }
 
@@ -322,9 +327,11 @@ pub enum Command {
     /// `I{n}=*`: the factory default (through I41, SRM p.57).
     DefaultI(u16),
     /// A command whose answer is the card's own; the I-variables of `forgets` (first, count,
-    /// step) take values this core cannot compute.
+    /// step) take values this core cannot compute; with `past_lockout` (a memory write or an
+    /// M-variable assignment, SRM p.57) those I41 locks too.
     CardOwn {
         forgets: Option<(u16, u16, u16)>,
+        past_lockout: bool,
     },
     Unrecognized,
 }
@@ -994,7 +1001,7 @@ impl Core {
                 Reply::Status { x, y }
             }
             Command::ReadI(n) => self.read_i(n, store).map_or(Reply::CardOwn, Reply::Value),
-            Command::WriteI(n, v) => self.write_i(n, v, store),
+            Command::WriteI(n, v) => self.write_i(cfg, n, v, store),
             Command::ReadHex(r) => Reply::Hex(self.register(cfg, r)),
             Command::Reset => {
                 self.restart(
@@ -1049,13 +1056,13 @@ impl Core {
                 Reply::Ack
             }
             // SRM p.57: I41 does not stop an M-variable assignment or a memory write.
-            Command::WriteIMemory(n, v) => self.store_i(n, v, store),
+            Command::WriteIMemory(n, v) => self.store_i(cfg, n, v, store),
             // As the reference model: the defaults of I8, I40, I41 are the core's; any other
             // I-variable becomes unknown, unless I41 locks it (SRM p.57).
             Command::DefaultI(n) => match n {
-                8 => self.write_i(8, i64::from(I8_DEFAULT), store),
-                40 => self.write_i(40, i64::from(I40_DEFAULT), store),
-                41 => self.write_i(41, i64::from(I41_DEFAULT), store),
+                8 => self.write_i(cfg, 8, i64::from(I8_DEFAULT), store),
+                40 => self.write_i(cfg, 40, i64::from(I40_DEFAULT), store),
+                41 => self.write_i(cfg, 41, i64::from(I41_DEFAULT), store),
                 n => {
                     if !self.write_locked(n) {
                         store.forget(n);
@@ -1063,11 +1070,13 @@ impl Core {
                     Reply::Ack
                 }
             },
-            Command::CardOwn { forgets } => {
+            // SRM p.57: I41 does not prevent a memory write or an M-variable assignment
+            // (`past_lockout`); an I-variable write to a locked variable is ignored.
+            Command::CardOwn { forgets, past_lockout } => {
                 if let Some((first, count, step)) = forgets {
                     for k in 0..count {
                         let n = first.saturating_add(k.saturating_mul(step));
-                        if !self.write_locked(n) {
+                        if past_lockout || !self.write_locked(n) {
                             store.forget(n);
                         }
                     }
@@ -1093,21 +1102,29 @@ impl Core {
     }
 
     /// An I-variable write. Locked writes are ignored without an error (SRM p.57). Values
-    /// outside I8's, I40's or I41's range answer ERR003 (MODEL, as the reference model); so does
-    /// a write the store has no room for (a limit of the store, not of the card).
-    fn write_i<S: IVariableStore + ?Sized>(&mut self, n: u16, v: i64, store: &mut S) -> Reply {
+    /// outside I8's, I40's or I41's range answer ERR003 (MODEL, as the reference model), or
+    /// roll over into it under [`Profile::out_of_range_modulo`] (UM p.243); a write the store
+    /// has no room for answers ERR003 (a limit of the store, not of the card).
+    fn write_i<S: IVariableStore + ?Sized>(&mut self, cfg: &Config, n: u16, v: i64, store: &mut S) -> Reply {
         if self.write_locked(n) {
             return Reply::Ack;
         }
-        self.store_i(n, v, store)
+        self.store_i(cfg, n, v, store)
     }
 
     /// I`n` = `v` whatever I41 holds (past the lockout, or by a memory write, SRM p.57).
-    fn store_i<S: IVariableStore + ?Sized>(&mut self, n: u16, v: i64, store: &mut S) -> Reply {
+    fn store_i<S: IVariableStore + ?Sized>(&mut self, cfg: &Config, n: u16, v: i64, store: &mut S) -> Reply {
+        // UM p.243: "rolled over to within the range by modulo arithmetic (truncation)"; each
+        // range starts at 0 and holds a power of two values, so the roll-over keeps the low
+        // bits (I3=5 gives 1 of 0..3).
+        let modulo = cfg.profile.out_of_range_modulo;
         match n {
             8 if (0..=I8_MAX).contains(&v) => self.i8 = v as u8,
             40 if (0..=I40_MAX).contains(&v) => self.i40 = v as u16,
             41 if (0..=I41_MAX).contains(&v) => self.i41 = v as u8,
+            8 if modulo => self.i8 = v.rem_euclid(I8_MAX + 1) as u8,
+            40 if modulo => self.i40 = v.rem_euclid(I40_MAX + 1) as u16,
+            41 if modulo => self.i41 = v.rem_euclid(I41_MAX + 1) as u8,
             8 | 40 | 41 => return Reply::Error(3),
             _ if store.write(n, v) => {}
             _ => return Reply::Error(3),

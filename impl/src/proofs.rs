@@ -218,6 +218,7 @@ mod kani_proofs {
                 bit12_firmware_error: kani::any(),
                 rti_warning_sticky: kani::any(),
                 encoder_loss_clear_intended: kani::any(),
+                out_of_range_modulo: kani::any(),
             },
             hardware_delay_cycles: wide(kani::any()).into(),
             cycle_units: wide(kani::any()),

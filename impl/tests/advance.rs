@@ -17,15 +17,16 @@ fn config() -> impl Strategy<Value = Config> {
         (1u32..=60, 1u16..=120, 0u16..=30, 0u16..=20, 0u8..=6, 0u16..=400),
         (0u8..=12, 0u16..=600, 0u16..=400),
         // Motors in up to three coordinate systems, decelerations shorter and longer than the
-        // servo runs below, and the encoder-loss PLC's two readings.
-        (1u8..=8, prop::array::uniform8(1u8..=3), 0u8..=60, any::<bool>()),
+        // servo runs below, the encoder-loss PLC's two readings, and the two readings of an
+        // out-of-range assignment (UM p.243's modulo, or ERR003).
+        (1u8..=8, prop::array::uniform8(1u8..=3), 0u8..=60, any::<bool>(), any::<bool>()),
     )
         .prop_map(
             |(
                 (r4096, below, rti, m83, sticky),
                 (delay, cycle, per_motor, planning, i8, i40),
                 (motors, plc0, bg),
-                (count, cs, decel, intended),
+                (count, cs, decel, intended, modulo),
             )| {
                 Config {
                     profile: Profile {
@@ -35,6 +36,7 @@ fn config() -> impl Strategy<Value = Config> {
                         bit12_firmware_error: m83,
                         rti_warning_sticky: sticky,
                         encoder_loss_clear_intended: intended,
+                        out_of_range_modulo: modulo,
                     },
                     hardware_delay_cycles: delay,
                     cycle_units: cycle,

@@ -36,7 +36,7 @@ fn a_full_small_store_refuses_the_next_write_with_err003_and_forgetting_frees_a_
     assert_eq!(cmd(&mut core, &mut store, Command::WriteI(131, 6)), Reply::Ack);
     assert_eq!(cmd(&mut core, &mut store, Command::WriteI(132, 7)), Reply::Error(3));
     assert_eq!(cmd(&mut core, &mut store, Command::ReadI(132)), Reply::CardOwn);
-    let forget = Command::CardOwn { forgets: Some((130, 1, 1)) };
+    let forget = Command::CardOwn { forgets: Some((130, 1, 1)), past_lockout: false };
     assert_eq!(cmd(&mut core, &mut store, forget), Reply::CardOwn);
     assert_eq!(
         cmd(&mut core, &mut store, Command::ReadI(130)),
@@ -187,4 +187,30 @@ fn close_takes_the_program_checksum_into_x_1090() {
     assert_eq!(core.apply(&cfg, Event::Command(Command::Close), &mut store), Reply::Ack);
     assert_eq!(reference(&mut core, &mut store), Reply::Hex(1), "CLOSE takes the corrupted checksum");
     assert!(!checksum_error_after_passes(&mut core), "after CLOSE the passes find no mismatch");
+}
+
+/// UM p.243 ("Limited Range"): under `out_of_range_modulo` an assignment outside I8's, I40's
+/// or I41's range answers no error and rolls over into the range (I3=5 gives 1 of 0..3);
+/// without it (the MODEL reading `error`) the same writes answer ERR003 and change nothing.
+/// A memory write past I41 (SRM p.57) rolls over alike.
+#[test]
+fn an_out_of_range_assignment_rolls_over_under_the_modulo_reading_and_answers_err003_otherwise() {
+    for modulo in [false, true] {
+        let mut cfg = config();
+        cfg.profile.out_of_range_modulo = modulo;
+        let mut core = Core::power_on(&cfg);
+        let mut store = FewIVariables::<2>::default();
+        for (n, v, rolled) in [(41u16, 16i64, 0i64), (41, -1, 15), (40, 65_537, 1), (8, 256, 0), (8, -2, 254)] {
+            let before = core.read_i(n, &store);
+            let reply = core.apply(&cfg, Event::Command(Command::WriteI(n, v)), &mut store);
+            if modulo {
+                assert_eq!((reply, core.read_i(n, &store)), (Reply::Ack, Some(rolled)), "I{n}={v}");
+            } else {
+                assert_eq!((reply, core.read_i(n, &store)), (Reply::Error(3), before), "I{n}={v}");
+            }
+        }
+        let reply = core.apply(&cfg, Event::Command(Command::WriteIMemory(41, 18)), &mut store);
+        let expected = if modulo { (Reply::Ack, Some(2)) } else { (Reply::Error(3), core.read_i(41, &store)) };
+        assert_eq!((reply, core.read_i(41, &store)), expected, "a memory write of 18 to I41");
+    }
 }

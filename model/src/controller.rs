@@ -636,10 +636,28 @@ impl Controller {
             },
             // The card's own commands: whatever they answer, the model has no rule for it. A
             // write the model cannot compute leaves the variables it wrote the card's own
-            // (unless I41 locked them: SRM p.57, the write is then ignored).
-            HostCommand::Card { forgets, .. } => {
+            // (unless I41 locked them: SRM p.57, the write is then ignored; but not a direct
+            // memory write or an M-variable assignment, which I41 "does not prevent").
+            HostCommand::Card { forgets, past_lockout: false, .. } => {
                 for n in forgets.iter().flat_map(|r| r.numbers()) {
                     if !self.write_locked(cfg, n) {
+                        self.other_i_variables.remove(&n);
+                    }
+                }
+                Reply::CardOwn
+            }
+            // Past the lockout, the range is usually every I-variable (a memory write): only
+            // the variables known are looked at, not the 8,192 numbers.
+            HostCommand::Card { forgets, past_lockout: true, .. } => {
+                if let Some(r) = forgets {
+                    let within = |n: u16| match (n.checked_sub(r.first), r.step) {
+                        (Some(0), _) => r.count > 0,
+                        (Some(d), step) if step > 0 => d % step == 0 && d / step < r.count,
+                        _ => false,
+                    };
+                    let known: Vec<u16> =
+                        self.other_i_variables.iter().map(|(n, _)| *n).filter(|n| within(*n)).collect();
+                    for n in known {
                         self.other_i_variables.remove(&n);
                     }
                 }
@@ -681,14 +699,24 @@ impl Controller {
     /// does once past the lockout, and what an M-variable assignment or a memory write does
     /// (SRM p.57).
     fn store_i_variable(&mut self, cfg: &ModelConfig, n: u16, v: i64) -> Reply {
-        let in_range = |r: (i64, i64)| r.0 <= v && v <= r.1;
+        // A value outside the variable's range (SRM p.42, p.57) under the reading
+        // `out_of_range_assignment`: refused with ERR003 and the variable unchanged (`error`,
+        // MODEL), or rolled over into the range by modulo arithmetic without an error
+        // (`modulo`, UM p.243: I3=5 gives 1).
+        let stored = |r: (i64, i64)| cfg.out_of_range.stored(v, r);
         match n {
-            // MODEL: a value outside the variable's documented range is refused with ERR003
-            // rather than truncated; the manuals do not say which the firmware does.
-            8 if in_range(cfg.i8_range) => self.i8 = v as u8,
-            40 if in_range(cfg.i40_range) => self.i40 = v as u16,
-            41 if in_range(cfg.i41_range) => self.i41 = v as u8,
-            8 | 40 | 41 => return Reply::Error(3),
+            8 => match stored(cfg.i8_range) {
+                Some(v) => self.i8 = v as u8,
+                None => return Reply::Error(3),
+            },
+            40 => match stored(cfg.i40_range) {
+                Some(v) => self.i40 = v as u16,
+                None => return Reply::Error(3),
+            },
+            41 => match stored(cfg.i41_range) {
+                Some(v) => self.i41 = v as u8,
+                None => return Reply::Error(3),
+            },
             _ => self.other_i_variables.insert(n, v),
         }
         Reply::Ack

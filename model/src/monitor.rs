@@ -44,6 +44,18 @@ fn locked(cfg: &ModelConfig, c: &Controller, n: u16) -> bool {
     cfg.lockout_bit(n).is_some_and(|bit| c.i41 & (1 << bit) != 0)
 }
 
+/// The value an acknowledged assignment of `v` to I`n` leaves: `v`, or for I8, I40 and I41
+/// (the ranges the model knows) what the reading `out_of_range_assignment` makes of it (None:
+/// refused, UM p.243's modulo otherwise).
+fn assigned(cfg: &ModelConfig, n: u16, v: i64) -> Option<i64> {
+    match n {
+        8 => cfg.out_of_range.stored(v, cfg.i8_range),
+        40 => cfg.out_of_range.stored(v, cfg.i40_range),
+        41 => cfg.out_of_range.stored(v, cfg.i41_range),
+        _ => Some(v),
+    }
+}
+
 fn running(c: &Controller) -> bool {
     !c.tripped() && !c.bootstrap
 }
@@ -213,7 +225,7 @@ pub const MONITORS: &[Monitor] = &[
         cite: "SRM p.57",
         sentence: "The following table shows the I-variable set that each bit of I41 controls (I41 is in none of them).",
         check: Check::Event(|cfg, prev, ev, _, next| match ev {
-            Event::Command(HostCommand::WriteI(41, v)) if running(prev) && cfg.i41_range.0 <= *v && *v <= cfg.i41_range.1 => next.i_variable(41) == Some(*v),
+            Event::Command(HostCommand::WriteI(41, v)) if running(prev) && assigned(cfg, 41, *v).is_some() => next.i_variable(41) == assigned(cfg, 41, *v),
             _ => true,
         }),
     },
@@ -222,7 +234,7 @@ pub const MONITORS: &[Monitor] = &[
         cite: "SRM p.57",
         sentence: "each bit independently controls access to a set of I-variables.",
         check: Check::Event(|cfg, prev, ev, reply, next| match ev {
-            Event::Command(HostCommand::WriteI(n, v)) if running(prev) && !locked(cfg, prev, *n) && reply == Reply::Ack => next.i_variable(*n) == Some(*v),
+            Event::Command(HostCommand::WriteI(n, v)) if running(prev) && !locked(cfg, prev, *n) && reply == Reply::Ack => next.i_variable(*n) == assigned(cfg, *n, *v),
             _ => true,
         }),
     },
@@ -232,14 +244,14 @@ pub const MONITORS: &[Monitor] = &[
         sentence: "I41 Bit # 0 (1): I100-I4899 Motor Setup; 1 (2): I5100-I6699 Coordinate System Setup; 2 (4): I6800-I7999 MACRO/Servo IC Setup; 3 (8): I8000-I8191 Conversion Table Setup.",
         // The table as the page prints it, not `variables.yaml`'s copy that the rule reads:
         // a bit swapped in the data (or in the rule) breaks this and nothing else.
-        check: Check::Event(|_, prev, ev, reply, next| match ev {
+        check: Check::Event(|cfg, prev, ev, reply, next| match ev {
             Event::Command(HostCommand::WriteI(n, v)) if running(prev) && reply == Reply::Ack && *n != 41 => {
                 const PRINTED: [(u8, u16, u16); 4] = [(1, 100, 4899), (2, 5100, 6699), (4, 6800, 7999), (8, 8000, 8191)];
                 let locked = PRINTED.iter().any(|(value, first, last)| prev.i41 & value != 0 && (*first..=*last).contains(n));
                 if locked {
                     next.i_variable(*n) == prev.i_variable(*n)
                 } else {
-                    next.i_variable(*n) == Some(*v)
+                    next.i_variable(*n) == assigned(cfg, *n, *v)
                 }
             }
             _ => true,
@@ -249,8 +261,8 @@ pub const MONITORS: &[Monitor] = &[
         name: "an M-variable assignment or a memory write changes an I-variable whatever I41 holds",
         cite: "SRM p.57",
         sentence: "I41 does not prevent changes to an I-variable by means of an M-variable assignment or a direct memory write command.",
-        check: Check::Event(|_, prev, ev, reply, next| match ev {
-            Event::Command(HostCommand::WriteIMemory(n, v)) if running(prev) && reply == Reply::Ack => next.i_variable(*n) == Some(*v),
+        check: Check::Event(|cfg, prev, ev, reply, next| match ev {
+            Event::Command(HostCommand::WriteIMemory(n, v)) if running(prev) && reply == Reply::Ack => next.i_variable(*n) == assigned(cfg, *n, *v),
             _ => true,
         }),
     },
@@ -799,6 +811,31 @@ mod tests {
         let (next, reply) = step(&cfg, &prev, &ev);
         assert_eq!((reply, next.i41), (Reply::Error(3), 15));
         assert!(check(&cfg, &prev, &ev, reply, &next), "an out-of-range I41 refused holds");
+    }
+
+    #[test]
+    fn under_um_243_s_modulo_an_out_of_range_write_that_rolls_over_holds_and_one_stored_as_sent_fires() {
+        // UM p.243: I41=16 is no error and assigns 16 modulo 16 = 0 (the reading
+        // out_of_range_assignment: modulo). The monitors of an acknowledged write judge the
+        // value rolled over, not the one sent; under `error` the same write is refused.
+        let mut cfg = config("lockout");
+        cfg.out_of_range = pmacwd_specs::profiles::OutOfRangeAssignment::Modulo;
+        let prev = lockout_card(&cfg, 15);
+        let ev = command("I41=16");
+        let (next, reply) = step(&cfg, &prev, &ev);
+        assert_eq!((reply, next.i41), (Reply::Ack, 0));
+        for name in ["I41 itself is never locked out", "an I-variable write outside every locked range takes effect"] {
+            let check = event_check(name);
+            assert!(check(&cfg, &prev, &ev, reply, &next), "{name}: the rolled-over write holds");
+            let mut kept = next.clone();
+            kept.i41 = 15;
+            assert!(!check(&cfg, &prev, &ev, reply, &kept), "{name}: a write that changed nothing fires");
+        }
+        let memory = command("<MEMORY-WRITE I40=65537>");
+        let (next, reply) = step(&cfg, &prev, &memory);
+        assert_eq!((reply, next.i40), (Reply::Ack, 1));
+        let check = event_check("an M-variable assignment or a memory write changes an I-variable whatever I41 holds");
+        assert!(check(&cfg, &prev, &memory, reply, &next), "a memory write rolled over holds");
     }
 
     #[test]

@@ -451,6 +451,36 @@ fn an_i8_or_i40_beyond_its_documented_range_is_refused_with_err003_and_keeps_its
     }
 }
 
+/// UM p.243 ("Limited Range"): an out-of-range assignment causes no error and is rolled over
+/// into the range by modulo arithmetic (I3=5 gives 1 of I3's 0 to 3). Under the reading
+/// `out_of_range_assignment: modulo` the model does so for the ranges it knows (I8, I40, I41);
+/// under `error` (every profile's, until one chooses it) the test above holds instead.
+#[test]
+fn under_the_modulo_reading_an_out_of_range_assignment_rolls_over_without_an_error() {
+    use pmacwd_specs::profiles::OutOfRangeAssignment;
+    let mut cfg = config("lockout", "um-215");
+    assert_eq!(cfg.out_of_range, OutOfRangeAssignment::Error, "no profile chooses modulo yet");
+    cfg.out_of_range = OutOfRangeAssignment::Modulo;
+    let mut card = Controller::power_on(&cfg);
+    for (write, name, stored) in [
+        ("I41=16", "I41", 0),
+        ("I41=17", "I41", 1),
+        ("I41=-1", "I41", 15),
+        ("I40=65536", "I40", 0),
+        ("I40=65537", "I40", 1),
+        ("I8=256", "I8", 0),
+        ("I8=-1", "I8", 255),
+        ("I8=258", "I8", 2),
+    ] {
+        assert_eq!(cmd(&mut card, &cfg, write), Reply::Ack, "{write}: no error (UM p.243)");
+        assert_eq!(cmd(&mut card, &cfg, name), Reply::Value(stored), "{write} rolls over to {stored}");
+    }
+    // In range, and past the lockout (SRM p.57: a memory write), as under `error`.
+    assert_eq!(cmd(&mut card, &cfg, "I41=3"), Reply::Ack);
+    assert_eq!(cmd(&mut card, &cfg, "<MEMORY-WRITE I41=20>"), Reply::Ack);
+    assert_eq!(cmd(&mut card, &cfg, "I41"), Reply::Value(4));
+}
+
 /// UM p.215: "If the supply voltage is below this value, the circuit's relay will trip and the
 /// card will shut down." Below, not at: a supply exactly at the threshold keeps the card running,
 /// one millivolt less trips it. Found by cargo-mutants: `<` -> `<=` in the supply check survived,

@@ -5,7 +5,7 @@
 //! ranges (`variables.yaml`), the supply minimum and strobe rule (`watchdog.yaml`).
 
 use crate::check::{ChecksumTarget, Configuration, Cpu, Delay, Load, PassCycles, Processor, ResetEvent};
-use crate::profiles::{Profile, ResetValueWhenI40Zero};
+use crate::profiles::{OutOfRangeAssignment, Profile, ResetValueWhenI40Zero};
 use crate::status::WordId;
 use crate::vocab::command::HostCommand;
 use crate::{Spec, SpecError};
@@ -161,6 +161,12 @@ pub struct ModelConfig {
     pub i8_range: (i64, i64),
     pub i40_range: (i64, i64),
     pub i41_range: (i64, i64),
+    /// What an assignment outside those ranges does (`profiles.yaml`, reading
+    /// `out_of_range_assignment`: ERR003, or UM p.243's modulo). MODEL: no profile chooses
+    /// it yet, so [`ModelConfig::from_spec`] takes `error` for every profile; replay's lanes
+    /// do not carry the reading (docs/probe.md, "Limits"), and a test or a caller that wants
+    /// UM p.243's card sets it here.
+    pub out_of_range: OutOfRangeAssignment,
     /// The servo clocks a card may run at, in Hz (`scheduling.yaml`'s `servo_clock_hz_range`).
     pub servo_hz_range: (u32, u32),
 }
@@ -282,6 +288,7 @@ impl ModelConfig {
             i8_range,
             i40_range,
             i41_range,
+            out_of_range: OutOfRangeAssignment::Error,
             servo_hz_range: (spec.scheduling.servo_clock_hz_range.min, spec.scheduling.servo_clock_hz_range.max),
         })
     }

@@ -126,6 +126,38 @@ impl RtiWarningLatch {
     pub const ALL: [Self; 2] = [Self::Level, Self::Sticky];
 }
 
+/// What an assignment of a value outside an I-variable's range does (I8, I40, I41: the ranges
+/// the model knows, `variables.yaml`).
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum OutOfRangeAssignment {
+    /// Refused with ERR003, the variable unchanged (MODEL: the ranges of SRM p.42, p.57 read as
+    /// limits; UM p.237's ERR003 "data error").
+    Error,
+    /// No error: the value is rolled over into the range by modulo arithmetic, `I3=5` giving 1
+    /// (UM p.243, "Limited Range").
+    Modulo,
+}
+
+impl OutOfRangeAssignment {
+    pub const ALL: [Self; 2] = [Self::Error, Self::Modulo];
+
+    /// The value an assignment of `v` to a variable of range `lo..=hi` stores, or None when
+    /// the card refuses it (ERR003).
+    pub fn stored(self, v: i64, (lo, hi): (i64, i64)) -> Option<i64> {
+        if (lo..=hi).contains(&v) {
+            return Some(v);
+        }
+        match self {
+            Self::Error => None,
+            // UM p.243: "rolled over to within the range by modulo arithmetic (truncation)",
+            // (5 modulo 4) = 1 for I3's 0 to 3; a negative value rolls over the same way (the
+            // low bits, as truncation of a two's-complement word keeps them).
+            Self::Modulo => Some(lo + (v - lo).rem_euclid(hi - lo + 1)),
+        }
+    }
+}
+
 /// Documentation of one option of a reading.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -153,6 +185,10 @@ pub struct Readings {
     pub encoder_loss_clear: Reading<EncoderLossClear>,
     pub strobe_hz_min: Reading<StrobeHzMin>,
     pub rti_warning_latch: Reading<RtiWarningLatch>,
+    /// Documented with both options, chosen by no profile yet: every configuration takes
+    /// `error` ([`crate::config::ModelConfig::out_of_range`]) until replay's lanes carry it
+    /// (docs/probe.md, "Limits").
+    pub out_of_range_assignment: Reading<OutOfRangeAssignment>,
 }
 
 /// The option a profile chose for every reading. Every field is required.
@@ -221,6 +257,7 @@ impl Profiles {
         all_documented(map, "encoder_loss_clear", &r.encoder_loss_clear, &EncoderLossClear::ALL)?;
         all_documented(map, "strobe_hz_min", &r.strobe_hz_min, &StrobeHzMin::ALL)?;
         all_documented(map, "rti_warning_latch", &r.rti_warning_latch, &RtiWarningLatch::ALL)?;
+        all_documented(map, "out_of_range_assignment", &r.out_of_range_assignment, &OutOfRangeAssignment::ALL)?;
         if self.profiles.is_empty() {
             return Err(map.error("profiles", "at least one profile is needed"));
         }

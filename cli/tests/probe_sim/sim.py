@@ -7,12 +7,14 @@ docs/emulator.md gives it (an 8-byte header, VR_DOWNLOAD 0x40 with VR_PMAC_GETRE
 and the line; the answer framed as I3 = 2 (SRM p.37-38) and I6 = 1 (PMAC2 SRM p.25) say), and
 the watchdog registers of specs/variables.yaml.
 
-    python3 sim.py [--port N] [--faults x25,i41,ranges]
+    python3 sim.py [--port N] [--faults x25,i41,ranges] [--ranges error|modulo]
 
 Prints `listening on 127.0.0.1:PORT` once ready. As written first it has the faults a first
 version usually has, each marked `FAULT` below: X:$25 follows Y:$25 instead of holding its
 minimum (x25), I41 locks nothing (i41), and an I-variable takes any value written (ranges).
 `--faults` keeps only those named (`--faults ""`: none, the mended simulator; docs/probe.md).
+`--ranges modulo` (without the `ranges` fault) takes UM p.243's reading of an out-of-range
+assignment, rolled over into the range without an error, instead of ERR003.
 """
 
 import argparse
@@ -48,8 +50,9 @@ LOCKS = [(1, 100, 4899), (2, 5100, 6699), (4, 6800, 7999), (8, 8000, 8191)]
 
 
 class Card:
-    def __init__(self, faults):
+    def __init__(self, faults, ranges="error"):
         self.faults = faults
+        self.ranges = ranges
         self.lock = threading.Lock()
         self.ivars = dict(SAVED)
         self.reset()
@@ -122,10 +125,14 @@ class Card:
         # FAULT (ranges): any value is taken.
         lo, hi = RANGES.get(n, (-(2**47), 2**47 - 1))
         if "ranges" not in self.faults and not lo <= value <= hi:
-            # Refused, nothing changed: the model's reading of the ranges (SRM p.42, p.57), which
-            # the probe checks. UM p.243 ("Limited Range") says a card takes such a value
-            # modulo the range, without an error: see docs/probe.md, Limits.
-            return None
+            if self.ranges == "modulo":
+                # UM p.243 ("Limited Range"): no error, the value rolled over into the range by
+                # modulo arithmetic (I3=5 gives 1 of 0..3).
+                value = lo + (value - lo) % (hi - lo + 1)
+            else:
+                # Refused, nothing changed: the model's reading of the ranges (SRM p.42,
+                # p.57), the default of the reading out_of_range_assignment (docs/probe.md).
+                return None
         # FAULT (i41): I41 locks nothing.
         locked = any(self.ivars[41] & bit and first <= n <= last for bit, first, last in LOCKS)
         if "i41" not in self.faults and locked:
@@ -214,8 +221,9 @@ def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--port", type=int, default=1025)
     p.add_argument("--faults", default="x25,i41,ranges")
+    p.add_argument("--ranges", choices=["error", "modulo"], default="error")
     a = p.parse_args()
-    card = Card(set(f for f in a.faults.split(",") if f))
+    card = Card(set(f for f in a.faults.split(",") if f), a.ranges)
     listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     listener.bind(("127.0.0.1", a.port))

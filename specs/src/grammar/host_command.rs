@@ -42,7 +42,19 @@ impl HostCommand {
     /// manuals fixes the answer, [`HostCommand::Card`] where the answer is the card's own.
     /// `Err` for a write the model cannot follow (see [`HostCommand::parse`]).
     pub fn from_grammar(c: &Command) -> Result<HostCommand, String> {
-        let card = |forgets: Option<VarRange>| HostCommand::Card { text: c.to_string(), forgets };
+        let card = |forgets: Option<VarRange>| HostCommand::Card { text: c.to_string(), forgets, past_lockout: false };
+        // SRM p.57: "I41 does not prevent changes to an I-variable by means of an M-variable
+        // assignment or a direct memory write command." Where such a write lands the model
+        // cannot tell (no page read gives the address of I-variable storage, docs/probe.md), so
+        // any I-variable may have changed: every one becomes the card's own, locked or not.
+        // MODEL: I8, I40 and I41 stay the model's (it must follow them, and a write it can place
+        // is `<MEMORY-WRITE In=v>`); the emulator's own storage address (variables.yaml,
+        // i_variable_storage) is a MODEL of the emulator, not assumed of a card.
+        let past_lockout = || HostCommand::Card {
+            text: c.to_string(),
+            forgets: Some(VarRange::run(0, VARIABLE_MAX)),
+            past_lockout: true,
+        };
         Ok(match c {
             Command::GlobalStatus => HostCommand::GlobalStatus,
             Command::Read { kind: VarKind::I, vars: Vars::Numbers(r), .. } if r.count == 1 => {
@@ -87,6 +99,7 @@ impl HostCommand {
                     (_, _) => card(Some(range)),
                 }
             }
+            Command::Write { kind: VarKind::M, .. } | Command::MemoryWrite { .. } => past_lockout(),
             Command::ReadHex { space, address } => match Register::at(*space, *address) {
                 Some(r) => HostCommand::ReadHex(r),
                 None => card(None),
@@ -143,7 +156,6 @@ impl HostCommand {
             | Command::FeedRead(_)
             | Command::MDefine { .. }
             | Command::MReport { .. }
-            | Command::MemoryWrite { .. }
             | Command::MacroStation { .. }
             | Command::HomeZero(_)
             | Command::AxisDefine { .. }

@@ -248,10 +248,14 @@ pub enum HostCommand {
     /// `&1#1->`, `RHX:$78F00`, ...): its answer is the card's own, never compared with a value
     /// of the model's. `forgets` names the I-variables it writes with a value the model cannot
     /// compute (`I130=I130*1.25`, `I130,4,100=*`): from then on their values are the card's own
-    /// too. `text` is the command as the grammar prints it.
+    /// too. `text` is the command as the grammar prints it. `past_lockout`: the write is a
+    /// direct memory write or an M-variable assignment, which I41 does not prevent (SRM p.57),
+    /// so it forgets a variable I41 locks too; a write by `I{n}=` to a locked variable is
+    /// ignored and forgets nothing.
     Card {
         text: String,
         forgets: Option<VarRange>,
+        past_lockout: bool,
     },
     /// Text the grammar cannot read: the card answers ERR003 (facts page s.3).
     Unrecognized(String),
@@ -408,7 +412,7 @@ mod tests {
             "P1=5",
             "&1#1->",
             "&1#1->,",
-            "M162=1000/0.0009765625",
+            "M162->D:$2082",
             "I130,4,100",
             "SAVE",
             "LIST PROG 1",
@@ -418,12 +422,26 @@ mod tests {
         // A write the model cannot compute makes the variable the card's own.
         assert_eq!(
             HostCommand::parse("I130=1.25*I130").unwrap(),
-            HostCommand::Card { text: "I130=1.25*I130".into(), forgets: Some(VarRange::one(130)) }
+            HostCommand::Card { text: "I130=1.25*I130".into(), forgets: Some(VarRange::one(130)), past_lockout: false }
         );
         assert_eq!(
             HostCommand::parse("I222=0.5").unwrap(),
-            HostCommand::Card { text: "I222=0.5".into(), forgets: Some(VarRange::one(222)) }
+            HostCommand::Card { text: "I222=0.5".into(), forgets: Some(VarRange::one(222)), past_lockout: false }
         );
+        // SRM p.57: an M-variable assignment or a direct memory write may change any
+        // I-variable, I41 notwithstanding (where it lands is not known): every one is forgotten.
+        for text in ["M162=1000/0.0009765625", "WX:$2082,7", "WL:$3000,1.5"] {
+            let all = Some(VarRange::run(0, 8191));
+            assert_eq!(
+                HostCommand::parse(text).unwrap(),
+                HostCommand::Card {
+                    text: HostCommand::parse(text).unwrap().to_string(),
+                    forgets: all,
+                    past_lockout: true
+                },
+                "{text}"
+            );
+        }
         assert_eq!(HostCommand::parse("I130=*").unwrap(), HostCommand::DefaultI(130));
         assert_eq!(HostCommand::parse("I40=5*2").unwrap(), HostCommand::WriteI(40, 10), "a constant expression");
         assert_eq!(HostCommand::parse("I(10*4)=3").unwrap(), HostCommand::WriteI(40, 3), "a constant index");
