@@ -190,7 +190,14 @@ impl<'a> Sim<'a> {
             return;
         }
         self.push(TraceEvent::Run { cycles: n });
-        let period = 2 * (u32::from(self.card.i8) + 1);
+        // The card repeats at the latest after a whole number of RTI periods and of checksum
+        // rounds (a pass over each area) once the load lets one background cycle complete a
+        // servo cycle; a load that spaces them out repeats later, so a period that brings no
+        // repeat in four tries is doubled (up to `PERIOD_MAX`). Only an exact repeat is leapt.
+        const PERIOD_MAX: u32 = 1 << 16;
+        let round = (u32::from(self.cfg.pass_cycles.firmware) + u32::from(self.cfg.pass_cycles.user_program)).max(1);
+        let mut period = (u32::from(self.card.i8) + 1).saturating_mul(round).min(PERIOD_MAX);
+        let mut misses = 0u32;
         let mut left = n;
         let mut mark: Option<Controller> = None;
         let mut since_mark = 0u32;
@@ -216,7 +223,16 @@ impl<'a> Sim<'a> {
                     left %= period;
                     mark = None;
                 } else {
-                    mark = Some(now);
+                    if mark.is_some() {
+                        misses += 1;
+                    }
+                    if misses == 4 && period < PERIOD_MAX {
+                        misses = 0;
+                        period *= 2;
+                        mark = None;
+                    } else {
+                        mark = Some(now);
+                    }
                 }
             }
         }
@@ -339,5 +355,56 @@ mod tests {
             }
         }
         assert!(compared > 1000, "{compared}");
+    }
+
+    /// `n` servo cycles, each followed by a background cycle where the load allows, one by one.
+    fn plain_greedy(card: &mut Controller, cfg: &ModelConfig, n: u32) {
+        for _ in 0..n {
+            if card.tripped() || card.bootstrap {
+                break;
+            }
+            card.servo_cycle(cfg);
+            if card.background_possible() {
+                card.background_cycle(cfg);
+            }
+        }
+    }
+
+    #[test]
+    fn a_leapt_greedy_run_is_the_run_cycle_by_cycle() {
+        let spec = Spec::embedded().unwrap();
+        let mut compared = 0;
+        for profile in spec.profiles.all() {
+            for configuration in ["host-log", "i40-zero", "timing"] {
+                let mut cfg = ModelConfig::from_spec(&spec, configuration, &profile).unwrap();
+                for (firmware, user_program) in [(1u8, 1u8), (2, 2), (3, 1)] {
+                    cfg.pass_cycles = pmacwd_specs::check::PassCycles { firmware, user_program };
+                    for i8 in [0u8, 3, 7] {
+                        for load in [
+                            light_load(),
+                            Load { motors: 1, plc0_units: 3, background_units: 2 },
+                            Load { motors: 2, plc0_units: 0, background_units: 40 },
+                        ] {
+                            let mut start = Controller::power_on(&cfg);
+                            start.i8 = i8;
+                            start.apply(&cfg, &Event::Load(load));
+                            for n in [1u32, 7, 64, 1000, 100_000] {
+                                let mut sim = Sim::new(&cfg, start.clone(), false);
+                                sim.greedy(n);
+                                let mut b = start.clone();
+                                plain_greedy(&mut b, &cfg, n);
+                                assert_eq!(
+                                    sim.card, b,
+                                    "{} {configuration} passes {firmware}/{user_program} I8={i8} {load:?}, {n} cycles",
+                                    profile.name
+                                );
+                                compared += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(compared > 500, "{compared}");
     }
 }
