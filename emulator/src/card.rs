@@ -1453,7 +1453,7 @@ mod tests {
     #[test]
     fn unreadable_definitions_and_memory_writes_are_err003_and_run_nothing_after() {
         let mut c = card();
-        for bad in ["M1->X:$25", "M1->TWD:4,0,8.3,U", "M1->X:$80000,0", "WX:$2082", "WX:$7FFFF,1,2", "M1->Z:0"] {
+        for bad in ["M1->X:$25", "M1->TWD:4,0,8.3,U", "M1->X:$1000000,0", "WX:$2082", "WX:$FFFFFF,1,2", "M1->Z:0"] {
             let line = format!("{bad} P1=7");
             assert_eq!(c.line(line.as_bytes()).unwrap(), b"\x07ERR003\r", "{bad}");
             assert_eq!(values(&c.line(b"P1").unwrap()), ["0"], "{bad}: P1=7 after it did not run");
