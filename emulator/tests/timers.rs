@@ -109,7 +109,8 @@ fn exchange(c: &mut TcpStream, line: &str) -> Vec<String> {
     c.write_all(line.as_bytes()).unwrap();
     let mut reply = Vec::new();
     let mut buf = [0u8; 1400];
-    while !reply.ends_with(b"\x06") && !(reply.first() == Some(&0x07) && reply.ends_with(b"\r")) {
+    let complete = |r: &[u8]| r.ends_with(b"\x06") || (r.first() == Some(&0x07) && r.ends_with(b"\r"));
+    while !complete(&reply) {
         let n = c.read(&mut buf).expect("an answer");
         assert!(n > 0, "{line}: the connection closed");
         reply.extend_from_slice(&buf[..n]);
