@@ -22,8 +22,9 @@ pub struct RecordArgs {
     /// The capture to write (trace format, JSON Lines; replay it with `pmacwd replay`).
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
-    /// The check.yaml configuration the capture names (and whose servo rate times it).
-    #[arg(long, value_name = "NAME", default_value = "i40-zero")]
+    /// The check.yaml configuration the capture names (and whose servo rate times it); the
+    /// default is `pmacwd serve`'s.
+    #[arg(long, value_name = "NAME", default_value = pmacwd_emulator::card::DEFAULT_CONFIGURATION)]
     pub configuration: String,
     /// Spec directory to use instead of the embedded one.
     #[arg(long, value_name = "DIR")]

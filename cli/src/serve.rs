@@ -27,8 +27,10 @@ pub struct ServeArgs {
     /// Run without a control interface.
     #[arg(long)]
     pub no_control: bool,
-    /// The check.yaml configuration to emulate: CPU costs, hardware delay, saved I8/I40/I41.
-    #[arg(long, value_name = "NAME", default_value = "i40-zero")]
+    /// The check.yaml configuration to emulate: CPU costs, hardware delay, saved I8/I40/I41
+    /// (`emulated`: i40-zero's card with no background PLC, a background cycle every servo
+    /// cycle).
+    #[arg(long, value_name = "NAME", default_value = pmacwd_emulator::card::DEFAULT_CONFIGURATION)]
     pub configuration: String,
     /// The profile (reading of the manuals) to emulate (default: the spec's default profile).
     #[arg(long, value_name = "NAME")]

@@ -6,7 +6,9 @@
 //!
 //! `PMACWD_LOAD_SECONDS` (default 15) is how long the poller measures; `PMACWD_LOAD_P99_US`
 //! (default 1000, the 1 ms) the bound on its 99th percentile; `PMACWD_LOAD_HOSTILE`
-//! (default 100) how many connections send the long lines.
+//! (default 100) how many connections send the long lines; `PMACWD_LOAD_CONFIGURATION` (default:
+//! `serve`'s own) the `check.yaml` configuration the emulator runs (`emulated`: a background
+//! cycle every servo cycle, docs/emulator.md "The default card's background").
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{SocketAddr, TcpStream};
@@ -68,14 +70,13 @@ fn a_question_mark_poller_stays_prompt_while_100_connections_send_the_largest_li
     let seconds = env_or("PMACWD_LOAD_SECONDS", 15);
     let p99_bound_us = env_or("PMACWD_LOAD_P99_US", 1000);
     let hostile_count = env_or("PMACWD_LOAD_HOSTILE", HOSTILE_DEFAULT) as usize;
-    let mut server = Serving(
-        Command::new(env!("CARGO_BIN_EXE_pmacwd"))
-            .args(["serve", "--listen", "127.0.0.1:0", "--no-control", "--clients-max", "128"])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-    );
+    let configuration = std::env::var("PMACWD_LOAD_CONFIGURATION").ok();
+    let mut serve = Command::new(env!("CARGO_BIN_EXE_pmacwd"));
+    serve.args(["serve", "--listen", "127.0.0.1:0", "--no-control", "--clients-max", "128"]);
+    if let Some(name) = &configuration {
+        serve.args(["--configuration", name]);
+    }
+    let mut server = Serving(serve.stdout(Stdio::piped()).stderr(Stdio::null()).spawn().unwrap());
     let mut first = String::new();
     BufReader::new(server.0.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
     let addr: SocketAddr =
@@ -142,8 +143,9 @@ fn a_question_mark_poller_stays_prompt_while_100_connections_send_the_largest_li
     let us = |d: Duration| d.as_secs_f64() * 1e6;
     let p99 = at(0.99);
     println!(
-        "load: {} `???` polls in {seconds} s while {hostile_count} connections sent {hostile_lines} lines of the largest replies: p50 {:.0} us, p90 {:.0} us, p99 {:.0} us, max {:.0} us (bound on p99: {p99_bound_us} us)",
+        "load: {} `???` polls in {seconds} s while {hostile_count} connections sent {hostile_lines} lines of the largest replies ({}): p50 {:.0} us, p90 {:.0} us, p99 {:.0} us, max {:.0} us (bound on p99: {p99_bound_us} us)",
         latencies.len(),
+        configuration.as_deref().map_or("serve's default configuration".to_string(), |c| format!("configuration {c}")),
         us(at(0.5)),
         us(at(0.9)),
         us(p99),

@@ -23,8 +23,12 @@ fn ask(c: &mut TcpStream, line: &str) -> Vec<u8> {
 #[test]
 fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent() {
     let spec = pmacwd_specs::Spec::embedded().unwrap();
-    let model =
-        pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
+    let model = pmacwd_specs::config::ModelConfig::from_spec(
+        &spec,
+        pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+        &spec.profiles.default_profile(),
+    )
+    .unwrap();
     let card = Card::default_card(Clock::Wall { start: Instant::now(), servo_hz: model.servo_hz });
     let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
 
@@ -34,7 +38,7 @@ fn a_session_through_the_proxy_is_forwarded_unchanged_and_replays_as_consistent(
     let path = std::env::temp_dir().join(format!("pmacwd-record-test-{}.jsonl", std::process::id()));
     let timing = Recorder::timing(model.servo_hz, false);
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
-    let capture = CaptureWriter::new(out, "proxy test", "i40-zero", timing).unwrap();
+    let capture = CaptureWriter::new(out, "proxy test", pmacwd_emulator::card::DEFAULT_CONFIGURATION, timing).unwrap();
     let options = RecordOptions {
         listen: "127.0.0.1:0".parse().unwrap(),
         target: server.local_addr.to_string(),
@@ -165,13 +169,23 @@ fn every_recorded_reply_is_the_one_the_client_received_however_fast_or_impatient
     // that got it, and the reset after the silences it followed. Otherwise `replay` judges a
     // healthy session as unexplained. Hundreds of back-to-back exchanges make a race show.
     let spec = pmacwd_specs::Spec::embedded().unwrap();
-    let model =
-        pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile()).unwrap();
+    let model = pmacwd_specs::config::ModelConfig::from_spec(
+        &spec,
+        pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+        &spec.profiles.default_profile(),
+    )
+    .unwrap();
     let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
     let server = Server::start(Card::default_card(Clock::Virtual), options).unwrap();
     let path = std::env::temp_dir().join(format!("pmacwd-record-order-{}.jsonl", std::process::id()));
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
-    let capture = CaptureWriter::new(out, "order test", "i40-zero", Recorder::timing(model.servo_hz, true)).unwrap();
+    let capture = CaptureWriter::new(
+        out,
+        "order test",
+        pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+        Recorder::timing(model.servo_hz, true),
+    )
+    .unwrap();
     let silence = Duration::from_millis(150);
     let options = RecordOptions {
         listen: "127.0.0.1:0".parse().unwrap(),
@@ -261,7 +275,13 @@ fn a_session_whose_thread_cannot_start_is_closed_and_the_proxy_keeps_accepting()
     // accept thread panicked and every later client waited in the listen backlog, unanswered.
     let server = Server::start(Card::default_card(Clock::Virtual), ServeOptions::free_loopback_port(8)).unwrap();
     let out: Box<dyn Write + Send> = Box::new(Vec::new());
-    let capture = CaptureWriter::new(out, "spawn test", "i40-zero", Recorder::timing(2250, false)).unwrap();
+    let capture = CaptureWriter::new(
+        out,
+        "spawn test",
+        pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+        Recorder::timing(2250, false),
+    )
+    .unwrap();
     let options = RecordOptions {
         listen: "127.0.0.1:0".parse().unwrap(),
         target: server.local_addr.to_string(),
@@ -310,7 +330,13 @@ fn proxy_to_an_emulator() -> (Server, Proxy, SharedBuffer) {
     let server = Server::start(Card::default_card(Clock::Virtual), options).unwrap();
     let buffer = SharedBuffer::default();
     let out: Box<dyn Write + Send> = Box::new(buffer.clone());
-    let capture = CaptureWriter::new(out, "bounds test", "i40-zero", Recorder::timing(2250, true)).unwrap();
+    let capture = CaptureWriter::new(
+        out,
+        "bounds test",
+        pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+        Recorder::timing(2250, true),
+    )
+    .unwrap();
     let options = RecordOptions {
         listen: "127.0.0.1:0".parse().unwrap(),
         target: server.local_addr.to_string(),
@@ -403,7 +429,13 @@ fn a_reply_longer_than_the_proxy_keeps_is_forwarded_whole_and_recorded_cut() {
     });
     let buffer = SharedBuffer::default();
     let out: Box<dyn Write + Send> = Box::new(buffer.clone());
-    let capture = CaptureWriter::new(out, "long reply", "i40-zero", Recorder::timing(2250, false)).unwrap();
+    let capture = CaptureWriter::new(
+        out,
+        "long reply",
+        pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+        Recorder::timing(2250, false),
+    )
+    .unwrap();
     let options = RecordOptions {
         listen: "127.0.0.1:0".parse().unwrap(),
         target,
@@ -443,7 +475,16 @@ fn the_emulator_s_own_capture_of_a_refused_i3_write_replays_as_consistent() {
     let path = std::env::temp_dir().join(format!("pmacwd-record-i3-{}.jsonl", std::process::id()));
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
     let mut card = Card::default_card(Clock::Virtual);
-    card.record(CaptureWriter::new(out, "I3=4", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap()).unwrap();
+    card.record(
+        CaptureWriter::new(
+            out,
+            "I3=4",
+            pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+            pmacwd_emulator::capture::Timing::Exact,
+        )
+        .unwrap(),
+    )
+    .unwrap();
     let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
     {
         let mut c = TcpStream::connect(server.local_addr).unwrap();
@@ -468,8 +509,16 @@ fn the_emulator_s_capture_of_the_grammar_s_new_commands_replays_as_consistent() 
     let path = std::env::temp_dir().join(format!("pmacwd-record-grammar-{}.jsonl", std::process::id()));
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
     let mut card = Card::default_card(Clock::Virtual);
-    card.record(CaptureWriter::new(out, "grammar", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap())
-        .unwrap();
+    card.record(
+        CaptureWriter::new(
+            out,
+            "grammar",
+            pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+            pmacwd_emulator::capture::Timing::Exact,
+        )
+        .unwrap(),
+    )
+    .unwrap();
     let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
     {
         let mut c = TcpStream::connect(server.local_addr).unwrap();
@@ -506,8 +555,16 @@ fn the_emulator_s_capture_of_motors_that_move_replays_as_consistent() {
     let path = std::env::temp_dir().join(format!("pmacwd-record-motion-{}.jsonl", std::process::id()));
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
     let mut card = Card::default_card(Clock::Virtual);
-    card.record(CaptureWriter::new(out, "motion", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap())
-        .unwrap();
+    card.record(
+        CaptureWriter::new(
+            out,
+            "motion",
+            pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+            pmacwd_emulator::capture::Timing::Exact,
+        )
+        .unwrap(),
+    )
+    .unwrap();
     let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
     let step = |cycles: u32| assert!(server.with_card(|c| c.control(Control::Step { cycles })).starts_with("ok"));
     {
@@ -549,8 +606,16 @@ fn the_emulator_s_capture_of_a_motion_program_replays_as_consistent() {
     let path = std::env::temp_dir().join(format!("pmacwd-record-program-{}.jsonl", std::process::id()));
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
     let mut card = Card::default_card(Clock::Virtual);
-    card.record(CaptureWriter::new(out, "program", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap())
-        .unwrap();
+    card.record(
+        CaptureWriter::new(
+            out,
+            "program",
+            pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+            pmacwd_emulator::capture::Timing::Exact,
+        )
+        .unwrap(),
+    )
+    .unwrap();
     let server = Server::start(card, ServeOptions::free_loopback_port(8)).unwrap();
     let step = |cycles: u32| assert!(server.with_card(|c| c.control(Control::Step { cycles })).starts_with("ok"));
     {
@@ -612,8 +677,16 @@ fn a_servo_control_longer_than_a_step_is_captured_as_steps_the_capture_s_own_rep
     let path = std::env::temp_dir().join(format!("pmacwd-servo-steps-{}.jsonl", std::process::id()));
     let out: Box<dyn Write + Send> = Box::new(std::fs::File::create(&path).unwrap());
     let mut card = Card::default_card(Clock::Virtual);
-    card.record(CaptureWriter::new(out, "servo", "i40-zero", pmacwd_emulator::capture::Timing::Exact).unwrap())
-        .unwrap();
+    card.record(
+        CaptureWriter::new(
+            out,
+            "servo",
+            pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+            pmacwd_emulator::capture::Timing::Exact,
+        )
+        .unwrap(),
+    )
+    .unwrap();
     let options = ServeOptions { control: Some("127.0.0.1:0".parse().unwrap()), ..ServeOptions::free_loopback_port(8) };
     let server = Server::start(card, options).unwrap();
     let control = server.control_addr.unwrap();
@@ -655,7 +728,13 @@ fn a_host_that_does_not_wait_for_a_silent_card_is_closed_past_the_bound_on_waiti
     });
     let buffer = SharedBuffer::default();
     let out: Box<dyn Write + Send> = Box::new(buffer.clone());
-    let capture = CaptureWriter::new(out, "silent card", "i40-zero", Recorder::timing(2250, false)).unwrap();
+    let capture = CaptureWriter::new(
+        out,
+        "silent card",
+        pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+        Recorder::timing(2250, false),
+    )
+    .unwrap();
     let options = RecordOptions {
         listen: "127.0.0.1:0".parse().unwrap(),
         target: card_addr.to_string(),

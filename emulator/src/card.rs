@@ -57,6 +57,12 @@ impl Default for Identity {
 /// under 0.1% of a core, so the card always catches up with the wall clock.
 pub const SERVO_HZ_MAX: u32 = 100_000;
 
+/// The `check.yaml` configuration of the card `pmacwd serve` (and `pmacwd record`) takes by
+/// default: i40-zero's card with no background PLC, whose background cycle (housekeeping and
+/// command processing, UM p.236-237) completes every servo cycle (MODEL: the configuration's
+/// summary says why). A capture of the default card names it, so replay runs the same load.
+pub const DEFAULT_CONFIGURATION: &str = "emulated";
+
 /// The servo rate to run at: `flag` (`--servo-hz`), or else the configuration's; refused,
 /// with the range, unless it is within the spec's servo clocks (`scheduling.yaml`'s
 /// `servo_clock_hz_range`, carried by `model`) and at most [`SERVO_HZ_MAX`], the emulator's own
@@ -368,8 +374,8 @@ impl Card {
         self.tripped_seen = now;
     }
 
-    /// The card `pmacwd serve` emulates by default: the embedded spec's `i40-zero`
-    /// configuration under its default profile, with the default saved I-variables.
+    /// The card `pmacwd serve` emulates by default: the embedded spec's
+    /// [`DEFAULT_CONFIGURATION`] under its default profile, with the default saved I-variables.
     pub fn default_card(clock: Clock) -> Card {
         // The configuration and host defaults are resolved once per process, since tests and
         // the card_grammar fuzz target make a fresh card per case (under the fuzzer's
@@ -377,9 +383,12 @@ impl Card {
         static DEFAULTS: std::sync::OnceLock<(core::Config, HostDefaults)> = std::sync::OnceLock::new();
         let (cfg, defaults) = DEFAULTS.get_or_init(|| {
             let spec = pmacwd_specs::Spec::embedded().expect("the embedded spec is checked by its own tests");
-            let model =
-                pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile())
-                    .expect("i40-zero is a configuration of the embedded spec");
+            let model = pmacwd_specs::config::ModelConfig::from_spec(
+                &spec,
+                DEFAULT_CONFIGURATION,
+                &spec.profiles.default_profile(),
+            )
+            .expect("the default configuration is one of the embedded spec");
             (pmacwd_bridge::core_config(&model), HostDefaults::from_spec(&spec.variables))
         });
         Card::power_on_with(*cfg, defaults, &SAVED_DEFAULT, clock, Identity::default())
@@ -1481,7 +1490,7 @@ mod tests {
     #[test]
     fn unreadable_definitions_and_memory_writes_are_err003_and_run_nothing_after() {
         let mut c = card();
-        for bad in ["M1->X:$25", "M1->TWD:4,0,8.3,U", "M1->X:$80000,0", "WX:$2082", "WX:$7FFFF,1,2", "M1->Z:0"] {
+        for bad in ["M1->X:$25", "M1->TWD:4,0,8.3,U", "M1->X:$1000000,0", "WX:$2082", "WX:$FFFFFF,1,2", "M1->Z:0"] {
             let line = format!("{bad} P1=7");
             assert_eq!(c.line(line.as_bytes()).unwrap(), b"\x07ERR003\r", "{bad}");
             assert_eq!(values(&c.line(b"P1").unwrap()), ["0"], "{bad}: P1=7 after it did not run");

@@ -257,6 +257,10 @@ mod tests {
             ("L:4161", "L:$001041"),
             ("DP:$060401", "DP:$060401"),
             ("F:$0607FF", "F:$0607FF"),
+            // Six hex digits, the whole 24-bit address (UM p.246), past SRM p.170's 19-bit
+            // gathering field: the EPICS driver's M70 (UM p.239).
+            ("X:$FFFF8C,0,24", "X:$FFFF8C,0,24,U"),
+            ("X:$80000,0", "X:$080000,0,1,U"),
             ("*", "*"),
         ];
         for (text, report) in cases {
@@ -273,8 +277,9 @@ mod tests {
             ("X:$25,24,8", "whole word"),
             ("X:$25,0,25", "1..24"),
             ("X:$25,0,8,Q", "U, S, D or C"),
-            ("X:$80000,0", "19 bits"),
-            ("X:$-5,0", "19 bits"),
+            ("X:$1000000,0", "24 bits"),
+            ("X:16777216,0", "24 bits"),
+            ("X:$-5,0", "24 bits"),
             ("D:$8B,0", "more fields"),
             ("TWD:4,0,8.3,U", "thumbwheel"),
             ("Z:$25", "X:, Y:"),

@@ -137,7 +137,8 @@ fn a_stalled_capture_sink_does_not_freeze_hosts_or_the_control_port() {
     // through a bounded queue; when the queue is full, recording stops with a message.
     let (release_tx, release_rx) = mpsc::channel();
     let sink: Box<dyn Write + Send> = Box::new(Stalled { header_taken: false, release: release_rx });
-    let capture = CaptureWriter::new(sink, "stalled", "i40-zero", Timing::Exact).unwrap();
+    let capture =
+        CaptureWriter::new(sink, "stalled", pmacwd_emulator::card::DEFAULT_CONFIGURATION, Timing::Exact).unwrap();
     let mut card = Card::default_card(Clock::Virtual);
     card.record(capture).unwrap();
     let options = ServeOptions {
@@ -206,7 +207,8 @@ fn a_stalled_capture_sink_does_not_freeze_the_recording_proxy_s_hosts_or_its_con
     let kept = Arc::new(Mutex::new(Vec::new()));
     let sink: Box<dyn Write + Send> =
         Box::new(StalledThenKept { header_taken: false, release: Some(release_rx), kept: kept.clone() });
-    let capture = CaptureWriter::new(sink, "stalled", "i40-zero", Timing::Exact).unwrap();
+    let capture =
+        CaptureWriter::new(sink, "stalled", pmacwd_emulator::card::DEFAULT_CONFIGURATION, Timing::Exact).unwrap();
     let loopback = std::net::SocketAddr::from(([127, 0, 0, 1], 0));
     let options = RecordOptions {
         listen: loopback,

@@ -401,8 +401,13 @@ fn the_recording_proxy_keeps_at_most_its_sessions_open_and_a_newcomer_closes_the
     use pmacwd_emulator::capture::{CaptureWriter, Timing};
     use pmacwd_emulator::proxy::{Proxy, RecordOptions, Recorder, SESSIONS_MAX};
     let s = server(Clock::Virtual, SESSIONS_MAX + 8, None);
-    let capture =
-        CaptureWriter::new(Box::new(std::io::sink()) as Box<dyn Write + Send>, "t", "i40-zero", Timing::Exact).unwrap();
+    let capture = CaptureWriter::new(
+        Box::new(std::io::sink()) as Box<dyn Write + Send>,
+        "t",
+        pmacwd_emulator::card::DEFAULT_CONFIGURATION,
+        Timing::Exact,
+    )
+    .unwrap();
     let options = RecordOptions {
         listen: "127.0.0.1:0".parse().unwrap(),
         target: s.local_addr.to_string(),

@@ -180,7 +180,10 @@ fn many_clients_and_injected_faults_leave_memory_flat_and_every_client_answered(
     let seconds: u64 = std::env::var("PMACWD_SOAK_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(60);
     let mut card = Card::default_card(Clock::Wall { start: Instant::now(), servo_hz: 2250 });
     let nowhere: Box<dyn Write + Send> = Box::new(std::io::sink());
-    card.record(CaptureWriter::new(nowhere, "soak", "i40-zero", Timing::Exact).unwrap()).unwrap();
+    card.record(
+        CaptureWriter::new(nowhere, "soak", pmacwd_emulator::card::DEFAULT_CONFIGURATION, Timing::Exact).unwrap(),
+    )
+    .unwrap();
     let options = ServeOptions {
         control: Some("127.0.0.1:0".parse().unwrap()),
         idle_timeout: Some(Duration::from_secs(600)),

@@ -6,6 +6,11 @@
 
 use pmacwd_emulator::card::{Card, Clock};
 use pmacwd_emulator::control::Control;
+use pmacwd_emulator::protocol::Header;
+use pmacwd_emulator::server::{ServeOptions, Server};
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::time::{Duration, Instant};
 
 fn control(c: &mut Card, line: &str) {
     let reply = c.control(Control::parse(line).unwrap());
@@ -97,14 +102,60 @@ fn the_timer_registers_grow_with_plc0_the_largest_rti_time_holds_and_a_reset_cle
     assert_eq!(timers(&mut c)[4], light[3], "after $$$");
 }
 
+/// A whole reply over a host connection: GETRESPONSE with `line`, read up to the ACK (I3 = 2)
+/// or an error's CR, the answers split at CR.
+fn exchange(c: &mut TcpStream, line: &str) -> Vec<String> {
+    c.write_all(&Header::getresponse(line.len() as u16).to_bytes()).unwrap();
+    c.write_all(line.as_bytes()).unwrap();
+    let mut reply = Vec::new();
+    let mut buf = [0u8; 1400];
+    let complete = |r: &[u8]| r.ends_with(b"\x06") || (r.first() == Some(&0x07) && r.ends_with(b"\r"));
+    while !complete(&reply) {
+        let n = c.read(&mut buf).expect("an answer");
+        assert!(n > 0, "{line}: the connection closed");
+        reply.extend_from_slice(&buf[..n]);
+    }
+    let text = String::from_utf8_lossy(&reply).into_owned();
+    assert!(!text.contains('\x07'), "{line}: {text:?}");
+    text.trim_end_matches('\x06').split('\r').filter(|v| !v.is_empty()).map(str::to_owned).collect()
+}
+
 #[test]
-fn the_drivers_definition_of_m70_is_refused_by_the_address_bound() {
-    // A known gap, kept visible: M70->X:$FFFF8C (the DSP's own register, past the 19-bit data
-    // addresses of SRM p.170 that the grammar allows) is ERR003, so M70 keeps its card-defined
-    // value, the phase period. The day the grammar takes it, this test fails: then read M70
-    // through it in the test above.
-    let mut c = Card::default_card(Clock::Virtual);
-    let reply = c.line(b"M70->X:$FFFF8C,0,24").unwrap();
-    assert!(reply.starts_with(b"\x07ERR003"), "{:?}", String::from_utf8_lossy(&reply));
-    assert_eq!(numbers(&mut c, "M70"), [13279.0]);
+fn the_drivers_own_definitions_of_m70_to_m73_go_through_serve_and_read_the_timer_registers() {
+    // The EPICS driver's Geo Brick file, `etc/bootstrap/BRICK_M_variables.pmc:70-73`, each line
+    // as a downloader sends it (the statement, its `;` comment left out), M70 on the DSP's
+    // X:$FFFF8C (UM p.239), a six-digit address past SRM p.170's 19-bit gathering field (UM
+    // p.246); then the reads as the driver's fast poll sends them (`pmacController.h:197-200`,
+    // a leading space, keys joined by spaces), and `RH` of the same registers.
+    let card = Card::default_card(Clock::Wall { start: Instant::now(), servo_hz: 2250 });
+    let s = Server::start(card, ServeOptions::free_loopback_port(8)).expect("a free loopback port");
+    let mut c = TcpStream::connect(s.local_addr).unwrap();
+    c.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    for definition in ["M70->X:$FFFF8C,0,24", "M71->X:$000037,0,24", "M72->Y:$000037,0,24", "M73->X:$00000B,0,24"] {
+        assert_eq!(exchange(&mut c, definition), Vec::<String>::new(), "{definition} acknowledged");
+    }
+    assert_eq!(
+        exchange(&mut c, "M70..73->"),
+        ["X:$FFFF8C,0,24,U", "X:$000037,0,24,U", "Y:$000037,0,24,U", "X:$00000B,0,24,U"],
+        "the definitions as the card reports them"
+    );
+    let expected = s.with_card(|card| card.timers());
+    let want = [expected.phase_period, expected.phase_task, expected.servo_task, expected.rti_task];
+    let read: Vec<u32> = exchange(&mut c, " M70 M71 M72 M73").iter().map(|v| v.parse().unwrap()).collect();
+    assert_eq!(read, want, "the timer registers through the driver's own definitions");
+    // M70 is the phase period of `variables.yaml`'s M70 (13279): read through its definition
+    // now, not as its card-defined value.
+    assert_eq!(read[0], 13279);
+    let hex: Vec<u32> = exchange(&mut c, "RHX:$FFFF8C RHX:$37 RHY:$37 RHX:$0B")
+        .iter()
+        .map(|v| u32::from_str_radix(v, 16).unwrap())
+        .collect();
+    assert_eq!(hex, want, "RH of the same registers");
+    // The load moves X:$00000B (PLC 0, UM p.239) and the driver's M73 follows it.
+    s.with_card(|card| control(card, "plc0 200"));
+    let heavy = s.with_card(|card| card.timers()).rti_task;
+    assert!(heavy > want[3], "{heavy} against {}", want[3]);
+    let m73: u32 = exchange(&mut c, " M73")[0].parse().unwrap();
+    assert_eq!(m73, heavy);
+    s.stop();
 }

@@ -8,9 +8,17 @@
 
 use crate::vocab::command::Space;
 
-/// The highest address of a Turbo PMAC's data memory: addresses are 19 bits (SRM p.170: "the
-/// last five digits (bits 0 to 19; bit 19 must be 0) represent the numerical address").
-pub const ADDRESS_MAX: u32 = 0x07_FFFF;
+/// The highest address a host names in an M-variable definition, an `RH` read or a `W` write:
+/// a Turbo PMAC address is a 24-bit word, six hex digits. UM p.246: a definition keeps the
+/// address it points at in a 24-bit Y-register ($004000 + n), and its examples name six digits
+/// (`M1->Y:$078C02,8,1`); UM p.239 names X:$FFFF8C (the time between phase interrupts, on the
+/// DSP's own peripheral page), which UM p.240's PLC reads as M70, as the EPICS driver's Geo Brick
+/// file defines it (`M70->X:$FFFF8C,0,24`). SRM p.170's 19 bits ("bits 0 to 19; bit 19 must be
+/// 0") are the address field of a data-gathering source (I5001..I5048), whose first hex digit
+/// chooses the part of the word to read: not the range of M-variable addresses, for which this
+/// bound once took them. MODEL: every 24-bit address is accepted; what is behind one the
+/// emulator does not know is a word it keeps (`emulator/src/mvar.rs`).
+pub const ADDRESS_MAX: u32 = 0xFF_FFFF;
 
 /// How an X or Y definition decodes its bits (PMAC-SRM p.262).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -145,5 +153,5 @@ pub fn parse_address(text: &str) -> Result<u32, &'static str> {
         None if !t.is_empty() && t.len() <= 7 && t.bytes().all(|c| c.is_ascii_digit()) => t.parse().ok(),
         None => None,
     };
-    parsed.filter(|a| *a <= ADDRESS_MAX).ok_or("an address is $0..$7FFFF (19 bits, SRM p.170)")
+    parsed.filter(|a| *a <= ADDRESS_MAX).ok_or("an address is $0..$FFFFFF (24 bits, UM p.246)")
 }

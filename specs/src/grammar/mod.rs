@@ -948,7 +948,7 @@ impl Parser<'_, '_> {
             return Err(self.error(start, "W{X|Y|D|L}:{address},{value}[,{value}...] writes at least one value"));
         }
         if u64::from(address) + values.len() as u64 - 1 > u64::from(definition::ADDRESS_MAX) {
-            return Err(self.error(start, "the values run past the last address, $7FFFF"));
+            return Err(self.error(start, "the values run past the last address, $FFFFFF"));
         }
         let kind = match letter {
             Some(b'X') => Definition::Word { space: Space::X, address, offset: 0, width: 24, format: Format::U },
