@@ -431,3 +431,47 @@ fn for_debugging_one_capture_is_searched_on_one_lane_and_where_it_dies_is_printe
         }
     }
 }
+
+/// A card whose checksum passes are its own, each area's length apart (UM p.217 gives none; the
+/// areas differ in size, and the configuration i40-zero's card takes 2 and 1): with a
+/// background cycle after every servo cycle and Y:$25 and X:$25 read after each gap (so that
+/// no background cycle can be left out unseen), bit 12's area follows the card's lengths, and
+/// the search, stated passes of 1 and 1, must find them.
+#[test]
+fn a_card_whose_checksum_areas_take_passes_of_their_own_lengths_is_explained() {
+    let spec = spec();
+    for (firmware, user_program) in [(1u8, 2u8), (2, 1), (2, 2)] {
+        let (def, mut cfg) = lane_for(&spec, 0);
+        cfg.pass_cycles = pmacwd_specs::check::PassCycles { firmware, user_program };
+        let gaps: Vec<GapGen> = [7u32, 11, 5, 13, 9, 10, 6, 8]
+            .into_iter()
+            .enumerate()
+            .map(|(i, cycles)| GapGen {
+                cycles,
+                background_percent: 100,
+                overrun_cycles: 0,
+                overrun_end_cycles: 0,
+                fault: None,
+                dip_at: None,
+                restart: false,
+                observe: [true; 3],
+                seed: i as u64,
+            })
+            .collect();
+        let text = generate(&spec, &cfg, 0, &gaps);
+        let path = temp_file(&format!("passes-{firmware}-{user_program}.jsonl"), &text);
+        let (lanes, _) = search::search(&spec, &path, Default::default(), vec![def.clone()], false).unwrap();
+        assert!(
+            lanes[0].death.is_none(),
+            "passes {firmware}/{user_program} not explained: {:?}\n{text}",
+            lanes[0].death
+        );
+        assert_eq!(
+            lanes[0].tolerances.checksum_pass_cycles, cfg.pass_cycles,
+            "passes {firmware}/{user_program}: explained by other lengths\n{text}"
+        );
+        // The witness names the lengths in its `card:` header and reproduces the capture.
+        let (_, w) = report::witness_for(&spec, &path, Default::default(), def, lanes[0].tolerances).unwrap();
+        assert!(matches!(w.checked, Some(Ok(_))), "passes {firmware}/{user_program}: witness {:?}", w.checked);
+    }
+}

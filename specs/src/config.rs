@@ -342,6 +342,11 @@ pub struct CardConfig {
     /// Written by replay into an explanation.
     #[serde(default)]
     pub checksum_pass_cycles: Option<u32>,
+    /// The user-program area's pass length, where it differs from the firmware's (which
+    /// `checksum_pass_cycles` then gives): the two areas differ in size, and UM p.217 gives
+    /// neither length. Written by replay into an explanation.
+    #[serde(default)]
+    pub user_program_checksum_pass_cycles: Option<u32>,
 }
 
 impl CardConfig {
@@ -359,6 +364,7 @@ impl CardConfig {
             ("hardware_delay_cycles", self.hardware_delay_cycles.map(i64::from)),
             ("supply_min_millivolts", self.supply_min_millivolts.map(i64::from)),
             ("checksum_pass_cycles", self.checksum_pass_cycles.map(i64::from)),
+            ("user_program_checksum_pass_cycles", self.user_program_checksum_pass_cycles.map(i64::from)),
         ]
         .into_iter()
         .filter_map(|(k, v)| v.map(|v| (k, v)))
@@ -439,13 +445,17 @@ impl ModelConfig {
             }
             self.supply_min_millivolts = mv;
         }
+        let pass_length = |field: &str, n: u32| {
+            u8::try_from(n).ok().filter(|n| *n >= 1).ok_or_else(|| {
+                format!("card: {field} = {n} is outside the pass lengths admitted, 1..=255 background cycles")
+            })
+        };
         if let Some(n) = card.checksum_pass_cycles {
-            let n = u8::try_from(n).ok().filter(|n| *n >= 1).ok_or_else(|| {
-                format!(
-                    "card: checksum_pass_cycles = {n} is outside the pass lengths admitted, 1..=255 background cycles"
-                )
-            })?;
+            let n = pass_length("checksum_pass_cycles", n)?;
             self.pass_cycles = PassCycles { firmware: n, user_program: n };
+        }
+        if let Some(n) = card.user_program_checksum_pass_cycles {
+            self.pass_cycles.user_program = pass_length("user_program_checksum_pass_cycles", n)?;
         }
         Ok(self)
     }
@@ -545,6 +555,19 @@ mod tests {
             cfg.clone().with_card(&spec, &card).unwrap().pass_cycles,
             PassCycles { firmware: 3, user_program: 3 }
         );
+        // Each area its own length: the user program's apart from the firmware's.
+        let card = CardConfig {
+            checksum_pass_cycles: Some(2),
+            user_program_checksum_pass_cycles: Some(1),
+            ..CardConfig::default()
+        };
+        assert_eq!(
+            cfg.clone().with_card(&spec, &card).unwrap().pass_cycles,
+            PassCycles { firmware: 2, user_program: 1 }
+        );
+        let card = CardConfig { user_program_checksum_pass_cycles: Some(0), ..CardConfig::default() };
+        let e = cfg.clone().with_card(&spec, &card).unwrap_err();
+        assert!(e.contains("user_program_checksum_pass_cycles = 0") && e.contains("1..=255"), "{e}");
         for n in [0, 256] {
             let e =
                 cfg.clone().with_card(&spec, &CardConfig { checksum_pass_cycles: Some(n), ..CardConfig::default() });

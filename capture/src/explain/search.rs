@@ -83,6 +83,14 @@ pub struct Tolerances {
 /// give a read every checksum area a longer one would.
 pub const PASS_CYCLES_MAX: u8 = 2;
 
+/// Every pair of pass lengths searched, equal ones first.
+fn pass_lengths() -> impl Iterator<Item = PassCycles> {
+    let equal = (1..=PASS_CYCLES_MAX).map(|n| PassCycles { firmware: n, user_program: n });
+    let pairs = (1..=PASS_CYCLES_MAX)
+        .flat_map(|f| (1..=PASS_CYCLES_MAX).map(move |u| PassCycles { firmware: f, user_program: u }));
+    equal.chain(pairs.filter(|p| p.firmware != p.user_program))
+}
+
 impl Tolerances {
     pub fn of(cfg: &ModelConfig) -> Tolerances {
         Tolerances {
@@ -124,10 +132,11 @@ impl Tolerances {
         // The pass lengths with the stated delay and supply only. MODEL (search): a log that
         // needs both a pass and a delay or threshold of its own is not searched (each such
         // pass would search the bands again, for every impossible log).
+        // Each area's length its own (the areas differ in size; UM p.217 gives neither): the
+        // configuration i40-zero's card, passes of 2 and 1, is one the search must meet.
         if passes {
             out.extend(
-                (1..=PASS_CYCLES_MAX)
-                    .map(|n| PassCycles { firmware: n, user_program: n })
+                pass_lengths()
                     .filter(|p| *p != stated.checksum_pass_cycles)
                     .map(|p| Tolerances { checksum_pass_cycles: p, ..stated }),
             );
@@ -802,7 +811,7 @@ pub fn search(
     // (no strobe stopped long enough for their delays to differ).
     let admitted = |l: &Lane, with_passes: bool| {
         let all = Tolerances::variants(&l.cfg, &levels, false).len();
-        all + if with_passes && l.pass_mattered { usize::from(PASS_CYCLES_MAX) - 1 } else { 0 }
+        all + if with_passes && l.pass_mattered { pass_lengths().count() - 1 } else { 0 }
     };
     for (l, b) in lanes.iter_mut().zip(&bands) {
         l.tolerances_admitted = admitted(l, false).max(*b);

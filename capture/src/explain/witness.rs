@@ -499,10 +499,10 @@ pub fn write_trace(
     if let Some(t) = w.tolerances {
         own.hardware_delay_cycles = Some(t.hardware_delay_cycles);
         own.supply_min_millivolts = Some(t.supply_min_millivolts);
-        // Written when both areas have one length (the search's own lengths always do).
         let p = t.checksum_pass_cycles;
-        if p.firmware == p.user_program {
-            own.checksum_pass_cycles = Some(u32::from(p.firmware));
+        own.checksum_pass_cycles = Some(u32::from(p.firmware));
+        if p.user_program != p.firmware {
+            own.user_program_checksum_pass_cycles = Some(u32::from(p.user_program));
         }
     }
     let card = (!own.is_empty()).then_some(&own);
