@@ -88,7 +88,7 @@ fn the_core_named_profiles_match_profiles_yaml() {
             pmacwd_specs::config::ModelConfig::from_spec(&spec, "timing", &spec.profiles.get(name).unwrap()).unwrap();
         assert_eq!(
             p.out_of_range_modulo,
-            cfg.out_of_range == pmacwd_specs::profiles::OutOfRangeAssignment::Modulo,
+            cfg.out_of_range() == pmacwd_specs::profiles::OutOfRangeAssignment::Modulo,
             "{name}"
         );
     }

@@ -88,7 +88,7 @@ fn generated_traces_under_the_modulo_reading_observe_the_same_on_the_core_as_on_
         .into_iter()
         .filter(|c| c.profile == default)
         .map(|mut c| {
-            c.out_of_range = OutOfRangeAssignment::Modulo;
+            c.profile.choices.out_of_range_assignment = OutOfRangeAssignment::Modulo;
             c
         })
         .collect();

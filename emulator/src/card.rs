@@ -1411,7 +1411,7 @@ mod tests {
             let mut cfg =
                 pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile())
                     .unwrap();
-            cfg.out_of_range = reading;
+            cfg.profile.choices.out_of_range_assignment = reading;
             let mut c =
                 Card::power_on(pmacwd_bridge::core_config(&cfg), &SAVED_DEFAULT, Clock::Virtual, Identity::default());
             let modulo = reading == pmacwd_specs::profiles::OutOfRangeAssignment::Modulo;
