@@ -39,7 +39,7 @@ pub fn core_config(cfg: &ModelConfig) -> core::Config {
                 EncoderLossClear::Intent => true,
                 EncoderLossClear::Literal => false,
             },
-            out_of_range_modulo: cfg.out_of_range == OutOfRangeAssignment::Modulo,
+            out_of_range_modulo: cfg.out_of_range() == OutOfRangeAssignment::Modulo,
         },
         hardware_delay_cycles: cfg.hardware_delay_cycles,
         cycle_units: cfg.cpu.cycle_units,

@@ -87,8 +87,8 @@ fn spec() -> Spec {
 
 /// The lane (search configuration) for the readings with option indices `bits`.
 fn lane_for(spec: &Spec, bits: usize) -> (LaneDef, ModelConfig) {
-    let defs = lanes::lanes(spec, "host-log", None).unwrap();
-    let o: [usize; 7] = std::array::from_fn(|r| (bits >> r) & 1);
+    let defs = lanes::lanes(spec, "host-log", None, false).unwrap();
+    let o: [usize; lanes::READINGS_COUNT] = std::array::from_fn(|r| (bits >> r) & 1);
     let def = defs.into_iter().find(|d| d.combinations.contains(&o)).unwrap();
     let cfg = search::Lane::new(spec, "host-log", None, def.clone(), false, None).unwrap().cfg;
     (def, cfg)

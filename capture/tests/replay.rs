@@ -41,7 +41,9 @@ fn a_reload_to_4095_is_explained_only_with_4095_and_rules_out_4096_whatever_the_
 fn a_reload_to_4096_is_explained_only_with_4096_and_rules_out_4095() {
     let spec = Spec::embedded().unwrap();
     let r = explain(&spec, &capture("reload-to-4096.yaml"), None).unwrap();
-    assert_eq!(explaining(&r), ["um-215", "um-215-50hz", "um-215-literal-plc", "um-215-m83"]);
+    // um-243-modulo is um-215 with UM p.243's modulo, which a capture assigning nothing out of
+    // range cannot tell from `error`.
+    assert_eq!(explaining(&r), ["um-215", "um-215-50hz", "um-215-literal-plc", "um-215-m83", "um-243-modulo"]);
     assert!(!supported(&r, "reset_value_when_i40_zero", "4095"));
 }
 
@@ -564,4 +566,33 @@ fn a_reinitialization_is_a_reset_whose_acknowledgement_is_the_link_s_as_for_doll
     // correct card.
     let r = replay_log("reinitialize-kept", &log.replace("000017 0", "000017 3000"));
     assert!(!r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+}
+
+#[test]
+fn an_out_of_range_assignment_read_back_rolled_over_rules_out_error_and_one_refused_rules_out_modulo() {
+    // UM p.243 ("Limited Range"): an out-of-range value is rolled over with no error (I3=5
+    // gives 1); I41 ranges 0 to 15 (SRM p.57), so I41=17 gives 1 under `modulo`, and under
+    // `error` (MODEL) it is refused with ERR003 and I41 keeps its value, 0.
+    let reading = |r: &Report| r.readings.iter().find(|v| v.reading == "out_of_range_assignment").unwrap().clone();
+    let text = |r: &Report| pmacwd_capture::explain::report::to_text(r);
+    let r = replay_log("modulo", "> I41=17\n<\n> I41\n< 1\n");
+    assert!(reading(&r).not_exercised.is_none(), "{}", text(&r));
+    assert!(supported(&r, "out_of_range_assignment", "modulo"), "{}", text(&r));
+    let OptionVerdict::RuledOut(d) = option(&r, "out_of_range_assignment", "error") else { panic!("{}", text(&r)) };
+    assert_eq!(d.line, 2, "the acknowledgement ERR003 was expected in place of: {}", text(&r));
+    assert_eq!(explaining(&r), ["um-243-modulo"], "{}", text(&r));
+    assert_eq!(r.lanes.len(), 128, "both options searched: {}", text(&r));
+    let r = replay_log("error", "> I41=17\n< ERR003\n> I41\n< 0\n");
+    assert!(supported(&r, "out_of_range_assignment", "error"), "{}", text(&r));
+    assert!(!supported(&r, "out_of_range_assignment", "modulo"), "{}", text(&r));
+    assert!(!explaining(&r).contains(&"um-243-modulo".to_string()), "{}", text(&r));
+    // Acknowledged but read back unchanged: neither (modulo stored 1).
+    let r = replay_log("neither", "> I41=17\n<\n> I41\n< 0\n");
+    assert!(!r.explained(), "{}", text(&r));
+    // A log that assigns nothing out of range cannot tell the options apart: not exercised,
+    // searched under the default option only, with as many lanes as without the reading.
+    let r = replay_log("in-range", "> I41=1\n<\n> I41\n< 1\n");
+    assert!(reading(&r).not_exercised.is_some_and(|w| w.contains("UM p.243")), "{}", text(&r));
+    assert_eq!(r.lanes.len(), 64, "{}", text(&r));
+    assert!(r.lanes.iter().all(|l| l.label.ends_with(", error")), "{}", text(&r));
 }

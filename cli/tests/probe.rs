@@ -189,19 +189,48 @@ fn a_python_simulator_s_faults_are_named_and_its_mended_variant_passes() {
     assert!(out.contains("um-215-m83: supported"), "{out}");
 }
 
+/// The options of `reading` in the probe's report: (option, its verdict's first word).
+fn options_reported(out: &str, reading: &str) -> Vec<(String, String)> {
+    let head = format!("  {reading}: ");
+    let Some(at) = out.find(&head) else { return Vec::new() };
+    out[at..]
+        .lines()
+        .skip(1)
+        .take_while(|l| l.starts_with("      "))
+        .filter_map(|l| {
+            l.trim().split_once(": ").map(|(o, v)| (o.to_string(), v.split(' ').next().unwrap().to_string()))
+        })
+        .collect()
+}
+
 #[test]
-fn a_simulator_that_rolls_over_out_of_range_values_as_um_243_says_is_still_named_under_error_numbers() {
-    // UM p.243: an out-of-range assignment gives no error and rolls over (I41=16 gives 0). The
-    // reading out_of_range_assignment has that option (`modulo`) in the model, the core and the
-    // emulator, but no profile chooses it and replay does not search it yet (docs/probe.md,
-    // "Limits"), so the errors unit still names such a card a fault. A known failure: when
-    // replay carries the reading this test fails, and should then expect exit 0 with `modulo`
-    // named supported and `error` ruled out.
+fn the_errors_unit_decides_out_of_range_assignment_modulo_for_a_simulator_that_rolls_over_and_error_for_one_that_refuses(
+) {
+    // UM p.243: an out-of-range assignment gives no error and rolls over (I41=16 gives 0):
+    // replay searches the reading out_of_range_assignment for a log that assigns out of range
+    // (the errors unit does), so such a card is a correct card under `modulo` (profile
+    // um-243-modulo), not a fault; the mended simulator's ERR003 is the reverse.
+    let ruled = |o: &str, v: &str| (o.to_string(), v.to_string());
     let Some(sim) = python_sim(&["--faults", "", "--ranges", "modulo"]) else { return };
     let (code, out) = probe(&sim.1, &["--units", "errors"]);
-    assert_eq!(code, 1, "{out}");
-    assert!(out.contains("error-numbers x1"), "{out}");
-    assert!(!out.contains("out_of_range_assignment"), "replay now names the reading: update this test: {out}");
+    assert_eq!(code, 0, "{out}");
+    assert!(out.contains("faults: none"), "{out}");
+    assert!(out.contains("  out_of_range_assignment: decided"), "{out}");
+    assert_eq!(
+        options_reported(&out, "out_of_range_assignment"),
+        [ruled("error", "RULED"), ruled("modulo", "supported")],
+        "{out}"
+    );
+    assert!(out.contains("um-243-modulo: supported"), "{out}");
+    let Some(sim) = python_sim(&["--faults", ""]) else { return };
+    let (code, out) = probe(&sim.1, &["--units", "errors"]);
+    assert_eq!(code, 0, "{out}");
+    assert_eq!(
+        options_reported(&out, "out_of_range_assignment"),
+        [ruled("error", "supported"), ruled("modulo", "RULED")],
+        "{out}"
+    );
+    assert!(out.contains("um-243-modulo: RULED OUT"), "{out}");
 }
 
 #[test]

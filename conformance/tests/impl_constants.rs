@@ -82,13 +82,13 @@ fn the_core_named_profiles_match_profiles_yaml() {
         assert_eq!(p.strobe_stop == StrobeStop::BelowZero, c.strobe_stop == SpecStop::BelowZero, "{name}");
         assert_eq!(p.rti_strobes, c.strober == Strober::RealTimeInterrupt, "{name}");
         assert_eq!(p.encoder_loss_clear_intended, c.encoder_loss_clear == EncoderLossClear::Intent, "{name}");
-        // No profile chooses the reading out_of_range_assignment yet: every configuration
-        // takes `error` (ModelConfig::out_of_range), the named profiles' ERR003.
+        // The reading out_of_range_assignment: the configuration takes the profile's choice
+        // (ModelConfig::out_of_range), `error` for both of these (ERR003).
         let cfg =
             pmacwd_specs::config::ModelConfig::from_spec(&spec, "timing", &spec.profiles.get(name).unwrap()).unwrap();
         assert_eq!(
             p.out_of_range_modulo,
-            cfg.out_of_range == pmacwd_specs::profiles::OutOfRangeAssignment::Modulo,
+            cfg.out_of_range() == pmacwd_specs::profiles::OutOfRangeAssignment::Modulo,
             "{name}"
         );
     }

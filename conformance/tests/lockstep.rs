@@ -73,7 +73,7 @@ fn ten_thousand_generated_traces_observe_the_same_on_the_core_as_on_the_model() 
 }
 
 /// UM p.243's reading of an out-of-range assignment (`out_of_range_assignment: modulo`, chosen
-/// by no profile yet, so absent from `all_configs`): generated traces under it, every
+/// by `um-243-modulo` only): generated traces under it, every
 /// configuration with the default profile, keep the core and the model together. The
 /// generator's commands include `I41=16`, `I40=65536` and `I8=256`; the test counts that some
 /// were sent. A divergence is printed, not saved (a regression file replays under `error`).
@@ -88,7 +88,7 @@ fn generated_traces_under_the_modulo_reading_observe_the_same_on_the_core_as_on_
         .into_iter()
         .filter(|c| c.profile == default)
         .map(|mut c| {
-            c.out_of_range = OutOfRangeAssignment::Modulo;
+            c.profile.choices.out_of_range_assignment = OutOfRangeAssignment::Modulo;
             c
         })
         .collect();

@@ -17,6 +17,9 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("timing", "um-215-50hz", 57_536),
     ("timing", "um-215-literal-plc", 57_536),
     ("timing", "um-215-m83", 57_536),
+    // UM p.243's modulo (um-243-modulo): the configurations assign nothing out of range, so
+    // the counts are um-215's.
+    ("timing", "um-243-modulo", 57_536),
     // The wider bound that reaches every observation class (model/tests/leaps.rs).
     ("timing-wide", "um-215", 193_480),
     ("timing-wide", "srm-57", 385_736),
@@ -30,6 +33,7 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("status", "um-215-50hz", 52_056),
     ("status", "um-215-literal-plc", 52_056),
     ("status", "um-215-m83", 52_056),
+    ("status", "um-243-modulo", 52_056),
     ("lockout", "um-215", 5_112),
     ("lockout", "srm-57", 6_264),
     ("lockout", "srm-57-sticky-bit9", 6_264),
@@ -37,6 +41,7 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("lockout", "um-215-50hz", 5_112),
     ("lockout", "um-215-literal-plc", 5_112),
     ("lockout", "um-215-m83", 5_112),
+    ("lockout", "um-243-modulo", 5_112),
     // I41 bits 2 and 3 each alone (issue 35), apart from `lockout` (check.yaml says why).
     ("lockout-ic", "um-215", 1_224),
     ("lockout-ic", "srm-57", 1_512),
@@ -57,6 +62,7 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     // The literal reading of the clear logic never clears a latched loss: fewer states.
     ("encoder-loss", "um-215-literal-plc", 11_064),
     ("encoder-loss", "um-215-m83", 14_680),
+    ("encoder-loss", "um-243-modulo", 14_680),
     // Two motors in two coordinate systems: the PLC's CMD^K kills both (UM p.214-215).
     ("encoder-loss-2", "um-215", 74_688),
     ("encoder-loss-2", "um-215-literal-plc", 65_984),
@@ -68,6 +74,7 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("amplifier-fault", "um-215-50hz", 16_800),
     ("amplifier-fault", "um-215-literal-plc", 16_800),
     ("amplifier-fault", "um-215-m83", 16_800),
+    ("amplifier-fault", "um-243-modulo", 16_800),
 ];
 
 #[test]

@@ -1412,15 +1412,19 @@ mod tests {
 
     #[test]
     fn under_the_modulo_reading_an_out_of_range_assignment_rolls_over_and_under_error_answers_err003() {
-        // UM p.243 ("Limited Range"): no error, the value rolled over by modulo arithmetic;
-        // the MODEL reading `error` (every profile's until one chooses modulo): ERR003 and the
-        // value kept. The emulator takes the reading from its configuration, through the core.
+        // UM p.243 ("Limited Range"): no error, the value rolled over by modulo arithmetic
+        // (profile um-243-modulo, as `pmacwd serve --profile um-243-modulo` runs it); the MODEL
+        // reading `error` (the default um-215's): ERR003 and the value kept. The emulator takes
+        // the reading from the profile's choice, through the core.
         let spec = pmacwd_specs::Spec::embedded().unwrap();
-        for reading in pmacwd_specs::profiles::OutOfRangeAssignment::ALL {
-            let mut cfg =
-                pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.default_profile())
+        for (profile, reading) in [
+            ("um-215", pmacwd_specs::profiles::OutOfRangeAssignment::Error),
+            ("um-243-modulo", pmacwd_specs::profiles::OutOfRangeAssignment::Modulo),
+        ] {
+            let cfg =
+                pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &spec.profiles.get(profile).unwrap())
                     .unwrap();
-            cfg.out_of_range = reading;
+            assert_eq!(cfg.out_of_range(), reading, "{profile}");
             let mut c =
                 Card::power_on(pmacwd_bridge::core_config(&cfg), &SAVED_DEFAULT, Clock::Virtual, Identity::default());
             let modulo = reading == pmacwd_specs::profiles::OutOfRangeAssignment::Modulo;

@@ -703,7 +703,7 @@ impl Controller {
         // `out_of_range_assignment`: refused with ERR003 and the variable unchanged (`error`,
         // MODEL), or rolled over into the range by modulo arithmetic without an error
         // (`modulo`, UM p.243: I3=5 gives 1).
-        let stored = |r: (i64, i64)| cfg.out_of_range.stored(v, r);
+        let stored = |r: (i64, i64)| cfg.out_of_range().stored(v, r);
         match n {
             8 => match stored(cfg.i8_range) {
                 Some(v) => self.i8 = v as u8,

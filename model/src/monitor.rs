@@ -49,9 +49,9 @@ fn locked(cfg: &ModelConfig, c: &Controller, n: u16) -> bool {
 /// refused, UM p.243's modulo otherwise).
 fn assigned(cfg: &ModelConfig, n: u16, v: i64) -> Option<i64> {
     match n {
-        8 => cfg.out_of_range.stored(v, cfg.i8_range),
-        40 => cfg.out_of_range.stored(v, cfg.i40_range),
-        41 => cfg.out_of_range.stored(v, cfg.i41_range),
+        8 => cfg.out_of_range().stored(v, cfg.i8_range),
+        40 => cfg.out_of_range().stored(v, cfg.i40_range),
+        41 => cfg.out_of_range().stored(v, cfg.i41_range),
         _ => Some(v),
     }
 }
@@ -819,7 +819,7 @@ mod tests {
         // out_of_range_assignment: modulo). The monitors of an acknowledged write judge the
         // value rolled over, not the one sent; under `error` the same write is refused.
         let mut cfg = config("lockout");
-        cfg.out_of_range = pmacwd_specs::profiles::OutOfRangeAssignment::Modulo;
+        cfg.profile.choices.out_of_range_assignment = pmacwd_specs::profiles::OutOfRangeAssignment::Modulo;
         let prev = lockout_card(&cfg, 15);
         let ev = command("I41=16");
         let (next, reply) = step(&cfg, &prev, &ev);

@@ -454,13 +454,14 @@ fn an_i8_or_i40_beyond_its_documented_range_is_refused_with_err003_and_keeps_its
 /// UM p.243 ("Limited Range"): an out-of-range assignment causes no error and is rolled over
 /// into the range by modulo arithmetic (I3=5 gives 1 of I3's 0 to 3). Under the reading
 /// `out_of_range_assignment: modulo` the model does so for the ranges it knows (I8, I40, I41);
-/// under `error` (every profile's, until one chooses it) the test above holds instead.
+/// under `error` (every other profile's) the test above holds instead.
 #[test]
 fn under_the_modulo_reading_an_out_of_range_assignment_rolls_over_without_an_error() {
     use pmacwd_specs::profiles::OutOfRangeAssignment;
-    let mut cfg = config("lockout", "um-215");
-    assert_eq!(cfg.out_of_range, OutOfRangeAssignment::Error, "no profile chooses modulo yet");
-    cfg.out_of_range = OutOfRangeAssignment::Modulo;
+    assert_eq!(config("lockout", "um-215").out_of_range(), OutOfRangeAssignment::Error, "the default's reading");
+    // The named profile that chooses it (profiles.yaml); the configuration reads the choice.
+    let cfg = config("lockout", "um-243-modulo");
+    assert_eq!(cfg.out_of_range(), OutOfRangeAssignment::Modulo);
     let mut card = Controller::power_on(&cfg);
     for (write, name, stored) in [
         ("I41=16", "I41", 0),

@@ -161,17 +161,19 @@ pub struct ModelConfig {
     pub i8_range: (i64, i64),
     pub i40_range: (i64, i64),
     pub i41_range: (i64, i64),
-    /// What an assignment outside those ranges does (`profiles.yaml`, reading
-    /// `out_of_range_assignment`: ERR003, or UM p.243's modulo). MODEL: no profile chooses
-    /// it yet, so [`ModelConfig::from_spec`] takes `error` for every profile; replay's lanes
-    /// do not carry the reading (docs/probe.md, "Limits"), and a test or a caller that wants
-    /// UM p.243's card sets it here.
-    pub out_of_range: OutOfRangeAssignment,
     /// The servo clocks a card may run at, in Hz (`scheduling.yaml`'s `servo_clock_hz_range`).
     pub servo_hz_range: (u32, u32),
 }
 
 impl ModelConfig {
+    /// What an assignment outside I8's, I40's or I41's range does: the profile's reading
+    /// `out_of_range_assignment` (`profiles.yaml`: ERR003 and the variable unchanged, MODEL,
+    /// SRM p.42/p.57; or UM p.243's modulo, I3=5 giving 1). Read from the profile's choices,
+    /// the one place it is set (`um-243-modulo` chooses `modulo`; replay's lanes set it).
+    pub fn out_of_range(&self) -> OutOfRangeAssignment {
+        self.profile.choices.out_of_range_assignment
+    }
+
     /// The row of UM p.217's table whose first column is `command`.
     pub fn stop_row(&self, command: &str) -> Option<&StopRow> {
         self.stop_table.iter().find(|r| r.command == command)
@@ -288,7 +290,6 @@ impl ModelConfig {
             i8_range,
             i40_range,
             i41_range,
-            out_of_range: OutOfRangeAssignment::Error,
             servo_hz_range: (spec.scheduling.servo_clock_hz_range.min, spec.scheduling.servo_clock_hz_range.max),
         })
     }

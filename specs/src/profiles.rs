@@ -185,9 +185,8 @@ pub struct Readings {
     pub encoder_loss_clear: Reading<EncoderLossClear>,
     pub strobe_hz_min: Reading<StrobeHzMin>,
     pub rti_warning_latch: Reading<RtiWarningLatch>,
-    /// Documented with both options, chosen by no profile yet: every configuration takes
-    /// `error` ([`crate::config::ModelConfig::out_of_range`]) until replay's lanes carry it
-    /// (docs/probe.md, "Limits").
+    /// `error` in every profile but `um-243-modulo` (UM p.243); the configuration reads it
+    /// from the profile ([`crate::config::ModelConfig::out_of_range`]).
     pub out_of_range_assignment: Reading<OutOfRangeAssignment>,
 }
 
@@ -202,6 +201,7 @@ pub struct Choices {
     pub encoder_loss_clear: EncoderLossClear,
     pub strobe_hz_min: StrobeHzMin,
     pub rti_warning_latch: RtiWarningLatch,
+    pub out_of_range_assignment: OutOfRangeAssignment,
 }
 
 #[derive(Clone, Debug, Deserialize)]

@@ -1,13 +1,20 @@
 //! The combinations of readings a capture is judged under. Readings are independent
 //! dimensions: every combination of their options is a lane, whether or not `profiles.yaml`
-//! names it. Options no rule of this capture's configuration reads share a lane.
+//! names it. Options no rule of this capture's configuration reads share a lane, and so do
+//! the options of `out_of_range_assignment` for a capture that assigns no I-variable a value
+//! outside its range (searched under the default, `error`).
 
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::*;
 use pmacwd_specs::{Spec, SpecError};
 
-/// Every option of every reading, in the words of `profiles.yaml`.
-pub const READINGS: [(&str, [&str; 2]); 7] = [
+/// How many readings there are (the dimensions of a lane).
+pub const READINGS_COUNT: usize = 8;
+
+/// Every option of every reading, in the words of `profiles.yaml`. The first option of
+/// `out_of_range_assignment` is the default profile's, `error`: a capture that cannot tell the
+/// two apart is searched under it.
+pub const READINGS: [(&str, [&str; 2]); READINGS_COUNT] = [
     ("reset_value_when_i40_zero", ["4095", "4096"]),
     ("strobe_stop", ["at_zero", "below_zero"]),
     ("strober", ["servo_interrupt", "real_time_interrupt"]),
@@ -15,10 +22,11 @@ pub const READINGS: [(&str, [&str; 2]); 7] = [
     ("encoder_loss_clear", ["literal", "intent"]),
     ("strobe_hz_min", ["25", "50"]),
     ("rti_warning_latch", ["level", "sticky"]),
+    ("out_of_range_assignment", ["error", "modulo"]),
 ];
 
 /// The option index (0 or 1, as in [`READINGS`]) each reading of `c` chooses.
-pub fn options_of(c: &Choices) -> [usize; 7] {
+pub fn options_of(c: &Choices) -> [usize; READINGS_COUNT] {
     [
         usize::from(c.reset_value_when_i40_zero == ResetValueWhenI40Zero::R4096),
         usize::from(c.strobe_stop == StrobeStop::BelowZero),
@@ -27,10 +35,11 @@ pub fn options_of(c: &Choices) -> [usize; 7] {
         usize::from(c.encoder_loss_clear == EncoderLossClear::Intent),
         usize::from(c.strobe_hz_min == StrobeHzMin::Hz50),
         usize::from(c.rti_warning_latch == RtiWarningLatch::Sticky),
+        usize::from(c.out_of_range_assignment == OutOfRangeAssignment::Modulo),
     ]
 }
 
-fn choices_of(o: [usize; 7]) -> Choices {
+fn choices_of(o: [usize; READINGS_COUNT]) -> Choices {
     Choices {
         reset_value_when_i40_zero: [ResetValueWhenI40Zero::R4095, ResetValueWhenI40Zero::R4096][o[0]],
         strobe_stop: [StrobeStop::AtZero, StrobeStop::BelowZero][o[1]],
@@ -39,12 +48,25 @@ fn choices_of(o: [usize; 7]) -> Choices {
         encoder_loss_clear: [EncoderLossClear::Literal, EncoderLossClear::Intent][o[4]],
         strobe_hz_min: [StrobeHzMin::Hz25, StrobeHzMin::Hz50][o[5]],
         rti_warning_latch: [RtiWarningLatch::Level, RtiWarningLatch::Sticky][o[6]],
+        out_of_range_assignment: [OutOfRangeAssignment::Error, OutOfRangeAssignment::Modulo][o[7]],
     }
 }
 
 /// Why a reading cannot be judged by a capture in this configuration, if it cannot.
-pub fn not_exercised(spec: &Spec, configuration: &str, reading: usize) -> Option<&'static str> {
+/// `assigns_out_of_range`: whether the capture assigns I8, I40 or I41 a value outside its
+/// range ([`assigns_out_of_range`]); without such an assignment both options of
+/// `out_of_range_assignment` store the same (UM p.243 rolls over only what lies outside).
+pub fn not_exercised(
+    spec: &Spec,
+    configuration: &str,
+    reading: usize,
+    assigns_out_of_range: bool,
+) -> Option<&'static str> {
     match READINGS[reading].0 {
+        "out_of_range_assignment" => (!assigns_out_of_range).then_some(
+            "the capture assigns no I-variable the model knows the range of (I8, I40, I41, variables.yaml) a value \
+             outside it, which the two options alone tell apart (UM p.243)",
+        ),
         "encoder_loss_clear" => Some(
             "replay does not search encoder inputs or motor states yet (the model runs the encoder-loss PLC, but a \
              capture is judged under both readings together)",
@@ -69,15 +91,22 @@ pub fn not_exercised(spec: &Spec, configuration: &str, reading: usize) -> Option
 pub struct LaneDef {
     pub choices: Choices,
     /// The option indices of every combination this lane stands for.
-    pub combinations: Vec<[usize; 7]>,
+    pub combinations: Vec<[usize; READINGS_COUNT]>,
 }
 
 /// The lanes for `configuration`, restricted to the combinations of `profiles` if given.
-pub fn lanes(spec: &Spec, configuration: &str, profiles: Option<&[Profile]>) -> Result<Vec<LaneDef>, SpecError> {
-    let idle: Vec<bool> = (0..7).map(|r| not_exercised(spec, configuration, r).is_some()).collect();
+/// `assigns_out_of_range` as for [`not_exercised`].
+pub fn lanes(
+    spec: &Spec,
+    configuration: &str,
+    profiles: Option<&[Profile]>,
+    assigns_out_of_range: bool,
+) -> Result<Vec<LaneDef>, SpecError> {
+    let idle: Vec<bool> =
+        (0..READINGS_COUNT).map(|r| not_exercised(spec, configuration, r, assigns_out_of_range).is_some()).collect();
     let mut out: Vec<LaneDef> = Vec::new();
-    for bits in 0..128usize {
-        let o: [usize; 7] = std::array::from_fn(|r| (bits >> r) & 1);
+    for bits in 0..1usize << READINGS_COUNT {
+        let o: [usize; READINGS_COUNT] = std::array::from_fn(|r| (bits >> r) & 1);
         if let Some(ps) = profiles {
             if !ps.iter().any(|p| options_of(&p.choices) == o) {
                 continue;
@@ -96,6 +125,26 @@ pub fn lanes(spec: &Spec, configuration: &str, profiles: Option<&[Profile]>) -> 
         }
     }
     Ok(out)
+}
+
+/// Whether `command` assigns I8, I40 or I41 a value outside its range (`variables.yaml`,
+/// SRM p.42, SRM p.57): the only assignment the two options of `out_of_range_assignment` store
+/// differently (the model knows no other variable's range).
+pub fn assigns_out_of_range(spec: &Spec, command: &pmacwd_specs::vocab::command::HostCommand) -> bool {
+    use pmacwd_specs::vocab::command::HostCommand;
+    let vars = &spec.variables.i_variables;
+    match *command {
+        HostCommand::WriteI(n, v) | HostCommand::WriteIMemory(n, v) => {
+            let range = match n {
+                8 => &vars.i8.range,
+                40 => &vars.i40.range,
+                41 => &vars.i41.range,
+                _ => return false,
+            };
+            !(range.min..=range.max).contains(&v)
+        }
+        _ => false,
+    }
 }
 
 /// A lane's combination in words: `4096, at_zero, servo_interrupt, ...`.

@@ -243,7 +243,7 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
     let description = source.description().to_string();
     let profiles = source.profiles(spec, path)?;
     let card = source.card_as(&import_configuration);
-    let (observed, untimed, placed_apart) = scan(spec, source)?;
+    let (observed, untimed, placed_apart, assigns_out_of_range) = scan(spec, source)?;
     if !spec.check.configurations.contains_key(&configuration) {
         return Err(SpecError::at(
             path,
@@ -255,7 +255,7 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
         ));
     }
     let all = profiles.len() == spec.profiles.all().len();
-    let defs = lanes::lanes(spec, &configuration, if all { None } else { Some(&profiles) })?;
+    let defs = lanes::lanes(spec, &configuration, if all { None } else { Some(&profiles) }, assigns_out_of_range)?;
     // The lanes are independent: two threads, one per core of the machines this runs on.
     let half = defs.len().div_ceil(2);
     let results: Vec<Result<(Vec<Lane>, u64), SpecError>> = std::thread::scope(|scope| {
@@ -321,7 +321,11 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
                     (*name, v)
                 })
                 .collect();
-            ReadingVerdict { reading, options, not_exercised: lanes::not_exercised(spec, &configuration, r) }
+            ReadingVerdict {
+                reading,
+                options,
+                not_exercised: lanes::not_exercised(spec, &configuration, r, assigns_out_of_range),
+            }
         })
         .collect();
     let named = profiles
@@ -420,13 +424,19 @@ const WITNESS_TRIES: usize = 16;
 /// re-entry (bit 22, SRM p.289), which the diagnosis may call observed, as against what the
 /// search chose in the unseen gaps; and, for a host log, the importer's timing warning.
 /// Reads the whole capture once: whether a `???` reply shows bit 22, the importer's timing
-/// warning, and whether it is a stamped host log.
-fn scan(spec: &Spec, mut source: Source) -> Result<(bool, Option<String>, bool), SpecError> {
+/// warning, whether it is a stamped host log, and whether it assigns I8, I40 or I41 a value
+/// outside its range (only then are both options of `out_of_range_assignment` searched,
+/// UM p.243).
+fn scan(spec: &Spec, mut source: Source) -> Result<(bool, Option<String>, bool, bool), SpecError> {
     use pmacwd_specs::status::WordId;
     use pmacwd_specs::vocab::reply_text::{self, StatusReply};
     let bit22 = spec.status.bit("rti_reentry");
     let mut seen = false;
+    let mut out_of_range = false;
     while let Some((_, step)) = source.next_step()? {
+        if let pmacwd_trace::TraceEvent::Model(pmacwd_specs::vocab::event::Event::Command(c)) = &step.event {
+            out_of_range |= lanes::assigns_out_of_range(spec, c);
+        }
         seen |= step.expect.status_set.iter().any(|n| n == "rti_reentry");
         if let (Some((word, bit)), Some(Ok(StatusReply::Words { x, y }))) =
             (bit22, step.expect.reply.as_deref().map(reply_text::decode))
@@ -445,7 +455,7 @@ fn scan(spec: &Spec, mut source: Source) -> Result<(bool, Option<String>, bool),
         ),
         _ => (None, false),
     };
-    Ok((seen, untimed, stamped))
+    Ok((seen, untimed, stamped, out_of_range))
 }
 
 fn diagnose(lanes: &[Lane], rti_reentry_observed: bool) -> Option<Diagnosis> {
