@@ -70,7 +70,8 @@ pub struct Death {
 ///
 /// The checksum pass length is the card's own in the same way (UM p.217 gives none): a host
 /// log sees it only through the area bit 12 shows (SRM p.289) and when a corruption is found,
-/// so the lengths up to [`PASS_CYCLES_MAX`] are searched where a lane compared either.
+/// so the lengths up to [`PASS_CYCLES_MAX`], each area's its own, are searched where a lane
+/// compared either.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tolerances {
     pub hardware_delay_cycles: u32,
@@ -78,9 +79,10 @@ pub struct Tolerances {
     pub checksum_pass_cycles: PassCycles,
 }
 
-/// The longest checksum pass, in background cycles, the search tries as the card's own. MODEL
-/// (search): with background cycles free to come or not in every servo cycle, a few lengths
-/// give a read every checksum area a longer one would.
+/// The longest checksum pass, in background cycles, the search tries as the card's own, for
+/// each area apart (`pass_lengths`). MODEL (search): with background cycles free to come or not
+/// in every servo cycle, lengths of 1 and 2 give a read every checksum area a longer one would;
+/// 3 and 4 made the fixed set's impossible supply-dip log take over 240 s (docs/replay.md).
 pub const PASS_CYCLES_MAX: u8 = 2;
 
 /// Every pair of pass lengths searched, equal ones first.
@@ -104,8 +106,8 @@ impl Tolerances {
     /// by their distance from them. Supply thresholds differ only by which of the capture's
     /// supply levels (`levels`, in millivolts) they call low, so one threshold stands for each
     /// such class.
-    /// With `passes`, also every checksum pass length up to [`PASS_CYCLES_MAX`] (the stated one
-    /// first).
+    /// With `passes`, also every other pair of checksum pass lengths up to [`PASS_CYCLES_MAX`]
+    /// ([`pass_lengths`]), after the bands' cards.
     pub fn variants(cfg: &ModelConfig, levels: &[u32], passes: bool) -> Vec<Tolerances> {
         let stated = Tolerances::of(cfg);
         let (dlo, dhi) = cfg.hardware_delay_band;
@@ -122,7 +124,7 @@ impl Tolerances {
         thresholds.dedup_by_key(|t| class(*t));
         let supplies = std::iter::once(stated.supply_min_millivolts).chain(thresholds);
         let supplies: Vec<u32> = supplies.collect();
-        let mut out = Vec::with_capacity(delays.len() * supplies.len() + usize::from(PASS_CYCLES_MAX));
+        let mut out = Vec::with_capacity(delays.len() * supplies.len() + pass_lengths().count());
         for s in &supplies {
             for d in &delays {
                 out.push(Tolerances { hardware_delay_cycles: *d, supply_min_millivolts: *s, ..stated });
