@@ -716,3 +716,26 @@ fn the_steps_held_after_an_answer_that_follows_a_silence_are_bounded() {
         "the restart is before every answer"
     );
 }
+
+#[test]
+fn a_command_the_grammar_stops_at_a_cr_or_a_non_breaking_space_reads_back_as_one_unreadable_step() {
+    // Found by the fuzz target host_log: in `I40 ?\r? RHY:$50` the grammar stops at the CR, and
+    // the step kept `? RHY:$50` with the CR trimmed off, which reads back as two commands, so
+    // `pmacwd replay` refused the trace `pmacwd import` had written (exit 2).
+    for (log, kept) in [
+        ("> I40 ?\r? RHY:$50\n< 0\\R0010000000 1.947\n", "\r? RHY:$50"),
+        ("> I40 \u{a0}? X\n< 0 ERR003\n", "\u{a0}? X"),
+    ] {
+        let trace = ok(log).trace;
+        let last = trace.steps.last().unwrap();
+        assert_eq!(last.event, TraceEvent::Model(Event::Command(HostCommand::Unrecognized(kept.into()))), "{log:?}");
+        assert_eq!(HostCommand::parse(kept).unwrap(), HostCommand::Unrecognized(kept.into()));
+        let lines = pmacwd_trace::jsonl::to_jsonl(&trace);
+        let back = pmacwd_trace::jsonl::read_all(Path::new("s.jsonl"), lines.as_bytes())
+            .unwrap_or_else(|e| panic!("{e}\n{lines}"));
+        assert_eq!(format!("{trace:?}"), format!("{back:?}"));
+        let yaml = pmacwd_trace::to_yaml(&trace);
+        let again = pmacwd_trace::parse_yaml(Path::new("s.yaml"), &yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
+        assert_eq!(format!("{trace:?}"), format!("{:?}", again.trace));
+    }
+}

@@ -429,7 +429,16 @@ impl LogParser {
                     text[piece.start..piece.end].trim().to_string(),
                 ),
                 Err(_) => {
-                    let rest = text[at..].trim().to_string();
+                    // From the byte the grammar stopped at (kept: it is what makes the rest
+                    // unreadable on its own too, `HostCommand::parse`) to the line's end.
+                    let rest = text[at..].trim_end().to_string();
+                    if !matches!(HostCommand::parse(&rest), Ok(HostCommand::Unrecognized(_))) {
+                        return Err(self.err(
+                            line,
+                            column + at,
+                            format!("`{rest}` is refused by the card's grammar after what precedes it on the line, but reads as a command on its own: a trace step cannot hold it (split the line)"),
+                        ));
+                    }
                     (HostCommand::Unrecognized(rest.clone()), None, rest)
                 }
             };

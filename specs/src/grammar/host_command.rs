@@ -16,7 +16,10 @@ impl HostCommand {
     /// one), and a command the model cannot follow faithfully (a write to I8, I40 or I41 whose
     /// value depends on the card's own variables).
     pub fn parse(text: &str) -> Result<HostCommand, CommandError> {
-        let t = text.trim();
+        // Only the spaces the grammar itself skips are trimmed at the start: a step holding a
+        // command the card refused may begin with a byte the grammar stops at (a CR, a
+        // non-breaking space), and that byte is what keeps it unreadable when read back.
+        let t = text.trim_start_matches([' ', '\t']).trim_end();
         if t.is_empty() {
             return Err(CommandError("an empty command: write the command text, e.g. `???`".into()));
         }
