@@ -596,3 +596,26 @@ fn an_out_of_range_assignment_read_back_rolled_over_rules_out_error_and_one_refu
     assert_eq!(r.lanes.len(), 64, "{}", text(&r));
     assert!(r.lanes.iter().all(|l| l.label.ends_with(", error")), "{}", text(&r));
 }
+
+#[test]
+fn an_i_variable_read_back_other_than_written_is_no_correct_card_whatever_the_timing_and_without_a_search_of_it() {
+    // Issue 36: the impossible `ivar-reads` and `dollar-reset` logs of the independent
+    // generator got no verdict in 30 s: the search tried every card of the bands and every
+    // placement in time, none of which can change a stored I-variable. No X:$0 read here, so
+    // the log cannot be timed: still impossible, not undecided.
+    let r = replay_log("read-back", "> I41\n< 0\n> I130=5\n<\n> ???\n< 000000000000\n> I130\n< 6\n");
+    assert!(!r.explained() && !r.undecided(), "{}", pmacwd_capture::explain::report::to_text(&r));
+    let why = r.refuted.as_deref().unwrap_or_default();
+    assert!(why.starts_with("line 8: I130 read 6, where line 4 wrote 5"), "{why}");
+    // What could change it leaves the verdict to the search: a reset between (the saved value
+    // comes back), I41 not read (a lockout may have ignored the write), the write unanswered.
+    for (name, log) in [
+        ("reset", "> I41\n< 0\n> I130=5\n<\n> $$$\n<\n> I130\n< 6\n"),
+        ("i41-unread", "> I130=5\n<\n> I130\n< 6\n"),
+        ("i41-locks", "> I41\n< 1\n> I130=5\n<\n> I130\n< 6\n"),
+        ("m-variable", "> I41\n< 0\n> I130=5\n<\n> M1=3\n<\n> I130\n< 6\n"),
+    ] {
+        let r = replay_log(name, log);
+        assert!(r.refuted.is_none(), "{name}: {:?}", r.refuted);
+    }
+}

@@ -464,6 +464,31 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
             // interval; near zero, where the strobe stops, every tail is tried.
             _ => unread_tails(card, r, tail_max).into_iter().collect(),
         };
+        // X:$25 read after the gap is the lowest the counter has been since the reset (SRM
+        // p.57), so the counter never went below it, less what the short gaps after this one
+        // ran it down: a tail reloaded at R that runs deeper is no schedule of this card.
+        // (Under the at-zero reading, an X:$25 of 0 bounds nothing: the counter stays there.)
+        let tail_fits = |t: u32| match hints.counter_min {
+            Some(m) if m > 0 || cfg.profile.choices.strobe_stop == StrobeStop::BelowZero => {
+                i64::from(r) - i64::from(t) >= i64::from(m) - shift
+            }
+            _ => true,
+        };
+        // The deepest tail that fits stands in for those cut (with Y:$25 unread, the tails
+        // tried are the ends of the intervals the outcomes keep, `unread_tails`).
+        let deepest_fitting = |tails: &[u32]| -> Vec<u32> {
+            let Some(m) = hints.counter_min else { return Vec::new() };
+            let top = i64::from(r) - i64::from(m) + shift;
+            if tails.iter().all(|t| tail_fits(*t)) || top < 0 {
+                return Vec::new();
+            }
+            let top = top.min(i64::from(tail_max)) as u32;
+            vec![top.saturating_sub(1), top]
+        };
+        let cut = deepest_fitting(&tails);
+        let mut tails: Vec<u32> = tails.into_iter().filter(|t| tail_fits(*t)).chain(cut).collect();
+        tails.sort_unstable();
+        tails.dedup();
         // An overrun is wanted where a status read shows bit 22 or bit 9 that the card does not
         // hold yet (bit 22 is sticky, SRM p.289; bit 9 too under its sticky reading, SRM p.290).
         // Once they are held, what an overrun does to the card besides is to take CPU time from
@@ -492,7 +517,7 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
         let mut end_tails = tails.clone();
         if hints.counter.is_none() && !end_overruns.is_empty() {
             let top = (3 * (u32::from(card.i8) + 1)).min(tail_max);
-            end_tails.extend((0..=top).filter(|t| !tails.contains(t)));
+            end_tails.extend((0..=top).filter(|t| !tails.contains(t) && tail_fits(*t)));
             end_tails.sort_unstable();
         }
         if starved_useful && overrun_wanted && counter_fits(starved_counter) {
@@ -505,7 +530,16 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
         }
         // PLC 0 longer than an RTI period at the start of the gap, for as long as it takes
         // the RTI to overrun and for up to a few periods more.
-        let heavies: Vec<u32> = if overrun_wanted {
+        // Once the card holds the bits a read shows (bit 22 is sticky; bit 9 is held now, or
+        // under its level reading the gap's end decides it, `end_overruns`), an overrun at the
+        // start only takes CPU time from the background, which the leads below do as well
+        // (`Lead::FirstAfter`, `Lead::Stretch`). In a short gap the start's overrun may reach
+        // the end: there it is tried still.
+        let period = u32::from(card.i8) + 1;
+        let start_overrun_wanted = (hints.rti_reentry_seen && !card.status.rti_reentry)
+            || (hints.rti_warning_seen && !card.status.rti_warning)
+            || (overrun_wanted && cycles <= 2 * (3 * period + 3));
+        let heavies: Vec<u32> = if start_overrun_wanted {
             (0..=3 * (u32::from(card.i8) + 1) + 2).filter(|h| *h < cycles).collect()
         } else {
             vec![0]
@@ -751,15 +785,18 @@ fn group(
 /// recur, until the counter would run out. Merged, the interval grows to the trip and the
 /// same cards come back, so a lane's gaps are met from its memo.
 fn merge_touching(outcomes: Vec<Outcome>) -> Vec<Outcome> {
+    // Each outcome's card but for its counters, worked out once (not per pair compared).
+    let mut blanks: Vec<Controller> = Vec::with_capacity(outcomes.len());
     let mut out: Vec<Outcome> = Vec::with_capacity(outcomes.len());
     for o in outcomes {
-        let meets = |m: &Outcome| {
-            super::same_but_counters(&m.card, &o.card)
+        let blank = super::blank(&o.card);
+        let meets = |(m, m_blank): &(&mut Outcome, &Controller)| {
+            **m_blank == blank
                 && m.card.background_credit == o.card.background_credit
                 && i64::from(o.counter_lo) <= i64::from(m.card.counter) + 2
                 && i64::from(m.counter_lo) <= i64::from(o.card.counter) + 2
         };
-        match out.iter_mut().find(|m| meets(m)) {
+        match out.iter_mut().zip(blanks.iter()).find(|pair| meets(pair)).map(|(m, _)| m) {
             Some(m) => {
                 if o.card.counter_min > m.card.counter_min {
                     m.plan_hi = o.plan_hi;
@@ -777,7 +814,10 @@ fn merge_touching(outcomes: Vec<Outcome>) -> Vec<Outcome> {
                 }
                 m.counter_lo = m.counter_lo.min(o.counter_lo);
             }
-            None => out.push(o),
+            None => {
+                out.push(o);
+                blanks.push(blank);
+            }
         }
     }
     out

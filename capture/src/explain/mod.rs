@@ -47,7 +47,7 @@ pub fn same_but_counters(a: &Controller, b: &Controller) -> bool {
 }
 
 /// A card but for Y:$25, X:$25 and the background's CPU credit.
-fn blank(c: &Controller) -> Controller {
+pub(crate) fn blank(c: &Controller) -> Controller {
     let mut c = c.clone();
     normalize(&mut c);
     c.counter = 0;

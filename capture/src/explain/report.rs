@@ -83,6 +83,10 @@ pub struct Report {
     /// The log never reads I40: the values tried and the one that explains it
     /// ([`super::unknown`]).
     pub i40_open: Option<super::unknown::OpenI40>,
+    /// What the steps alone show that no card shows, whatever its timing, tolerances, I40 or
+    /// placement ([`super::unknown::refutation`]), when no card explained the capture: the
+    /// verdict is then decided without searching those.
+    pub refuted: Option<String>,
 }
 
 impl Report {
@@ -92,7 +96,7 @@ impl Report {
 
     /// Not explained, but only because the log cannot be timed: no verdict either way.
     pub fn undecided(&self) -> bool {
-        !self.explained() && self.untimed.is_some()
+        !self.explained() && self.untimed.is_some() && self.refuted.is_none()
     }
 }
 
@@ -163,12 +167,17 @@ fn explain_open_i40(
         if explained {
             return Ok(r);
         }
+        // What no card shows whatever its I40: the other values need no search.
+        let refuted = r.refuted.is_some();
         // The report kept is the one that came furthest.
         let latest = |r: &Report| r.lanes.iter().filter_map(|l| l.death.as_ref().map(|d| d.event)).max();
         if last.as_ref().is_none_or(|l| latest(&r) > latest(l) || (r.undecided() && !l.undecided())) {
             last = Some(r);
         } else if let Some(l) = &mut last {
             l.i40_open = r.i40_open;
+        }
+        if refuted {
+            break;
         }
     }
     let Some(mut r) = last else {
@@ -197,8 +206,13 @@ fn explain_open_i40(
 /// then by host time.
 pub fn explain_timed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> Result<Report, SpecError> {
     use crate::import::Placement;
-    let first = explain_placed(spec, path, import_configuration)?;
-    if first.explained() || import_configuration.placement == Placement::HostTime || !first.placed_apart {
+    let mut first = explain_placed(spec, path, import_configuration)?;
+    if first.explained() {
+        return Ok(first);
+    }
+    // Decided by the steps alone: no placement in time can change it.
+    first.refuted = super::unknown::refutation(spec, path, import_configuration)?;
+    if first.refuted.is_some() || import_configuration.placement == Placement::HostTime || !first.placed_apart {
         return Ok(first);
     }
     let failed = first
@@ -378,6 +392,7 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
         placed_apart,
         host_time_unfinished: false,
         i40_open: None,
+        refuted: None,
     })
 }
 
@@ -561,6 +576,9 @@ pub fn to_text(r: &Report) -> String {
             ),
         };
     }
+    if let Some(why) = &r.refuted {
+        let _ = writeln!(s, "  no card, whatever its timing: {why}");
+    }
     let alive = r.lanes.iter().filter(|l| l.death.is_none()).count();
     let _ = writeln!(
         s,
@@ -668,7 +686,9 @@ pub fn to_text(r: &Report) -> String {
     let _ = writeln!(
         s,
         "verdict: {}",
-        if alive == 0 && r.host_time_unfinished {
+        if alive == 0 && r.refuted.is_some() {
+            "no correct card explains this capture, under any combination of readings".to_string()
+        } else if alive == 0 && r.host_time_unfinished {
             "undecided: no explanation places the commands between X:$0 reads at the reads' instants, and the \
              search placing them by host time did not finish in its time limit (--host-time-seconds)"
                 .to_string()
@@ -735,7 +755,7 @@ pub fn to_json(r: &Report) -> String {
         "file": r.file.display().to_string(), "events": r.events, "configuration": r.configuration,
         "explained": r.explained(), "undecided": r.undecided(),
         "placement": match r.placement { crate::import::Placement::AtReads => "at_reads", crate::import::Placement::HostTime => "host_time" },
-        "at_reads_failed": r.at_reads_failed,
+        "at_reads_failed": r.at_reads_failed, "refuted": r.refuted,
         "i40_open": r.i40_open.as_ref().map(|o| serde_json::json!({"tried": o.tried, "explaining": o.explaining,
             "complete": o.complete, "highest_read": o.highest_read, "refuted": o.refuted})),
         "readings": readings, "lanes": lanes, "profiles": profiles,

@@ -50,6 +50,37 @@ pub struct Cand {
     pub node: Option<Arc<Node>>,
 }
 
+/// Of candidates that differ only in how long their strobe has been stopped, the one whose
+/// strobe stopped last, before a gap longer than the hardware delay after which the card
+/// answers. Exact: to answer, a card must not trip in the gap (UM p.215), and the gap is too
+/// long for that without a strobe edge; so every schedule that keeps a card whose strobe
+/// stopped earlier from tripping has an edge in the gap, keeps the other from tripping too
+/// (its count stays lower), and from that edge on, where both counts restart, the two are the
+/// same card. The one kept reaches every card after the gap that the others reach. (Cards
+/// sitting at zero within the delay, one per cycle of it, were most of a starving log's
+/// candidates: `starvation-trip` of the independent logs.)
+fn earliest_strobe_stops(cands: Vec<Cand>) -> Vec<Cand> {
+    let mut at: FastMap<(CardKey, i32, i32, u8), usize> = FastMap::default();
+    let mut out: Vec<Cand> = Vec::with_capacity(cands.len());
+    for c in cands {
+        let mut key = c.card.clone();
+        key.cycles_since_strobe = 0;
+        match at.entry((CardKey(key), c.counter_lo, c.min_lo, c.cpu)) {
+            std::collections::hash_map::Entry::Occupied(e) => {
+                let kept = &mut out[*e.get()];
+                if c.card.cycles_since_strobe < kept.card.cycles_since_strobe {
+                    *kept = c;
+                }
+            }
+            std::collections::hash_map::Entry::Vacant(e) => {
+                e.insert(out.len());
+                out.push(c);
+            }
+        }
+    }
+    out
+}
+
 /// Where a lane died.
 #[derive(Clone, Debug)]
 pub struct Death {
@@ -605,6 +636,11 @@ impl Lane {
             }
             Ok(())
         };
+        if let TraceEvent::Elapsed { cycles_min, .. } = step.event {
+            if hints.silent == Some(false) && cycles_min > cfg.hardware_delay_cycles {
+                self.cands = earliest_strobe_stops(std::mem::take(&mut self.cands));
+            }
+        }
         for cand in std::mem::take(&mut self.cands) {
             let mut results: Vec<(Cand, Reply)> = Vec::new();
             match &step.event {
@@ -787,6 +823,10 @@ pub fn search(
     let (mut lanes, events, levels) =
         search_once(spec, path, configuration, defs.into_iter().map(|d| (d, None)), record, true)?;
     if lanes.iter().all(Lane::alive) {
+        return Ok((lanes, events));
+    }
+    // What the steps alone show no card does: no other card of the bands gets past it.
+    if super::unknown::refutation(spec, path, configuration)?.is_some() {
         return Ok((lanes, events));
     }
     // A lane in which no strobe stopped long enough for the delay to count is judged alike by

@@ -247,14 +247,21 @@ impl<'a> Sim<'a> {
 /// A run-down repeats itself: while the counter is above zero the strobe toggles every cycle
 /// it is due, and nothing in the servo cycle reads the counter but that test (Y:$25's value,
 /// X:$25, X:$0 and the ghost's count of cycles since the background are only written). So
-/// once the card is the same, those four aside, as one RTI period earlier, every further
-/// period until the counter could reach zero is the same again, and is leapt: the counter
+/// once the card is the same, those four aside, as `k` RTI periods earlier (`k` up to
+/// [`RUN_DOWN_LAGS_MAX`]), every further `k` periods until the counter could reach zero are
+/// the same again, and are leapt: the counter
 /// falls by the cycles leapt, X:$25 follows it, X:$0 and the ghost's count advance. The last
 /// stretch to zero and the trip are run cycle by cycle. Exact (`tests::a_leapt_run_down_is_the_run_cycle_by_cycle`).
 pub fn run_without_background(card: &mut Controller, cfg: &ModelConfig, n: u64) -> u64 {
     let period = u64::from(card.i8) + 1;
     let mut ran = 0u64;
-    let mut mark: Option<Controller> = None;
+    // The shapes at the ends of the last few periods, newest last: a run-down may repeat
+    // only every few periods (a PLC 0 just over one RTI period overruns every other RTI,
+    // UM p.236), and then repeats with that many periods' length.
+    let mut marks: Vec<Controller> = Vec::with_capacity(RUN_DOWN_LAGS_MAX);
+    // Marks not live are buffers kept for their allocations (`clone_from` reuses them).
+    let mut live = 0usize;
+    let mut newest = RUN_DOWN_LAGS_MAX - 1;
     let mut since_mark = 0u64;
     while ran < n {
         if card.tripped() || card.bootstrap {
@@ -267,16 +274,31 @@ pub fn run_without_background(card: &mut Controller, cfg: &ModelConfig, n: u64) 
             continue;
         }
         since_mark = 0;
-        let now = run_down_shape(card);
-        if mark.as_ref() != Some(&now) {
-            mark = Some(now);
+        if n - ran < period {
+            // Too few cycles left for a repetition found now to leap anything.
             continue;
         }
-        mark = None;
+        // The card's shape compared in place (its four written-only fields set aside), so
+        // that a period costs a copy only when it is kept as a mark. `marks` is a ring:
+        // the newest at `newest`, `live` of them in use.
+        let kept = RunDownOnly::take(card);
+        let lags = (1..=live).find(|k| marks[(newest + RUN_DOWN_LAGS_MAX + 1 - k) % RUN_DOWN_LAGS_MAX] == *card);
+        if lags.is_none() {
+            newest = (newest + 1) % RUN_DOWN_LAGS_MAX;
+            if newest == marks.len() {
+                marks.push(card.clone());
+            } else {
+                marks[newest].clone_from(card);
+            }
+            live = (live + 1).min(RUN_DOWN_LAGS_MAX);
+        }
+        kept.put_back(card);
+        let Some(lags) = lags.map(|k| k as u64) else { continue };
+        live = 0;
         // Every cycle leapt begins with the counter at 1 or more (so the strobe is allowed in
-        // each, as in the period just compared, whose counter was higher still).
-        let periods = ((n - ran) / period).min(u64::try_from(card.counter.max(0)).unwrap_or(0) / period);
-        let leap = periods * period;
+        // each, as in the periods just compared, whose counter was higher still).
+        let span = lags * period;
+        let leap = (n - ran).min(u64::try_from(card.counter.max(0)).unwrap_or(0)) / span * span;
         if leap == 0 {
             continue;
         }
@@ -291,14 +313,40 @@ pub fn run_without_background(card: &mut Controller, cfg: &ModelConfig, n: u64) 
     ran
 }
 
-/// A card without what a run-down only writes (see [`run_without_background`]).
-fn run_down_shape(card: &Controller) -> Controller {
-    let mut c = card.clone();
-    c.counter = 0;
-    c.counter_min = 0;
-    c.servo_cycles = 0;
-    c.ghost.cycles_since_background = 0;
-    c
+/// How many periods back [`run_without_background`] looks for the card's shape: a run-down
+/// that repeats only every 2, 3 or 4 RTI periods is leapt too.
+const RUN_DOWN_LAGS_MAX: usize = 4;
+
+/// What a run-down only writes (see [`run_without_background`]): set aside so that cards are
+/// compared without it, then put back.
+struct RunDownOnly {
+    counter: i32,
+    counter_min: i32,
+    servo_cycles: u32,
+    cycles_since_background: u32,
+}
+
+impl RunDownOnly {
+    fn take(card: &mut Controller) -> RunDownOnly {
+        let kept = RunDownOnly {
+            counter: card.counter,
+            counter_min: card.counter_min,
+            servo_cycles: card.servo_cycles,
+            cycles_since_background: card.ghost.cycles_since_background,
+        };
+        card.counter = 0;
+        card.counter_min = 0;
+        card.servo_cycles = 0;
+        card.ghost.cycles_since_background = 0;
+        kept
+    }
+
+    fn put_back(self, card: &mut Controller) {
+        card.counter = self.counter;
+        card.counter_min = self.counter_min;
+        card.servo_cycles = self.servo_cycles;
+        card.ghost.cycles_since_background = self.cycles_since_background;
+    }
 }
 
 #[cfg(test)]
@@ -324,9 +372,16 @@ mod tests {
             for configuration in ["host-log", "i40-zero", "timing", "motion"] {
                 let cfg = ModelConfig::from_spec(&spec, configuration, &profile).unwrap();
                 for i8 in [0u8, 2, 5, 7] {
-                    for load in
-                        [light_load(), overrun_load(&cfg, i8), Load { motors: 1, plc0_units: 3, background_units: 2 }]
-                    {
+                    // PLC 0 just over one RTI period overruns every other RTI, and just over
+                    // two every third: run-downs that repeat only every 2 and 3 periods.
+                    let two_periods =
+                        Load { plc0_units: overrun_load(&cfg, i8).plc0_units * 2 - 1, ..overrun_load(&cfg, i8) };
+                    for load in [
+                        light_load(),
+                        overrun_load(&cfg, i8),
+                        two_periods,
+                        Load { motors: 1, plc0_units: 3, background_units: 2 },
+                    ] {
                         for counter in [-3, 0, 1, 7, 50, 4095, 4096, 40_000] {
                             let mut start = Controller::power_on(&cfg);
                             start.i8 = i8;

@@ -145,13 +145,22 @@ impl Evidence {
 /// - X:$25 "the lowest value of the watchdog counter since the last power-on/reset" (SRM
 ///   p.57) rising between two reads with no reset between them (and no command that may write
 ///   memory, which could write X:$25);
-/// - the CPU type (bit 21 of both `???` words, SRM p.289) changing: it is the card's.
+/// - the CPU type (bit 21 of both `???` words, SRM p.289) changing: it is the card's;
+/// - an I-variable read back with a value other than the one just written ([`ReadBack`]).
+///
+/// None of these depends on the card's timing, its tolerances or where the commands fall in
+/// time either, so a capture they refute needs no search of those (`search::search`,
+/// `report::explain_timed`).
 pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Option<String>, SpecError> {
     use pmacwd_specs::vocab::reply_text::{self, StatusReply};
     let mut source = Source::open_with(spec, path, import)?;
     let mut lowest: Option<(i32, usize)> = None;
     let mut cpu: Option<((bool, bool), usize)> = None;
+    let mut read_back = ReadBack::default();
     while let Some((line, step)) = source.next_step()? {
+        if let Some(why) = read_back.step(spec, line, &step) {
+            return Ok(Some(why));
+        }
         let resets = match &step.event {
             TraceEvent::Restart => true,
             TraceEvent::Model(Event::Reset(_)) => true,
@@ -197,6 +206,92 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
         }
     }
     Ok(None)
+}
+
+/// An I-variable written with a constant and read back with another value, with nothing
+/// between that could change it: no card does that, whatever its timing, tolerances, I40 or
+/// the placement of the commands in time, so the search need not try them (issue 36: the
+/// impossible `ivar-reads` logs got no verdict in 30 s).
+///
+/// What could change it, each ending what is known: a reset or a restart (`$$$`, INIT/, a
+/// power cycle: the saved value comes back, UM p.243), `I{n}=*`, a command the model cannot
+/// follow that may write it (an M-variable assignment or a memory write, which I41 does not
+/// prevent, SRM p.57), and text the grammar cannot read. A write the card ignores (I41 locks
+/// its range, SRM p.57) is not known to have taken effect: a write counts only where the log
+/// read I41 since the last reset, wrote it since with a value in its range, and its bits leave
+/// the variable writable; and only where it was answered (a tripped card takes no command,
+/// UM p.215). I8, I40 and I41 themselves are left to the search (their writes take values
+/// in ranges and readings of their own).
+#[derive(Default)]
+struct ReadBack {
+    /// I41 as the log read or wrote it since the last reset.
+    i41: Option<i64>,
+    /// Variable -> (value written, line of the write).
+    written: std::collections::BTreeMap<u16, (i64, usize)>,
+}
+
+impl ReadBack {
+    fn step(&mut self, spec: &Spec, line: usize, step: &pmacwd_trace::Step) -> Option<String> {
+        use pmacwd_specs::vocab::command::{VarRange, RULED_I_VARIABLES};
+        let TraceEvent::Model(event) = &step.event else {
+            if matches!(step.event, TraceEvent::Restart) {
+                *self = ReadBack::default();
+            }
+            return None;
+        };
+        let answered = !matches!(step.expect.reply.as_deref(), Some("(silence)" | "(timeout)"));
+        let number = || step.expect.reply.as_deref().and_then(|r| r.trim().parse::<i64>().ok());
+        let forget = |w: &mut std::collections::BTreeMap<u16, (i64, usize)>, r: &VarRange| {
+            w.retain(|n, _| !r.numbers().any(|m| m == *n));
+        };
+        match event {
+            Event::Reset(_) => *self = ReadBack::default(),
+            Event::Command(c) => match c {
+                HostCommand::Reset | HostCommand::Reinitialize | HostCommand::Unrecognized(_) => {
+                    *self = ReadBack::default()
+                }
+                HostCommand::ReadI(41) => self.i41 = number().or(self.i41.filter(|_| step.expect.reply.is_none())),
+                HostCommand::WriteI(41, v) => {
+                    let range = &spec.variables.i_variables.i41.range;
+                    self.i41 = (answered && (range.min..=range.max).contains(v)).then_some(*v);
+                }
+                HostCommand::DefaultI(41) | HostCommand::WriteIMemory(41, _) => self.i41 = None,
+                HostCommand::WriteI(n, v) if !RULED_I_VARIABLES.contains(n) => {
+                    let writable = self
+                        .i41
+                        .is_some_and(|i41| spec.variables.lockout_bit(*n).is_none_or(|bit| i41 & (1 << bit) == 0));
+                    if answered && writable {
+                        self.written.insert(*n, (*v, line));
+                    } else {
+                        self.written.remove(n);
+                    }
+                }
+                HostCommand::DefaultI(n) | HostCommand::WriteIMemory(n, _) => {
+                    self.written.remove(n);
+                }
+                HostCommand::Card { forgets: Some(r), past_lockout, .. } => {
+                    forget(&mut self.written, r);
+                    if r.numbers().any(|m| m == 41) || *past_lockout {
+                        self.i41 = None;
+                    }
+                }
+                HostCommand::ReadI(n) => {
+                    if let (Some(&(v, at)), Some(read)) = (self.written.get(n), number()) {
+                        if read != v {
+                            return Some(format!(
+                                "line {line}: I{n} read {read}, where line {at} wrote {v} and nothing between could change it \
+                                 (no reset, no memory write or M-variable assignment, and I41 leaves it writable, \
+                                 SRM p.57), whatever the card's timing"
+                            ));
+                        }
+                    }
+                }
+                _ => {}
+            },
+            _ => {}
+        }
+        None
+    }
 }
 
 /// `0, 1998..=2014`: values, runs of consecutive ones as ranges.
