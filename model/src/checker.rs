@@ -235,6 +235,20 @@ pub fn join_observed<M: Model, C: Checker<M>>(mut checker: C, progress: &mut dyn
 /// Longest jump, in servo cycles, before the checker gives up looking for a change.
 const JUMP_CYCLES_MAX: u32 = 1 << 20;
 
+/// The servo cycles of a time jump, simulated ([`WatchdogModel::leap`]) but not yet checked
+/// as an event.
+#[derive(Clone, Debug)]
+pub struct Leap {
+    /// The cycle whose signature differs first (or [`JUMP_CYCLES_MAX`] when none did).
+    pub cycles: u32,
+    /// Whether a cycle's signature differed.
+    pub changed: bool,
+    /// The state after `cycles` cycles, with the cycle monitors' violations.
+    pub after: State,
+    /// The state after `cycles - 1` cycles, with the cycle monitors' violations.
+    pub before: State,
+}
+
 /// What the environment can react to; time advances between changes of this.
 pub fn signature(cfg: &ModelConfig, c: &Controller) -> impl PartialEq {
     (c.trip, c.counter > 0, c.counter >= 0, c.background_possible(), c.status_words(cfg), c.axes.motion_signature())
@@ -251,35 +265,61 @@ impl WatchdogModel {
     ///
     /// The leap is the event `Servo { cycles }` (a trace shows it so) and is checked as
     /// [`Self::step`] checks that event: the cycle monitors on every cycle, the event monitors
-    /// on the whole event. A leap at I40 = 0 runs up to about 4,100 cycles, so the state is
-    /// cloned once per leap and each cycle runs on it in place; the cycle monitors read the
-    /// cycle's starting point from a second controller, overwritten each cycle (a copy into the
-    /// same buffer, which allocates only for I-variables other than I8, I40 and I41 written
-    /// since reset: no configuration that leaps writes any).
+    /// on the whole event. The cycles are simulated by [`Self::leap`], which both leaps of a
+    /// state share ([`Model::for_each_next_state`]).
     pub fn advance_to_change(&self, state: &State, just_before: bool) -> (u32, State) {
+        self.end_leap(state, &self.leap(state), just_before)
+    }
+
+    /// The servo cycles of a time jump from `state`, simulated once for both of its ends: up to
+    /// the first cycle whose [`signature`] differs from `state`'s (or [`JUMP_CYCLES_MAX`]
+    /// cycles), with the cycle monitors run on every cycle and the event monitors not yet.
+    ///
+    /// A leap at I40 = 0 runs up to about 4,100 cycles, so the state is cloned once per leap
+    /// and each cycle runs on it in place; the cycle monitors read the cycle's starting point
+    /// from a second controller, overwritten each cycle (a copy into the same buffer, which
+    /// allocates only for I-variables other than I8, I40 and I41 written since reset: no
+    /// configuration that leaps writes any).
+    pub fn leap(&self, state: &State) -> Leap {
         let cfg = &self.cfg;
         let start = signature(cfg, &state.controller);
-        let mut next = state.clone();
+        let mut after = state.clone();
         let mut before = state.controller.clone();
         let mut violations_before = state.violations;
-        let mut cycles = JUMP_CYCLES_MAX;
         for n in 1..=JUMP_CYCLES_MAX {
-            let mut report = next.controller.servo_cycle(cfg);
+            let mut report = after.controller.servo_cycle(cfg);
             if let Some(canary) = self.canary {
-                mutate_cycle(cfg, canary, &before, &mut report, &mut next.controller);
+                mutate_cycle(cfg, canary, &before, &mut report, &mut after.controller);
             }
-            next.violations |= cycle_violations(cfg, &before, report, &next.controller);
-            if signature(cfg, &next.controller) != start {
-                cycles = n;
-                if just_before {
-                    cycles = n - 1;
-                    next = State { controller: before, violations: violations_before };
-                }
-                break;
+            after.violations |= cycle_violations(cfg, &before, report, &after.controller);
+            if signature(cfg, &after.controller) != start {
+                return Leap {
+                    cycles: n,
+                    changed: true,
+                    after,
+                    before: State { controller: before, violations: violations_before },
+                };
             }
-            before.clone_from(&next.controller);
-            violations_before = next.violations;
+            before.clone_from(&after.controller);
+            violations_before = after.violations;
         }
+        Leap {
+            cycles: JUMP_CYCLES_MAX,
+            changed: false,
+            after,
+            before: State { controller: before, violations: violations_before },
+        }
+    }
+
+    /// One end of `leap` (from `state`): the cycles up to the change, or up to just before it,
+    /// and the state there, with the event monitors run on the whole event. A leap that found
+    /// no change ends after [`JUMP_CYCLES_MAX`] cycles either way.
+    pub fn end_leap(&self, state: &State, leap: &Leap, just_before: bool) -> (u32, State) {
+        let (cycles, mut next) = if just_before && leap.changed {
+            (leap.cycles - 1, leap.before.clone())
+        } else {
+            (leap.cycles, leap.after.clone())
+        };
         // No cycle at all (the change was one cycle away): the state itself, nothing happened.
         if cycles > 0 {
             self.check_event(&state.controller, &mut next, &Event::Servo { cycles }, Reply::None);
@@ -811,6 +851,31 @@ impl Model for WatchdogModel {
         Some(next)
     }
 
+    /// [`Self::next_state`] for each action, except that the two time jumps of a state share
+    /// their simulated cycles ([`WatchdogModel::leap`]): they run through the same cycles and
+    /// end one cycle apart, so each was simulated twice (`i40-zero`: about 4,000 cycles a
+    /// jump). Same successors, same order (`leaps_share_their_cycles_and_give_next_state_s_successors`).
+    fn for_each_next_state<F>(&self, state: &State, actions: &mut Vec<Action>, mut visit: F)
+    where
+        F: FnMut(&mut Option<State>),
+    {
+        let mut leap: Option<Leap> = None;
+        for action in actions.drain(..) {
+            // Built in the `Option` that `visit` gets, as `next_state` builds it: a successor
+            // returned and moved would be one more copy of the state per transition.
+            let mut next = Some(state.clone());
+            let n = next.as_mut().expect("a successor");
+            match action {
+                Action::ServoToNextChange | Action::ServoToJustBeforeChange => {
+                    let leap = leap.get_or_insert_with(|| self.leap(state));
+                    *n = self.end_leap(state, leap, action == Action::ServoToJustBeforeChange).1;
+                }
+                action => self.take_action(state, n, &action),
+            }
+            visit(&mut next);
+        }
+    }
+
     /// The Explorer's view of a state ([`crate::show::state_text`]): the card first.
     fn format_state(&self, state: &State) -> String {
         crate::show::state_text(&self.cfg, state)
@@ -1328,6 +1393,49 @@ mod tests {
         assert!(sig(&at_change) != sig(&start) && sig(&just_before) == sig(&start));
         assert!(model.next_state(&start, Action::ServoToNextChange) == Some(at_change));
         assert!(model.next_state(&start, Action::ServoToJustBeforeChange) == Some(just_before));
+    }
+
+    /// The successors `for_each_next_state` gives (the two time jumps of a state sharing their
+    /// simulated cycles) are `next_state`'s, action by action, in the first 1,000 states
+    /// reachable in `i40-zero` (breadth first; every running state leaps), under both profiles
+    /// that decrement differently (`srm-57` counts below zero) and with canaries that act within
+    /// the cycles. (All of them take a minute and a half in a test build.)
+    #[test]
+    fn leaps_share_their_cycles_and_give_next_state_s_successors() {
+        let spec = Spec::embedded().unwrap();
+        let runs = [
+            ("um-215", None),
+            ("srm-57", None),
+            ("um-215", Some(Canary::CounterDropsByTwo)),
+            ("um-215", Some(Canary::StarvationNeverTrips)),
+        ];
+        for (profile, canary) in runs {
+            let profile = spec.profiles.get(profile).expect("profile exists");
+            let cfg = ModelConfig::from_spec(&spec, "i40-zero", &profile).unwrap();
+            let model = WatchdogModel { canary, ..WatchdogModel::new(cfg) };
+            let mut seen = std::collections::HashSet::new();
+            let mut queue: std::collections::VecDeque<State> = model.init_states().into();
+            let (mut states, mut leaps) = (0, 0);
+            while let Some(s) = queue.pop_front() {
+                if states == 1000 {
+                    break;
+                }
+                if !seen.insert(s.clone()) {
+                    continue;
+                }
+                states += 1;
+                let mut actions = Vec::new();
+                model.actions(&s, &mut actions);
+                leaps += actions.iter().filter(|a| **a == Action::ServoToNextChange).count();
+                let one_by_one: Vec<Option<State>> = actions.iter().map(|a| model.next_state(&s, a.clone())).collect();
+                let mut shared = Vec::new();
+                model.for_each_next_state(&s, &mut actions, |n| shared.push(n.take()));
+                assert!(actions.is_empty(), "the actions are drained");
+                assert!(shared == one_by_one, "successors differ at {s:?}");
+                queue.extend(one_by_one.into_iter().flatten());
+            }
+            assert!(leaps > 500, "{states} states, {leaps} leaping");
+        }
     }
 
     /// A single servo interrupt goes through the cycle monitors: a motor finishing a `Q` stop
