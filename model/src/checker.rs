@@ -1438,6 +1438,65 @@ mod tests {
         }
     }
 
+    /// The bit-19 monitor compares the words only where the card's inputs to them changed
+    /// (`Controller::status_inputs`): on every transition of `status` (GATHER, ENDGATHER,
+    /// checksum errors, the buffers) under the profile with either meaning of bit 12, its
+    /// verdict is the plain one, the words built on both sides; and cards with equal inputs
+    /// have equal words. Also on transitions made to break it: bit 19 flipped by a servo cycle.
+    #[test]
+    fn the_bit_19_monitor_builds_the_words_only_where_they_can_differ() {
+        use crate::monitor::MONITORS;
+        let spec = Spec::embedded().unwrap();
+        let name = "bit 19 of ??? is set by GATHER and cleared by ENDGATHER or a reset, and by nothing else";
+        let Some(crate::monitor::Monitor { check: Check::Event(fast), .. }) = MONITORS.iter().find(|m| m.name == name)
+        else {
+            panic!("no event monitor {name:?}")
+        };
+        let plain = |cfg: &ModelConfig, prev: &Controller, ev: &Event, next: &Controller| {
+            let before = prev.status_words(cfg).0 & 1 << 19 != 0;
+            let after = next.status_words(cfg).0 & 1 << 19 != 0;
+            let running = !prev.tripped() && !prev.bootstrap;
+            match ev {
+                Event::Command(HostCommand::Gather) if running => after,
+                Event::Command(HostCommand::EndGather) if running => !after,
+                Event::Reset(_) => !after,
+                Event::Command(HostCommand::Reset | HostCommand::Reinitialize) if running => !after,
+                _ => after == before,
+            }
+        };
+        for profile in ["um-215", "um-215-m83"] {
+            let profile = spec.profiles.get(profile).expect("profile exists");
+            let cfg = ModelConfig::from_spec(&spec, "status", &profile).unwrap();
+            let model = WatchdogModel::new(cfg.clone());
+            let mut seen = std::collections::HashSet::new();
+            let mut queue: std::collections::VecDeque<State> = model.init_states().into();
+            let mut words_by_inputs = std::collections::HashMap::new();
+            let (mut transitions, mut failing) = (0, 0);
+            while let Some(s) = queue.pop_front() {
+                if !seen.insert(s.clone()) {
+                    continue;
+                }
+                let words = s.controller.status_words(&cfg);
+                assert_eq!(*words_by_inputs.entry(s.controller.status_inputs()).or_insert(words), words);
+                let mut actions = Vec::new();
+                model.actions(&s, &mut actions);
+                for action in actions {
+                    let (event, reply, next) = model.perform(&s, &action);
+                    let mut broken = next.controller.clone();
+                    broken.status.data_gathering_on ^= true;
+                    for n in [&next.controller, &broken] {
+                        let verdict = fast(&cfg, &s.controller, &event, reply, n);
+                        assert_eq!(verdict, plain(&cfg, &s.controller, &event, n), "{event:?} from {s:?}");
+                        transitions += 1;
+                        failing += usize::from(!verdict);
+                    }
+                    queue.push_back(next);
+                }
+            }
+            assert!(transitions > 100_000 && failing > 10_000, "{transitions} transitions, {failing} failing");
+        }
+    }
+
     /// A single servo interrupt goes through the cycle monitors: a motor finishing a `Q` stop
     /// must end at rest with its program at a program point (UM p.217: "Q: Stop at Prog Pt?
     /// Yes"); a hand-made motor that finishes one while its coordinate system has no program
