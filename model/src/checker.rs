@@ -235,9 +235,60 @@ pub fn join_observed<M: Model, C: Checker<M>>(mut checker: C, progress: &mut dyn
 /// Longest jump, in servo cycles, before the checker gives up looking for a change.
 const JUMP_CYCLES_MAX: u32 = 1 << 20;
 
+/// The servo cycles of a time jump, simulated ([`WatchdogModel::leap`]) but not yet checked
+/// as an event.
+#[derive(Clone, Debug)]
+pub struct Leap {
+    /// The cycle whose signature differs first (or [`JUMP_CYCLES_MAX`] when none did).
+    pub cycles: u32,
+    /// Whether a cycle's signature differed.
+    pub changed: bool,
+    /// The state after `cycles` cycles, with the cycle monitors' violations.
+    pub after: State,
+    /// The state after `cycles - 1` cycles, with the cycle monitors' violations.
+    pub before: State,
+}
+
 /// What the environment can react to; time advances between changes of this.
-pub fn signature(cfg: &ModelConfig, c: &Controller) -> impl PartialEq {
-    (c.trip, c.counter > 0, c.counter >= 0, c.background_possible(), c.status_words(cfg), c.axes.motion_signature())
+pub fn signature(cfg: &ModelConfig, c: &Controller) -> Signature {
+    Signature {
+        trip: c.trip,
+        counter_positive: c.counter > 0,
+        counter_not_negative: c.counter >= 0,
+        background_possible: c.background_possible(),
+        status_words: c.status_words(cfg),
+        motion: c.axes.motion_signature(),
+    }
+}
+
+/// A card's [`signature`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Signature {
+    trip: Option<crate::controller::TripCause>,
+    counter_positive: bool,
+    counter_not_negative: bool,
+    background_possible: bool,
+    status_words: (u32, u32),
+    motion: (u128, u64),
+}
+
+impl Signature {
+    /// Whether `c`'s signature is this one, `of`'s, where `of` is the card this one was taken
+    /// of: `signature(cfg, c) == *self`, without building the status words when `c`'s inputs
+    /// to them are `of`'s (`Controller::status_inputs`), as they are on nearly every servo
+    /// cycle of a time jump (which asks this on every cycle).
+    fn is_of(&self, cfg: &ModelConfig, of: &Controller, c: &Controller) -> bool {
+        // Destructured without `..`: a part added to the signature is a compile error here
+        // until it is compared.
+        let Signature { trip, counter_positive, counter_not_negative, background_possible, status_words, motion } =
+            self;
+        c.trip == *trip
+            && (c.counter > 0) == *counter_positive
+            && (c.counter >= 0) == *counter_not_negative
+            && c.background_possible() == *background_possible
+            && (c.status_inputs() == of.status_inputs() || c.status_words(cfg) == *status_words)
+            && c.axes.motion_signature() == *motion
+    }
 }
 
 impl WatchdogModel {
@@ -251,35 +302,61 @@ impl WatchdogModel {
     ///
     /// The leap is the event `Servo { cycles }` (a trace shows it so) and is checked as
     /// [`Self::step`] checks that event: the cycle monitors on every cycle, the event monitors
-    /// on the whole event. A leap at I40 = 0 runs up to about 4,100 cycles, so the state is
-    /// cloned once per leap and each cycle runs on it in place; the cycle monitors read the
-    /// cycle's starting point from a second controller, overwritten each cycle (a copy into the
-    /// same buffer, which allocates only for I-variables other than I8, I40 and I41 written
-    /// since reset: no configuration that leaps writes any).
+    /// on the whole event. The cycles are simulated by [`Self::leap`], which both leaps of a
+    /// state share ([`Model::for_each_next_state`]).
     pub fn advance_to_change(&self, state: &State, just_before: bool) -> (u32, State) {
+        self.end_leap(state, &self.leap(state), just_before)
+    }
+
+    /// The servo cycles of a time jump from `state`, simulated once for both of its ends: up to
+    /// the first cycle whose [`signature`] differs from `state`'s (or [`JUMP_CYCLES_MAX`]
+    /// cycles), with the cycle monitors run on every cycle and the event monitors not yet.
+    ///
+    /// A leap at I40 = 0 runs up to about 4,100 cycles, so the state is cloned once per leap
+    /// and each cycle runs on it in place; the cycle monitors read the cycle's starting point
+    /// from a second controller, overwritten each cycle (a copy into the same buffer, which
+    /// allocates only for I-variables other than I8, I40 and I41 written since reset: no
+    /// configuration that leaps writes any).
+    pub fn leap(&self, state: &State) -> Leap {
         let cfg = &self.cfg;
         let start = signature(cfg, &state.controller);
-        let mut next = state.clone();
+        let mut after = state.clone();
         let mut before = state.controller.clone();
         let mut violations_before = state.violations;
-        let mut cycles = JUMP_CYCLES_MAX;
         for n in 1..=JUMP_CYCLES_MAX {
-            let mut report = next.controller.servo_cycle(cfg);
+            let mut report = after.controller.servo_cycle(cfg);
             if let Some(canary) = self.canary {
-                mutate_cycle(cfg, canary, &before, &mut report, &mut next.controller);
+                mutate_cycle(cfg, canary, &before, &mut report, &mut after.controller);
             }
-            next.violations |= cycle_violations(cfg, &before, report, &next.controller);
-            if signature(cfg, &next.controller) != start {
-                cycles = n;
-                if just_before {
-                    cycles = n - 1;
-                    next = State { controller: before, violations: violations_before };
-                }
-                break;
+            after.violations |= cycle_violations(cfg, &before, report, &after.controller);
+            if !start.is_of(cfg, &state.controller, &after.controller) {
+                return Leap {
+                    cycles: n,
+                    changed: true,
+                    after,
+                    before: State { controller: before, violations: violations_before },
+                };
             }
-            before.clone_from(&next.controller);
-            violations_before = next.violations;
+            before.clone_from(&after.controller);
+            violations_before = after.violations;
         }
+        Leap {
+            cycles: JUMP_CYCLES_MAX,
+            changed: false,
+            after,
+            before: State { controller: before, violations: violations_before },
+        }
+    }
+
+    /// One end of `leap` (from `state`): the cycles up to the change, or up to just before it,
+    /// and the state there, with the event monitors run on the whole event. A leap that found
+    /// no change ends after [`JUMP_CYCLES_MAX`] cycles either way.
+    pub fn end_leap(&self, state: &State, leap: &Leap, just_before: bool) -> (u32, State) {
+        let (cycles, mut next) = if just_before && leap.changed {
+            (leap.cycles - 1, leap.before.clone())
+        } else {
+            (leap.cycles, leap.after.clone())
+        };
         // No cycle at all (the change was one cycle away): the state itself, nothing happened.
         if cycles > 0 {
             self.check_event(&state.controller, &mut next, &Event::Servo { cycles }, Reply::None);
@@ -811,6 +888,31 @@ impl Model for WatchdogModel {
         Some(next)
     }
 
+    /// [`Self::next_state`] for each action, except that the two time jumps of a state share
+    /// their simulated cycles ([`WatchdogModel::leap`]): they run through the same cycles and
+    /// end one cycle apart, so each was simulated twice (`i40-zero`: about 4,000 cycles a
+    /// jump). Same successors, same order (`leaps_share_their_cycles_and_give_next_state_s_successors`).
+    fn for_each_next_state<F>(&self, state: &State, actions: &mut Vec<Action>, mut visit: F)
+    where
+        F: FnMut(&mut Option<State>),
+    {
+        let mut leap: Option<Leap> = None;
+        for action in actions.drain(..) {
+            // Built in the `Option` that `visit` gets, as `next_state` builds it: a successor
+            // returned and moved would be one more copy of the state per transition.
+            let mut next = Some(state.clone());
+            let n = next.as_mut().expect("a successor");
+            match action {
+                Action::ServoToNextChange | Action::ServoToJustBeforeChange => {
+                    let leap = leap.get_or_insert_with(|| self.leap(state));
+                    *n = self.end_leap(state, leap, action == Action::ServoToJustBeforeChange).1;
+                }
+                action => self.take_action(state, n, &action),
+            }
+            visit(&mut next);
+        }
+    }
+
     /// The Explorer's view of a state ([`crate::show::state_text`]): the card first.
     fn format_state(&self, state: &State) -> String {
         crate::show::state_text(&self.cfg, state)
@@ -1328,6 +1430,163 @@ mod tests {
         assert!(sig(&at_change) != sig(&start) && sig(&just_before) == sig(&start));
         assert!(model.next_state(&start, Action::ServoToNextChange) == Some(at_change));
         assert!(model.next_state(&start, Action::ServoToJustBeforeChange) == Some(just_before));
+    }
+
+    /// The successors `for_each_next_state` gives (the two time jumps of a state sharing their
+    /// simulated cycles) are `next_state`'s, action by action, in the first 300 states
+    /// reachable in `i40-zero` (breadth first; every running state leaps), under both profiles
+    /// that decrement differently (`srm-57` counts below zero) and with canaries that act within
+    /// the cycles. (All of them take a minute and a half in a test build, 1,000 of each 19 s.)
+    #[test]
+    fn leaps_share_their_cycles_and_give_next_state_s_successors() {
+        let spec = Spec::embedded().unwrap();
+        let runs = [
+            ("um-215", None),
+            ("srm-57", None),
+            ("um-215", Some(Canary::CounterDropsByTwo)),
+            ("um-215", Some(Canary::StarvationNeverTrips)),
+        ];
+        for (profile, canary) in runs {
+            let profile = spec.profiles.get(profile).expect("profile exists");
+            let cfg = ModelConfig::from_spec(&spec, "i40-zero", &profile).unwrap();
+            let model = WatchdogModel { canary, ..WatchdogModel::new(cfg) };
+            let mut seen = std::collections::HashSet::new();
+            let mut queue: std::collections::VecDeque<State> = model.init_states().into();
+            let (mut states, mut leaps) = (0, 0);
+            while let Some(s) = queue.pop_front() {
+                if states == 300 {
+                    break;
+                }
+                if !seen.insert(s.clone()) {
+                    continue;
+                }
+                states += 1;
+                let mut actions = Vec::new();
+                model.actions(&s, &mut actions);
+                leaps += actions.iter().filter(|a| **a == Action::ServoToNextChange).count();
+                let one_by_one: Vec<Option<State>> = actions.iter().map(|a| model.next_state(&s, a.clone())).collect();
+                let mut shared = Vec::new();
+                model.for_each_next_state(&s, &mut actions, |n| shared.push(n.take()));
+                assert!(actions.is_empty(), "the actions are drained");
+                assert!(shared == one_by_one, "successors differ at {s:?}");
+                queue.extend(one_by_one.into_iter().flatten());
+            }
+            assert!(leaps > 100, "{states} states, {leaps} leaping");
+        }
+    }
+
+    /// `Signature::is_of`, which a time jump asks on every servo cycle, is the plain
+    /// comparison of signatures: on every cycle of every time jump from the first 100 states of
+    /// `i40-zero` (under both meanings of bit 12), and on cards changed in each part of the
+    /// signature (status words changed through their inputs, or not: a flag no word shows).
+    #[test]
+    fn a_signature_compared_through_the_status_inputs_is_the_plain_comparison() {
+        use crate::controller::TripCause;
+        let spec = Spec::embedded().unwrap();
+        for profile in ["um-215", "um-215-m83"] {
+            let profile = spec.profiles.get(profile).expect("profile exists");
+            let cfg = ModelConfig::from_spec(&spec, "i40-zero", &profile).unwrap();
+            let model = WatchdogModel::new(cfg.clone());
+            let mut seen = std::collections::HashSet::new();
+            let mut queue: std::collections::VecDeque<State> = model.init_states().into();
+            let (mut cycles, mut differing) = (0, 0);
+            while let Some(s) = queue.pop_front() {
+                if seen.len() == 100 {
+                    break;
+                }
+                if !seen.insert(s.clone()) {
+                    continue;
+                }
+                let start = signature(&cfg, &s.controller);
+                let agrees = |c: &Controller| start.is_of(&cfg, &s.controller, c) == (signature(&cfg, c) == start);
+                let edits: [fn(&mut Controller); 6] = [
+                    |c| c.trip = Some(TripCause::Undervoltage),
+                    |c| c.counter = -1 - c.counter,
+                    |c| c.background_credit = u32::MAX - c.background_credit,
+                    |c| c.status.data_gathering_on ^= true,
+                    |c| c.checksum.error = Some(pmacwd_specs::check::ChecksumTarget::UserProgram),
+                    |c| c.axes.motors_mut()[0].stop_cycles ^= 1,
+                ];
+                for edit in edits {
+                    let mut c = s.controller.clone();
+                    edit(&mut c);
+                    assert!(agrees(&c), "{c:?}");
+                    differing += usize::from(signature(&cfg, &c) != start);
+                }
+                let mut c = s.controller.clone();
+                for _ in 0..JUMP_CYCLES_MAX {
+                    c.servo_cycle(&cfg);
+                    cycles += 1;
+                    assert!(agrees(&c), "{c:?} from {s:?}");
+                    if signature(&cfg, &c) != start {
+                        break;
+                    }
+                }
+                let mut actions = Vec::new();
+                model.actions(&s, &mut actions);
+                queue.extend(actions.into_iter().filter_map(|a| model.next_state(&s, a)));
+            }
+            assert!(cycles > 20_000 && differing > 300, "{cycles} cycles, {differing} differing");
+        }
+    }
+
+    /// The bit-19 monitor compares the words only where the card's inputs to them changed
+    /// (`Controller::status_inputs`): on every transition of `status` (GATHER, ENDGATHER,
+    /// checksum errors, the buffers) under the profile with either meaning of bit 12, its
+    /// verdict is the plain one, the words built on both sides; and cards with equal inputs
+    /// have equal words. Also on transitions made to break it: bit 19 flipped by a servo cycle.
+    #[test]
+    fn the_bit_19_monitor_builds_the_words_only_where_they_can_differ() {
+        use crate::monitor::MONITORS;
+        let spec = Spec::embedded().unwrap();
+        let name = "bit 19 of ??? is set by GATHER and cleared by ENDGATHER or a reset, and by nothing else";
+        let Some(crate::monitor::Monitor { check: Check::Event(fast), .. }) = MONITORS.iter().find(|m| m.name == name)
+        else {
+            panic!("no event monitor {name:?}")
+        };
+        let plain = |cfg: &ModelConfig, prev: &Controller, ev: &Event, next: &Controller| {
+            let before = prev.status_words(cfg).0 & 1 << 19 != 0;
+            let after = next.status_words(cfg).0 & 1 << 19 != 0;
+            let running = !prev.tripped() && !prev.bootstrap;
+            match ev {
+                Event::Command(HostCommand::Gather) if running => after,
+                Event::Command(HostCommand::EndGather) if running => !after,
+                Event::Reset(_) => !after,
+                Event::Command(HostCommand::Reset | HostCommand::Reinitialize) if running => !after,
+                _ => after == before,
+            }
+        };
+        for profile in ["um-215", "um-215-m83"] {
+            let profile = spec.profiles.get(profile).expect("profile exists");
+            let cfg = ModelConfig::from_spec(&spec, "status", &profile).unwrap();
+            let model = WatchdogModel::new(cfg.clone());
+            let mut seen = std::collections::HashSet::new();
+            let mut queue: std::collections::VecDeque<State> = model.init_states().into();
+            let mut words_by_inputs = std::collections::HashMap::new();
+            let (mut transitions, mut failing) = (0, 0);
+            while let Some(s) = queue.pop_front() {
+                if !seen.insert(s.clone()) {
+                    continue;
+                }
+                let words = s.controller.status_words(&cfg);
+                assert_eq!(*words_by_inputs.entry(s.controller.status_inputs()).or_insert(words), words);
+                let mut actions = Vec::new();
+                model.actions(&s, &mut actions);
+                for action in actions {
+                    let (event, reply, next) = model.perform(&s, &action);
+                    let mut broken = next.controller.clone();
+                    broken.status.data_gathering_on ^= true;
+                    for n in [&next.controller, &broken] {
+                        let verdict = fast(&cfg, &s.controller, &event, reply, n);
+                        assert_eq!(verdict, plain(&cfg, &s.controller, &event, n), "{event:?} from {s:?}");
+                        transitions += 1;
+                        failing += usize::from(!verdict);
+                    }
+                    queue.push_back(next);
+                }
+            }
+            assert!(transitions > 100_000 && failing > 10_000, "{transitions} transitions, {failing} failing");
+        }
     }
 
     /// A single servo interrupt goes through the cycle monitors: a motor finishing a `Q` stop

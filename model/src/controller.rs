@@ -156,8 +156,8 @@ pub struct Controller {
 
 /// Written out rather than derived for `clone_from`: the derived one builds a whole new
 /// controller and drops the old, and the checker's leaps copy the controller into the same
-/// buffer every servo cycle (`checker.rs`, `advance_to_change`: about 4 million times in a check
-/// of `i40-zero`). Every field is destructured, so a field added to the controller is a compile
+/// buffer every servo cycle (`checker.rs`, `WatchdogModel::leap`: about 2 million times in a
+/// check of `i40-zero`, the two leaps of a state sharing their cycles). Every field is destructured, so a field added to the controller is a compile
 /// error here until it is copied.
 impl Clone for Controller {
     fn clone(&self) -> Controller {
@@ -736,6 +736,16 @@ impl Controller {
         }
     }
 
+    /// All that [`Self::status_words`] reads of the card (it reads the card through this
+    /// alone): the status flags, and the checksum engine's error and area. Cards equal in these
+    /// have equal status words under one configuration, so a comparison of words can compare
+    /// these first: the checker compares words on every transition (the bit-19 monitor) and on
+    /// every servo cycle of a time jump ([`crate::checker::signature`]).
+    #[inline]
+    pub fn status_inputs(&self) -> (StatusFlags, Option<ChecksumTarget>, ChecksumTarget) {
+        (self.status, self.checksum.error, self.checksum.area)
+    }
+
     /// X:$000006 and Y:$000006, built bit by bit from the named positions of `status.yaml`.
     pub fn status_words(&self, cfg: &ModelConfig) -> (u32, u32) {
         // Destructured without `..`: a bit added to the layout is a compile error here until
@@ -757,20 +767,19 @@ impl Controller {
         // SRM p.289: bits X21 and Y21 say which of the four DSP56300-family CPU options the
         // card has: the configuration's processor, not a rule's.
         let (cpu1, cpu0) = cfg.processor.type_bits();
-        let engine = &self.checksum;
+        let (s, error, area) = self.status_inputs();
         // SRM p.289 / UM p.217: bit 13 is any checksum error.
-        let checksum_error = engine.error.is_some();
+        let checksum_error = error.is_some();
         let bit12 = match cfg.profile.choices.bit12_meaning {
             // SRM p.289: 1 while evaluating the firmware checksum (13 = 0) or after a firmware
             // error (13 = 1); 0 while evaluating the user program or after its error.
-            Bit12Meaning::PromChecksumActive => match engine.error {
+            Bit12Meaning::PromChecksumActive => match error {
                 Some(area) => area == ChecksumTarget::Firmware,
-                None => engine.area == ChecksumTarget::Firmware,
+                None => area == ChecksumTarget::Firmware,
             },
             // M83: the firmware checksum error bit.
-            Bit12Meaning::FirmwareChecksumError => engine.error == Some(ChecksumTarget::Firmware),
+            Bit12Meaning::FirmwareChecksumError => error == Some(ChecksumTarget::Firmware),
         };
-        let s = &self.status;
         let mut words = [0u32; 2];
         // One call per bit rather than a loop over a table of them: the checker's properties
         // and monitors read the words several times per state.

@@ -190,15 +190,18 @@ pub const MONITORS: &[Monitor] = &[
         // Bit 19 of the first word as SRM p.289 prints it, not status.yaml's layout: a driven
         // bit misplaced onto it (or gathering's flag onto another bit) is caught. MODEL: a reset
         // ends gathering; the gather buffer never fills (wrap-around, SRM p.170).
+        // The words are built only where the bit is read: the checker runs this on every
+        // transition, and where the card's inputs to the words did not change
+        // (`Controller::status_inputs`) neither did the words.
         check: Check::Event(|cfg, prev, ev, _, next| {
-            let before = bit(prev.status_words(cfg).0, 19);
-            let after = bit(next.status_words(cfg).0, 19);
+            let before = || bit(prev.status_words(cfg).0, 19);
+            let after = || bit(next.status_words(cfg).0, 19);
             match ev {
-                Event::Command(HostCommand::Gather) if running(prev) => after,
-                Event::Command(HostCommand::EndGather) if running(prev) => !after,
-                Event::Reset(_) => !after,
-                Event::Command(HostCommand::Reset | HostCommand::Reinitialize) if running(prev) => !after,
-                _ => after == before,
+                Event::Command(HostCommand::Gather) if running(prev) => after(),
+                Event::Command(HostCommand::EndGather) if running(prev) => !after(),
+                Event::Reset(_) => !after(),
+                Event::Command(HostCommand::Reset | HostCommand::Reinitialize) if running(prev) => !after(),
+                _ => prev.status_inputs() == next.status_inputs() || after() == before(),
             }
         }),
     },

@@ -172,6 +172,22 @@ pub trait Model: Sized {
     /// does not change the state.
     fn next_state(&self, last_state: &Self::State, action: Self::Action) -> Option<Self::State>;
 
+    /// PATCH (pmacwd): calls `visit` with the successor of `last_state` under each of `actions`
+    /// in turn (what [`Model::next_state`] returns for it: `None` where it returns `None`),
+    /// draining `actions`; `visit` may take the state out of the `Option`. The breadth-first
+    /// checker generates successors through this. The default calls `next_state` once per
+    /// action; a model overrides it to share work between the actions of one state, and must
+    /// give the same successors in the same order.
+    fn for_each_next_state<F>(&self, last_state: &Self::State, actions: &mut Vec<Self::Action>, mut visit: F)
+    where
+        F: FnMut(&mut Option<Self::State>),
+    {
+        for action in actions.drain(..) {
+            let mut next = self.next_state(last_state, action);
+            visit(&mut next);
+        }
+    }
+
     /// Converts an action of this model to a more intuitive representation (e.g. for Explorer).
     fn format_action(&self, action: &Self::Action) -> String
     where

@@ -295,18 +295,18 @@ where
             // Otherwise enqueue newly generated states (with related metadata).
             let mut is_terminal = true;
             model.actions(&state, &mut actions);
-            // PATCH (pmacwd): a plain loop over the actions instead of `flat_map`, whose
-            // iterator held each successor in its own slot, and the successor left in the
-            // `Option` that `next_state` returned until it is queued: each was one more copy of
-            // the state per transition.
-            for action in actions.drain(..) {
-                let next_state = model.next_state(&state, action);
-                let Some(next) = &next_state else {
-                    continue;
+            // PATCH (pmacwd): the successors through `Model::for_each_next_state`, which a
+            // model may override to share work between the actions of one state; each
+            // successor is left in the `Option` that holds it until it is queued (upstream's
+            // `flat_map` and binding by value were two more copies of the state per
+            // transition).
+            model.for_each_next_state(&state, &mut actions, |next_state| {
+                let Some(next) = next_state.as_ref() else {
+                    return;
                 };
                 // Skip if outside boundary.
                 if !model.within_boundary(next) {
-                    continue;
+                    return;
                 }
                 generated_here += 1;
 
@@ -331,18 +331,18 @@ where
                     // using eventually properties (using a boundary or empty actions or
                     // whatever).
                     is_terminal = false;
-                    continue;
+                    return;
                 }
 
                 // Otherwise further checking is applicable.
                 is_terminal = false;
                 pending.push_front((
-                    next_state.expect("a successor (checked above)"),
+                    next_state.take().expect("a successor (checked above)"),
                     next_fingerprint,
                     ebits.clone(),
                     NonZeroUsize::new(max_depth.get() + 1).unwrap(),
                 ));
-            }
+            });
             if is_terminal {
                 for (i, property) in properties.iter().enumerate() {
                     if ebits.contains(i) {
