@@ -593,8 +593,10 @@ fn servo_in_steps(shared: &Shared, cycles: u32) -> String {
 fn step_in_chunks(shared: &Shared, cycles: u32, last_active_ms: &AtomicU64) -> String {
     let mut done = 0u32;
     loop {
-        let n = (cycles - done).min(CYCLES_PER_HOLD_MAX);
-        let reply = shared.card_now().control(Control::Step { cycles: n });
+        let mut card = shared.card_now();
+        let n = (cycles - done).min(card.cycles_per_hold());
+        let reply = card.control(Control::Step { cycles: n });
+        drop(card);
         if !reply.starts_with("ok") {
             return reply;
         }
