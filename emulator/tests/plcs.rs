@@ -141,7 +141,7 @@ fn a_plc_s_commands_go_through_the_card_s_command_path_and_reach_the_core() {
 #[test]
 fn m162_reads_the_actual_position_in_its_units_and_m166_the_velocity() {
     let mut c = card();
-    download(&mut c, &["M162->D:$00008B M166->X:$00009D,0,24,S M262->D:$00010B"]);
+    download(&mut c, &["M162->D:$00008B M166->X:$00009D,0,24,S M174->D:$0000EF M262->D:$00010B"]);
     download(&mut c, &["#1J/ #1J=2000"]);
     step(&mut c, 30_000);
     assert_eq!(value(&mut c, "#1P"), 2000.0);
@@ -153,6 +153,9 @@ fn m162_reads_the_actual_position_in_its_units_and_m166_the_velocity() {
     let per_cycle = 32.0 * 3_713_707.0 / 8_388_608.0;
     let m166 = value(&mut c, "M166");
     assert!((m166 - per_cycle * 96.0 * 32.0).abs() <= 1.0, "{m166}");
+    assert_eq!(value(&mut c, "M174"), m166, "the averaged velocity, D:$0000EF (no filter)");
+    // V, counts per servo cycle to a tenth (SRM p.402), is the same velocity.
+    assert_eq!(value(&mut c, "#1V"), (per_cycle * 10.0).round() / 10.0);
     let rh = values(&mut c, "RHX:$8B")[0].clone();
     let m = value(&mut c, "M162") as i64;
     assert_eq!(i64::from_str_radix(&rh, 16).unwrap(), (m >> 24) & 0xFF_FFFF, "RH reads the same register");

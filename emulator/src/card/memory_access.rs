@@ -134,8 +134,10 @@ impl Card {
     /// "converting radial (M162) ... positions"): motor n's commanded position at D:$000088 +
     /// $80 x (n - 1) (Mxx61) and its actual position at D:$00008B + ... (Mxx62), each in
     /// 1/(Ixx08 x 32) counts, 48 bits, X the high word; its actual velocity at X:$00009D + ...
-    /// (Mxx66) in 1/(Ixx09 x 32) counts per servo cycle, 24 bits signed. `None` for any other
-    /// address. MODEL: the commanded position is the actual one (no servo loop), both counted
+    /// (Mxx66) in 1/(Ixx09 x 32) counts per servo cycle, 24 bits signed, and its averaged
+    /// actual velocity at D:$0000EF + ... (Mxx74, `BRICK_M_variables.pmc:178`) in the same
+    /// units, 48 bits (MODEL: the velocity is the trajectory's, no averaging filter). `None`
+    /// for any other address. MODEL: the commanded position is the actual one (no servo loop), both counted
     /// from the home position as `P` reports them (the card keeps the home offset apart, in its
     /// position bias, Mxx64, which reads 0 here); a host write there is kept and not read (the
     /// servo loop writes these every cycle).
@@ -161,6 +163,13 @@ impl Card {
                 let v = (axis.vel * self.servo_period_ms() * scale).round();
                 let v = if v.is_finite() { v.clamp(-(2f64.powi(23)), 2f64.powi(23) - 1.0) as i64 } else { 0 };
                 Some((v as u32) & 0xFF_FFFF)
+            }
+            (Space::X | Space::Y, 0xEF) => {
+                let scale = self.i_value(u16::from(motor) * 100 + 9) * 32.0;
+                let v = (axis.vel * self.servo_period_ms() * scale).round();
+                let v = if v.is_finite() { v.clamp(-(2f64.powi(47)), 2f64.powi(47) - 1.0) as i64 } else { 0 };
+                let (x, y) = mvar::split48(v);
+                Some(if space == Space::X { x } else { y })
             }
             _ => None,
         }
