@@ -256,6 +256,9 @@ pub fn statements(line: &str, cs: u8) -> Vec<Statement> {
     out
 }
 
+/// A flow statement made from its condition.
+type MakeFlow = fn(Condition) -> Statement;
+
 /// Whether `s` at `i` starts with `word` (upper case, as stored).
 fn at_word(s: &[u8], i: usize, word: &str) -> bool {
     s[i..].starts_with(word.as_bytes())
@@ -272,7 +275,7 @@ fn skip_blanks(s: &[u8], i: &mut usize) {
 fn flow_statement(s: &[u8], i: &mut usize, cs: u8) -> Option<Result<Statement, ()>> {
     let start = *i;
     // Longest spelling first where one starts another.
-    let words: [(&str, fn(Condition) -> Statement); 4] =
+    let words: [(&str, MakeFlow); 4] =
         [("WHILE", Statement::While), ("AND", Statement::And), ("IF", Statement::If), ("OR", Statement::Or)];
     for (w, make) in words {
         if at_word(s, start, w) {
