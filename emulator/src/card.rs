@@ -536,8 +536,11 @@ impl Card {
             c.elapse(ran);
         }
         // The trajectories move for the cycles the card ran (up to a trip, which forces every
-        // output off, UM p.215), then stay within what the core says of each motor.
-        self.advance_motion(tripped_at.map_or(ran, |c| c.saturating_sub(first)));
+        // output off, UM p.215), then stay within what the core says of each motor; the user
+        // countdown timers count those cycles (SRM p.176).
+        let servoed = tripped_at.map_or(ran, |c| c.saturating_sub(first));
+        self.count_down_timers(servoed);
+        self.advance_motion(servoed);
         self.sync_motion();
         if tripped_at.is_none() {
             self.conclude_jogs();

@@ -207,3 +207,20 @@ fn a_hostile_plc_cannot_hold_the_card_and_the_watchdog_stays_fed() {
     assert!(per_hold.as_millis() < 50, "a hold took {per_hold:?}");
     eprintln!("6000 servo cycles of three hostile PLCs: {took:?}, {per_hold:?} a hold of 64 cycles");
 }
+
+#[test]
+fn the_countdown_timers_count_servo_cycles_down_to_their_floor_in_the_active_coordinate_systems() {
+    // SRM p.176: "If Coordinate System 'x' is activated by I68, Isx11 will count down one unit
+    // per servo cycle ... until it reaches its maximum negative value of -8,388,608. It will
+    // not roll over."
+    let mut c = card();
+    download(&mut c, &["I5111=100 I5112=5 I6612=-8388600"]);
+    step(&mut c, 60);
+    assert_eq!([value(&mut c, "I5111"), value(&mut c, "I5112"), value(&mut c, "I6612")], [40.0, -55.0, -8_388_608.0]);
+    step(&mut c, 10_000_000);
+    assert_eq!(value(&mut c, "I5111"), -8_388_608.0, "no roll-over");
+    // I68 = 0: C.S. 1 alone is active, so C.S. 2's timer stays.
+    download(&mut c, &["I68=0 I5111=10 I5211=10"]);
+    step(&mut c, 4);
+    assert_eq!([value(&mut c, "I5111"), value(&mut c, "I5211")], [6.0, 10.0]);
+}

@@ -43,8 +43,9 @@
 //!   and scanned from its top.
 //! - A condition or assignment with no value (a division by zero, `SQRT(-1)`) is false, or
 //!   not assigned; the PLC goes on.
-//! - P, Q and M assignments are not recorded in a capture (the model has none); an I-variable
-//!   write by a PLC reaches the core as a motion program's does.
+//! - An I-variable assignment runs as the on-line command `In=v` would (I41's lockout included)
+//!   and a capture records it so (I8, I40, I41 are the watchdog's); P, Q and M assignments are
+//!   not recorded (the model has none).
 
 use super::Card;
 use crate::buffers::BufferId;
@@ -52,7 +53,7 @@ use crate::capture_queue::Record;
 use crate::framing::Answer;
 use crate::plc::{compile, Op};
 use crate::program::Statement;
-use pmacwd_specs::grammar::{pieces, Addressing, Command, PlcSwitch};
+use pmacwd_specs::grammar::{pieces, Addressing, Command, Expr, PlcSwitch, VarKind};
 use std::collections::VecDeque;
 
 /// The most statements (and jumps) one scan runs; the next scan goes on from there.
@@ -244,6 +245,19 @@ impl Card {
     fn plc_statement(&mut self, n: u8, st: &Statement) -> bool {
         let k = usize::from(n);
         match st {
+            // An I-variable assignment is run as the on-line command `In=v` (and so recorded
+            // in a capture: I8, I40, I41 are the watchdog's, and the model must hear them);
+            // P, Q and M ones directly.
+            Statement::Assign { kind: VarKind::I, number, value } => {
+                let finite = |card: &mut Card, e: &Expr| e.eval(card).ok().filter(|v| v.is_finite());
+                if let (Some(n), Some(v)) = (finite(self, number), finite(self, value)) {
+                    let n = n.round();
+                    if (0.0..=8191.0).contains(&n) {
+                        let text = format!("I{}={}", n as u16, crate::memory::format_value(v));
+                        self.run_as_host(text.as_bytes(), self.plcs.states[k].addressing);
+                    }
+                }
+            }
             Statement::Assign { kind, number, value } => {
                 self.assign(*kind, number, value);
             }
@@ -292,38 +306,66 @@ impl Card {
         let mut work = 0u32;
         while work < COMMAND_WORK_PER_SCAN_MAX {
             let Some((text, addressing)) = self.plcs.queue.pop_front() else { return };
-            let mut addressing = addressing;
-            for piece in pieces(&text, &mut addressing) {
-                let Ok(command) = piece.command else {
-                    // An invalid command: its BEL goes to no port (SRM p.421); the rest of the
-                    // text is not run, as for a host's line.
-                    break;
-                };
-                // A query's answer goes to no port, and reading changes nothing (MODEL).
-                if command.values() != Some(0) {
-                    continue;
-                }
-                work = work.saturating_add(1 + command_range(&command) / 16);
-                let shown =
-                    String::from_utf8_lossy(text.get(piece.start..piece.end).unwrap_or_default()).trim().to_string();
-                let mut answers = Vec::new();
-                self.command(command.clone(), addressing, &mut answers);
-                let framing = self.framing();
-                let mut own = Vec::new();
-                let mut failed = false;
-                for answer in &answers {
-                    framing.push_answer(&mut own, answer);
-                    if let Answer::Error(_) = answer {
-                        failed = true;
-                        break;
-                    }
-                }
-                self.capture_record(|| Record::Commands { commands: vec![(shown, Ok(command))], reply: Some(own) });
-                if failed {
+            work = work.saturating_add(self.run_as_host(&text, addressing));
+        }
+    }
+
+    /// `text` run through the card's command path as a host's line would be, with the PLC's
+    /// `addressing`; each command recorded in a capture with its answer. The work it took.
+    fn run_as_host(&mut self, text: &[u8], addressing: Addressing) -> u32 {
+        let mut work = 0u32;
+        let mut addressing = addressing;
+        for piece in pieces(text, &mut addressing) {
+            let Ok(command) = piece.command else {
+                // An invalid command: its BEL goes to no port (SRM p.421); the rest of the
+                // text is not run, as for a host's line.
+                break;
+            };
+            // A query's answer goes to no port, and reading changes nothing (MODEL).
+            if command.values() != Some(0) {
+                continue;
+            }
+            work = work.saturating_add(1 + command_range(&command) / 16);
+            let shown =
+                String::from_utf8_lossy(text.get(piece.start..piece.end).unwrap_or_default()).trim().to_string();
+            let mut answers = Vec::new();
+            self.command(command.clone(), addressing, &mut answers);
+            let framing = self.framing();
+            let mut own = Vec::new();
+            let mut failed = false;
+            for answer in &answers {
+                framing.push_answer(&mut own, answer);
+                if let Answer::Error(_) = answer {
+                    failed = true;
                     break;
                 }
             }
-            self.sync_motion();
+            self.capture_record(|| Record::Commands { commands: vec![(shown, Ok(command))], reply: Some(own) });
+            if failed {
+                break;
+            }
+        }
+        self.sync_motion();
+        work
+    }
+
+    /// The coordinate systems' user countdown timers Isx11 and Isx12 after `cycles` servo
+    /// cycles: "If Coordinate System 'x' is activated by I68, Isx11 will count down one unit
+    /// per servo cycle ... until it reaches its maximum negative value of -8,388,608. It will
+    /// not roll over" (SRM p.176). PLCs wait on them (`I5111=2259 WHILE (I5111>0) ENDWHILE`,
+    /// the same page; DLS's start-up PLC 1 with I5112).
+    pub(super) fn count_down_timers(&mut self, cycles: u64) {
+        const LOWEST: i64 = -8_388_608;
+        let active = (self.core.read_i(68, &self.store).unwrap_or(0).clamp(0, 15) + 1) as u16;
+        let cycles = i64::try_from(cycles).unwrap_or(i64::MAX);
+        for cs in 1..=active {
+            for timer in [11, 12] {
+                let n = 5000 + 100 * cs + timer;
+                let v = self.core.read_i(n, &self.store).unwrap_or(0);
+                if v > LOWEST {
+                    self.store.write_exact(n, v.saturating_sub(cycles).max(LOWEST) as f64);
+                }
+            }
         }
     }
 }
