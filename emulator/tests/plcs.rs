@@ -186,7 +186,7 @@ fn a_hostile_plc_cannot_hold_the_card_and_the_watchdog_stays_fed() {
     // An endless loop: a pass a scan, so the background and the watchdog go on.
     plc(&mut c, 1, &["WHILE (1<2)", "P1=P1+1", "ENDWHILE"]);
     // Thousands of lines with no loop: a scan runs at most 256 statements (MODEL).
-    let long: Vec<String> = (0..5000).map(|_| "P2=P2+1".to_string()).collect();
+    let long: Vec<String> = (0..4000).map(|_| "P2=P2+1".to_string()).collect();
     let long: Vec<&str> = long.iter().map(String::as_str).collect();
     plc(&mut c, 2, &long);
     // A command storm: each scan queues as many commands as the queue takes.
@@ -198,9 +198,9 @@ fn a_hostile_plc_cannot_hold_the_card_and_the_watchdog_stays_fed() {
     let took = started.elapsed();
     assert!(c.line(b"???").is_some(), "not tripped: the background went on");
     assert_eq!(value(&mut c, "P1"), 2000.0);
-    // 256 statements a scan, and a scan also ends at the program's end: 20 scans go through
-    // the 5,000 lines (19 of 256, one of 136).
-    assert_eq!(value(&mut c, "P2"), 2000.0 / 20.0 * 5000.0);
+    // 256 statements a scan, and a scan also ends at the program's end: 16 scans go through
+    // the 4,000 lines (15 of 256, one of 160).
+    assert_eq!(value(&mut c, "P2"), 2000.0 / 16.0 * 4000.0);
     assert!(value(&mut c, "P9") > 100.0);
     // Per hold of the card's lock: 64 cycles of these three PLCs.
     let per_hold = took / (6000 / 64);
@@ -223,4 +223,30 @@ fn the_countdown_timers_count_servo_cycles_down_to_their_floor_in_the_active_coo
     download(&mut c, &["I68=0 I5111=10 I5211=10"]);
     step(&mut c, 4);
     assert_eq!([value(&mut c, "I5111"), value(&mut c, "I5211")], [6.0, 10.0]);
+}
+
+#[test]
+fn a_plc_too_long_to_run_is_kept_listed_and_stopped_with_the_reason() {
+    let mut c = card();
+    let lines: Vec<String> = (0..4097).map(|k| format!("P{}={k}", k % 100)).collect();
+    let lines: Vec<&str> = lines.iter().map(String::as_str).collect();
+    plc(&mut c, 5, &lines);
+    let said = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let to = said.clone();
+    c.on_console(Box::new(move |l| to.lock().unwrap().push(l.to_string())));
+    download(&mut c, &["I5=2 ENABLE PLC 5"]);
+    step(&mut c, 10);
+    assert_eq!(value(&mut c, "P99"), 0.0, "not run");
+    assert_eq!(values(&mut c, "LIST PLC 5,4096"), ["P96=4096"]);
+    let said = said.lock().unwrap();
+    assert!(said.iter().any(|l| l.contains("PLC 5 stopped") && l.contains("4097 lines")), "{said:?}");
+    // The longest that runs: 4,096 lines, compiled in one hold.
+    let mut c = card();
+    plc(&mut c, 5, &lines[..4096]);
+    download(&mut c, &["I5=2 ENABLE PLC 5"]);
+    let started = Instant::now();
+    step(&mut c, 1);
+    eprintln!("a PLC of 4,096 lines compiled and scanned once: {:?}", started.elapsed());
+    // The first scan's 256 statements (lines 0..255) ran, the 257th not.
+    assert_eq!([value(&mut c, "P55"), value(&mut c, "P56")], [255.0, 156.0]);
 }

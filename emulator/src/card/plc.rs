@@ -63,6 +63,13 @@ pub const OPS_PER_SCAN_MAX: u32 = 256;
 /// may complete a background cycle and so a scan): 64 scans of at most 256 statements.
 pub const PLC_CYCLES_PER_HOLD_MAX: u32 = 64;
 
+/// The most lines a PLC may have to run. MODEL: a bound on the work of compiling it, which
+/// happens in one hold of the card's lock when the PLC first runs after a change (4,096 lines
+/// compiled and scanned once in 0.8 ms, debug build); DLS's PLCs have tens to a few hundred
+/// lines.
+/// A longer PLC is kept and listed, and stops when enabled, the console saying why.
+pub const PLC_LINES_MAX: usize = 4096;
+
 /// The card's queue of commands issued by PLCs and not yet run (PMAC-SRM p.306: a full queue
 /// halts the program until there is room).
 pub const COMMAND_QUEUE_MAX: usize = 32;
@@ -179,6 +186,11 @@ impl Card {
         let version = self.buffers.version(BufferId::Plc(n));
         if self.plcs.states[k].ops.is_none() || self.plcs.states[k].version != version {
             let lines = self.buffers.plc(n).unwrap_or(&[]);
+            if lines.len() > PLC_LINES_MAX {
+                let why = format!("{} lines, more than the {PLC_LINES_MAX} a PLC may have to run", lines.len());
+                self.stop_plc(n, &why);
+                return;
+            }
             let state = &mut self.plcs.states[k];
             state.ops = Some(compile(lines));
             state.version = version;
