@@ -250,3 +250,18 @@ fn a_plc_too_long_to_run_is_kept_listed_and_stopped_with_the_reason() {
     // The first scan's 256 statements (lines 0..255) ran, the 257th not.
     assert_eq!([value(&mut c, "P55"), value(&mut c, "P56")], [255.0, 156.0]);
 }
+
+#[test]
+fn a_plc_enabled_again_starts_at_its_top_and_one_running_goes_on() {
+    let mut c = card();
+    plc(&mut c, 1, &["P1=P1+1", "WHILE (P1<100)", "P2=P2+1", "ENDWHILE"]);
+    download(&mut c, &["I5=2 ENABLE PLC 1"]);
+    step(&mut c, 5);
+    assert_eq!([value(&mut c, "P1"), value(&mut c, "P2")], [1.0, 5.0], "in its WHILE");
+    download(&mut c, &["ENABLE PLC 1"]);
+    step(&mut c, 1);
+    assert_eq!(value(&mut c, "P1"), 1.0, "already running: it goes on in its WHILE");
+    download(&mut c, &["DISABLE PLC 1", "ENABLE PLC 1"]);
+    step(&mut c, 1);
+    assert_eq!(value(&mut c, "P1"), 2.0, "enabled again: from its top (MODEL)");
+}

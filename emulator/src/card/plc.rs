@@ -5,9 +5,11 @@
 //! `program.rs`, compiled into jumps by `plc.rs`; this module scans them.
 //!
 //! - Which run: PLCs enabled by `ENABLE PLC n` (and not disabled since, by a host or by a
-//!   PLC's own `DISABLE PLC`), while I5 has its background bit (PMAC-SRM p.24, I5: "2
-//!   Foreground PLCs off; background PLCs on", 3 both; default 0), one per background cycle
-//!   in turn, lowest number first (MODEL: the order of the single PLC each cycle runs).
+//!   PLC's own `DISABLE PLC`), while I5 has its background bit (SRM p.39, I5: "2 Foreground
+//!   PLCs off; background PLCs on", 3 both; "an individual PLC program still needs to be
+//!   enabled to run"; the Turbo default is 1, the emulator's I5 reads 0 until written: either
+//!   leaves background PLCs off), one per background cycle in turn, lowest number first
+//!   (MODEL: the order of the single PLC each cycle runs).
 //! - A scan ends at the program's end (the next starts at its top) or at an ENDWHILE (the next
 //!   starts at its WHILE): a WHILE loop takes a pass a scan, so no PLC holds the card. MODEL:
 //!   a scan runs at most [`OPS_PER_SCAN_MAX`] statements, the next one going on where it
@@ -17,19 +19,19 @@
 //! - `COMMAND"..."` (`CMD`) is issued "as if it came from the host (except for addressing modes
 //!   and response direction)" (SRM p.421): its commands go through the card's command path,
 //!   so a PLC's `CMD"#1K"` or `CMD^K` reaches the core as a host's would, and the capture
-//!   records it as an exchange. They are queued and run at the end of the scan (PMAC-SRM
-//!   p.307: "If issued from a PLC program, the command will not be interpreted before the end
-//!   of the current scan of the PLC"); a full queue holds the PLC at that statement until
-//!   there is room (PMAC-SRM p.306). Plain `COMMAND` "provides no response to any port" (SRM
-//!   p.421), so a query (`CMD"P1"`) is not run (MODEL: reading changes nothing and its answer
-//!   would go nowhere). A command with no motor or C.S. of its own addresses the PLC's
-//!   `ADDRESS#n&m`, else motor 1 and C.S. 1 (SRM p.421: "directed to the first motor or
-//!   coordinate system"; MODEL: ADDRESS's own page is not at hand).
+//!   records it as an exchange. They are queued and run at the end of the scan (SRM p.422: "If
+//!   issued from a PLC program, the command will not be interpreted before the end of the
+//!   current scan of the PLC"); a full queue holds the PLC at that statement until there is
+//!   room (SRM p.422: "program execution is temporarily halted until the new command can be
+//!   placed on the queue"). Plain `COMMAND` "provides no response to any port" (SRM p.421),
+//!   so a query (`CMD"P1"`) is not run (MODEL: reading changes nothing and its answer would go
+//!   nowhere). A command with no motor or C.S. of its own addresses the PLC's `ADDRESS#n&m`
+//!   (SRM p.422: "At power-up/reset, all PLC programs are addressing Motor 1 and C.S.1").
 //! - `SEND"..."` goes to no port (MODEL: the emulator's hosts get no unsolicited messages).
 //!
 //! MODEL, the rest:
 //!
-//! - PLC 0 is the foreground PLC (PMAC-SRM p.24, I5 bit 0; UM p.236: it runs every RTI). The
+//! - PLC 0 is the foreground PLC (SRM p.39, I5 bit 0; UM p.236: it runs every RTI). The
 //!   watchdog model's PLC 0 is a CPU load, the control port's `plc0` knob, and a downloaded PLC
 //!   0 is kept and listed but not run: running its statements every RTI would need its CPU
 //!   time, which the model sets by that knob. Compiled PLCs (`ENABLE PLCC`) cannot be
@@ -70,8 +72,8 @@ pub const PLC_CYCLES_PER_HOLD_MAX: u32 = 64;
 /// A longer PLC is kept and listed, and stops when enabled, the console saying why.
 pub const PLC_LINES_MAX: usize = 4096;
 
-/// The card's queue of commands issued by PLCs and not yet run (PMAC-SRM p.306: a full queue
-/// halts the program until there is room).
+/// The card's queue of commands issued by PLCs and not yet run (SRM p.422: a full queue halts
+/// the program until there is room). MODEL: the card's queue length is not given.
 pub const COMMAND_QUEUE_MAX: usize = 32;
 
 /// What running the queued commands may cost per scan: one a command, and one per 16
@@ -110,7 +112,7 @@ impl Default for Plcs {
     }
 }
 
-/// The background PLCs' bit of I5 (PMAC-SRM p.24).
+/// The background PLCs' bit of I5 (SRM p.39).
 const I5_BACKGROUND: i64 = 2;
 
 impl Card {
@@ -137,12 +139,16 @@ impl Card {
         }
         let background = p.plcs & !1;
         if p.enable {
-            self.plcs.enabled |= background;
             for n in 1..32 {
-                if background & (1 << n) != 0 {
+                if background & (1 << n) != 0 && (self.plcs.enabled & (1 << n) == 0 || self.plcs.states[n].stopped) {
+                    // MODEL: a PLC enabled again starts at its top (the pages at hand do not
+                    // say; Turbo PMAC's PAUSE PLC and RESUME PLC are the commands that keep the
+                    // place); one already running goes on where it is.
                     self.plcs.states[n].stopped = false;
+                    self.plcs.states[n].pc = 0;
                 }
             }
+            self.plcs.enabled |= background;
         } else {
             self.plcs.enabled &= !background;
         }
@@ -216,7 +222,7 @@ impl Card {
             match op {
                 Op::Do(st) => {
                     if !self.plc_statement(n, st) {
-                        // Held until the command queue has room (PMAC-SRM p.306).
+                        // Held until the command queue has room (SRM p.422).
                         break;
                     }
                     pc += 1;

@@ -241,8 +241,8 @@ pub enum Command {
     OpenPlc(u8),
     OpenProgram(u16),
     Close,
-    /// `ENABLE PLC n[,m...]`, `DISABLE PLC n..m`, and the PLCC forms: which programs (PMAC-SRM
-    /// p.24, I5: PLC 0 the foreground one, 1 to 31 the background ones).
+    /// `ENABLE PLC n[,m...]`, `DISABLE PLC n..m`, and the PLCC forms: which programs (SRM p.39,
+    /// I5: PLC 0 the foreground one, 1 to 31 the background ones).
     PlcSwitch(PlcSwitch),
     /// `LIST PROG n`, `LIST PLC n`, `LIST FORWARD`, `LIST INVERSE`.
     List(Listing),
