@@ -6,11 +6,14 @@
 2. A `???` poller's round trips (2,000 in a row), without PLCs and beside three hostile ones:
    an endless WHILE, 167 lines of 30 statements (5,010) without a loop, and a storm of
    `CMD"P100..8191=1"`.
+3. Virtual time (`--virtual-time`): the control port's `step 1000000`, without and with the
+   position-reporting PLC (a card with PLCs running steps a servo cycle at a time).
 
     target/dls-venv/bin/python emulator/benches/plcs.py target/release/pmacwd
 """
 import os
 import re
+import socket
 import subprocess
 import sys
 import time
@@ -38,17 +41,19 @@ HOSTILE = (
 )
 
 
-def serve():
+def serve(virtual=False):
+    control = ["--control", "127.0.0.1:0", "--virtual-time"] if virtual else ["--no-control"]
     proc = subprocess.Popen(
-        [PMACWD, "serve", "--listen", "127.0.0.1:0", "--no-control"],
+        [PMACWD, "serve", "--listen", "127.0.0.1:0", *control],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
-    port = re.findall(r"127\.0\.0\.1:(\d+)", proc.stdout.readline())[0]
+    ports = re.findall(r"127\.0\.0\.1:(\d+)", proc.stdout.readline())
     pmac = PmacEthernetInterface(timeout=2.0)
-    pmac.setConnectionParams("127.0.0.1", port)
+    pmac.setConnectionParams("127.0.0.1", ports[0])
     assert pmac.connect() is None
+    proc.control_port = ports[1] if virtual else None
     return proc, pmac
 
 
@@ -101,7 +106,28 @@ def poller(hostile):
     )
 
 
+def virtual_step(plc):
+    proc, pmac = serve(virtual=True)
+    if plc:
+        send(pmac, REPORTING)
+    c = socket.create_connection(("127.0.0.1", int(proc.control_port)))
+    f = c.makefile("rw", newline="\n")
+    t = time.perf_counter()
+    f.write("step 1000000\n")
+    f.flush()
+    assert f.readline().startswith("ok")
+    took = time.perf_counter() - t
+    c.close()
+    pmac.disconnect()
+    proc.terminate()
+    proc.communicate()
+    name = "a position-reporting PLC" if plc else "no PLC"
+    print(f"virtual time, step 1000000, {name}: {took * 1000:.0f} ms ({took * 1000:.0f} ns a servo cycle)")
+
+
 for plc in (False, True):
     idle_cpu(plc)
 for hostile in (False, True, False, True):
     poller(hostile)
+for plc in (False, True, False, True):
+    virtual_step(plc)
