@@ -265,3 +265,36 @@ fn a_plc_enabled_again_starts_at_its_top_and_one_running_goes_on() {
     step(&mut c, 1);
     assert_eq!(value(&mut c, "P1"), 2.0, "enabled again: from its top (MODEL)");
 }
+
+#[test]
+fn a_line_waiting_on_a_starved_card_with_plcs_holds_the_card_a_few_cycles_at_a_time() {
+    use pmacwd_emulator::card::{LineRun, Progress};
+    use pmacwd_specs::grammar::Addressing;
+    let mut c = card();
+    plc(&mut c, 1, &["P1=P1+1"]);
+    download(&mut c, &["I5=2 ENABLE PLC 1"]);
+    c.control(Control::Starve);
+    // Past the instant of the last background cycle, which would answer the line at once.
+    step(&mut c, 10);
+    // In virtual time the waiting line runs the card itself until a background cycle comes,
+    // which on a starved card is never: it trips (UM p.215). Each step holds the card for at
+    // most a hold's cycles, 64 while PLCs run, one servo cycle at a time.
+    let mut run = LineRun::new(b"???");
+    let mut addressing = Addressing::default();
+    let mut out = Vec::new();
+    let (mut steps, mut longest) = (0, std::time::Duration::ZERO);
+    loop {
+        let started = Instant::now();
+        let progress = c.line_step(&mut run, &mut addressing, &mut out);
+        longest = longest.max(started.elapsed());
+        steps += 1;
+        match progress {
+            Progress::Waiting(_) | Progress::More => continue,
+            Progress::Silent => break,
+            other => panic!("{other:?}"),
+        }
+    }
+    assert!(steps > 4141 / 64, "{steps} steps of at most 64 cycles up to the trip");
+    assert!(longest.as_millis() < 20, "the longest step held the card {longest:?}");
+    eprintln!("{steps} steps up to the trip, the longest {longest:?}");
+}
