@@ -585,7 +585,8 @@ fn servo_in_steps(shared: &Shared, cycles: u32) -> String {
     whole()
 }
 
-/// `step N` run [`CYCLES_PER_HOLD_MAX`] cycles per lock hold, so that hosts keep getting
+/// `step N` run [`CYCLES_PER_HOLD_MAX`] cycles per lock hold (fewer while user PLCs run,
+/// [`Card::cycles_per_hold`]), so that hosts keep getting
 /// answers during a long step (`step 1000000000` is about 4 s of servo cycles). A host that
 /// asks meanwhile sees the card part-way through the step, as a host of a running card
 /// would; the emulator's own capture records the exchange between the cycles before and
