@@ -45,6 +45,11 @@ pub struct Buffers {
     active: Store,
     saved: Store,
     open: Option<BufferId>,
+    /// Changes so far, the last change of each buffer, and of all at once (a reset): what a
+    /// PLC was compiled from is still in use while its [`Buffers::version`] is unchanged.
+    changes: u64,
+    changed: BTreeMap<BufferId, u64>,
+    all_changed: u64,
 }
 
 /// A line of program text as the emulator stores it: its comment off, trimmed, upper case;
@@ -84,6 +89,7 @@ impl Buffers {
             if let Some(old) = self.active.lines.remove(&id) {
                 self.active.bytes -= old.iter().map(String::len).sum::<usize>();
             }
+            self.touch(id);
             line = rest.trim_start().to_string();
         }
         if line.is_empty() {
@@ -94,7 +100,23 @@ impl Buffers {
         }
         self.active.bytes += line.len();
         self.active.lines.entry(id).or_default().push(line);
+        self.touch(id);
         Ok(())
+    }
+
+    fn touch(&mut self, id: BufferId) {
+        self.changes += 1;
+        self.changed.insert(id, self.changes);
+    }
+
+    /// A number that changes whenever buffer `id`'s lines may have changed.
+    pub fn version(&self, id: BufferId) -> u64 {
+        self.changed.get(&id).copied().unwrap_or(0).max(self.all_changed)
+    }
+
+    /// PLC `n`'s lines (none when it was never downloaded).
+    pub fn plc(&self, n: u8) -> Option<&[String]> {
+        self.active.lines.get(&BufferId::Plc(n)).map(Vec::as_slice)
     }
 
     /// The lines of buffer `id`, from line `start` (0: the first), at most `length` of them.
@@ -119,12 +141,16 @@ impl Buffers {
     pub fn reset(&mut self) {
         self.active = self.saved.clone();
         self.open = None;
+        self.changes += 1;
+        self.all_changed = self.changes;
     }
 
     /// `$$$***`: no programs in use; what was saved stays in flash for the next reset.
     pub fn reinitialize(&mut self) {
         self.active = Store::default();
         self.open = None;
+        self.changes += 1;
+        self.all_changed = self.changes;
     }
 }
 

@@ -410,6 +410,9 @@ impl<W: Write> CaptureWriter<W> {
                 "an M-variable assignment or memory write since the last reset may have changed it (SRM p.57: past I41), and the capture cannot tell which I-variable it reached",
             ),
             HostCommand::ReadHex(Register::ServoCycles) => note("X:$0 counts from wherever the card started"),
+            HostCommand::ReadI(n) if is_countdown_timer(*n) => {
+                note("Isx11 and Isx12 count down every servo cycle (SRM p.176); the model holds what was written")
+            }
             HostCommand::Checksum => {
                 note("a card's firmware reference checksum; the model's is a token (MODEL: it sums no memory)")
             }
@@ -419,6 +422,12 @@ impl<W: Write> CaptureWriter<W> {
             _ => (Some(data.to_ascii_uppercase()), None),
         }
     }
+}
+
+/// Whether I-variable `n` is a coordinate system's user countdown timer, Isx11 or Isx12 (SRM
+/// p.176), which the card counts down by itself.
+fn is_countdown_timer(n: u16) -> bool {
+    (5100..=6699).contains(&n) && matches!(n % 100, 11 | 12)
 }
 
 /// The commands of `line` as the card's grammar reads it, as the card did

@@ -30,6 +30,7 @@ use std::time::Instant;
 mod line;
 mod memory_access;
 mod motion;
+mod plc;
 mod program;
 
 pub use line::{LineRun, Progress, BACKGROUND_WAIT_MAX, RANGE_PART_MAX};
@@ -269,6 +270,8 @@ pub struct Card {
     buffers: crate::buffers::Buffers,
     /// Each coordinate system's program as it executes (`card/program.rs`).
     programs: [program::CsRun; 16],
+    /// The user PLCs: which are enabled, where each scan stands (`card/plc.rs`).
+    plcs: plc::Plcs,
     /// A deliberately broken behaviour (`serve --fault`, `fault.rs`); none by default.
     pub(crate) fault: crate::fault::FaultState,
 }
@@ -313,6 +316,7 @@ impl Card {
             motors: Motors::default(),
             buffers: Default::default(),
             programs: std::array::from_fn(|_| program::CsRun::default()),
+            plcs: plc::Plcs::default(),
             fault: Default::default(),
         }
     }
@@ -450,7 +454,7 @@ impl Card {
     /// that holds the card behind a lock releases it between calls, so that no one waits
     /// longer than one call for it.
     pub fn run_towards(&mut self, target: u64) -> bool {
-        let n = target.saturating_sub(self.cycles).min(u64::from(CYCLES_PER_HOLD_MAX));
+        let n = target.saturating_sub(self.cycles).min(u64::from(self.cycles_per_hold()));
         if n > 0 {
             self.run(n);
         }
@@ -482,7 +486,9 @@ impl Card {
             // A jog that came to rest since (refused by a limit, or arrived) ends in the core
             // first (`card/motion.rs`).
             self.conclude_jogs();
-            let piece = left.min(self.cycles_to_program_event());
+            // With user PLCs running, a cycle at a time: each background cycle's scan sees the
+            // motors where that cycle left them (`card/plc.rs`).
+            let piece = left.min(self.cycles_to_program_event()).min(if self.plcs_running() { 1 } else { u64::MAX });
             let (ran, background) = self.run_piece(piece, to_background);
             left -= ran;
             if self.core.tripped() || background {
@@ -504,6 +510,7 @@ impl Card {
         let mut tripped_at = None;
         let mut ran = n;
         let mut background = false;
+        let background_before = self.background_cycles;
         for i in 0..n {
             if self.core.tripped() {
                 break;
@@ -529,11 +536,19 @@ impl Card {
             c.elapse(ran);
         }
         // The trajectories move for the cycles the card ran (up to a trip, which forces every
-        // output off, UM p.215), then stay within what the core says of each motor.
-        self.advance_motion(tripped_at.map_or(ran, |c| c.saturating_sub(first)));
+        // output off, UM p.215), then stay within what the core says of each motor; the user
+        // countdown timers count those cycles (SRM p.176).
+        let servoed = tripped_at.map_or(ran, |c| c.saturating_sub(first));
+        self.count_down_timers(servoed);
+        self.advance_motion(servoed);
         self.sync_motion();
         if tripped_at.is_none() {
             self.conclude_jogs();
+            // One PLC scan per background cycle that completed (UM p.236); with PLCs running a
+            // piece is one servo cycle, so at most one.
+            if self.background_cycles != background_before {
+                self.background_plc_scan();
+            }
         }
         // The supply trips at its event, not in a servo cycle: a trip found here is the
         // watchdog's, its strobe stopped for want of a background cycle (UM p.215, SRM p.57).
@@ -824,9 +839,12 @@ impl Card {
                 self.memory.undefine(cs);
                 out.push(Answer::Nothing)
             }
-            // MODEL: user PLC programs are not run (their CPU load is the control port's
-            // `plc0` and `background`); switching them is acknowledged.
-            Command::PlcSwitch => out.push(Answer::Nothing),
+            // User PLCs 1-31 run in the background (`card/plc.rs`); PLC 0 and compiled PLCs
+            // are acknowledged and not run (MODEL there).
+            Command::PlcSwitch(p) => {
+                self.switch_plcs(p);
+                out.push(Answer::Nothing)
+            }
             // The stored lines, one answer each (`buffers.rs`, MODEL there for the form).
             // MODEL: no kinematics buffers are kept (`OPEN FORWARD` is not read), so their
             // listings are empty.
@@ -957,6 +975,7 @@ impl Card {
                     self.buffers.reset();
                 }
             }
+            self.reset_plcs();
             let line = match command {
                 HostCommand::Reinitialize => {
                     format!("$$$*** from a host at {}: the card resets to its factory defaults", self.moment())
@@ -1046,6 +1065,7 @@ impl Card {
                 self.reset_programs();
                 self.mvars.reset();
                 self.buffers.reset();
+                self.reset_plcs();
                 let faults: Vec<&str> =
                     [(r.dpram_fault, "DPRAM fault"), (r.flash_fault, "flash fault"), (r.bootstrap, "bootstrap mode")]
                         .into_iter()

@@ -16,6 +16,7 @@ pub mod listen;
 pub mod memory;
 pub mod motor_status;
 pub mod mvar;
+pub mod plc;
 pub mod program;
 pub mod protocol;
 pub mod proxy;

@@ -585,7 +585,8 @@ fn servo_in_steps(shared: &Shared, cycles: u32) -> String {
     whole()
 }
 
-/// `step N` run [`CYCLES_PER_HOLD_MAX`] cycles per lock hold, so that hosts keep getting
+/// `step N` run [`CYCLES_PER_HOLD_MAX`] cycles per lock hold (fewer while user PLCs run,
+/// [`Card::cycles_per_hold`]), so that hosts keep getting
 /// answers during a long step (`step 1000000000` is about 4 s of servo cycles). A host that
 /// asks meanwhile sees the card part-way through the step, as a host of a running card
 /// would; the emulator's own capture records the exchange between the cycles before and
@@ -593,8 +594,10 @@ fn servo_in_steps(shared: &Shared, cycles: u32) -> String {
 fn step_in_chunks(shared: &Shared, cycles: u32, last_active_ms: &AtomicU64) -> String {
     let mut done = 0u32;
     loop {
-        let n = (cycles - done).min(CYCLES_PER_HOLD_MAX);
-        let reply = shared.card_now().control(Control::Step { cycles: n });
+        let mut card = shared.card_now();
+        let n = (cycles - done).min(card.cycles_per_hold());
+        let reply = card.control(Control::Step { cycles: n });
+        drop(card);
         if !reply.starts_with("ok") {
             return reply;
         }

@@ -214,5 +214,75 @@ class ThroughTheRecordingProxy(unittest.TestCase):
                 self.assertFalse(explains["um-215-4095"], path)
 
 
+class AUserPlcThroughTheCardsCommandPath(unittest.TestCase):
+    """A user PLC that waits on a countdown timer, writes an I-variable, jogs a motor and kills
+    it once it reads the motor past 500 counts: what it does reaches the core as a host's
+    commands would (SRM p.421), and the emulator's capture, which records them so, replays as
+    consistent."""
+
+    PLC = [
+        "OPEN PLC 1 CLEAR",
+        # SRM p.176: Isx11 counts down one a servo cycle; the PLC waits a pass a scan. Set
+        # once: each scan after the first at the program's end starts again at its top.
+        "IF(P2=0)",
+        "P2=1",
+        "I5111=200",
+        "ENDIF",
+        "WHILE(I5111>0)",
+        "ENDWHILE",
+        "IF(P1=0)",
+        "P1=1",
+        "I130=4321",
+        'CMD"#1J/"',
+        'CMD"#1J+"',
+        "ENDIF",
+        "IF(M162/(I108*32)>500)",
+        "CMD^K",
+        "DISABLE PLC 1",
+        "ENDIF",
+        "CLOSE",
+    ]
+
+    def test_its_commands_reach_the_core_and_the_capture_replays(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            capture = os.path.join(tmp, "serve.jsonl")
+            serve = Process(
+                "serve", "--listen", "127.0.0.1:0", "--control", "127.0.0.1:0",
+                "--virtual-time", "--record", capture,
+            )
+            port, control_port = serve.addresses
+            control = Control(int(control_port))
+            try:
+                pmac = connect(int(port))
+                session = Session(self, pmac, control)
+                try:
+                    for line in self.PLC + ["M162->D:$00008B", "I5=2", "ENABLE PLC 1"]:
+                        self.assertEqual(session.ok(line), "\x06", line)
+                    control("step 150")
+                    self.assertEqual(session.ok("P1 I130"), "0\r2000\r\x06", "still waiting on I5111")
+                    control("step 2000")
+                    self.assertEqual(session.ok("P1 I130"), "1\r4321\r\x06")
+                    status = session.ok("#1?")
+                    x = int(status[:6], 16)
+                    self.assertEqual(x & (3 << 18), 1 << 18, f"killed by the PLC: open loop, amplifier off ({status!r})")
+                    position = float(session.ok("#1P")[:-2])
+                    self.assertTrue(500 < position < 520, position)
+                    control("step 500")
+                    self.assertEqual(float(session.ok("#1P")[:-2]), position, "nothing moves after the kill")
+                finally:
+                    pmac.disconnect()
+            finally:
+                control.close()
+                serve.stop()
+            with open(capture) as f:
+                recorded = f.read()
+            for line in ("#1J/", "#1J+", "I130=4321"):
+                self.assertIn(line, recorded)
+            code, explains, checked, err = replay(capture)
+            self.assertEqual((code, err), (0, ""))
+            self.assertTrue(explains["um-215"], explains)
+            self.assertGreaterEqual(checked, 5)
+
+
 if __name__ == "__main__":
     unittest.main()

@@ -24,8 +24,20 @@ unit, so the driver's `scale_` turns a motor record position into EGUs):
 
 The program is written here from the driver's documented interface (TM from Q70, A..Z to
 Q71..Q79), as DLS's PROG10_CS_motion.pmc is: LINEAR, ABS, FRAX over every axis, TM(Q70), the
-nine axis moves, DWELL0. A beamline's C.S. axis readbacks (Q81..Q89) come from a position
-reporting PLC the emulator does not run, so the axes' arrival is read from the motors.
+nine axis moves, DWELL0.
+
+The C.S. axes' readbacks, which the driver polls as `&1Q8<a>` (pmacCSAxis.cpp: "Use Q81 - Q89
+for motor readback positions"), come from a position-reporting PLC that the beamline
+downloads (pmacCSController.cpp: "The EPICS driver expects the position reporting PLC to
+report the positions of these axes on Q81..89, in EGUs"). One is written here in the form of
+DLS's (etc/bootstrap/lab.pmc: "A PLC(sx+15) needs to be made to do position reporting ...
+As forward kinematic, but with Px = mx62/(Ix08*32)", `ADDRESS&3` and the jacks' positions
+as `MRES*m362/(I308*32)+OFF`, with MRES and OFF in P(4800+n) and P(4900+n) as
+motor_in_cs.template sets them): PLC 16 for C.S. 1, X = `P4801*M162/(I108*32)+P4901` into
+Q87 and Y into Q88, with the Geo Brick's M-variable definitions `M162->D:$00008B` and
+`M262->D:$00010B` (etc/bootstrap/BRICK_M_variables.pmc) and I5=2 (PLC program control, as
+DLS's PMAC_CLIPPER_Startup.pmc sets it). The card runs it in its background; the readbacks
+arrive at the targets only through it (disabled, they stay where they were).
 """
 
 import os
@@ -58,6 +70,22 @@ DOWNLOAD = [
 # Axis X is the driver's axis 7 (A is 1), Y its axis 8.
 X, Y = 7, 8
 
+# The position-reporting PLC: PLC(cs+15), MRES 1/1000 EGU a count, no offset.
+REPORTING_PLC = CS + 15
+REPORTING = [
+    "M162->D:$00008B",
+    "M262->D:$00010B",
+    f"P4801={1 / COUNTS_PER_UNIT} P4802={1 / COUNTS_PER_UNIT} P4901=0 P4902=0",
+    f"OPEN PLC {REPORTING_PLC}",
+    "CLEAR",
+    f"ADDRESS&{CS}",
+    "Q87=P4801*M162/(I108*32)+P4901",
+    "Q88=P4802*M262/(I208*32)+P4902",
+    "CLOSE",
+    "I5=2",
+    f"ENABLE PLC {REPORTING_PLC}",
+]
+
 
 class EpicsCsMoves(unittest.TestCase):
     def setUp(self):
@@ -71,7 +99,7 @@ class EpicsCsMoves(unittest.TestCase):
         self.pmac = PmacEthernetInterface(timeout=2.0)
         self.pmac.setConnectionParams("127.0.0.1", port)
         self.assertIsNone(self.pmac.connect())
-        for line in DOWNLOAD:
+        for line in DOWNLOAD + REPORTING:
             self.ask(line)
         self.ask(f"&{CS}#1->1000X")
         self.ask(f"&{CS}#2->1000Y")
@@ -96,6 +124,16 @@ class EpicsCsMoves(unittest.TestCase):
         first, second, _ = (int(words[i : i + 6], 16) for i in (0, 6, 12))
         return first & 1 == 0 and second & (1 << 17) != 0, first & 1 == 1
 
+    def readbacks(self):
+        """The C.S. axes' readbacks as pmacCSAxis polls them (`&1Q8<a>`), in EGUs."""
+        x, y = self.ask(f" &{CS}Q8{X} &{CS}Q8{Y}")
+        return float(x), float(y)
+
+    def assertReadbacks(self, expected, why=None, delta=1e-9):
+        """The readbacks, to the 1e-9 EGU of the PLC's floating-point arithmetic."""
+        for got, want in zip(self.readbacks(), expected):
+            self.assertAlmostEqual(got, want, delta=delta, msg=why)
+
     def positions(self):
         p1, _, _, _, p2, _, _, _ = self.ask(" #1P #1F i124 #1? #2P #2F i224 #2?")
         return float(p1), float(p2)
@@ -117,7 +155,7 @@ class EpicsCsMoves(unittest.TestCase):
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
             done, running = self.cs_done()
-            seen.append((done, running, self.positions()))
+            seen.append((done, running, self.positions(), self.readbacks()))
             if done:
                 return seen
             time.sleep(POLL_S)
@@ -136,16 +174,37 @@ class EpicsCsMoves(unittest.TestCase):
         seen = self.until_done(3.0)
         took = time.monotonic() - start
         self.assertTrue(seen[0][1], "the first poll sees the program running")
-        xs = [p[0] for _, _, p in seen]
+        xs = [p[0] for _, _, p, _ in seen]
         self.assertEqual(xs, sorted(xs), "X never goes back")
         self.assertTrue(any(0 < x < 2000 for x in xs), f"positions on the way: {xs}")
         # TM 500 ms plus TA 100 ms.
         self.assertGreater(took, 0.55, took)
         self.assertEqual(self.positions(), (2000.0, 0.0))
+        # The readbacks followed the axis on its way (the PLC scans every background cycle)
+        # and arrive at the target (the motor record's readback, RBV, is Q87).
+        rx = [r[0] for _, _, _, r in seen]
+        self.assertEqual(rx, sorted(rx), "the X readback never goes back")
+        self.assertTrue(any(0 < x < 2 for x in rx), f"readbacks on the way: {rx}")
+        self.assertReadbacks((2.0, 0.0))
         # And Y, with X's demand kept where it stands.
         self.move(Y, -1.5, 200.0, 50.0)
         self.until_done(3.0)
         self.assertEqual(self.positions(), (2000.0, -1500.0))
+        self.assertReadbacks((2.0, -1.5))
+
+    def test_the_readbacks_come_from_the_plc_and_stop_with_it(self):
+        self.assertEqual(self.ask(f"LIST PLC {REPORTING_PLC}")[1], "Q87=P4801*M162/(I108*32)+P4901")
+        self.move(X, 1.0, 200.0, 50.0)
+        self.until_done(3.0)
+        self.assertReadbacks((1.0, 0.0))
+        self.ask(f"DISABLE PLC {REPORTING_PLC}")
+        self.move(X, 3.0, 200.0, 50.0)
+        self.until_done(3.0)
+        self.assertEqual(self.positions(), (3000.0, 0.0))
+        self.assertReadbacks((1.0, 0.0), "no PLC, no readback")
+        self.ask(f"ENABLE PLC {REPORTING_PLC}")
+        time.sleep(POLL_S)
+        self.assertReadbacks((3.0, 0.0))
 
     def test_a_cs_move_after_a_motor_record_move_of_one_of_its_motors(self):
         # pmacAxis::move on motor 1 (test_epics_motion.py), done when in position; then the
@@ -185,6 +244,12 @@ class EpicsCsMoves(unittest.TestCase):
         self.assertTrue(0 < stopped[0] < 20000, stopped)
         time.sleep(0.3)
         self.assertEqual(self.positions(), stopped)
+        # The demand the stop line took from the readback is where the axis came to rest
+        # (within the deceleration after `A`, which the readback still followed).
+        (demand,) = self.ask(f"&{CS}Q7{X}")
+        self.assertTrue(0 < float(demand) <= stopped[0] / COUNTS_PER_UNIT, (demand, stopped))
+        # `P` reports to 1/32 count (SRM p.260), M162 in 1/(I108*32) counts.
+        self.assertReadbacks((stopped[0] / COUNTS_PER_UNIT, 0.0), delta=1 / 32 / COUNTS_PER_UNIT)
 
 
 if __name__ == "__main__":

@@ -252,6 +252,17 @@ class DlsPmacControlAgainstTheEmulator(unittest.TestCase):
         self.assertEqual(x & (1 << 13), 0, "desired velocity not zero while jogging")
         pump(self.app, 0.3)
         self.assertGreater(float(self.form.lblPosition.text()), 10_000.0, "the jog ribbon shows it")
+        # At the jog speed, `V` is what a card answers: counts per servo cycle to a tenth (SRM
+        # p.402: "21.9 ; Turbo PMAC responds with 21.9 cts/cycle (*8,388,608/3,713,707 = 49.5
+        # cts/msec)"): 32 counts/ms x 0.4427 ms = 14.17, so 14.2. The GUI multiplies it by
+        # 8388608/I10 ("On Turbo PMAC velocity is returned in counts per servo cycle so you
+        # have to use the servo cycle time to convert it to cts/msec", dls_pmac_control
+        # __main__.py) and shows 32.1: counts/ms, under its own label "cts/s"; the extra
+        # tenth is V's rounding, as on a card.
+        self.assertEqual(velocity, 14.2)
+        i10 = float(self.form.pmac.sendCommand("I10")[0].rstrip("\x06").strip())
+        shown = str(round(velocity * 8388608.0 / i10, 1))
+        self.assertEqual((shown, self.form.lblVelo.text(), self.form.table.item(0, 1).text()), ("32.1", "32.1", "32.1"))
         print("screenshot:", shot(self.form, "main-window-jogging.png"))
         self.form.btnJogPos.released.emit()
         sent = [c for t, c, _, _ in self.exchanges.log if t >= pressed and c.startswith("#1J")]

@@ -17,7 +17,7 @@
 //! the background cycles out answers late ("communications ... will become sluggish", UM
 //! p.236) before the watchdog trips it silent (UM p.215). See [`Card::background_turn`].
 
-use super::{find_close, Card, Clock, CYCLES_PER_HOLD_MAX};
+use super::{find_close, Card, Clock};
 use crate::capture_queue::Record;
 use crate::framing::Answer;
 use pmacwd_specs::grammar::{pieces, Addressing, Command, Piece, Unreadable, VarRange, Vars};
@@ -221,12 +221,13 @@ impl Card {
         }
         match self.clock {
             Clock::Virtual => {
-                self.run_until(u64::from(CYCLES_PER_HOLD_MAX), true);
+                // At most a hold's cycles (fewer while user PLCs run, `card/plc.rs`).
+                self.run_until(u64::from(self.cycles_per_hold()), true);
                 (!go(self)).then_some(Duration::ZERO)
             }
             Clock::Wall { start, servo_hz } => {
                 // Up to the cycles due, stopping at the first background cycle.
-                let due = self.due_cycles().min(self.cycles.saturating_add(u64::from(CYCLES_PER_HOLD_MAX)));
+                let due = self.due_cycles().min(self.cycles.saturating_add(u64::from(self.cycles_per_hold())));
                 self.run_until(due.saturating_sub(self.cycles), true);
                 if go(self) {
                     return None;

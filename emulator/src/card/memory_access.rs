@@ -110,6 +110,9 @@ impl Card {
         if let Some(v) = self.timer_word(space, address) {
             return v;
         }
+        if let Some(v) = self.motor_register_word(space, address) {
+            return v;
+        }
         if let Some(r) = Register::at(space, address) {
             let read = core_command(&HostCommand::ReadHex(r));
             return match self.core.command(&self.cfg, read, &mut self.store) {
@@ -122,6 +125,54 @@ impl Card {
             return if space == Space::X { x } else { y };
         }
         self.mvars.word(space, address)
+    }
+
+    /// The motor registers a Geo Brick's suggested M-variables point at, from the motor's
+    /// trajectory (DiamondLightSource/pmac `etc/bootstrap/BRICK_M_variables.pmc:166-170`, and
+    /// the same for each motor $80 words further: `M162->D:$00008B ; #1 Actual position
+    /// (1/[Ixx08*32] cts)`; PMAC Quick Reference Guide p.63: `P2=M162/(I108*32*10000)...`
+    /// "converting radial (M162) ... positions"): motor n's commanded position at D:$000088 +
+    /// $80 x (n - 1) (Mxx61) and its actual position at D:$00008B + ... (Mxx62), each in
+    /// 1/(Ixx08 x 32) counts, 48 bits, X the high word; its actual velocity at X:$00009D + ...
+    /// (Mxx66) in 1/(Ixx09 x 32) counts per servo cycle, 24 bits signed, and its averaged
+    /// actual velocity at D:$0000EF + ... (Mxx74, `BRICK_M_variables.pmc:178`) in the same
+    /// units, 48 bits (MODEL: the velocity is the trajectory's, no averaging filter). `None`
+    /// for any other address. MODEL: the commanded position is the actual one (no servo loop), both counted
+    /// from the home position as `P` reports them (the card keeps the home offset apart, in its
+    /// position bias, Mxx64, which reads 0 here); a host write there is kept and not read (the
+    /// servo loop writes these every cycle).
+    fn motor_register_word(&mut self, space: Space, address: u32) -> Option<u32> {
+        let offset = address.checked_sub(0x80)?;
+        let (motor, word) = (offset / 0x80 + 1, offset % 0x80 + 0x80);
+        if motor > u32::from(self.cfg.motion.motors.min(32)) {
+            return None;
+        }
+        let motor = motor as u8;
+        let axis = usize::from(motor - 1);
+        let axis = self.motors.axes.get(axis)?;
+        match (space, word) {
+            (Space::X | Space::Y, 0x88 | 0x8B) => {
+                let scale = self.i_value(u16::from(motor) * 100 + 8) * 32.0;
+                let v = (axis.reported_position() * scale).round();
+                let v = if v.is_finite() { v.clamp(-(2f64.powi(47)), 2f64.powi(47) - 1.0) as i64 } else { 0 };
+                let (x, y) = mvar::split48(v);
+                Some(if space == Space::X { x } else { y })
+            }
+            (Space::X, 0x9D) => {
+                let scale = self.i_value(u16::from(motor) * 100 + 9) * 32.0;
+                let v = (axis.vel * self.servo_period_ms() * scale).round();
+                let v = if v.is_finite() { v.clamp(-(2f64.powi(23)), 2f64.powi(23) - 1.0) as i64 } else { 0 };
+                Some((v as u32) & 0xFF_FFFF)
+            }
+            (Space::X | Space::Y, 0xEF) => {
+                let scale = self.i_value(u16::from(motor) * 100 + 9) * 32.0;
+                let v = (axis.vel * self.servo_period_ms() * scale).round();
+                let v = if v.is_finite() { v.clamp(-(2f64.powi(47)), 2f64.powi(47) - 1.0) as i64 } else { 0 };
+                let (x, y) = mvar::split48(v);
+                Some(if space == Space::X { x } else { y })
+            }
+            _ => None,
+        }
     }
 
     /// The foreground timer registers (UM p.238-239) under the load the card runs, through

@@ -32,7 +32,7 @@ use crate::motor_status::{
 use crate::program::{statements, Statement, AXES};
 use pmacwd_bridge::core_command;
 use pmacwd_core::motion::{Program, MOTORS_MAX};
-use pmacwd_specs::grammar::{Command, VarKind};
+use pmacwd_specs::grammar::{Command, Expr, VarKind};
 use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion};
 use std::collections::VecDeque;
 
@@ -463,29 +463,7 @@ impl Card {
                 run.left = v.max(0.0);
                 run.dwell = true;
             }
-            Statement::Assign { kind, number, value: v } => {
-                let (Some(n), Some(v)) = (value(self, &number), value(self, &v)) else { return false };
-                let n = n.round();
-                if !(0.0..=8191.0).contains(&n) {
-                    return false;
-                }
-                let n = n as u16;
-                match kind {
-                    VarKind::I => {
-                        if let crate::framing::Answer::Error(_) = self.write_i(n, v) {
-                            return false;
-                        }
-                    }
-                    VarKind::M => {
-                        let mut out = Vec::new();
-                        self.write_m(n, n, v, &mut out);
-                        if out.iter().any(|a| matches!(a, crate::framing::Answer::Error(_))) {
-                            return false;
-                        }
-                    }
-                    VarKind::P | VarKind::Q => self.memory.write(kind, n, v),
-                }
-            }
+            Statement::Assign { kind, number, value: v } => return self.assign(kind, &number, &v),
             Statement::Move(axes) => {
                 let mut values = Vec::with_capacity(axes.len());
                 for (axis, e) in &axes {
@@ -495,7 +473,51 @@ impl Card {
                 return self.start_move(cs, &values);
             }
             Statement::Return => self.end_program(cs),
-            Statement::Unsupported(_) => return false,
+            // MODEL: PLC flow and COMMAND statements in a motion program are not executed (the
+            // program stops with a run-time error, as on any statement the emulator does not
+            // execute); PLCs run them (`card/plc.rs`).
+            Statement::If(_)
+            | Statement::While(_)
+            | Statement::And(_)
+            | Statement::Or(_)
+            | Statement::Else
+            | Statement::EndIf
+            | Statement::EndWhile
+            | Statement::Command(_)
+            | Statement::Control(_)
+            | Statement::Send(_)
+            | Statement::Plc(_)
+            | Statement::Address { .. }
+            | Statement::Unsupported(_) => return false,
+        }
+        true
+    }
+
+    /// `{variable}={expression}` in a program (UM p.248: evaluated, then assigned; the
+    /// variable's number may be an expression); `false` when either has no value or the
+    /// write is refused.
+    pub(super) fn assign(&mut self, kind: VarKind, number: &Expr, value: &Expr) -> bool {
+        let finite = |card: &mut Card, e: &Expr| e.eval(card).ok().filter(|v| v.is_finite());
+        let (Some(n), Some(v)) = (finite(self, number), finite(self, value)) else { return false };
+        let n = n.round();
+        if !(0.0..=8191.0).contains(&n) {
+            return false;
+        }
+        let n = n as u16;
+        match kind {
+            VarKind::I => {
+                if let crate::framing::Answer::Error(_) = self.write_i(n, v) {
+                    return false;
+                }
+            }
+            VarKind::M => {
+                let mut out = Vec::new();
+                self.write_m(n, n, v, &mut out);
+                if out.iter().any(|a| matches!(a, crate::framing::Answer::Error(_))) {
+                    return false;
+                }
+            }
+            VarKind::P | VarKind::Q => self.memory.write(kind, n, v),
         }
         true
     }

@@ -164,7 +164,7 @@ impl HostCommand {
             | Command::AxisDefine { .. }
             | Command::AxisReport { .. }
             | Command::Undefine { .. }
-            | Command::PlcSwitch
+            | Command::PlcSwitch(_)
             | Command::List(_)
             | Command::DefineLookahead { .. }
             | Command::DeleteAllTemps

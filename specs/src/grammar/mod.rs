@@ -241,8 +241,9 @@ pub enum Command {
     OpenPlc(u8),
     OpenProgram(u16),
     Close,
-    /// `ENABLE PLC n[,m...]`, `DISABLE PLC n`, and the PLCC forms.
-    PlcSwitch,
+    /// `ENABLE PLC n[,m...]`, `DISABLE PLC n..m`, and the PLCC forms: which programs (SRM p.39,
+    /// I5: PLC 0 the foreground one, 1 to 31 the background ones).
+    PlcSwitch(PlcSwitch),
     /// `LIST PROG n`, `LIST PLC n`, `LIST FORWARD`, `LIST INVERSE`.
     List(Listing),
     /// `DEFINE LOOKAHEAD {segments},{outputs}` of C.S. `cs`, and `DELETE ALL TEMPS`
@@ -271,6 +272,25 @@ pub enum Command {
     Gather(Gather),
     /// A control character with no effect on this card (`<CTRL-X>`: nothing in progress to cancel).
     Ignored(u8),
+}
+
+/// `ENABLE PLC ...` / `DISABLE PLC ...` (`PLCC`: the compiled programs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PlcSwitch {
+    pub enable: bool,
+    pub compiled: bool,
+    /// Bit n: PLC n (0..31).
+    pub plcs: u32,
+}
+
+impl fmt::Display for PlcSwitch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let verb = if self.enable { "ENABLE" } else { "DISABLE" };
+        let kind = if self.compiled { "PLCC" } else { "PLC" };
+        write!(f, "{verb} {kind} ")?;
+        let numbers: Vec<String> = (0..32).filter(|n| self.plcs & (1 << n) != 0).map(|n: u32| n.to_string()).collect();
+        f.write_str(&numbers.join(","))
+    }
 }
 
 impl Command {
@@ -314,7 +334,7 @@ impl Command {
             | Command::OpenPlc(_)
             | Command::OpenProgram(_)
             | Command::Close
-            | Command::PlcSwitch
+            | Command::PlcSwitch(_)
             | Command::DefineLookahead { .. }
             | Command::DeleteAllTemps
             | Command::Reset
@@ -1003,24 +1023,49 @@ impl Parser<'_, '_> {
                 }
             }
             "ENABLE" | "ENA" | "DISABLE" | "DIS" => {
+                let enable = k.starts_with('E');
                 self.skip_spaces();
                 if !self.starts_with("PLC") {
                     return Err(self.error(start, "ENABLE and DISABLE take PLC or PLCC and the program numbers"));
                 }
                 self.i += 3;
-                if self.peek() == Some(b'C') {
+                let compiled = self.peek() == Some(b'C');
+                if compiled {
                     self.i += 1;
                 }
-                // `n`, `n,m`, `n..m`.
-                self.skip_spaces();
-                match self.number() {
-                    Some(n) if n <= 31 => {}
-                    _ => return Err(self.error(start, "PLC programs are 0..31")),
+                // `n`, `n,m`, `n..m`, and lists of these (`DISABLE PLC2..31`, `ENABLE PLC 1,2`).
+                let mut plcs = 0u32;
+                let mut first = true;
+                loop {
+                    if !first {
+                        let save = self.i;
+                        self.skip_spaces();
+                        if self.peek() != Some(b',') {
+                            self.i = save;
+                            break;
+                        }
+                        self.i += 1;
+                    }
+                    first = false;
+                    self.skip_spaces();
+                    let from = match self.number() {
+                        Some(n) if n <= 31 => n,
+                        _ => return Err(self.error(start, "PLC programs are 0..31")),
+                    };
+                    let to = if self.starts_with("..") {
+                        self.i += 2;
+                        match self.number() {
+                            Some(n) if (from..=31).contains(&n) => n,
+                            _ => return Err(self.error(start, "a range of PLC programs is n..m with n <= m <= 31")),
+                        }
+                    } else {
+                        from
+                    };
+                    for n in from..=to {
+                        plcs |= 1 << n;
+                    }
                 }
-                while self.peek().is_some_and(|c| c == b',' || c == b'.' || c.is_ascii_digit()) {
-                    self.i += 1;
-                }
-                Command::PlcSwitch
+                Command::PlcSwitch(PlcSwitch { enable, compiled, plcs })
             }
             "DEFINE" | "DEF" => {
                 self.skip_spaces();
@@ -1270,7 +1315,7 @@ impl fmt::Display for Command {
             Command::OpenPlc(n) => write!(f, "OPEN PLC {n}"),
             Command::OpenProgram(n) => write!(f, "OPEN PROG {n}"),
             Command::Close => f.write_str("CLOSE"),
-            Command::PlcSwitch => f.write_str("ENABLE PLC 0"),
+            Command::PlcSwitch(p) => write!(f, "{p}"),
             Command::List(l) => match l {
                 Listing::Program { number, start, length } => {
                     write!(f, "LIST PROG {number}{}{}", opt(start), opt(length))

@@ -222,9 +222,20 @@ fn keywords_win_over_single_letters() {
         ]
     );
     assert_eq!(
-        ok("ENABLE PLC 1,2 DISABLE PLCC 0..3 DIS PLC 5"),
-        [Command::PlcSwitch, Command::PlcSwitch, Command::PlcSwitch]
+        ok("ENABLE PLC 1,2 DISABLE PLCC 0..3 DIS PLC 5 ENA PLC18 DISABLE PLC2..4, 31"),
+        [
+            Command::PlcSwitch(PlcSwitch { enable: true, compiled: false, plcs: 0b110 }),
+            Command::PlcSwitch(PlcSwitch { enable: false, compiled: true, plcs: 0b1111 }),
+            Command::PlcSwitch(PlcSwitch { enable: false, compiled: false, plcs: 1 << 5 }),
+            Command::PlcSwitch(PlcSwitch { enable: true, compiled: false, plcs: 1 << 18 }),
+            Command::PlcSwitch(PlcSwitch { enable: false, compiled: false, plcs: 0b11100 | 1 << 31 }),
+        ]
     );
+    // The printed form reads back as the same switch.
+    let all = Command::PlcSwitch(PlcSwitch { enable: false, compiled: false, plcs: 0b11100 | 1 << 31 });
+    assert_eq!(ok(&all.to_string()), [all]);
+    assert!(pieces(b"ENABLE PLC 32", &mut Addressing::default())[0].command.is_err());
+    assert!(pieces(b"DISABLE PLC 5..3", &mut Addressing::default())[0].command.is_err());
     assert_eq!(ok("ms0,i910"), [Command::MacroStation { station: 0, ivar: 910, value: None }]);
     assert_eq!(ok("OPEN PLC 1 CLOSE"), [Command::OpenPlc(1), Command::Close]);
     assert_eq!(ok("&1%50 %"), [Command::Feed { cs: 1, percent: 50.0 }, Command::FeedRead(1)]);
