@@ -167,17 +167,13 @@ fn explain_open_i40(
         if explained {
             return Ok(r);
         }
-        // What no card shows whatever its I40: the other values need no search.
-        let refuted = r.refuted.is_some();
+
         // The report kept is the one that came furthest.
         let latest = |r: &Report| r.lanes.iter().filter_map(|l| l.death.as_ref().map(|d| d.event)).max();
         if last.as_ref().is_none_or(|l| latest(&r) > latest(l) || (r.undecided() && !l.undecided())) {
             last = Some(r);
         } else if let Some(l) = &mut last {
             l.i40_open = r.i40_open;
-        }
-        if refuted {
-            break;
         }
     }
     let Some(mut r) = last else {
