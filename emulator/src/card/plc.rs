@@ -308,6 +308,16 @@ impl Card {
         true
     }
 
+    /// A command a motion program issues (SRM p.421-422), onto the queue PLCs' commands take;
+    /// `false` when the queue is full.
+    pub(super) fn queue_command(&mut self, text: Vec<u8>, addressing: Addressing) -> bool {
+        if self.plcs.queue.len() >= COMMAND_QUEUE_MAX {
+            return false;
+        }
+        self.plcs.queue.push_back((text, addressing));
+        true
+    }
+
     /// PLC `n` stops on what it cannot run: disabled until enabled again, the console told.
     fn stop_plc(&mut self, n: u8, why: &str) {
         let state = &mut self.plcs.states[usize::from(n)];
