@@ -45,20 +45,50 @@ pub enum Op {
 
 enum Open {
     If { at: usize, else_at: Option<usize>, one_line: bool },
-    While { at: usize },
+    While { at: usize, one_line: bool },
+}
+
+/// What a buffer is compiled as: the statements and block forms differ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// A PLC program: conditions may go on over AND/OR lines; a WHILE needs its ENDWHILE.
+    Plc,
+    /// A motion program of coordinate system `cs` (its Q-variables): moves and modes run;
+    /// one-line IF, ELSE and WHILE forms (UM p.253: "In Turbo PMAC motion programs (but not in
+    /// PLC programs), the action(s) to be executed on a true condition can be put on the same
+    /// line as the condition itself. In this case, no ENDIF or ENDWHILE is required"; SRM
+    /// p.429-430, ELSE: "ELSE {action} (Motion Program only)", an ELSE line after a one-line
+    /// IF); no AND/OR lines (UM p.253: multiple-line conditions "In Turbo PMAC PLC programs
+    /// (but not in motion programs)"), no ADDRESS (SRM p.422: "There is no modal ADDRESS
+    /// command in motion programs").
+    Motion { cs: u8 },
 }
 
 /// The ops of a PLC whose stored lines are `lines`; `Err` with the reason when its blocks do
 /// not match (it is not run).
 pub fn compile(lines: &[String]) -> Result<Vec<Op>, String> {
+    compile_as(lines, Kind::Plc)
+}
+
+/// The ops of a PLC or motion program whose stored lines are `lines`.
+pub fn compile_as(lines: &[String], kind: Kind) -> Result<Vec<Op>, String> {
+    let motion = matches!(kind, Kind::Motion { .. });
+    let cs = match kind {
+        Kind::Plc => 1,
+        Kind::Motion { cs } => cs,
+    };
     let mut ops: Vec<Op> = Vec::new();
     let mut open: Vec<Open> = Vec::new();
+    // A motion program's one-line IF closed at the end of the previous line: an ELSE line
+    // right after it is its false branch (SRM p.429-430).
+    let mut closed_one_line_if: Option<usize> = None;
     for (number, line) in lines.iter().enumerate() {
-        let parsed = statements(line, 1);
+        let parsed = statements(line, cs);
+        let after_one_line_if = closed_one_line_if.take();
         // The op whose condition an AND or OR line extends: only right after an IF or WHILE
         // (or another AND/OR line).
         let mut extendable: Option<usize> = match ops.last() {
-            Some(Op::Unless { .. } | Op::While { .. }) if number > 0 => Some(ops.len() - 1),
+            Some(Op::Unless { .. } | Op::While { .. }) if number > 0 && !motion => Some(ops.len() - 1),
             _ => None,
         };
         let count = parsed.len();
@@ -73,15 +103,21 @@ pub fn compile(lines: &[String]) -> Result<Vec<Op>, String> {
                     continue;
                 }
                 Statement::While(condition) => {
-                    if !last_on_line {
+                    if !last_on_line && !motion {
                         ops.push(Op::Stop(format!("line {}: a WHILE with its statement on the same line is a motion program's (PMAC-SRM p.357)", number + 1)));
                         extendable = None;
                         continue;
                     }
                     ops.push(Op::While { condition, exit: usize::MAX });
-                    open.push(Open::While { at: here });
+                    open.push(Open::While { at: here, one_line: !last_on_line });
                     extendable = Some(here);
                     continue;
+                }
+                Statement::And(_) | Statement::Or(_) if motion => {
+                    return Err(format!(
+                        "line {}: a condition over several lines (AND or OR lines) is a PLC's, not a motion program's (UM p.253)",
+                        number + 1
+                    ));
                 }
                 Statement::And(c) | Statement::Or(c) if extendable.is_none() => {
                     let _ = c;
@@ -103,37 +139,52 @@ pub fn compile(lines: &[String]) -> Result<Vec<Op>, String> {
                     }
                     continue;
                 }
-                Statement::Else => match open.last_mut() {
-                    Some(Open::If { at, else_at: else_at @ None, .. }) => {
-                        ops.push(Op::Jump(usize::MAX));
-                        let at = *at;
-                        *else_at = Some(here);
-                        if let Op::Unless { to, .. } = &mut ops[at] {
-                            *to = here + 1;
+                Statement::Else => {
+                    if motion && k == 0 && !matches!(open.last(), Some(Open::If { else_at: None, .. })) {
+                        // ELSE on the line after a one-line IF: that IF opens again, its true
+                        // branch ending here.
+                        if let Some(at) = after_one_line_if
+                            .filter(|at| matches!(ops.get(*at), Some(Op::Unless { to, .. }) if *to == here))
+                        {
+                            open.push(Open::If { at, else_at: None, one_line: false });
                         }
                     }
-                    _ => return Err(format!("line {}: ELSE with no IF open", number + 1)),
-                },
+                    match open.last_mut() {
+                        Some(Open::If { at, else_at: else_at @ None, one_line }) => {
+                            ops.push(Op::Jump(usize::MAX));
+                            let at = *at;
+                            *else_at = Some(here);
+                            // The one-line ELSE of a motion program: its statements on the
+                            // same line are the whole false branch, no ENDIF (SRM p.429-430).
+                            if motion && !last_on_line {
+                                *one_line = true;
+                            }
+                            if let Op::Unless { to, .. } = &mut ops[at] {
+                                *to = here + 1;
+                            }
+                        }
+                        _ => return Err(format!("line {}: ELSE with no IF open", number + 1)),
+                    }
+                }
                 Statement::EndIf => close_if(&mut ops, &mut open).map_err(|e| format!("line {}: {e}", number + 1))?,
-                Statement::EndWhile => match open.pop() {
-                    Some(Open::While { at }) => {
-                        ops.push(Op::EndWhile { back: at });
-                        let end = ops.len();
-                        if let Op::While { exit, .. } = &mut ops[at] {
-                            *exit = end;
-                        }
-                    }
+                Statement::EndWhile => match open.last() {
+                    Some(Open::While { one_line: false, .. }) => close_while(&mut ops, &mut open),
                     _ => return Err(format!("line {}: ENDWHILE with no WHILE open", number + 1)),
                 },
                 st @ (Statement::Assign { .. }
                 | Statement::Command(_)
                 | Statement::Control(_)
                 | Statement::Send(_)
-                | Statement::Plc(_)
-                | Statement::Address { .. }) => ops.push(Op::Do(st)),
+                | Statement::Plc(_)) => ops.push(Op::Do(st)),
+                st @ Statement::Address { .. } if !motion => ops.push(Op::Do(st)),
+                Statement::Address { .. } => ops.push(Op::Stop(format!(
+                    "line {}: ADDRESS is a PLC's: there is no modal ADDRESS in motion programs (SRM p.422)",
+                    number + 1
+                ))),
                 Statement::Unsupported(text) => {
                     ops.push(Op::Stop(format!("line {}: `{text}` is not a statement the emulator runs", number + 1)))
                 }
+                st if motion => ops.push(Op::Do(st)),
                 other => ops.push(Op::Stop(format!(
                     "line {}: `{other:?}` is a motion program's statement, not a PLC's",
                     number + 1
@@ -141,15 +192,36 @@ pub fn compile(lines: &[String]) -> Result<Vec<Op>, String> {
             }
             extendable = None;
         }
-        // The one-line IF ends with its line.
-        while matches!(open.last(), Some(Open::If { one_line: true, .. })) {
-            close_if(&mut ops, &mut open).map_err(|e| format!("line {}: {e}", number + 1))?;
+        // One-line IF, ELSE and WHILE blocks end with their line, innermost first.
+        loop {
+            match open.last() {
+                Some(Open::If { one_line: true, at, else_at }) => {
+                    if motion && else_at.is_none() {
+                        closed_one_line_if = Some(*at);
+                    }
+                    close_if(&mut ops, &mut open).map_err(|e| format!("line {}: {e}", number + 1))?;
+                }
+                Some(Open::While { one_line: true, .. }) => close_while(&mut ops, &mut open),
+                _ => break,
+            }
         }
     }
     match open.last() {
         Some(Open::If { .. }) => Err("an IF without its ENDIF".into()),
         Some(Open::While { .. }) => Err("a WHILE without its ENDWHILE".into()),
         None => Ok(ops),
+    }
+}
+
+/// ENDWHILE (or the end of a one-line WHILE's line): back to the WHILE, whose false condition
+/// lands past here. The caller has checked that a WHILE is the innermost open block.
+fn close_while(ops: &mut Vec<Op>, open: &mut Vec<Open>) {
+    if let Some(Open::While { at, .. }) = open.pop() {
+        ops.push(Op::EndWhile { back: at });
+        let end = ops.len();
+        if let Op::While { exit, .. } = &mut ops[at] {
+            *exit = end;
+        }
     }
 }
 
@@ -225,5 +297,26 @@ mod tests {
         let ops = compile(&lines(&["IF(P1=1) P2=1 ELSE P2=2", "P3=3"])).unwrap();
         assert!(matches!(&ops[0], Op::Unless { to: 3, .. }), "{ops:?}");
         assert!(matches!(ops[2], Op::Jump(4)), "{ops:?}");
+    }
+
+    #[test]
+    fn a_motion_programs_one_line_forms_close_with_their_line() {
+        let motion = Kind::Motion { cs: 1 };
+        // SRM p.429-430: a one-line IF, then its one-line ELSE on the next line.
+        let ops = compile_as(&lines(&["IF (P1!<5) X10", "ELSE X-10", "P2=1"]), motion).unwrap();
+        assert!(matches!(&ops[0], Op::Unless { to: 3, .. }), "{ops:?}");
+        assert!(matches!(ops[2], Op::Jump(4)), "{ops:?}");
+        assert!(matches!(&ops[3], Op::Do(Statement::Move(_))), "{ops:?}");
+        // A one-line IF, then a multi-line ELSE closed by ENDIF.
+        let ops = compile_as(&lines(&["IF (P1>0) X1", "ELSE", "X2", "X3", "ENDIF"]), motion).unwrap();
+        assert!(matches!(&ops[0], Op::Unless { to: 3, .. }), "{ops:?}");
+        assert!(matches!(ops[2], Op::Jump(5)), "{ops:?}");
+        // UM p.253: `WHILE (M11=0) DWELL 10`, no ENDWHILE.
+        let ops = compile_as(&lines(&["WHILE (M11=0) DWELL 10", "X1"]), motion).unwrap();
+        assert!(matches!(&ops[0], Op::While { exit: 3, .. }), "{ops:?}");
+        assert!(matches!(ops[2], Op::EndWhile { back: 0 }), "{ops:?}");
+        // The same lines as a PLC's: the one-line WHILE stops it, the ELSE line has no IF.
+        assert!(compile(&lines(&["IF (P1!<5) P1=1", "ELSE P1=2"])).is_err());
+        assert!(compile_as(&lines(&["IF (P1=1)", "AND (P2=1)", "ENDIF"]), motion).is_err());
     }
 }

@@ -4,7 +4,9 @@
 //! programs use (DLS's `PROG10_CS_motion.pmc` whole): `LINEAR`, `ABS` and `INC` (for every
 //! axis or the axes listed), `FRAX(...)`/`NOFRAX`, `TA`, `TS`, `TM`, `F`, axis moves
 //! (`X10 Y(Q72)`: "a one-letter axis-specifier followed by ... constant or expression", UM
-//! p.272), `DWELL`/`DELAY`, variable assignments and `RETURN`. Any other statement stops the
+//! p.272), `DWELL`/`DELAY`, variable assignments and `RETURN`; the program flow and COMMAND
+//! statements PLCs share (IF/ELSE/ENDIF, WHILE/ENDWHILE, `CMD"..."`), and `WAIT`, are
+//! compiled into jumps by `plc.rs` for both kinds of program. Any other statement stops the
 //! program with a run-time error (SRM p.286, second status word bit 22: "the coordinate system
 //! has stopped a motion program due to an error encountered while executing the program");
 //! MODEL: that is the emulator's limit, not a card's, and it says so rather than ignore them.
@@ -55,6 +57,10 @@ pub enum Statement {
     Else,
     EndIf,
     EndWhile,
+    /// `WAIT` (motion programs): calculation stops until the next real-time interrupt, as in
+    /// `WHILE ({condition}) WAIT` (UM p.342: "As soon as the WAIT command is encountered,
+    /// motion program calculations are suspended until the next real-time interrupt").
+    Wait,
     /// `COMMAND"..."` / `CMD"..."` (SRM p.421): the text, issued as if a host sent it.
     Command(String),
     /// `COMMAND^K` / `CMD^K` (SRM p.423): the control character.
@@ -298,6 +304,7 @@ fn flow_statement(s: &[u8], i: &mut usize, cs: u8) -> Option<Result<Statement, (
         ("END IF", Statement::EndIf),
         ("ENDI", Statement::EndIf),
         ("ELSE", Statement::Else),
+        ("WAIT", Statement::Wait),
     ] {
         if at_word(s, start, w) {
             *i = start + w.len();

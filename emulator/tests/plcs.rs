@@ -46,7 +46,7 @@ fn an_enabled_plc_scans_once_a_background_cycle_while_i5_lets_background_plcs_ru
     plc(&mut c, 1, &["P1=P1+1"]);
     download(&mut c, &["ENABLE PLC 1"]);
     step(&mut c, 100);
-    assert_eq!(value(&mut c, "P1"), 0.0, "I5 = 0: background PLCs off (PMAC-SRM p.24)");
+    assert_eq!(value(&mut c, "P1"), 0.0, "I5 = 1, the default: background PLCs off (SRM p.39)");
     download(&mut c, &["I5=2"]);
     step(&mut c, 100);
     assert_eq!(value(&mut c, "P1"), 100.0, "one scan each background cycle");
@@ -60,6 +60,19 @@ fn an_enabled_plc_scans_once_a_background_cycle_while_i5_lets_background_plcs_ru
     c.control(Control::Load { motors: None, plc0_units: Some(275), background_units: None });
     step(&mut c, 300);
     assert!(value(&mut c, "P1") < 115.0, "a background cycle every 150 servo cycles");
+}
+
+#[test]
+fn i5_is_the_turbo_default_1_at_power_up_and_after_a_factory_reset() {
+    // SRM p.39: I5 defaults to 1, foreground PLCs on and background PLCs off.
+    let mut c = card();
+    assert_eq!(value(&mut c, "I5"), 1.0);
+    download(&mut c, &["I5=3"]);
+    c.line(b"$$$***");
+    download(&mut c, &["I3=2 I6=1"]);
+    assert_eq!(value(&mut c, "I5"), 1.0, "$$$*** restores the factory default");
+    download(&mut c, &["I5=2 SAVE", "$$$"]);
+    assert_eq!(value(&mut c, "I5"), 2.0, "a saved value survives a reset");
 }
 
 #[test]

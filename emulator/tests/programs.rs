@@ -272,3 +272,95 @@ fn a_running_program_that_sets_a_locked_i_variable_is_ignored_without_error() {
     assert!(cs_done(&mut c, 1));
     assert_eq!(values(&mut c, "I130"), ["77"]);
 }
+
+#[test]
+fn a_motion_program_runs_if_else_while_and_cmd_and_its_axes_arrive_where_its_logic_says() {
+    // UM p.252-253 (conditions; one-line IF and WHILE in motion programs), SRM p.429-430
+    // (ELSE, and its one-line form after a one-line IF), SRM p.421-422 (COMMAND).
+    let mut c = card();
+    download(
+        &mut c,
+        &[
+            "&1#1->1000X",
+            "&1E",
+            "OPEN PROG 6 CLEAR",
+            "TM50 TA10 INC",
+            "P1=0",
+            "WHILE (P1<3)",
+            "X1",
+            "P1=P1+1",
+            "ENDWHILE",
+            "IF (P1=3)",
+            "P2=1",
+            "ELSE",
+            "P2=2",
+            "ENDIF",
+            "IF (P1!<5) X10",
+            "ELSE X-1",
+            "IF (P1>2) P3=7",
+            "WHILE (P4<4) P4=P4+1",
+            "CMD\"P5=42\"",
+            "CLOSE",
+        ],
+    );
+    values(&mut c, "&1B6R");
+    step(&mut c, 1000.0);
+    let [_, b, _] = cs_status(&mut c, 1);
+    assert_eq!(b & (1 << 22), 0, "no run-time error (SRM p.286)");
+    assert!(cs_done(&mut c, 1), "the program ran to its end");
+    assert_eq!(position(&mut c, 1), 2000.0, "three moves of 1 in the loop, then the ELSE line's -1");
+    assert_eq!(values(&mut c, "P1 P2 P3 P4 P5"), ["3", "1", "7", "4", "42"]);
+}
+
+#[test]
+fn a_while_loop_without_a_move_makes_two_passes_a_real_time_interrupt_and_wait_waits_for_one() {
+    // UM p.341-342: the double-jump-back rule, and WHILE ({condition}) WAIT.
+    let mut c = card();
+    download(
+        &mut c,
+        &[
+            "&1#1->1000X",
+            "&1E",
+            "OPEN PROG 7 CLEAR",
+            "TM50 TA10",
+            "WHILE (P4=0)",
+            "P3=P3+1",
+            "ENDWHILE",
+            "WHILE (P6=0) WAIT",
+            "X1",
+            "CLOSE",
+        ],
+    );
+    values(&mut c, "&1B7R");
+    // 300 servo cycles: 100 real-time interrupts at the default I8 = 2 (SRM p.42).
+    assert!(c.control(Control::Step { cycles: 300 }).starts_with("ok"));
+    let passes: f64 = values(&mut c, "P3")[0].parse().unwrap();
+    assert!((190.0..=204.0).contains(&passes), "two passes an RTI: {passes}");
+    assert_eq!(cs_status(&mut c, 1)[0] & 1, 1, "still running");
+    values(&mut c, "P4=1");
+    step(&mut c, 200.0);
+    let at: f64 = values(&mut c, "P3")[0].parse().unwrap();
+    assert!(at - passes <= 2.0, "left the loop at the next RTI: {passes} -> {at}");
+    assert_eq!(position(&mut c, 1), 0.0, "waiting on P6");
+    values(&mut c, "P6=1");
+    step(&mut c, 400.0);
+    assert_eq!(position(&mut c, 1), 1000.0);
+    assert!(cs_done(&mut c, 1), "{:06X?} {:?}", cs_status(&mut c, 1), values(&mut c, "#1? P3 P4 P6"));
+}
+
+#[test]
+fn what_is_a_plcs_only_stops_a_motion_program_with_a_run_time_error() {
+    // SRM p.422: "There is no modal ADDRESS command in motion programs"; UM p.253: conditions
+    // over several lines are PLC programs' only.
+    for (n, lines) in [(8, ["ADDRESS#2", "X1"]), (9, ["IF (P1=0)", "AND (P2=0)"])] {
+        let mut c = card();
+        download(&mut c, &["&1#1->1000X", "&1E", &format!("OPEN PROG {n} CLEAR"), "TM50 TA10"]);
+        download(&mut c, &lines);
+        download(&mut c, &["ENDIF", "CLOSE"][usize::from(n == 8)..]);
+        values(&mut c, &format!("&1B{n}R"));
+        step(&mut c, 200.0);
+        let [a, b, _] = cs_status(&mut c, 1);
+        assert_eq!((a & 1, b & (1 << 22)), (0, 1 << 22), "PROG {n}: stopped, run-time error");
+        assert_eq!(position(&mut c, 1), 0.0);
+    }
+}

@@ -7,8 +7,8 @@
 //! - Which run: PLCs enabled by `ENABLE PLC n` (and not disabled since, by a host or by a
 //!   PLC's own `DISABLE PLC`), while I5 has its background bit (SRM p.39, I5: "2 Foreground
 //!   PLCs off; background PLCs on", 3 both; "an individual PLC program still needs to be
-//!   enabled to run"; the Turbo default is 1, the emulator's I5 reads 0 until written: either
-//!   leaves background PLCs off), one per background cycle in turn, lowest number first
+//!   enabled to run"; the Turbo default is 1, `specs/variables.yaml`'s, which leaves
+//!   background PLCs off), one per background cycle in turn, lowest number first
 //!   (MODEL: the order of the single PLC each cycle runs).
 //! - A scan ends at the program's end (the next starts at its top) or at an ENDWHILE (the next
 //!   starts at its WHILE): a WHILE loop takes a pass a scan, so no PLC holds the card. MODEL:
@@ -305,6 +305,16 @@ impl Card {
             // SEND: no port (MODEL); what `plc::compile` lets through is the above.
             _ => {}
         }
+        true
+    }
+
+    /// A command a motion program issues (SRM p.421-422), onto the queue PLCs' commands take;
+    /// `false` when the queue is full.
+    pub(super) fn queue_command(&mut self, text: Vec<u8>, addressing: Addressing) -> bool {
+        if self.plcs.queue.len() >= COMMAND_QUEUE_MAX {
+            return false;
+        }
+        self.plcs.queue.push_back((text, addressing));
         true
     }
 

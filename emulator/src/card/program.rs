@@ -17,6 +17,12 @@
 //!   cycle); a capture records that `Q` as the exchange `&nQ`, so that it replays as before.
 //!   MODEL: the model's programs run until stopped.
 //!
+//! - the program's flow (IF/ELSE/ENDIF, WHILE/ENDWHILE and the one-line forms of motion
+//!   programs, UM p.252-253, SRM p.429-430) is compiled into jumps by `plc.rs`; a loop without
+//!   a move waits for the next real-time interrupt at its second jump back (UM p.341-342, see
+//!   [`JUMPS_BACK_PER_RTI`]), as `WAIT` does; `CMD"..."` goes onto the PLCs' command queue,
+//!   addressed to motor 1 and C.S. 1 (SRM p.421-422).
+//!
 //! MODEL, where the emulator is simpler than a card: moves are LINEAR moves from rest to rest
 //! (no blending: each move ends before the next starts; the card blends them unless Isx92 = 1),
 //! accelerating at a constant rate over the acceleration time; the axes start where the motors
@@ -24,21 +30,40 @@
 //! limit switch stops the program with a run-time error.
 
 use super::Card;
+use crate::buffers::BufferId;
 use crate::capture_queue::Record;
 use crate::motor_status::{
     CS_AMPLIFIER_FAULT, CS_AXIS_BITS_SHIFT, CS_CONTINUOUS_REQUEST, CS_IN_POSITION, CS_MOVE_BY_TIME, CS_RUNNING_PROGRAM,
     CS_RUNTIME_ERROR, CS_SINGLE_STEP, IN_POSITION,
 };
-use crate::program::{statements, Statement, AXES};
+use crate::plc::{compile_as, Kind, Op};
+use crate::program::{Statement, AXES};
 use pmacwd_bridge::core_command;
 use pmacwd_core::motion::{Program, MOTORS_MAX};
-use pmacwd_specs::grammar::{Command, Expr, VarKind};
+use pmacwd_specs::grammar::{Addressing, Command, Expr, VarKind};
 use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion};
-use std::collections::VecDeque;
+use std::sync::Arc;
 
 /// Statements executed per call at most: a program of many lines without motion is executed
-/// over several servo chunks rather than in one hold of the card's lock.
+/// over several real-time interrupts rather than in one hold of the card's lock (MODEL, as
+/// the bound on a scan of a PLC).
 const STATEMENTS_PER_CALL_MAX: usize = 4096;
+
+/// Backward jumps (ENDWHILE) without a move or dwell between them after which the program's
+/// calculation waits for the next real-time interrupt. UM p.341, the double-jump-back rule: "If
+/// in the course of trying to calculate the next move, Turbo PMAC detects two backwards jumps
+/// in the logic of the program, PMAC will not try to blend the last calculated move to an
+/// upcoming move ... to prevent the possibility that it might be caught in an indefinitely true
+/// set of loops with no movement" (p.342). MODEL: the emulator, which does not blend, takes the
+/// second jump back as the end of the program's calculation for this RTI, as WAIT ends it (UM
+/// p.342): a WHILE loop without a move makes at most two passes a real-time interrupt, so a
+/// hostile program cannot hold the card's lock.
+const JUMPS_BACK_PER_RTI: u8 = 2;
+
+/// The most lines a motion program may have to run. MODEL: a bound on the work of compiling
+/// it, which happens in one hold of the card's lock at its first `R` after a change; longer
+/// programs stop with a run-time error, the console saying why.
+pub const PROGRAM_LINES_MAX: usize = 16_384;
 
 /// The vector feedrate axes at power-up. MODEL: X, Y and Z, the PMAC family's default; the
 /// page with the power-up state of FRAX was not at hand.
@@ -47,11 +72,17 @@ const FRAX_DEFAULT: u16 = 0b111 << 6;
 /// One coordinate system's program as the emulator executes it.
 #[derive(Clone, Debug)]
 pub struct CsRun {
-    /// The program `B` pointed at, and the next line to execute.
+    /// The program `B` pointed at, compiled (`plc.rs`) from the buffer version noted, and
+    /// the next op to execute.
     program: Option<u16>,
-    line: usize,
-    /// The rest of the line under way.
-    pending: VecDeque<Statement>,
+    ops: Option<Arc<Result<Vec<Op>, String>>>,
+    version: u64,
+    pc: usize,
+    /// Backward jumps since the last move or dwell (see [`JUMPS_BACK_PER_RTI`]).
+    jumps_back: u8,
+    /// Waiting for the next real-time interrupt (WAIT, the double-jump-back rule, a full
+    /// command queue): `left` is the time to it; no move or dwell is under way.
+    waiting: bool,
     /// Executing (after `R` or `S`, while the core's program runs).
     executing: bool,
     /// Under `S`: one move, then stop.
@@ -84,8 +115,11 @@ impl Default for CsRun {
     fn default() -> Self {
         CsRun {
             program: None,
-            line: 0,
-            pending: VecDeque::new(),
+            ops: None,
+            version: 0,
+            pc: 0,
+            jumps_back: 0,
+            waiting: false,
             executing: false,
             single_step: false,
             quitting: false,
@@ -103,6 +137,15 @@ impl Default for CsRun {
             ended: false,
         }
     }
+}
+
+/// What executing one statement came to.
+enum Executed {
+    Done,
+    /// It cannot be executed: the program stops with a run-time error.
+    Failed,
+    /// It must wait (the command queue is full): tried again at the next RTI.
+    Retry,
 }
 
 /// An axis definition's terms: `(scale, axis)`, the axis an index of [`AXES`].
@@ -191,8 +234,11 @@ impl Card {
             if program.is_some() {
                 run.program = program;
             }
-            run.line = 0;
-            run.pending.clear();
+            // Compiled again at the next R: another program, or the same one changed.
+            run.ops = None;
+            run.pc = 0;
+            run.jumps_back = 0;
+            run.waiting = false;
             run.executing = false;
             run.moving = 0;
             run.left = 0.0;
@@ -269,7 +315,8 @@ impl Card {
                     run.moving = 0;
                     run.left = 0.0;
                     run.dwell = false;
-                    run.pending.clear();
+                    run.waiting = false;
+                    run.jumps_back = 0;
                 }
             }
         }
@@ -285,7 +332,7 @@ impl Card {
     /// `Q` or `/` that lets it finish.
     pub(super) fn program_move_left(&self, cs: u8) -> Option<f64> {
         let run = self.programs.get(usize::from(cs).checked_sub(1)?)?;
-        (run.executing && run.left > 0.0).then_some(run.left)
+        (run.executing && run.left > 0.0 && !run.waiting).then_some(run.left)
     }
 
     /// The acceleration time (ms) of C.S. `cs`'s moves: Isx87, or 2 x Isx88 when Isx88 is more
@@ -374,6 +421,7 @@ impl Card {
         run.left = 0.0;
         let was_move = !run.dwell && moving != 0;
         run.dwell = false;
+        run.waiting = false;
         if stopped_short {
             run.runtime_error = true;
             self.end_program(cs);
@@ -382,46 +430,179 @@ impl Card {
         }
     }
 
-    /// Executes statements of `cs`'s program until a move or dwell is under way, or the
-    /// program ends.
+    /// Executes statements of `cs`'s program until a move or dwell is under way, it waits for
+    /// the next real-time interrupt, or the program ends.
     fn execute_program(&mut self, cs: u8) {
-        for _ in 0..STATEMENTS_PER_CALL_MAX {
-            let k = usize::from(cs - 1);
-            let Some(run) = self.programs.get_mut(k) else { return };
-            if !run.executing || run.left > 0.0 {
-                return;
-            }
-            let statement = match run.pending.pop_front() {
-                Some(s) => s,
-                None => {
-                    let lines = run.program.and_then(|p| self.buffers.program(p)).unwrap_or(&[]);
-                    match lines.get(run.line) {
-                        Some(text) => {
-                            let parsed = statements(text, cs);
-                            let run = &mut self.programs[k];
-                            run.line += 1;
-                            run.pending = parsed.into();
-                            continue;
-                        }
-                        None => {
-                            // The end of the program: it stops there. MODEL: the next R runs it
-                            // from its top, as after B (the EPICS driver sends B10R each time).
-                            self.end_program(cs);
-                            return;
-                        }
-                    }
-                }
-            };
-            if !self.execute(cs, statement) {
+        let k = usize::from(cs - 1);
+        let Some(ops) = self.program_ops(cs) else { return };
+        let ops = match ops.as_ref() {
+            Ok(ops) => ops,
+            Err(why) => {
+                let line = format!("motion program of &{cs} not run at {}: {why}", self.moment());
+                self.say(&line);
                 self.programs[k].runtime_error = true;
                 self.end_program(cs);
                 return;
             }
+        };
+        for _ in 0..STATEMENTS_PER_CALL_MAX {
+            let run = &mut self.programs[k];
+            if !run.executing || run.left > 0.0 {
+                return;
+            }
+            let pc = run.pc;
+            match ops.get(pc) {
+                None => {
+                    // The end of the program: it stops there. MODEL: the next R runs it from
+                    // its top, as after B (the EPICS driver sends B10R each time).
+                    self.end_program(cs);
+                    return;
+                }
+                Some(Op::Do(statement)) => {
+                    run.pc += 1;
+                    match self.execute(cs, statement.clone()) {
+                        Executed::Done => {}
+                        Executed::Failed => {
+                            self.programs[k].runtime_error = true;
+                            self.end_program(cs);
+                            return;
+                        }
+                        Executed::Retry => {
+                            // The command queue is full (SRM p.422: "program execution is
+                            // temporarily halted until the new command can be placed on the
+                            // queue"): tried again at the next real-time interrupt.
+                            self.programs[k].pc = pc;
+                            self.wait_for_rti(cs);
+                            return;
+                        }
+                    }
+                    let run = &mut self.programs[k];
+                    if run.left > 0.0 && !run.waiting {
+                        run.jumps_back = 0;
+                    }
+                }
+                Some(Op::Unless { condition, to }) => {
+                    let holds = self.program_condition(condition);
+                    self.programs[k].pc = if holds { pc + 1 } else { *to };
+                }
+                Some(Op::While { condition, exit }) => {
+                    let holds = self.program_condition(condition);
+                    self.programs[k].pc = if holds { pc + 1 } else { *exit };
+                }
+                Some(Op::Jump(to)) => run.pc = *to,
+                Some(Op::EndWhile { back }) => {
+                    run.pc = *back;
+                    run.jumps_back += 1;
+                    if run.jumps_back >= JUMPS_BACK_PER_RTI {
+                        self.wait_for_rti(cs);
+                        return;
+                    }
+                }
+                Some(Op::Stop(why)) => {
+                    let line = format!("motion program of &{cs} stopped at {}: {why}", self.moment());
+                    self.say(&line);
+                    self.programs[k].runtime_error = true;
+                    self.end_program(cs);
+                    return;
+                }
+            }
+        }
+        // As many statements as one call runs and still no move: the rest at the next
+        // real-time interrupt (MODEL, see STATEMENTS_PER_CALL_MAX).
+        self.wait_for_rti(cs);
+    }
+
+    /// The compiled program of `cs`, compiled again when its buffer changed since (from its
+    /// top); `None` when the C.S. has none.
+    fn program_ops(&mut self, cs: u8) -> Option<Arc<Result<Vec<Op>, String>>> {
+        let k = usize::from(cs - 1);
+        let p = self.programs.get(k)?.program;
+        let version = p.map_or(0, |p| self.buffers.version(BufferId::Program(p)));
+        let run = &self.programs[k];
+        if let Some(ops) = run.ops.as_ref().filter(|_| run.version == version) {
+            return Some(Arc::clone(ops));
+        }
+        let lines = p.and_then(|p| self.buffers.program(p)).unwrap_or(&[]);
+        let compiled = if lines.len() > PROGRAM_LINES_MAX {
+            Err(format!("{} lines, more than the {PROGRAM_LINES_MAX} a motion program may have to run", lines.len()))
+        } else {
+            compile_as(lines, Kind::Motion { cs })
+        };
+        let ops = Arc::new(compiled);
+        let run = &mut self.programs[k];
+        if run.ops.is_some() {
+            run.pc = 0;
+        }
+        run.ops = Some(Arc::clone(&ops));
+        run.version = version;
+        Some(ops)
+    }
+
+    /// A condition of the program (UM p.252); one with no value (a division by zero) is false
+    /// (MODEL, as in a PLC).
+    fn program_condition(&mut self, condition: &crate::program::Condition) -> bool {
+        condition.holds(&mut |e| e.eval(self).ok().filter(|v| v.is_finite())).unwrap_or(false)
+    }
+
+    /// The program of `cs` waits for the next real-time interrupt, every I8 + 1 servo cycles
+    /// (SRM p.42, I8).
+    fn wait_for_rti(&mut self, cs: u8) {
+        let i8 = self.core.read_i(8, &self.store).unwrap_or(2).clamp(0, 255);
+        let ms = (i8 + 1) as f64 * self.servo_period_ms();
+        let run = &mut self.programs[usize::from(cs - 1)];
+        run.jumps_back = 0;
+        run.waiting = true;
+        run.dwell = false;
+        run.moving = 0;
+        run.left = ms;
+    }
+
+    /// One statement of a program: flow is compiled into ops, so these are the program's
+    /// commands, waits and motion.
+    fn execute(&mut self, cs: u8, statement: Statement) -> Executed {
+        match statement {
+            // SRM p.421: "as if it came from the host (except for addressing modes and
+            // response direction)"; SRM p.422: "Any motor-specific or coordinate-system-
+            // specific command issued from within a motion program without a specifier is
+            // automatically addressed to Motor 1 or C.S.1"; queued, run in the background
+            // as a PLC's are (`card/plc.rs`).
+            Statement::Command(text) => {
+                if self.queue_command(text.into_bytes(), Addressing::default()) {
+                    Executed::Done
+                } else {
+                    Executed::Retry
+                }
+            }
+            // SRM p.423: control characters are global.
+            Statement::Control(c) => {
+                if self.queue_command(vec![c], Addressing::default()) {
+                    Executed::Done
+                } else {
+                    Executed::Retry
+                }
+            }
+            Statement::Plc(p) => {
+                self.switch_plcs(p);
+                Executed::Done
+            }
+            // SEND: no port (MODEL, as from a PLC).
+            Statement::Send(_) => Executed::Done,
+            Statement::Wait => {
+                self.wait_for_rti(cs);
+                Executed::Done
+            }
+            other => {
+                if self.execute_motion(cs, other) {
+                    Executed::Done
+                } else {
+                    Executed::Failed
+                }
+            }
         }
     }
 
-    /// One statement; `false` when it cannot be executed.
-    fn execute(&mut self, cs: u8, statement: Statement) -> bool {
+    /// One motion statement; `false` when it cannot be executed.
+    fn execute_motion(&mut self, cs: u8, statement: Statement) -> bool {
         let base = 5000 + 100 * u16::from(cs);
         let k = usize::from(cs - 1);
         // A value of the program: a number, finite.
@@ -473,9 +654,7 @@ impl Card {
                 return self.start_move(cs, &values);
             }
             Statement::Return => self.end_program(cs),
-            // MODEL: PLC flow and COMMAND statements in a motion program are not executed (the
-            // program stops with a run-time error, as on any statement the emulator does not
-            // execute); PLCs run them (`card/plc.rs`).
+            // Flow is compiled into ops (`plc.rs`), the rest is `execute`'s: none reach here.
             Statement::If(_)
             | Statement::While(_)
             | Statement::And(_)
@@ -488,6 +667,7 @@ impl Card {
             | Statement::Send(_)
             | Statement::Plc(_)
             | Statement::Address { .. }
+            | Statement::Wait
             | Statement::Unsupported(_) => return false,
         }
         true
@@ -619,8 +799,9 @@ impl Card {
         let Some(run) = self.cs_run(cs) else { return };
         run.executing = false;
         run.ended = true;
-        run.pending.clear();
-        run.line = 0;
+        run.pc = 0;
+        run.jumps_back = 0;
+        run.waiting = false;
         run.left = 0.0;
         run.dwell = false;
         run.moving = 0;
@@ -675,7 +856,7 @@ impl Card {
         let defined: Vec<u8> = self.cs_motors(cs).into_iter().map(|(n, _, _)| n).collect();
         let in_position = if defined.is_empty() { &members } else { &defined };
         let mut b = 0;
-        let busy = run.executing && run.left > 0.0;
+        let busy = run.executing && run.left > 0.0 && !run.waiting;
         if !busy && in_position.iter().all(|n| motor_words(*n).1 & IN_POSITION != 0) {
             b |= CS_IN_POSITION;
         }
