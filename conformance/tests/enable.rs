@@ -7,7 +7,7 @@
 
 use pmacwd_conformance::generate;
 use pmacwd_conformance::lockstep::Pair;
-use pmacwd_conformance::subject::{CoreSubject, Subject};
+use pmacwd_conformance::subject::CoreSubject;
 use pmacwd_specs::vocab::command::{CsCommand, HostCommand, Motion};
 use pmacwd_specs::vocab::event::{AmplifierFaultInput, Event};
 use pmacwd_specs::vocab::observation::MotorState;
