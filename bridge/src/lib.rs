@@ -103,6 +103,7 @@ pub fn core_motion(m: &Motion) -> core::MotionCommand {
                 CsCommand::Run => cm::CsCommand::Run,
                 CsCommand::Step => cm::CsCommand::Step,
                 CsCommand::Begin => cm::CsCommand::Begin,
+                CsCommand::Enable => cm::CsCommand::Enable,
                 CsCommand::Feedrate(p) => cm::CsCommand::Feedrate(p),
             },
         ),

@@ -739,3 +739,57 @@ fn a_command_the_grammar_stops_at_a_cr_or_a_non_breaking_space_reads_back_as_one
         assert_eq!(format!("{trace:?}"), format!("{:?}", again.trace));
     }
 }
+
+/// Issues 29/36: the EPICS `pmac` driver sends `&1e` before each C.S. move
+/// (`pmacHardwareTurbo::getCSEnableCommand`, "to make sure axes are enabled"). It was refused
+/// (exit 2: "the model has no single command for it"); it is the vocabulary's `&1E` now
+/// (MODEL: each killed motor of the C.S. closes its loop, docs/grammar.md), in a host log and
+/// in an asyn trace alike, and the trace written from it reads back.
+#[test]
+fn the_epics_driver_s_cs_enable_imports_as_its_own_step_from_a_host_log_and_an_asyn_trace() {
+    let t = ok("> $$$\n<\n> &1e\n<\n> &2E #1J/\n<\n> ???\n< 000000000000\n");
+    let steps = events(&t.trace.steps);
+    assert_eq!(steps[1..4], [command("&1E"), command("&2E"), command("#1J/")], "{steps:?}");
+    assert_eq!(command("&1E").to_string(), command("&1e").to_string());
+    // The trace as `pmacwd import` writes it (YAML and JSON Lines) reads back with the step.
+    let yaml = pmacwd_trace::to_yaml(&t.trace);
+    assert!(yaml.contains("&1E"), "{yaml}");
+    let back = pmacwd_trace::parse_yaml(Path::new("s.yaml"), &yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
+    assert_eq!(back.trace.steps.len(), t.trace.steps.len());
+    let jsonl = pmacwd_trace::jsonl::to_jsonl(&t.trace);
+    let back = pmacwd_trace::jsonl::read_all(Path::new("s.jsonl"), jsonl.as_bytes()).unwrap();
+    assert!(back.steps.iter().any(|s| s.event == command("&1E")), "{jsonl}");
+    // The driver's asyn trace of the same command: `command: &1e`, the GETRESPONSE carrying
+    // it, the card's bare ACK, an empty `response:`.
+    let enable = ASYN
+        .replace("command: I68", "command: &1e")
+        .replace("04I68", "04&1e")
+        .replace("read 4\n15\\r\\x06", "read 1\n\\x06")
+        .replace("response: 15", "response: ");
+    let trace = Scratch::new("enable.txt", enable.as_bytes());
+    let (steps, s) = stream(&trace.0, None).unwrap_or_else(|e| panic!("{e}\n{enable}"));
+    assert_eq!(s.format, LogFormat::Asyn);
+    assert_eq!(steps.len(), 1, "{steps:?}");
+    // The step is placed at the `response:` line, as every asyn exchange is.
+    assert_eq!((steps[0].0, &steps[0].1.event), (10, &command("&1E")));
+}
+
+/// A short correct log of the driver's C.S. move replays as explained: after a reset every
+/// motor is killed (MODEL, Ixx80 = 0), `&1E` closes the loops of &1's motors (the host-log
+/// configuration's eight), so `B` and `R` start the program and `#1K` is refused with ERR001
+/// while it runs (UM p.319). Without the `&1E`, R starts nothing (UM p.319: a program starts
+/// from closed loops), K is taken, and ERR001 is no correct card's answer.
+#[test]
+fn a_short_log_of_the_driver_s_enable_then_a_program_run_replays_as_explained() {
+    use pmacwd_capture::explain::report::{explain, to_text};
+    let replay = |name: &str, text: &str| {
+        let scratch = Scratch::new(name, text.as_bytes());
+        explain(&Spec::embedded().unwrap(), &scratch.0, None).unwrap_or_else(|e| panic!("{e}\n{text}"))
+    };
+    let log = "> $$$\n<\n> RHX:$0\n< 000010\n> &1e\n<\n> &1B10R\n<\n> #1K\n< ERR001\n> ???\n< 000000000000\n\
+               > RHX:$0\n< 000020\n";
+    let r = replay("enable.log", log);
+    assert!(r.explained(), "{}", to_text(&r));
+    let r = replay("no-enable.log", &log.replace("> &1e\n<\n", ""));
+    assert!(!r.explained(), "{}", to_text(&r));
+}

@@ -597,10 +597,10 @@ fn the_emulator_s_capture_of_motors_that_move_replays_as_consistent() {
 
 #[test]
 fn the_emulator_s_capture_of_a_motion_program_replays_as_consistent() {
-    // Issue 30: a program's end is heard by the core as `Q` and `&1E` as a `J/` per killed
-    // motor; the capture records each as an exchange, so that the model, which has no event
-    // for either, follows the core: a K refused while the program runs (ERR001, UM p.319) and
-    // accepted once it has ended is explained.
+    // Issue 30: a program's end is heard by the core as `Q`, and `&1E` is the core's and the
+    // model's `E` (issue 36: each killed motor of &1 closes its loop); the capture records
+    // each as an exchange, so that the model follows the core: a K refused while the program
+    // runs (ERR001, UM p.319) and accepted once it has ended is explained.
     use pmacwd_emulator::control::Control;
     let spec = pmacwd_specs::Spec::embedded().unwrap();
     let path = std::env::temp_dir().join(format!("pmacwd-record-program-{}.jsonl", std::process::id()));
@@ -637,7 +637,7 @@ fn the_emulator_s_capture_of_a_motion_program_replays_as_consistent() {
     assert!(server.with_card(|c| c.finish_recording()).is_empty());
     server.stop();
     let text = std::fs::read_to_string(&path).unwrap();
-    assert!(text.contains("&1Q") && text.contains("#8J/"), "{text}");
+    assert!(text.contains("&1Q") && text.contains("&1E") && !text.contains("#8J/"), "{text}");
     assert_explained_by_default(&spec, &path);
     std::fs::remove_file(&path).ok();
 }

@@ -106,11 +106,13 @@ pub const COMMANDS: &[&str] = &[
 /// table and every command that starts motion, on motors #1 and #2 and coordinate systems &1
 /// and &2 (the `motion` configuration has one motor in each, every other configuration its
 /// motors in &1), a motor and a coordinate system beyond every configuration's (#9, &3), and
-/// the global control characters; B and R often enough that programs run and stops meet them.
+/// the global control characters; B and R often enough that programs run and stops meet them;
+/// `E` (the EPICS driver's enable, MODEL: each killed motor of the C.S. closes its loop) on &1,
+/// &2 and &3.
 pub const MOTION_COMMANDS: &[&str] = &[
     "#1J/", "#1J+", "#1J-", "#1J=", "#1K", "#2J/", "#2J+", "#2K", "#9J/", "#9K", "&1B", "&1B", "&1R", "&1R", "&1S",
     "&1A", "&1Q", "&1/", "&1H", "&1\\", "&1%0", "&1%100", "&2B", "&2R", "&2S", "&2A", "&2Q", "&2/", "&2H", "&3B",
-    "&3R", "<CTRL-A>", "<CTRL-Q>", "<CTRL-O>", "<CTRL-K>",
+    "&3R", "<CTRL-A>", "<CTRL-Q>", "<CTRL-O>", "<CTRL-K>", "&1E", "&2E", "&3E",
 ];
 
 /// One step of a generated trace, resolved against the model's state when it is applied.

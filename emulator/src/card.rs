@@ -686,7 +686,8 @@ impl Card {
             // Motion and stop commands, jogs to a target or by a distance, and homing: the
             // core hears what the vocabulary makes of them (`HostCommand::from_grammar`), and
             // the trajectories follow (`card/motion.rs`). A stop lasts the cycles its motors
-            // need at their rates (the core's stop length, chosen per command).
+            // need at their rates (the core's stop length, chosen per command). `&nE` is the
+            // core's `E`: each killed motor of the C.S. closes its loop (MODEL, docs/grammar.md).
             Command::Motion(m) => {
                 let usual = self.cfg.motion.decel_cycles;
                 if let Some(cycles) = self.stop_cycles(&m) {
@@ -713,10 +714,6 @@ impl Card {
             Command::Begin { cs, program } => {
                 out.push(self.grammar_answer(&c));
                 self.begin_program(cs, program);
-            }
-            Command::Enable(cs) => {
-                self.enable(cs);
-                out.push(Answer::Nothing);
             }
             Command::Jog(n, jog) => {
                 out.push(self.grammar_answer(&c));

@@ -262,6 +262,9 @@ pub enum CsCommand {
     Begin,
     /// `%n`: %0 holds like H (UM p.217, "Similar to %0"); a non-zero value resumes a hold.
     Feedrate(u16),
+    /// `E` (the EPICS driver's `&1E`): each killed motor of the C.S. closes its loop, as `J/`
+    /// closes a killed motor's (MODEL, as the reference model: no page at hand describes `E`).
+    Enable,
 }
 
 /// A global control character (UM p.217: each acts on every coordinate system).
@@ -631,6 +634,18 @@ impl Motion {
                 if !program.executing() {
                     self.set_program(cs, Program::AtPoint);
                 }
+            }
+            CsCommand::Enable => {
+                // MODEL, as the reference model: each killed motor of the C.S. closes its loop
+                // as J/ closes a killed motor's (UM p.319: re-enabling closes the servo loops),
+                // and UM p.213: re-enabling clears the amplifier-fault status bit. The killed
+                // motors are the members whose amplifier is off; the others, and the program,
+                // are left as they are.
+                let killed = cfg.members(cs) & !self.amplifiers;
+                for k in motors_in(killed) {
+                    self.close_loop(k);
+                }
+                self.fault_status &= !killed;
             }
         }
     }

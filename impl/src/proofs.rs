@@ -179,8 +179,8 @@ pub fn check_motion_closed_form(cfg: &MotionConfig, commands: &[MotionCommand], 
 }
 
 /// The motion commands the closed-form harness draws from: every row of UM p.217 on motor #1 or
-/// #2 and &1 or &2, and the commands that start motion.
-pub const MOTION_COMMANDS: [MotionCommand; 16] = [
+/// #2 and &1 or &2, the commands that start motion, and `&1E` (which closes killed loops).
+pub const MOTION_COMMANDS: [MotionCommand; 17] = [
     MotionCommand::Motor(1, MotorCommand::JogStop),
     MotionCommand::Motor(1, MotorCommand::Jog),
     MotionCommand::Motor(1, MotorCommand::Kill),
@@ -192,6 +192,7 @@ pub const MOTION_COMMANDS: [MotionCommand; 16] = [
     MotionCommand::CoordinateSystem(1, CsCommand::Quit),
     MotionCommand::CoordinateSystem(1, CsCommand::EndOfMove),
     MotionCommand::CoordinateSystem(1, CsCommand::Hold),
+    MotionCommand::CoordinateSystem(1, CsCommand::Enable),
     MotionCommand::CoordinateSystem(2, CsCommand::Begin),
     MotionCommand::CoordinateSystem(2, CsCommand::Run),
     MotionCommand::Global(GlobalCommand::QuitAll),
@@ -299,7 +300,7 @@ mod kani_proofs {
             coordinate_systems: [1 + kani::any::<u8>() % 2, 1 + kani::any::<u8>() % 2, 1, 1, 1, 1, 1, 1],
             decel_cycles: kani::any::<u8>() % 4,
         };
-        let pick = || MOTION_COMMANDS[usize::from(kani::any::<u8>() % 16)];
+        let pick = || MOTION_COMMANDS[usize::from(kani::any::<u8>()) % MOTION_COMMANDS.len()];
         let n: u8 = kani::any();
         kani::assume(n <= 5);
         check_motion_closed_form(&cfg, &[pick(), pick(), pick()], n.into());
@@ -366,7 +367,7 @@ mod exhaustive_twins {
         }
     }
 
-    /// Every sequence of three of [`MOTION_COMMANDS`] (4,096), on one and two motors in each
+    /// Every sequence of three of [`MOTION_COMMANDS`] (4,913), on one and two motors in each
     /// assignment to &1 and &2, with decelerations of 0 to 3 cycles, for n = 0..=5.
     #[test]
     fn motion_closed_form_equals_single_cycles_for_every_short_command_sequence() {

@@ -90,6 +90,7 @@ fn motion_command() -> impl Strategy<Value = MotionCommand> {
             CsCommand::Run,
             CsCommand::Step,
             CsCommand::Begin,
+            CsCommand::Enable,
             CsCommand::Feedrate(0),
             CsCommand::Feedrate(100),
         ][..],

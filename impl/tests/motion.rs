@@ -300,3 +300,38 @@ fn the_cycles_before_a_stop_ends_are_those_of_the_nearest_stop_less_one() {
     assert!(!core.motion().stops_under_way(), "both stops ended");
     assert_eq!(core.motion().cycles_before_a_stop_ends(), u32::MAX);
 }
+
+/// MODEL, as the reference model (docs/grammar.md, `E`): `&nE` closes the loop of each killed
+/// motor of C.S. n as J/ closes a killed motor's (UM p.319), and clears its amplifier-fault
+/// status bit (UM p.213); a motor of another C.S. stays killed, a jogging one jogs on.
+#[test]
+fn e_closes_the_killed_loops_of_its_coordinate_system_only() {
+    let mut c = Card::new(config());
+    assert_eq!(c.cs(1, CsCommand::Enable), Reply::Ack);
+    assert_eq!((c.state(1), c.state(2)), (MotorState::Closed, MotorState::Killed));
+    let m1 = c.core.motor(&c.cfg, 1).unwrap();
+    assert!(m1.amplifier_enabled && !m1.output_zero);
+    c.motor(1, MotorCommand::Jog);
+    c.cs(1, CsCommand::Enable);
+    c.cs(2, CsCommand::Enable);
+    assert_eq!((c.state(1), c.state(2)), (MotorState::Jogging, MotorState::Closed));
+    assert!(c.core.motion().consistent());
+    // UM p.213: the fault kills #2 and sets its bit at the background's check; E clears it.
+    c.core.apply(&c.cfg, Event::AmplifierFault { motor: 2, fault: true }, &mut c.store);
+    let mut checked = false;
+    for _ in 0..1000 {
+        c.servo(1);
+        if c.core.background_possible() {
+            c.core.apply(&c.cfg, Event::Background, &mut c.store);
+            checked = true;
+            break;
+        }
+    }
+    assert!(checked, "a background cycle completes");
+    let m2 = c.core.motor(&c.cfg, 2).unwrap();
+    assert_eq!((m2.state, m2.amplifier_fault_status), (MotorState::Killed, true));
+    c.core.apply(&c.cfg, Event::AmplifierFault { motor: 2, fault: false }, &mut c.store);
+    c.cs(2, CsCommand::Enable);
+    let m2 = c.core.motor(&c.cfg, 2).unwrap();
+    assert_eq!((m2.state, m2.amplifier_fault_status), (MotorState::Closed, false));
+}

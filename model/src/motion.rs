@@ -522,6 +522,25 @@ impl Axes {
                     self.set_program(cs, Program::AtPoint);
                 }
             }
+            CsCommand::Enable => {
+                // MODEL: `E` (the EPICS driver's `&1E`, "to make sure axes are enabled") is not
+                // in the pages at hand. Enabling a killed motor is closing its loop (UM p.319:
+                // a kill opens the loop, forces zero output and disables the amplifier, and a
+                // program resumes "after re-enabling the servo loops"; SRM p.281: Amplifier
+                // Enabled is 1 "either in open loop or closed-loop mode", 0 when killed), so
+                // each killed motor of the C.S. closes its loop as J/ closes a killed motor's
+                // (`stop_command`, J/'s row), and UM p.213's amplifier-fault status bit "is
+                // cleared when the motor is re-enabled" (SRM p.286, the C.S.'s bit 20 alike).
+                // Motors closed, jogging, running or stopping are left as they are, and the
+                // program is not touched.
+                for k in members {
+                    let m = &mut self.motor_slots[k];
+                    if m.state == MotorState::Killed {
+                        m.close_loop();
+                        m.fault_status = false;
+                    }
+                }
+            }
             CsCommand::Abort | CsCommand::Quit | CsCommand::EndOfMove | CsCommand::Hold | CsCommand::QuickStop => {
                 unreachable!("stop commands have their rows")
             }

@@ -746,3 +746,48 @@ fn a_background_cycle_reloads_the_counter_and_scans_the_plc_and_nothing_else_doe
     let m = card.axes.motors()[0];
     assert!(m.state == pmacwd_specs::vocab::MotorState::Killed && m.loss_status, "the scan killed and latched: {m:?}");
 }
+
+/// MODEL (model/src/motion.rs, `cs_start`, `CsCommand::Enable`; docs/grammar.md, `E`): the
+/// EPICS driver's `&nE` closes the loop of each killed motor of C.S. n, as `J/` closes a killed
+/// motor's (UM p.319: re-enabling is closing the servo loops), and clears the amplifier-fault
+/// status bit of a motor it re-enables (UM p.213). Motors of another C.S. stay killed; a
+/// jogging or closed motor of the C.S., and its program, are left as they are.
+#[test]
+fn e_closes_the_loop_of_each_killed_motor_of_its_coordinate_system_and_of_no_other() {
+    // UM p.319, UM p.213, SRM p.281
+    use pmacwd_model::motion::Program;
+    use pmacwd_specs::vocab::event::AmplifierFaultInput;
+    use pmacwd_specs::vocab::observation::MotorState;
+    let cfg = config("amplifier-fault", "um-215");
+    assert_eq!((cfg.motion.coordinate_system(1), cfg.motion.coordinate_system(2)), (1, 2));
+    let mut card = Controller::power_on(&cfg);
+    let states = |c: &Controller| (c.axes.motors()[0].state, c.axes.motors()[1].state);
+    assert_eq!(states(&card), (MotorState::Killed, MotorState::Killed), "motors power up killed");
+    assert_eq!(cmd(&mut card, &cfg, "&1E"), Reply::Ack);
+    assert_eq!(states(&card), (MotorState::Closed, MotorState::Killed), "&1E enables #1 (in &1) only");
+    let m1 = card.axes.motors()[0];
+    assert!(m1.amplifier_enabled && !m1.output_zero);
+    // A jogging motor of the C.S. goes on jogging; a closed one stays closed.
+    cmd(&mut card, &cfg, "#1J+");
+    cmd(&mut card, &cfg, "&1E");
+    assert_eq!(states(&card), (MotorState::Jogging, MotorState::Killed), "&1E does not stop a jog");
+    cmd(&mut card, &cfg, "&2E");
+    assert_eq!(states(&card), (MotorState::Jogging, MotorState::Closed), "&2E enables #2 and leaves #1's jog");
+    cmd(&mut card, &cfg, "&2E");
+    assert_eq!(states(&card), (MotorState::Jogging, MotorState::Closed), "a second &2E changes nothing");
+    // UM p.213: the fault kills #2 and sets its status bit; E re-enables it and clears the bit.
+    card.apply(&cfg, &Event::AmplifierFault(AmplifierFaultInput { motor: 2, fault: true }));
+    healthy_cycle(&mut card, &cfg);
+    assert_eq!(card.axes.motors()[1].state, MotorState::Killed);
+    assert!(card.axes.motors()[1].fault_status);
+    card.apply(&cfg, &Event::AmplifierFault(AmplifierFaultInput { motor: 2, fault: false }));
+    cmd(&mut card, &cfg, "&2E");
+    assert_eq!(card.axes.motors()[1].state, MotorState::Closed);
+    assert!(!card.axes.motors()[1].fault_status, "re-enabled: the fault status bit clears (UM p.213)");
+    // E touches no program: &2 points at one, and E neither starts nor loses it.
+    cmd(&mut card, &cfg, "&2B");
+    cmd(&mut card, &cfg, "&2E");
+    assert_eq!(card.axes.programs()[1], Program::AtPoint);
+    assert_eq!(card.axes.motors()[1].state, MotorState::Closed);
+    assert!(!card.tripped());
+}

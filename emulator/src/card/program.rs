@@ -907,27 +907,6 @@ impl Card {
         self.programs.iter().any(|r| r.executing)
     }
 
-    /// `&nE`: each killed motor of the C.S. has its loop closed as `J/` closes it (MODEL, see
-    /// the grammar's `Command::Enable`); the core hears those `J/`, and the capture records
-    /// them as such.
-    pub(super) fn enable(&mut self, cs: u8) {
-        for n in 1..=self.cfg.motion.motors {
-            let killed = self
-                .core
-                .motor(&self.cfg, n)
-                .is_some_and(|m| m.coordinate_system == cs && m.state == pmacwd_core::motion::MotorState::Killed);
-            if killed {
-                let motion = Motion::Motor(n, pmacwd_specs::vocab::command::MotorCommand::JogStop);
-                self.core.command(&self.cfg, core_command(&HostCommand::Motion(motion)), &mut self.store);
-                self.capture_record(|| Record::Commands {
-                    commands: vec![(format!("#{n}J/"), Ok(Command::Motion(motion)))],
-                    reply: Some(Vec::new()),
-                });
-            }
-        }
-        self.sync_motion();
-    }
-
     /// Every C.S. back to power-up (a reset): no program pointed at.
     pub(super) fn reset_programs(&mut self) {
         for r in self.programs.iter_mut() {

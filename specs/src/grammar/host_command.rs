@@ -120,14 +120,6 @@ impl HostCommand {
             Command::Close => HostCommand::Close,
             Command::Motion(m) => HostCommand::Motion(*m),
             Command::Begin { cs, .. } => HostCommand::Motion(Motion::CoordinateSystem(*cs, CsCommand::Begin)),
-            // MODEL: `E` stands for a `J/` to each killed motor of the C.S. (the emulator's
-            // reading, `Command::Enable`); the model has no one command for it, and the
-            // emulator's capture records the `J/` it sends the core instead.
-            Command::Enable(cs) => {
-                return Err(format!(
-                    "`&{cs}E` enables the motors of a coordinate system, a J/ to each killed one; the model has no single command for it"
-                ))
-            }
             // MODEL: the stop rules tell a zero override (a hold, UM p.217) from any other; a
             // fraction of a percent counts as a running override, rounded up.
             Command::Feed { cs, percent } => HostCommand::Motion(Motion::CoordinateSystem(

@@ -235,8 +235,6 @@ pub enum Command {
         cs: u8,
         program: Option<u16>,
     },
-    /// `E` of C.S. `cs`: enable its motors (the EPICS driver's `&1E`).
-    Enable(u8),
     /// `OPEN PLC n`, `OPEN PROG n`, `CLOSE`.
     OpenPlc(u8),
     OpenProgram(u16),
@@ -330,7 +328,6 @@ impl Command {
             | Command::AxisDefine { .. }
             | Command::Undefine { .. }
             | Command::Begin { .. }
-            | Command::Enable(_)
             | Command::OpenPlc(_)
             | Command::OpenProgram(_)
             | Command::Close
@@ -775,8 +772,9 @@ impl Parser<'_, '_> {
             }
             // `E`: the EPICS driver sends `&{cs}E` "to make sure axes are enabled" before each
             // C.S. move (pmacHardwareTurbo::getCSEnableCommand). MODEL: the pages at hand do not
-            // describe it; it closes the loop of each killed motor of the C.S., as J/ does.
-            b'E' => Command::Enable(self.addressing.cs),
+            // describe it; it closes the loop of each killed motor of the C.S., as J/ does
+            // (`CsCommand::Enable`).
+            b'E' => self.cs_command(CsCommand::Enable),
             _ => return Err(self.error(start, "not an on-line command of the card")),
         })
     }
@@ -1311,7 +1309,6 @@ impl fmt::Display for Command {
             Command::Undefine { cs: None } => f.write_str("UNDEFINE ALL"),
             Command::Begin { cs, program: Some(n) } => write!(f, "&{cs}B{n}"),
             Command::Begin { cs, program: None } => write!(f, "&{cs}B"),
-            Command::Enable(cs) => write!(f, "&{cs}E"),
             Command::OpenPlc(n) => write!(f, "OPEN PLC {n}"),
             Command::OpenProgram(n) => write!(f, "OPEN PROG {n}"),
             Command::Close => f.write_str("CLOSE"),

@@ -252,7 +252,7 @@ fn keywords_win_over_single_letters() {
             Command::Begin { cs: 2, program: Some(10) },
             Command::Motion(Motion::CoordinateSystem(2, CsCommand::Run)),
             Command::Begin { cs: 2, program: None },
-            Command::Enable(2),
+            Command::Motion(Motion::CoordinateSystem(2, CsCommand::Enable)),
         ]
     );
     // UM p.243, SRM p.295, SRM p.57 (the memory write is the vocabulary's pseudo-command).

@@ -16,7 +16,7 @@
 //! | `GATHER`, `GAT` | [`HostCommand::Gather`] | nothing; data gathering starts, X:$000006 bit 19 (SRM p.289, p.307) |
 //! | `ENDGATHER`, `ENDG` | [`HostCommand::EndGather`] | nothing; data gathering stops, bit 19 clears (SRM p.289, p.307) |
 //! | `#1J+`, `#1J-`, `#1J/`, `#1J=`, `#1K` | [`HostCommand::Motion`], motor scope | nothing; `#1K` while motor 1's C.S. runs a program: ERR001 (UM p.319) |
-//! | `&1A`, `&1Q`, `&1/`, `&1H`, `&1\`, `&1R`, `&1S`, `&1B`, `&1%0` | [`HostCommand::Motion`], C.S. scope | nothing |
+//! | `&1A`, `&1Q`, `&1/`, `&1H`, `&1\`, `&1R`, `&1S`, `&1B`, `&1E`, `&1%0` | [`HostCommand::Motion`], C.S. scope | nothing |
 //! | `<CTRL-A>`, `<CTRL-Q>`, `<CTRL-O>`, `<CTRL-K>` | [`HostCommand::Motion`], global | nothing |
 //!
 //! `<MEMORY-WRITE In=v>` is not text a card reads: it stands for an M-variable assignment or a
@@ -138,6 +138,11 @@ pub enum CsCommand {
     Begin,
     /// `%n`: feedrate override in percent.
     Feedrate(u16),
+    /// `E`: enable the motors of the C.S. (the EPICS `pmac` driver's `&1E`, "to make sure axes
+    /// are enabled" before a C.S. move). MODEL: the manual pages at hand do not describe `E`;
+    /// each killed motor of the C.S. has its loop closed as `J/` closes a killed motor's
+    /// (docs/grammar.md, `E`).
+    Enable,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -170,7 +175,9 @@ impl Motion {
                 CsCommand::EndOfMove => Some("/"),
                 CsCommand::Hold => Some("H"),
                 CsCommand::QuickStop => Some("\\"),
-                CsCommand::Run | CsCommand::Step | CsCommand::Begin | CsCommand::Feedrate(_) => None,
+                CsCommand::Run | CsCommand::Step | CsCommand::Begin | CsCommand::Feedrate(_) | CsCommand::Enable => {
+                    None
+                }
             },
             Motion::Global(g) => Some(match g {
                 GlobalCommand::AbortAll => "<CTRL-A>",
@@ -209,6 +216,7 @@ impl fmt::Display for Motion {
                     CsCommand::Run => "R",
                     CsCommand::Step => "S",
                     CsCommand::Begin => "B",
+                    CsCommand::Enable => "E",
                     CsCommand::Feedrate(_) => unreachable!("printed above"),
                 }
             ),
@@ -373,6 +381,8 @@ mod tests {
             ("&1/", "&1/"),
             ("&1\\", "&1\\"),
             ("&2B1", "&2B"),
+            ("&1E", "&1E"),
+            ("&3e", "&3E"),
             ("&1%0", "&1%0"),
             ("<ctrl-k>", "<CTRL-K>"),
             ("<CTRL-O>", "<CTRL-O>"),
