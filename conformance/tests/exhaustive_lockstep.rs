@@ -57,3 +57,50 @@ fn a_divergence_comes_back_as_the_shortest_event_sequence_that_reaches_it() {
     assert!(matches!(events[2], Event::Command(HostCommand::ReadI(_))), "{commands:?}");
     assert!(d.fields[0].starts_with("reply"), "{d}");
 }
+
+/// The successors the product's `for_each_next_state` gives (the two time jumps of a pair
+/// sharing the model's simulated cycles) are `next_state`'s, action by action, in the first 200
+/// pair states reachable in `i40-zero` (breadth first; every running state leaps), under both
+/// profiles that decrement differently (`srm-57` counts below zero), and with a canary that acts
+/// within the cycles, so that pairs part at the end of a time jump.
+#[test]
+fn the_product_s_leaps_share_their_cycles_and_give_next_state_s_successors() {
+    use pmacwd_model::checker::Action;
+    use stateright::Model;
+    let spec = Spec::embedded().unwrap();
+    let runs = [("um-215", None), ("srm-57", None), ("um-215", Some(Canary::CounterDropsByTwo))];
+    for (profile, canary) in runs {
+        let profile = spec.profiles.get(profile).expect("profile exists");
+        let cfg = pmacwd_specs::config::ModelConfig::from_spec(&spec, "i40-zero", &profile).unwrap();
+        let product =
+            ProductModel { core_cfg: core_config(&cfg), model: WatchdogModel { canary, ..WatchdogModel::new(cfg) } };
+        let mut seen = std::collections::HashSet::new();
+        let mut queue: std::collections::VecDeque<_> = product.init_states().into();
+        let (mut states, mut leaps, mut diverged) = (0, 0, 0);
+        while let Some(s) = queue.pop_front() {
+            if states == 200 {
+                break;
+            }
+            if !seen.insert(s.clone()) {
+                continue;
+            }
+            states += 1;
+            let mut actions = Vec::new();
+            product.actions(&s, &mut actions);
+            leaps += actions.iter().filter(|a| **a == Action::ServoToNextChange).count();
+            let one_by_one: Vec<_> = actions.iter().map(|a| product.next_state(&s, a.clone())).collect();
+            let mut shared = Vec::new();
+            product.for_each_next_state(&s, &mut actions, |n| shared.push(n.take()));
+            assert!(actions.is_empty(), "the actions are drained");
+            assert!(shared == one_by_one, "successors differ at {s:?}");
+            diverged += one_by_one.iter().flatten().filter(|n| n.diverged).count();
+            queue.extend(one_by_one.into_iter().flatten());
+        }
+        if canary.is_some() {
+            // A pair that parted has no successors: the canary's product is small.
+            assert!(leaps > 5 && diverged > 0, "{states} states, {leaps} leaping, {diverged} parted");
+        } else {
+            assert!(leaps > 50, "{states} states, {leaps} leaping");
+        }
+    }
+}
