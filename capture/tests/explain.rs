@@ -162,7 +162,7 @@ fn generate(spec: &Spec, cfg: &ModelConfig, cpu: u8, gaps: &[GapGen]) -> String 
             let reply = card.apply(cfg, &Event::Command(HostCommand::parse(cmd).unwrap()));
             let text = match reply {
                 Reply::Status { x, y } => {
-                    let (x, y) = with_cpu(spec, cpu, (x, y));
+                    let (x, y) = with_cpu(&pmacwd_specs::config::StatusLayout::of(spec).unwrap(), cpu, (x, y));
                     format!("{x:06X}{y:06X}")
                 }
                 r => r.to_string(),

@@ -782,7 +782,7 @@ impl Lane {
                 {
                     self.pass_mattered = true;
                 }
-                let obs = observation(spec, cfg, &c.card, c.cpu, reply);
+                let obs = observation(cfg, &c.card, c.cpu, reply);
                 match compare_windowed(spec, cfg, &step.expect, &c.card, &obs) {
                     Ok(_) => insert(c, &mut next)?,
                     Err(Mismatch::UnknownBit(_, _, name)) => {

@@ -453,7 +453,7 @@ pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> 
                 return Err(format!("witness step {}: `{}` left unresolved", i + 1, step.event()))
             }
         };
-        let obs = observation(spec, cfg, &card, w.cpu, reply);
+        let obs = observation(cfg, &card, w.cpu, reply);
         match super::search::compare_windowed(spec, cfg, step.expect().unwrap_or(&nothing), &card, &obs) {
             Ok(n) => checked += n,
             Err(pmacwd_trace::compare::Mismatch::Field(what, expected, observed)) => {
@@ -512,6 +512,7 @@ pub fn write_trace(
         let (bit1, bit0) = c.processor.type_bits();
         (u8::from(bit1) << 1) | u8::from(bit0)
     });
+    let layout = pmacwd_specs::config::StatusLayout::of(spec).map_err(|e| std::io::Error::other(e.message))?;
     let trace = pmacwd_trace::Trace {
         version: pmacwd_trace::FORMAT_VERSION,
         description: format!(
@@ -539,7 +540,7 @@ pub fn write_trace(
         if let Some(r) = &step.expect.reply {
             if let Ok(StatusReply::Words { x, y }) = reply_text::decode(r) {
                 if r.len() == 12 {
-                    let (x, y) = super::observe::with_cpu(spec, configured_cpu, (x, y));
+                    let (x, y) = super::observe::with_cpu(&layout, configured_cpu, (x, y));
                     step.expect.reply = Some(reply_text::encode(StatusReply::Words { x, y }));
                 }
             }
