@@ -69,6 +69,19 @@ impl Framing {
         self.i6 & 3
     }
 
+    /// One command's answers, framed, up to and including the first error (the card stops
+    /// answering there); and whether there was one.
+    pub fn answers(self, answers: &[Answer]) -> (Vec<u8>, bool) {
+        let mut out = Vec::new();
+        for answer in answers {
+            self.push_answer(&mut out, answer);
+            if let Answer::Error(_) = answer {
+                return (out, true);
+            }
+        }
+        (out, false)
+    }
+
     /// Appends one command's answer.
     pub fn push_answer(self, out: &mut Vec<u8>, answer: &Answer) {
         let lf = matches!(self.i3(), 1 | 3);

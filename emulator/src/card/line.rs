@@ -156,16 +156,7 @@ impl Card {
         let mut answers = Vec::new();
         self.command(now.clone(), run.addressing_after, &mut answers);
         // Each answer is framed as I3/I6 stand after its command: `i3=2` already counts.
-        let framing = self.framing();
-        let mut own = Vec::new();
-        let mut failed = false;
-        for answer in &answers {
-            framing.push_answer(&mut own, answer);
-            if let Answer::Error(_) = answer {
-                failed = true;
-                break;
-            }
-        }
+        let (own, failed) = self.framing().answers(&answers);
         out.extend_from_slice(&own);
         if failed {
             // The commands after it are not executed; the capture notes them so.

@@ -52,7 +52,6 @@
 use super::Card;
 use crate::buffers::BufferId;
 use crate::capture_queue::Record;
-use crate::framing::Answer;
 use crate::plc::{compile, Op};
 use crate::program::Statement;
 use pmacwd_specs::grammar::{pieces, Addressing, Command, Expr, PlcSwitch, VarKind};
@@ -358,16 +357,7 @@ impl Card {
                 String::from_utf8_lossy(text.get(piece.start..piece.end).unwrap_or_default()).trim().to_string();
             let mut answers = Vec::new();
             self.command(command.clone(), addressing, &mut answers);
-            let framing = self.framing();
-            let mut own = Vec::new();
-            let mut failed = false;
-            for answer in &answers {
-                framing.push_answer(&mut own, answer);
-                if let Answer::Error(_) = answer {
-                    failed = true;
-                    break;
-                }
-            }
+            let (own, failed) = self.framing().answers(&answers);
             self.capture_record(|| Record::Commands { commands: vec![(shown, Ok(command))], reply: Some(own) });
             if failed {
                 break;
