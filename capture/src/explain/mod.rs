@@ -17,6 +17,7 @@ pub mod history;
 pub mod key;
 pub mod lanes;
 pub mod observe;
+pub mod reads;
 pub mod report;
 pub mod search;
 pub mod sim;

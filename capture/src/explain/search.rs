@@ -5,6 +5,7 @@ use super::history::{Node, NodeKind};
 use super::key::CardKey;
 use super::lanes::LaneDef;
 use super::observe::observation;
+use super::reads::{counter_read, min_read, signed_word};
 use super::sim::FastMap;
 use super::sim::Sim;
 use super::{normalize, CANDIDATES_MAX};
@@ -226,12 +227,6 @@ fn read_only(step: &Step) -> bool {
         step.event,
         TraceEvent::Model(Event::Command(HostCommand::GlobalStatus | HostCommand::ReadI(_) | HostCommand::ReadHex(_)))
     )
-}
-
-/// A 24-bit word as a host reads it, sign-extended (Y:$25 and X:$25 are signed).
-fn signed_word(text: &str) -> Option<i32> {
-    let v = u32::from_str_radix(text.trim(), 16).ok().filter(|v| *v <= 0xFF_FFFF && !text.trim().is_empty())?;
-    Some(((v << 8) as i32) >> 8)
 }
 
 impl Reader {
@@ -515,24 +510,6 @@ pub(super) fn compare_windowed(
     }
     // The trip-derived observations follow the windowed verdict.
     Ok(1 + compare(spec, &pmacwd_trace::compare::without_trip(expect, true), obs)?)
-}
-
-/// The Y:$25 value a step reads, if it reads one.
-pub(crate) fn counter_read(step: &Step) -> Option<i32> {
-    match (&step.event, step.expect.reply.as_deref()) {
-        (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::WatchdogCounter))), Some(r)) => signed_word(r),
-        _ => None,
-    }
-    .or(step.expect.counter)
-}
-
-/// The X:$25 value a step reads, if it reads one.
-pub(crate) fn min_read(step: &Step) -> Option<i32> {
-    match (&step.event, step.expect.reply.as_deref()) {
-        (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::WatchdogMinimum))), Some(r)) => signed_word(r),
-        _ => None,
-    }
-    .or(step.expect.counter_min)
 }
 
 /// The reset-time findings a `restart` may have had (SRM p.289, bits 10 and 11; bootstrap).

@@ -88,7 +88,7 @@ pub fn evidence(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Option
     while let Some((_, step)) = source.next_step()? {
         written |= writes_i40(&step);
         if !written {
-            if let Some(v) = super::search::counter_read(&step).or(super::search::min_read(&step)) {
+            if let Some(v) = super::reads::counter_read(&step).or(super::reads::min_read(&step)) {
                 e.highest_read = Some(e.highest_read.map_or(v, |h| h.max(v)));
             }
         }
@@ -178,7 +178,7 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
         if resets {
             lowest = None;
         }
-        if let Some(v) = super::search::min_read(&step) {
+        if let Some(v) = super::reads::min_read(&step) {
             if let Some((before, at)) = lowest.filter(|(before, _)| v > *before) {
                 return Ok(Some(format!(
                     "line {line}: X:$25 rose from {before:06X} (line {at}) to {v:06X} with no reset between: it is \
