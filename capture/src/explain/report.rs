@@ -167,7 +167,6 @@ fn explain_open_i40(
         if explained {
             return Ok(r);
         }
-
         // The report kept is the one that came furthest.
         let latest = |r: &Report| r.lanes.iter().filter_map(|l| l.death.as_ref().map(|d| d.event)).max();
         if last.as_ref().is_none_or(|l| latest(&r) > latest(l) || (r.undecided() && !l.undecided())) {

@@ -250,7 +250,8 @@ impl ReadBack {
                 HostCommand::Reset | HostCommand::Reinitialize | HostCommand::Unrecognized(_) => {
                     *self = ReadBack::default()
                 }
-                HostCommand::ReadI(41) => self.i41 = number().or(self.i41.filter(|_| step.expect.reply.is_none())),
+                // A read the log shows sets what is known of I41; one it does not show changes nothing.
+                HostCommand::ReadI(41) if step.expect.reply.is_some() => self.i41 = number(),
                 HostCommand::WriteI(41, v) => {
                     let range = &spec.variables.i_variables.i41.range;
                     self.i41 = (answered && (range.min..=range.max).contains(v)).then_some(*v);
