@@ -213,7 +213,7 @@ proptest! {
         prop_assert!(lanes[0].death.is_none(), "not explained: {:?}\n{text}", lanes[0].death);
         // The explanation printed is checked on the model before it is called one (how often
         // it reproduces every observation is measured by the rate test below: docs/replay.md).
-        let (_, w) = report::witness_for(&spec, &path, Default::default(), def, lanes[0].tolerances).unwrap();
+        let (_, w) = witness::witness_for(&spec, &path, Default::default(), def, lanes[0].tolerances).unwrap();
         prop_assert_eq!(w.checked.clone(), Some(witness::reproduces(&spec, &cfg, &w)));
     }
 }
@@ -241,7 +241,7 @@ fn nearly_every_generated_capture_is_explained_and_its_witness_reproduces_it() {
         let (lanes, _) = search::search(&spec, &path, Default::default(), vec![def.clone()], false).unwrap();
         if lanes[0].death.is_none() {
             explained += 1;
-            let (_, w) = report::witness_for(&spec, &path, Default::default(), def, lanes[0].tolerances).unwrap();
+            let (_, w) = witness::witness_for(&spec, &path, Default::default(), def, lanes[0].tolerances).unwrap();
             if matches!(w.checked, Some(Ok(_))) {
                 reproduced += 1;
             } else if std::env::var_os("PMACWD_SHOW_MISSES").is_some() {
@@ -421,7 +421,7 @@ fn for_debugging_one_capture_is_searched_on_one_lane_and_where_it_dies_is_printe
                 }
             }
             let (_, w) =
-                report::witness_for(&spec, &path, Default::default(), lanes[0].def.clone(), lanes[0].tolerances)
+                witness::witness_for(&spec, &path, Default::default(), lanes[0].def.clone(), lanes[0].tolerances)
                     .unwrap();
             println!("witness: {:?}\n{}", w.checked, w.story.join("\n"));
             for (i, st) in w.steps.iter().enumerate() {
@@ -471,7 +471,7 @@ fn a_card_whose_checksum_areas_take_passes_of_their_own_lengths_is_explained() {
             "passes {firmware}/{user_program}: explained by other lengths\n{text}"
         );
         // The witness names the lengths in its `card:` header and reproduces the capture.
-        let (_, w) = report::witness_for(&spec, &path, Default::default(), def, lanes[0].tolerances).unwrap();
+        let (_, w) = witness::witness_for(&spec, &path, Default::default(), def, lanes[0].tolerances).unwrap();
         assert!(matches!(w.checked, Some(Ok(_))), "passes {firmware}/{user_program}: witness {:?}", w.checked);
     }
 }

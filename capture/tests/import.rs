@@ -452,7 +452,9 @@ fn the_epics_asyn_trace_of_the_field_imports_every_exchange_with_the_driver_s_co
     let (steps, s) = stream(&path, None).unwrap();
     assert_eq!(s.format, LogFormat::Asyn);
     let sum = s.summary().unwrap();
-    assert_eq!((sum.exchanges, sum.commands, sum.unseen), (1314, 16979, 0));
+    // 16,981 commands: the two `&1A Q71=Q81` answered ERR003 keep both their commands (the
+    // error falls on the Q-variable assignment, the card's own; it fell on `&1A` before).
+    assert_eq!((sum.exchanges, sum.commands, sum.unseen), (1314, 16981, 0));
     assert!(sum.stamped);
     // The trace's I10 (3713707) sets the servo clock: 2259 Hz.
     assert_eq!(s.servo_hz, 2259);
@@ -792,4 +794,24 @@ fn a_short_log_of_the_driver_s_enable_then_a_program_run_replays_as_explained() 
     assert!(r.explained(), "{}", to_text(&r));
     let r = replay("no-enable.log", &log.replace("> &1e\n<\n", ""));
     assert!(!r.explained(), "{}", to_text(&r));
+}
+
+/// Issue 29: the EPICS `pmac` driver sends `&1A Q71=Q81` to stop a C.S. axis; the card that
+/// answered it ERR003 (the trace of `../shared/reference/captures`, line 9,632) refused one of
+/// the two, and the log cannot say which. The importer gave the error to `&1A`, which the model
+/// acknowledges, so every reading found the log impossible there. The error now falls on the
+/// card's own command among those it may answer (a Q-variable assignment: no rule of the
+/// model), the commands before it acknowledged, those after it never run; with none of the
+/// card's own, the first as before.
+#[test]
+fn an_error_that_may_answer_several_commands_falls_on_the_card_s_own_command_among_them() {
+    let t = ok("> $$$\n<\n> &1A Q71=Q81\n< ERR003\n> #1J/ M140=1 ???\n< ERR003\n> #1J/ #2J/\n< ERR003\n");
+    let got: Vec<(String, Option<String>)> =
+        t.trace.steps.iter().skip(1).map(|s| (s.event.to_string(), s.expect.reply.clone())).collect();
+    let want: Vec<(String, Option<String>)> =
+        [("&1A", "(ack)"), ("&1Q71=Q81", "ERR003"), ("#1J/", "(ack)"), ("M140=1", "ERR003"), ("#1J/", "ERR003")]
+            .iter()
+            .map(|(c, r)| (format!("host sends `{c}`"), Some(r.to_string())))
+            .collect();
+    assert_eq!(got, want);
 }

@@ -20,9 +20,11 @@ pub mod observe;
 pub mod reads;
 pub mod report;
 pub mod search;
+pub mod share;
 pub mod sim;
 pub mod unknown;
 pub mod witness;
+pub mod words;
 
 use pmacwd_model::controller::{Controller, Ghost};
 

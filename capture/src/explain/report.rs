@@ -1,8 +1,9 @@
 //! The replay verdict: which combinations of readings explain a capture, what each reading's
 //! options come to, one explanation, and, when the card fell silent, the diagnosis.
 
-use super::lanes::{self, LaneDef, READINGS};
+use super::lanes::{self, READINGS};
 use super::search::{self, Death, Lane, Tolerances};
+use super::share;
 use super::witness::{self, Witness};
 use crate::replay::ImportAs;
 use crate::replay::Source;
@@ -41,6 +42,9 @@ pub struct LaneSummary {
     pub tolerances_tried: usize,
     /// How many cards the bands admit in all.
     pub tolerances_admitted: usize,
+    /// Not searched: the explanation found under the lane named here reproduces the capture
+    /// under this lane's readings too (`share`).
+    pub shown_by: Option<String>,
 }
 
 /// Why a card that fell silent may have tripped.
@@ -265,36 +269,10 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
     }
     let all = profiles.len() == spec.profiles.all().len();
     let defs = lanes::lanes(spec, &configuration, if all { None } else { Some(&profiles) }, assigns_out_of_range)?;
-    // The lanes are independent: two threads, one per core of the machines this runs on.
-    let half = defs.len().div_ceil(2);
-    let results: Vec<Result<(Vec<Lane>, u64), SpecError>> = std::thread::scope(|scope| {
-        let mut inline = Vec::new();
-        let handles: Vec<_> = defs
-            .chunks(half.max(1))
-            .filter_map(|chunk| {
-                let work = chunk.to_vec();
-                let spawned = std::thread::Builder::new()
-                    .spawn_scoped(scope, move || search::search(spec, path, import_configuration, work, false));
-                // A thread that cannot start leaves its lanes to this one.
-                spawned.map_err(|_| inline.push(chunk.to_vec())).ok()
-            })
-            .collect();
-        let mut out: Vec<Result<(Vec<Lane>, u64), SpecError>> = handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|_| Err(SpecError::whole_file(path, "a search thread panicked"))))
-            .collect();
-        for chunk in inline {
-            out.push(search::search(spec, path, import_configuration, chunk, false));
-        }
-        out
-    });
-    let mut done = Vec::new();
-    let mut events = 0;
-    for r in results {
-        let (lanes, n) = r?;
-        done.extend(lanes);
-        events = n;
-    }
+    // Lanes another lane's explanation reproduces are not searched (`share`).
+    let default = lanes::options_of(&spec.profiles.default_profile().choices);
+    let share::Judged { lanes: done, events, witnesses } =
+        share::judge(spec, path, import_configuration, defs, default)?;
 
     let summaries: Vec<LaneSummary> = done
         .iter()
@@ -307,6 +285,7 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
             tolerances: l.tolerances,
             tolerances_tried: l.tolerances_tried,
             tolerances_admitted: l.tolerances_admitted,
+            shown_by: l.shown_by.clone(),
         })
         .collect();
     let readings = READINGS
@@ -348,8 +327,7 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
     let diagnosis = diagnose(&done, observed);
 
     // The explanation: the default profile's lane if it explains, else the first that does,
-    // searched again with its choices recorded.
-    let default = lanes::options_of(&spec.profiles.default_profile().choices);
+    // searched again with its choices recorded (unless round 1 of `share` built it).
     let chosen = done
         .iter()
         .find(|l| l.alive() && l.def.combinations.contains(&default))
@@ -366,7 +344,13 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
         })
         .unwrap_or_default();
     let witness = match chosen {
-        Some((def, tolerances)) => Some(witness_for(spec, path, import_configuration, def, tolerances)?),
+        Some((def, tolerances)) => {
+            let label = lanes::label(&def.choices);
+            match witnesses.into_iter().find(|(l, w)| *l == label && w.tolerances.unwrap_or(tolerances) == tolerances) {
+                Some(built) => Some(built),
+                None => Some(witness::witness_for(spec, path, import_configuration, def, tolerances)?),
+            }
+        }
         None => None,
     };
     Ok(Report {
@@ -390,44 +374,6 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
         refuted: None,
     })
 }
-
-/// Searches `path` again on one lane with its choices recorded, and builds the explanation.
-pub fn witness_for(
-    spec: &Spec,
-    path: &Path,
-    import_configuration: ImportAs<'_>,
-    def: LaneDef,
-    tolerances: Tolerances,
-) -> Result<(String, Witness), SpecError> {
-    let label = lanes::label(&def.choices);
-    let (lanes, _, _) =
-        search::search_once(spec, path, import_configuration, std::iter::once((def, Some(tolerances))), true, true)?;
-    let lane: &Lane = &lanes[0];
-    // Prefer a running card at the end, then the shallowest X:$25; a merged candidate keeps
-    // one history, so the first whose witness reproduces the capture is taken.
-    let mut cands: Vec<&search::Cand> = lane.cands.iter().filter(|c| c.node.is_some()).collect();
-    // A starved background before a supply dip: both are possible where the card fell silent,
-    // and the diagnosis lists both; the story tells the one the log's readings point at.
-    cands.sort_by_key(|c| (c.card.tripped(), c.card.trip == Some(TripCause::Undervoltage), -c.card.counter_min, c.cpu));
-    let mut first: Option<Witness> = None;
-    for c in cands.iter().take(WITNESS_TRIES) {
-        let node = c.node.clone().expect("filtered");
-        let mut w = witness::build(spec, &lane.cfg, path, import_configuration, &node)?;
-        w.tolerances = (tolerances != lane.stated).then_some(tolerances);
-        w.cpu_decided = lane.cands.iter().all(|o| o.cpu == w.cpu);
-        w.checked = Some(witness::reproduces(spec, &lane.cfg, &w));
-        if matches!(w.checked, Some(Ok(_))) {
-            return Ok((label, w));
-        }
-        first.get_or_insert(w);
-    }
-    first
-        .map(|w| (label, w))
-        .ok_or_else(|| SpecError::whole_file(path, "the second search found no explanation the first one found"))
-}
-
-/// How many end candidates are tried for a witness that reproduces the capture.
-const WITNESS_TRIES: usize = 16;
 
 /// When some explaining card is tripped at the end: every cause that remains possible.
 /// What the capture itself shows, read once before the search: whether a `???` reply shows RTI
@@ -660,6 +606,9 @@ pub fn to_text(r: &Report) -> String {
         for l in deaths.iter().take(3) {
             if let Some(d) = &l.death {
                 let cards = match l.tolerances_admitted {
+                    _ if d.whatever_the_card => "; no card of the bands gets past it: no state of the checksum engine \
+                                                 gives these bits 13 and 12 under these readings (SRM p.289)"
+                        .to_string(),
                     0 | 1 => String::new(),
                     n => format!("; all {n} cards the bands of hardware delay and supply threshold admit were searched, none lasted longer"),
                 };
@@ -706,7 +655,7 @@ pub fn to_text(r: &Report) -> String {
 
 fn death_json(d: &Death) -> serde_json::Value {
     serde_json::json!({"event": d.event, "line": d.line, "what": d.what, "expected": d.expected,
-        "observed": d.observed, "candidates_before": d.candidates})
+        "observed": d.observed, "candidates_before": d.candidates, "whatever_the_card": d.whatever_the_card})
 }
 
 pub fn to_json(r: &Report) -> String {
@@ -736,7 +685,7 @@ pub fn to_json(r: &Report) -> String {
         .map(|l| {
             serde_json::json!({"readings": l.label, "combinations": l.combinations, "explains": l.death.is_none(),
                 "failure": l.death.as_ref().map(death_json), "candidates_end": l.candidates_end,
-                "candidates_peak": l.candidates_peak,
+                "candidates_peak": l.candidates_peak, "shown_by": l.shown_by,
                 "tolerances": {"hardware_delay_cycles": l.tolerances.hardware_delay_cycles,
                     "supply_min_millivolts": l.tolerances.supply_min_millivolts,
                     "checksum_pass_cycles": {"firmware": l.tolerances.checksum_pass_cycles.firmware,

@@ -103,6 +103,9 @@ pub struct Death {
     pub observed: String,
     /// Candidates alive just before.
     pub candidates: usize,
+    /// No card of the bands gets past it: a status word no state of the checksum engine gives
+    /// under the lane's readings (`words`).
+    pub whatever_the_card: bool,
 }
 
 /// A card's own values of what the manual gives only approximately (UM p.215: a strobe of
@@ -213,6 +216,9 @@ pub struct Lane {
     /// A status read compared what the checksum engine decides (bit 12 as the area, SRM
     /// p.289, or bit 13): the card's pass length could have judged it differently.
     pub pass_mattered: bool,
+    /// Not searched: the explanation of the lane named here, run on the model under this
+    /// lane's readings, reproduces every observation (`share`).
+    pub shown_by: Option<String>,
 }
 
 /// The capture's steps with a window to look ahead.
@@ -574,6 +580,7 @@ impl Lane {
             memo: gap::Memo::default(),
             delay_mattered: false,
             pass_mattered: false,
+            shown_by: None,
         })
     }
 
@@ -783,7 +790,15 @@ impl Lane {
         if self.cands.is_empty() {
             let (what, expected, observed) =
                 first_failure.unwrap_or_else(|| ("event".into(), "a state of the card".into(), "none".into()));
-            self.death = Some(Death { event: event_no, line, what, expected, observed, candidates: before });
+            self.death = Some(Death {
+                event: event_no,
+                line,
+                what,
+                expected,
+                observed,
+                candidates: before,
+                whatever_the_card: false,
+            });
         }
         Ok(())
     }
@@ -821,9 +836,30 @@ pub fn search(
     // every card of the delay band: only its supply variants (if any) are searched. The pass
     // lengths come last in each list, searched only when no lane explains the capture under
     // the cards before them (below).
+    // A lane that died at a status word no state of its checksum engine gives is past every
+    // card of the bands (`words`): only the card already searched.
+    let mut beyond = Vec::with_capacity(lanes.len());
+    for l in &lanes {
+        let at = match &l.death {
+            Some(d) => {
+                super::words::first_impossible_reply(spec, path, configuration, &l.cfg)?.filter(|e| *e == d.event)
+            }
+            None => None,
+        };
+        beyond.push(at.is_some());
+    }
+    for (l, b) in lanes.iter_mut().zip(&beyond) {
+        if let (true, Some(d)) = (*b, l.death.as_mut()) {
+            d.whatever_the_card = true;
+        }
+    }
     let variants: Vec<Vec<Tolerances>> = lanes
         .iter()
-        .map(|l| {
+        .zip(&beyond)
+        .map(|(l, beyond)| {
+            if *beyond {
+                return vec![l.tolerances];
+            }
             let mut v = Tolerances::variants(&l.cfg, &levels, l.pass_mattered);
             if !l.delay_mattered {
                 let stated = l.tolerances.hardware_delay_cycles;

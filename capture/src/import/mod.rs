@@ -494,12 +494,16 @@ impl LogParser {
         let unknown = parsed.iter().filter(|c| c.values.is_none()).count();
         if let Some(e) = first_error.filter(|e| *e + 1 == values.len()) {
             // Which command the error is: the one the grammar could not read (the card reads
-            // the same grammar), else the first whose answers the error falls among, or the
-            // first answering nothing that it meets. MODEL: with several commands that answer
-            // nothing before it, the log cannot tell which one a card refused; the first is taken.
+            // the same grammar), else one of those it may answer: the commands answering
+            // nothing that it meets and the one whose answers it falls among. With several,
+            // the log cannot tell which one the card refused: MODEL: the first that is the
+            // card's own (a command the model has no rule for, whose answer is the card's,
+            // `&1A Q71=Q81` answered ERR003 by the DLS driver's card), else the first. Taking
+            // the first always called a log impossible where the model acknowledges that one
+            // and the card refused the next (issue 29).
             let unreadable = parsed.iter().position(|c| matches!(c.command, HostCommand::Unrecognized(_)));
             let mut before = 0;
-            let mut erring = None;
+            let mut may_err = Vec::new();
             for (k, c) in parsed.iter().enumerate() {
                 let want = c.values.unwrap_or(0);
                 let here = match unreadable {
@@ -507,11 +511,21 @@ impl LogParser {
                     None => before <= e && (e < before + want || (want == 0 && before == e)),
                 };
                 if here {
-                    erring = Some(k);
-                    break;
+                    may_err.push(k);
+                    if want > 0 || unreadable.is_some() {
+                        break;
+                    }
                 }
                 before += want;
+                if before > e {
+                    break;
+                }
             }
+            let erring = may_err
+                .iter()
+                .copied()
+                .find(|k| matches!(parsed[*k].command, HostCommand::Card { .. }))
+                .or(may_err.first().copied());
             if let Some(k) = erring {
                 let mut vals = values.iter();
                 for c in parsed.iter_mut().take(k) {

@@ -1,0 +1,160 @@
+//! Lanes shown by another lane's explanation instead of searched.
+//!
+//! Most readings change what the card does only where a capture may never go: the reset
+//! value of I40 = 0 on a card whose I40 is 2,000, the latch of bit 9 on a card that never
+//! overran, the strobe's stop at zero on a counter that never ran down. Under such a reading
+//! the search repeats another lane's work step for step; a 10 Hz status poll placed by host
+//! time was searched 64 times over for two outcomes. So the lanes are judged in two rounds:
+//!
+//! 1. the default profile's lane, and on the second core the lane that differs from it only
+//!    in the meaning of bit 12 (the reading a status poll tells apart), are searched;
+//! 2. every other lane is first given the explanations found (`witness::run`: the behaviour,
+//!    run on the model from power-on under that lane's own readings and stated tolerances, as
+//!    `pmacwd run` would, every observation compared); the lanes none reproduces are searched
+//!    as before.
+//!
+//! Sound by construction: a lane counts as explained only by a behaviour of the model under its
+//! own readings that reproduces every observation of the capture, which is what "explains"
+//! means; a lane that is not shown so is searched, and only a search rules one out.
+//!
+//! What a shown lane does not have is every candidate at the end, only the explanation's. The
+//! diagnosis of a card silent at the end reads the candidates of every explaining lane, so when
+//! a searched lane explains with a card tripped at the end, every lane is searched (MODEL).
+
+use super::lanes::{LaneDef, READINGS};
+use super::search::{self, Cand, Lane};
+use super::witness::{self, Witness};
+use crate::replay::{ImportAs, Source};
+use pmacwd_specs::{Spec, SpecError};
+use std::path::Path;
+
+/// The lanes judged, in the order given, and what was built on the way.
+pub struct Judged {
+    pub lanes: Vec<Lane>,
+    /// Events in the capture.
+    pub events: u64,
+    /// Explanations built in round 1, with the lane label they were found under: the report's
+    /// explanation reuses the one of its lane.
+    pub witnesses: Vec<(String, Witness)>,
+}
+
+/// Judges every lane of `defs` (see the module's text). `default`: the default profile's option
+/// indices.
+pub fn judge(
+    spec: &Spec,
+    path: &Path,
+    import: ImportAs<'_>,
+    defs: Vec<LaneDef>,
+    default: [usize; super::lanes::READINGS_COUNT],
+) -> Result<Judged, SpecError> {
+    let probes = probes(&defs, default);
+    if defs.len() <= probes.len() + 1 {
+        let (lanes, events) = search_in_two(spec, path, import, defs)?;
+        return Ok(Judged { lanes, events, witnesses: Vec::new() });
+    }
+    let mut slots: Vec<Option<Lane>> = (0..defs.len()).map(|_| None).collect();
+    let (searched, events) = search_in_two(spec, path, import, probes.iter().map(|i| defs[*i].clone()).collect())?;
+    // A card tripped at the end of a searched lane: the diagnosis needs every lane's candidates.
+    let tripped_end = searched.iter().any(|l| l.alive() && l.cands.iter().any(|c| c.card.tripped()));
+    let explaining: Vec<(LaneDef, search::Tolerances)> =
+        searched.iter().filter(|l| l.alive()).map(|l| (l.def.clone(), l.tolerances)).collect();
+    for (i, lane) in probes.iter().zip(searched) {
+        slots[*i] = Some(lane);
+    }
+    let mut witnesses: Vec<(String, Witness)> = Vec::new();
+    // Built one at a time, the default profile's lane's first.
+    let mut to_build: Vec<_> = if tripped_end { Vec::new() } else { explaining.into_iter().rev().collect() };
+    let source = Source::open_with(spec, path, import)?;
+    let card = source.card_as(&import);
+    let name = source.configuration().to_string();
+    let mut rest = Vec::new();
+    for (i, def) in defs.iter().enumerate() {
+        if slots[i].is_some() {
+            continue;
+        }
+        let mut lane = Lane::new(spec, &name, card.as_ref(), def.clone(), false, None)
+            .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
+        let shown = loop {
+            if let Some(found) = witnesses.iter().find_map(|(label, w)| {
+                witness::run(spec, &lane.cfg, w).ok().map(|(_, end)| (label.clone(), end, w.cpu))
+            }) {
+                break Some(found);
+            }
+            // The explanations are built one at a time, as a lane needs one more.
+            let Some((d, t)) = to_build.pop() else { break None };
+            let (label, w) = witness::witness_for(spec, path, import, d, t)?;
+            if matches!(w.checked, Some(Ok(_))) {
+                witnesses.push((label, w));
+            }
+        };
+        match shown {
+            Some((label, end, cpu)) => {
+                lane.cands =
+                    vec![Cand { counter_lo: end.counter, min_lo: end.counter_min, card: end, cpu, node: None }];
+                lane.peak = 1;
+                lane.shown_by = Some(label);
+                slots[i] = Some(lane);
+            }
+            None => rest.push(i),
+        }
+    }
+    let (searched, _) = search_in_two(spec, path, import, rest.iter().map(|i| defs[*i].clone()).collect())?;
+    for (i, lane) in rest.iter().zip(searched) {
+        slots[*i] = Some(lane);
+    }
+    Ok(Judged { lanes: slots.into_iter().map(|l| l.expect("every lane judged")).collect(), events, witnesses })
+}
+
+/// Round 1's lanes, as indices into `defs`: the default profile's (else the first), and the one
+/// that differs from it only in `bit12_meaning`, if the capture is judged under it.
+fn probes(defs: &[LaneDef], default: [usize; super::lanes::READINGS_COUNT]) -> Vec<usize> {
+    let holding = |o: [usize; super::lanes::READINGS_COUNT]| defs.iter().position(|d| d.combinations.contains(&o));
+    let first = holding(default).unwrap_or(0);
+    let bit12 = READINGS.iter().position(|(name, _)| *name == "bit12_meaning").expect("a reading of lanes.rs");
+    let mut other = defs.get(first).map_or(default, |d| super::lanes::options_of(&d.choices));
+    other[bit12] = 1 - other[bit12];
+    match holding(other) {
+        Some(second) if second != first => vec![first, second],
+        _ => vec![first],
+    }
+}
+
+/// Searches `defs` on two threads (one per core of the machines this runs on), in their order.
+pub fn search_in_two(
+    spec: &Spec,
+    path: &Path,
+    import: ImportAs<'_>,
+    defs: Vec<LaneDef>,
+) -> Result<(Vec<Lane>, u64), SpecError> {
+    if defs.is_empty() {
+        return Ok((Vec::new(), 0));
+    }
+    let half = defs.len().div_ceil(2);
+    let results: Vec<Result<(Vec<Lane>, u64), SpecError>> = std::thread::scope(|scope| {
+        let started: Vec<_> = defs
+            .chunks(half.max(1))
+            .map(|chunk| {
+                let work = chunk.to_vec();
+                std::thread::Builder::new()
+                    .spawn_scoped(scope, move || search::search(spec, path, import, work, false))
+                    .map_err(|_| chunk.to_vec())
+            })
+            .collect();
+        // In order; a thread that could not start leaves its lanes to this one.
+        started
+            .into_iter()
+            .map(|s| match s {
+                Ok(h) => h.join().unwrap_or_else(|_| Err(SpecError::whole_file(path, "a search thread panicked"))),
+                Err(chunk) => search::search(spec, path, import, chunk, false),
+            })
+            .collect()
+    });
+    let mut done = Vec::new();
+    let mut events = 0;
+    for r in results {
+        let (lanes, n) = r?;
+        done.extend(lanes);
+        events = n;
+    }
+    Ok((done, events))
+}
