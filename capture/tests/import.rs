@@ -815,3 +815,32 @@ fn an_error_that_may_answer_several_commands_falls_on_the_card_s_own_command_amo
             .collect();
     assert_eq!(got, want);
 }
+
+#[test]
+fn the_card_s_running_checksum_is_kept_as_its_own_value_and_reads_back_in_both_forms() {
+    // Issue 36: `RHX:$1080`'s value was only a note; replay needs it for the freeze of UM p.217.
+    // It is kept as `running_checksum`, never as a `reply` (which would be compared with the
+    // model's token); X:$1090 and CHECKSUM stay notes (no rule of the manual reads a log's).
+    let t = ok("> $$$\n<\n> RHX:$1080 CHECKSUM RHX:$1090\n< 3a7f21 00C0FFEE 001234\n> RHX:$1080\n< 7\n");
+    let kept: Vec<(Option<u32>, Option<&str>)> =
+        t.trace.steps.iter().map(|s| (s.expect.running_checksum, s.expect.reply.as_deref())).collect();
+    assert_eq!(kept[1..], [(Some(0x3A7F21), None), (None, None), (None, None), (Some(7), None)], "{kept:?}");
+    assert!(t.trace.steps[1..].iter().all(|s| s.expect.tripped == Some(false)));
+    let jsonl = pmacwd_trace::jsonl::to_jsonl(&t.trace);
+    assert!(jsonl.contains(r#""running_checksum":3833633"#), "{jsonl}");
+    let back = pmacwd_trace::jsonl::read_all(Path::new("s.jsonl"), jsonl.as_bytes()).unwrap();
+    assert_eq!(back.steps, t.trace.steps);
+    let yaml = pmacwd_trace::to_yaml(&t.trace);
+    let again = pmacwd_trace::parse_yaml(Path::new("s.yaml"), &yaml).unwrap_or_else(|e| panic!("{e}\n{yaml}"));
+    assert_eq!(again.trace.steps, t.trace.steps);
+    // A reply that is no 24-bit hex word is refused at its line (SRM p.295), as for every
+    // register; an error reply stays what it was (compared: the model answers the read).
+    for bad in ["1000000", "+10", "3A7F2G"] {
+        let e = err(&format!("> ???\n< 000000000000\n> RHX:$1080\n< {bad}\n"));
+        assert_eq!(at(&e), (4, 3), "{e}");
+        assert!(e.message.contains("24-bit word"), "{e}");
+    }
+    let t = ok("> RHX:$1080\n< ERR003\n");
+    assert_eq!(t.trace.steps[0].expect.reply.as_deref(), Some("ERR003"));
+    assert_eq!(t.trace.steps[0].expect.running_checksum, None);
+}

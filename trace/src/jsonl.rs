@@ -231,6 +231,7 @@ fn expect_json(e: &Expect) -> serde_json::Value {
         outputs_forced_off,
         counter,
         counter_min,
+        running_checksum,
         window_cycles,
         status_set,
         status_clear,
@@ -260,6 +261,9 @@ fn expect_json(e: &Expect) -> serde_json::Value {
     }
     if let Some(v) = counter_min {
         m.insert("counter_min".into(), serde_json::json!(v));
+    }
+    if let Some(v) = running_checksum {
+        m.insert("running_checksum".into(), serde_json::json!(v));
     }
     if !status_set.is_empty() {
         m.insert("status_set".into(), serde_json::json!(status_set));

@@ -115,6 +115,13 @@ pub struct Expect {
     pub counter: Option<i32>,
     /// X:$000025.
     pub counter_min: Option<i32>,
+    /// X:$001080, the running checksum, as the card answered it (a 24-bit word): the card's own
+    /// value, never compared with the model's, which sums no memory and holds a token
+    /// (UM p.217, MODEL). `pmacwd replay` reads it for what UM p.217 says of it, that it
+    /// freezes once a checksum mismatch stops the engine (`capture::explain::unknown::Freeze`);
+    /// `pmacwd run` ignores it.
+    #[serde(default, deserialize_with = "word24")]
+    pub running_checksum: Option<u32>,
     /// Timing uncertainty for `tripped`: the expectation also holds if the model trips within
     /// this many servo cycles after the step, or tripped within this many before it.
     pub window_cycles: Option<u32>,
@@ -132,6 +139,15 @@ pub struct Expect {
     /// Each motor's latched encoder-loss status (the PLC's `Mtr1EncLossStatus`, UM p.215).
     #[serde(default)]
     pub encoder_loss: Vec<bool>,
+}
+
+/// `running_checksum`: a 24-bit word, as a register of the card holds it.
+fn word24<'de, D: Deserializer<'de>>(d: D) -> Result<Option<u32>, D::Error> {
+    let v = u32::deserialize(d)?;
+    if v > 0xFF_FFFF {
+        return Err(de::Error::custom(format!("`running_checksum: {v}` is more than a 24-bit word (16777215)")));
+    }
+    Ok(Some(v))
 }
 
 impl Expect {
@@ -545,6 +561,7 @@ pub fn yaml_step(step: &Step) -> String {
                 outputs_forced_off,
                 counter,
                 counter_min,
+                running_checksum,
                 window_cycles,
                 status_set,
                 status_clear,
@@ -574,6 +591,9 @@ pub fn yaml_step(step: &Step) -> String {
             }
             if let Some(v) = counter_min {
                 let _ = writeln!(s, "      counter_min: {v}");
+            }
+            if let Some(v) = running_checksum {
+                let _ = writeln!(s, "      running_checksum: {v}");
             }
             if !status_set.is_empty() {
                 let _ = writeln!(s, "      status_set: [{}]", quoted_list(status_set));
@@ -707,6 +727,27 @@ mod tests {
         trace.steps[0].expect.status_set = names.clone();
         trace.steps[0].expect.status_clear = names;
         yaml_round_trip(&trace);
+    }
+
+    #[test]
+    fn a_card_s_running_checksum_reads_and_writes_back_the_same_in_both_forms_and_more_than_24_bits_is_refused() {
+        // Issue 36: the card's own X:$1080 is kept in the step (not compared with the model's
+        // token) so that replay can check UM p.217's freeze.
+        let trace =
+            jsonl(&[r#"{"command":"RHX:$1080","expect":{"tripped":false,"running_checksum":3833633}}"#]).unwrap();
+        assert_eq!(trace.steps[0].expect.running_checksum, Some(0x3A7F21));
+        yaml_round_trip(&trace);
+        assert!(to_yaml(&trace).contains("      running_checksum: 3833633\n"), "{}", to_yaml(&trace));
+        let again = jsonl::read_all(Path::new("t.jsonl"), jsonl::to_jsonl(&trace).as_bytes()).unwrap();
+        assert_eq!(again.steps, trace.steps);
+        let e = jsonl(&[r#"{"servo":1}"#, r#"{"command":"RHX:$1080","expect":{"running_checksum":16777216}}"#])
+            .unwrap_err();
+        assert_eq!(e.position.map(|p| p.line), Some(3), "{e}");
+        assert!(e.message.contains("24-bit"), "{e}");
+        let yaml = "version: 1\ndescription: t\nconfiguration: i40-zero\nprofiles: all\nsteps:\n  - servo: 1\n  \
+                    - command: RHX:$1080\n    expect: {running_checksum: 16777216}\n";
+        let e = parse_yaml(Path::new("t.yaml"), yaml).err().expect("refused");
+        assert_eq!(e.position.map(|p| p.line), Some(8), "{e}");
     }
 
     #[test]

@@ -606,8 +606,8 @@ pub fn to_text(r: &Report) -> String {
         for l in deaths.iter().take(3) {
             if let Some(d) = &l.death {
                 let cards = match l.tolerances_admitted {
-                    _ if d.whatever_the_card => "; no card of the bands gets past it: no state of the checksum engine \
-                                                 gives these bits 13 and 12 under these readings (SRM p.289)"
+                    _ if d.whatever_the_card => "; no card of the bands gets past it, whatever its timing: no state of \
+                                                 the card gives this under these readings (SRM p.289, UM p.217)"
                         .to_string(),
                     0 | 1 => String::new(),
                     n => format!("; all {n} cards the bands of hardware delay and supply threshold admit were searched, none lasted longer"),

@@ -103,8 +103,9 @@ pub struct Death {
     pub observed: String,
     /// Candidates alive just before.
     pub candidates: usize,
-    /// No card of the bands gets past it: a status word no state of the checksum engine gives
-    /// under the lane's readings (`words`).
+    /// No card of the bands gets past it, whatever its timing: a status word no state of the
+    /// checksum engine gives under the lane's readings (`words`), or X:$1080 moving after the
+    /// checksum error showed (`unknown::Freeze`).
     pub whatever_the_card: bool,
 }
 
@@ -841,6 +842,7 @@ pub fn search(
     let mut beyond = Vec::with_capacity(lanes.len());
     for l in &lanes {
         let at = match &l.death {
+            Some(d) if d.whatever_the_card => Some(d.event),
             Some(d) => {
                 super::words::first_impossible_reply(spec, path, configuration, &l.cfg)?.filter(|e| *e == d.event)
             }
@@ -958,6 +960,7 @@ pub fn search_once(
         .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
     let mut reader = Reader::new(source);
     let mut levels = std::collections::BTreeSet::new();
+    let mut freeze = super::unknown::Freeze::default();
     while let Some((line, step)) = reader.next_step()? {
         LINE_REACHED.store(line, std::sync::atomic::Ordering::Relaxed);
         if configuration.deadline.is_some_and(|d| std::time::Instant::now() > d) {
@@ -966,6 +969,24 @@ pub fn search_once(
         let event_no = reader.events;
         if let TraceEvent::Model(Event::Supply { millivolts }) = step.event {
             levels.insert(millivolts);
+        }
+        // The card's own X:$1080, which no candidate's token stands for, judged from the steps
+        // alone: a value that moves after the checksum error showed ends every lane (UM p.217).
+        if let Some(thawed) = freeze.step(spec, line, &step) {
+            for lane in lanes.iter_mut().filter(|l| l.alive()) {
+                let candidates = lane.cands.len();
+                let (expected, observed) = (thawed.expected(), thawed.observed());
+                lane.death = Some(Death {
+                    event: event_no,
+                    line,
+                    what: "X:$1080".into(),
+                    expected,
+                    observed,
+                    candidates,
+                    whatever_the_card: true,
+                });
+                lane.cands.clear();
+            }
         }
         if lanes.iter().all(|l| !l.alive()) {
             if !to_end {

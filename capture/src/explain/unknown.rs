@@ -146,7 +146,9 @@ impl Evidence {
 ///   p.57) rising between two reads with no reset between them (and no command that may write
 ///   memory, which could write X:$25);
 /// - the CPU type (bit 21 of both `???` words, SRM p.289) changing: it is the card's;
-/// - an I-variable read back with a value other than the one just written ([`ReadBack`]).
+/// - an I-variable read back with a value other than the one just written ([`ReadBack`]);
+/// - X:$1080 read with two values after a status read showed the checksum error, with no
+///   reset between ([`Freeze`], UM p.217).
 ///
 /// None of these depends on the card's timing, its tolerances or where the commands fall in
 /// time either, so a capture they refute needs no search of those (`search::search`,
@@ -157,9 +159,13 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
     let mut lowest: Option<(i32, usize)> = None;
     let mut cpu: Option<((bool, bool), usize)> = None;
     let mut read_back = ReadBack::default();
+    let mut freeze = Freeze::default();
     while let Some((line, step)) = source.next_step()? {
         if let Some(why) = read_back.step(spec, line, &step) {
             return Ok(Some(why));
+        }
+        if let Some(thawed) = freeze.step(spec, line, &step) {
+            return Ok(Some(thawed.why(line)));
         }
         let resets = match &step.event {
             TraceEvent::Restart => true,
@@ -295,6 +301,139 @@ impl ReadBack {
     }
 }
 
+/// UM p.217's freeze of the running checksum, read from the steps alone. On a mismatch the
+/// card "sets global status bits (bits 12 and 13 of X:$000006 – accessible with the ???
+/// command) and stops performing any checksum operations. This leaves the calculated value
+/// frozen in the running checksum register X:$001080" (firmware), and for the user program
+/// "sets a global status bit (bit 13 of X:$000006 – accessible with ???) and stops performing
+/// any program or firmware checksum operations ..., freezing the running checksum value in
+/// X:$001080". So once a status read shows the error, every X:$1080 read until a reset
+/// answers one value; a second value is what no card does, whatever its timing, tolerances,
+/// I40 or the placement of the commands in time.
+///
+/// The values are the card's own (`Expect::running_checksum`, kept by the importer): the
+/// model's X:$1080 is a token (UM p.217, MODEL), so the search compares no candidate with
+/// them, and this rule is the only check of them (`search::search_once` applies it to every
+/// lane).
+///
+/// MODEL choices, each one that cannot cry wolf:
+/// - What shows the engine stopped: bit 13 of X:$000006, "any memory checksum error"
+///   (SRM p.289), which UM p.217 has either mismatch set, in a `???` reply or an `RHX:$6`
+///   read; it has that one meaning under every profile. Bit 12 is not read: the readings
+///   (`bit12_meaning`) disagree on it, and where it means a firmware error (M83) UM p.217 has
+///   the mismatch set bit 13 with it.
+/// - Reads while the engine runs are not judged: UM p.217 says the card "continually
+///   computes the checksum", not that X:$1080 differs between two reads. A running sum over
+///   words that sum to nothing (unused program buffers are zero) stays put while it reads
+///   them, so two equal reads with background cycles between them (answered commands show
+///   those, UM p.236) are what a correct card can answer.
+/// - What ends what is known: a reset or restart the steps show (`$$$`, `$$$***`, INIT/,
+///   power, a `restart` the importer placed), as for X:$25; a command that may write memory
+///   (an M-variable assignment, a `W` memory write: they could write X:$1080) ends the value
+///   known, not the stop; a status read with bit 13 clear ends both (no correct card clears it
+///   without a reset, SRM p.289, but the search judges that, not this rule).
+#[derive(Default)]
+pub struct Freeze {
+    /// The line of the status read that showed the checksum error since the last reset.
+    stopped: Option<usize>,
+    /// The X:$1080 value read since then, and its line.
+    frozen: Option<(u32, usize)>,
+}
+
+/// An X:$1080 read that [`Freeze`] shows no card answers.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Thawed {
+    /// The status read that showed the checksum error.
+    pub stopped_at: usize,
+    /// The value read first after it, and its line.
+    pub frozen: (u32, usize),
+    /// The value this read answered.
+    pub read: u32,
+}
+
+impl Thawed {
+    /// What the card should have answered, as a lane's death says it.
+    pub fn expected(&self) -> String {
+        format!(
+            "{:06X}, frozen since the checksum error line {} showed (UM p.217; read at line {})",
+            self.frozen.0, self.stopped_at, self.frozen.1
+        )
+    }
+
+    pub fn observed(&self) -> String {
+        format!("{:06X}", self.read)
+    }
+
+    /// The refutation, said of the line of this read.
+    pub fn why(&self, line: usize) -> String {
+        format!(
+            "line {line}: X:$1080 read {:06X}, where line {} read {:06X} after line {}'s status showed the checksum \
+             error (bit 13 of X:$000006, SRM p.289), with no reset between: a mismatch stops the checksum, \
+             \"freezing the running checksum value in X:$001080\" (UM p.217), whatever the card's timing",
+            self.read, self.frozen.1, self.frozen.0, self.stopped_at
+        )
+    }
+}
+
+impl Freeze {
+    /// Reads one step; the X:$1080 read no card answers here, if this is one.
+    pub fn step(&mut self, spec: &Spec, line: usize, step: &pmacwd_trace::Step) -> Option<Thawed> {
+        use pmacwd_specs::status::WordId;
+        use pmacwd_specs::vocab::command::Register;
+        use pmacwd_specs::vocab::reply_text::{self, StatusReply};
+        match &step.event {
+            TraceEvent::Restart
+            | TraceEvent::Model(Event::Reset(_))
+            | TraceEvent::Model(Event::Command(HostCommand::Reset | HostCommand::Reinitialize)) => {
+                *self = Freeze::default();
+                return None;
+            }
+            TraceEvent::Model(Event::Command(HostCommand::Card { text, .. } | HostCommand::Unrecognized(text)))
+                if text.contains('=') || text.trim_start().starts_with(['W', 'w']) =>
+            {
+                self.frozen = None;
+            }
+            _ => {}
+        }
+        let reply = step.expect.reply.as_deref();
+        let words = match (&step.event, reply) {
+            (TraceEvent::Model(Event::Command(HostCommand::GlobalStatus)), Some(r)) => match reply_text::decode(r) {
+                Ok(StatusReply::Words { x, y }) => Some((Some(x), Some(y))),
+                _ => None,
+            },
+            (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::StatusX))), Some(r)) => {
+                super::reads::signed_word(r).map(|x| (Some(x as u32 & 0xFF_FFFF), None))
+            }
+            (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::StatusY))), Some(r)) => {
+                super::reads::signed_word(r).map(|y| (None, Some(y as u32 & 0xFF_FFFF)))
+            }
+            _ => None,
+        };
+        if let (Some((x, y)), Some((word, bit))) = (words, spec.status.bit("checksum_error")) {
+            let shown = match word {
+                WordId::X => x,
+                WordId::Y => y,
+            };
+            match shown.map(|w| w & (1 << bit) != 0) {
+                Some(true) if self.stopped.is_none() => self.stopped = Some(line),
+                Some(false) => *self = Freeze::default(),
+                _ => {}
+            }
+        }
+        let (Some(read), Some(stopped_at)) = (step.expect.running_checksum, self.stopped) else {
+            return None;
+        };
+        match self.frozen {
+            None => {
+                self.frozen = Some((read, line));
+                None
+            }
+            Some(frozen) if frozen.0 != read => Some(Thawed { stopped_at, frozen, read }),
+            Some(_) => None,
+        }
+    }
+}
+
 /// `0, 1998..=2014`: values, runs of consecutive ones as ranges.
 pub fn list(values: &[u16]) -> String {
     let mut out: Vec<String> = Vec::new();
@@ -339,6 +478,53 @@ mod tests {
     fn without_reads_or_silence_the_largest_value_decides() {
         assert_eq!(values(&e(None, false), (0, 65535)), (vec![0, 65535], true));
         assert_eq!(values(&e(None, true), (0, 65535)), (vec![0], false));
+    }
+
+    /// The lines at which [`Freeze`] refutes `steps` (command text, reply, X:$1080 value).
+    fn thawed(steps: &[(&str, Option<&str>, Option<u32>)]) -> Vec<(usize, Thawed)> {
+        let spec = Spec::embedded().unwrap();
+        let mut f = Freeze::default();
+        let mut out = Vec::new();
+        for (i, (command, reply, running_checksum)) in steps.iter().enumerate() {
+            let event = match *command {
+                "restart" => TraceEvent::Restart,
+                c => TraceEvent::Model(Event::Command(HostCommand::parse(c).unwrap())),
+            };
+            let expect = pmacwd_trace::Expect {
+                reply: reply.map(String::from),
+                running_checksum: *running_checksum,
+                ..Default::default()
+            };
+            if let Some(t) = f.step(&spec, i + 1, &pmacwd_trace::Step { event, expect, note: None }) {
+                out.push((i + 1, t));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn x1080_moving_after_bit_13_showed_is_refuted_until_a_reset_and_equal_reads_while_running_never_are() {
+        let x = "RHX:$1080";
+        let error = Some("002000000000");
+        // Running: any values, equal ones included (MODEL: a sum over zero words stays put).
+        assert_eq!(thawed(&[(x, None, Some(1)), (x, None, Some(1)), ("???", Some("001000000000"), None)]), []);
+        assert_eq!(thawed(&[(x, None, Some(1)), ("???", error, None), (x, None, Some(2))]), []);
+        let t = thawed(&[("???", error, None), (x, None, Some(5)), (x, None, Some(5)), (x, None, Some(6))]);
+        assert_eq!(t, [(4, Thawed { stopped_at: 1, frozen: (5, 2), read: 6 })]);
+        assert!(t[0].1.why(4).starts_with("line 4: X:$1080 read 000006, where line 2 read 000005 after line 1's"));
+        // RHX:$6 shows bit 13 too; RHY:$6 does not hold it.
+        assert_eq!(thawed(&[("RHX:$6", Some("002000"), None), (x, None, Some(5)), (x, None, Some(6))]).len(), 1);
+        assert_eq!(thawed(&[("RHY:$6", Some("002000"), None), (x, None, Some(5)), (x, None, Some(6))]), []);
+        // A reset, a restart, or bit 13 shown clear ends it; a memory write ends the value known.
+        for between in [("$$$", None), ("$$$***", None), ("restart", None), ("???", Some("001000000000"))] {
+            let steps = [("???", error, None), (x, None, Some(5)), (between.0, between.1, None), (x, None, Some(6))];
+            assert_eq!(thawed(&steps), [], "{between:?}");
+        }
+        let steps = [("???", error, None), (x, None, Some(5)), ("WX:$1080,0", None, None), (x, None, Some(0))];
+        assert_eq!(thawed(&steps), []);
+        let steps =
+            [("???", error, None), (x, None, Some(5)), ("M1=1", None, None), (x, None, Some(0)), (x, None, Some(1))];
+        assert_eq!(thawed(&steps).len(), 1, "the stop stays: the next value freezes again");
     }
 
     #[test]

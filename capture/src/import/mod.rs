@@ -252,6 +252,15 @@ fn reply_values(bytes: &[u8]) -> Vec<String> {
         .collect()
 }
 
+/// A register's reply as a 24-bit word: hex digits only (`from_str_radix` would also take a
+/// sign, `+10`), at most 0xFFFFFF (SRM p.295: `RH` answers the word in hex).
+fn hex_word(reply: &str) -> Option<u32> {
+    Some(reply)
+        .filter(|r| !r.is_empty() && r.chars().all(|c| c.is_ascii_hexdigit()))
+        .and_then(|r| u32::from_str_radix(r, 16).ok())
+        .filter(|v| u64::from(*v) < SERVO_COUNTER_MODULUS)
+}
+
 fn is_error_reply(r: &str) -> bool {
     let r = r.as_bytes();
     r.len() == 6 && r[..3].eq_ignore_ascii_case(b"ERR") && r[3..].iter().all(u8::is_ascii_digit)
@@ -1256,8 +1265,10 @@ impl Importer {
             // The checksums' values are the card's own: the model sums no memory and holds
             // tokens (UM p.217, MODEL), so a real card's X:$1080, X:$1090 or CHECKSUM reply is
             // never compared with them; the answer still shows the card running (UM p.215).
-            // (issue 36: what the manual says of them, that X:$1080 moves while the engine runs
-            // and freezes after a mismatch, is not yet checked on a log.)
+            // X:$1080's value is kept as `running_checksum` (issue 36), which replay reads for
+            // what UM p.217 says of it: "This leaves the calculated value frozen in the running
+            // checksum register X:$001080" once a mismatch stops the engine
+            // (`explain::unknown::Freeze`).
             let checksum = matches!(
                 c.command,
                 HostCommand::Checksum
@@ -1269,6 +1280,12 @@ impl Importer {
                         "the card's own checksum `{reply}`: not compared (the model's are tokens, UM p.217); the answer shows the card running"
                     ));
                     expect = Expect { tripped: Some(false), ..Expect::default() };
+                    if c.command == HostCommand::ReadHex(Register::RunningChecksum) {
+                        let value = hex_word(reply).ok_or_else(|| {
+                            self.err(ex.reply_line, 3, format!("X:$1080 reply `{reply}` is not a 24-bit hex word"))
+                        })?;
+                        expect.running_checksum = Some(value);
+                    }
                     self.summary.card_own += 1;
                 }
             }
@@ -1278,14 +1295,9 @@ impl Importer {
                 expect = Expect::default();
             }
             if let (HostCommand::ReadHex(Register::ServoCycles), Answer::Value(reply)) = (&c.command, &c.answer) {
-                // Hex digits only: `from_str_radix` would also take a sign (`+10`).
-                let value = Some(reply)
-                    .filter(|r| !r.is_empty() && r.chars().all(|c| c.is_ascii_hexdigit()))
-                    .and_then(|r| u32::from_str_radix(r, 16).ok())
-                    .filter(|v| u64::from(*v) < SERVO_COUNTER_MODULUS)
-                    .ok_or_else(|| {
-                        self.err(ex.reply_line, 3, format!("X:$0 reply `{reply}` is not a 24-bit hex word"))
-                    })?;
+                let value = hex_word(reply).ok_or_else(|| {
+                    self.err(ex.reply_line, 3, format!("X:$0 reply `{reply}` is not a 24-bit hex word"))
+                })?;
                 steps.extend(self.counter_read(ex, value)?);
                 note = Some(format!(
                     "the card's X:$0 read {reply} (used for timing, its value not compared; the answer shows the card running)"
