@@ -621,6 +621,28 @@ fn an_i_variable_read_back_other_than_written_is_no_correct_card_whatever_the_ti
 }
 
 #[test]
+fn bit_13_clearing_after_a_checksum_error_with_no_reset_is_no_correct_card_whatever_the_timing_and_i40() {
+    // The independent generator's impossible `checksum-error` log (bit 13 clears with no
+    // reset) was undecided: it never reads I40, and each value searched took seconds. Bit 13
+    // is cleared only by a reset (SRM p.289, UM p.217): decided from the steps alone.
+    let log = "> $$$\n<\n> RHX:$0\n< 000010\n> ???\n< 002000000000\n> RHX:$0\n< 000400\n> ???\n< 000000000000\n";
+    let r = replay_log("bit13", log);
+    assert!(!r.explained() && !r.undecided(), "{}", pmacwd_capture::explain::report::to_text(&r));
+    let why = r.refuted.as_deref().unwrap_or_default();
+    assert!(why.starts_with("line 10: bit 13 of X:$000006"), "{why}");
+    assert!(why.contains("where line 6 showed it set"), "{why}");
+    // A reset between, or a memory write that may have written X:$6, leaves it to the search.
+    for (name, text) in [
+        ("reset", log.replace("> RHX:$0\n< 000400\n", "> $$$\n<\n")),
+        ("memory-write", log.replace("> RHX:$0\n< 000400\n", "> WX:$6,0\n<\n")),
+        ("m-variable", log.replace("> RHX:$0\n< 000400\n", "> M1=0\n<\n")),
+    ] {
+        let r = replay_log(name, &text);
+        assert!(r.refuted.as_deref().is_none_or(|w| !w.contains("bit 13")), "{name}: {:?}", r.refuted);
+    }
+}
+
+#[test]
 fn a_correct_card_s_running_checksum_moving_between_polls_is_explained_and_its_values_are_kept() {
     // Issue 36: X:$1080 is the card's own (the model's is a token, UM p.217); the importer now
     // keeps its value in the step, read by the freeze rule, and a card whose checksum runs is

@@ -160,6 +160,8 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
     let mut cpu: Option<((bool, bool), usize)> = None;
     let mut read_back = ReadBack::default();
     let mut freeze = Freeze::default();
+    // The status read that showed bit 13 (a checksum error) since the last reset.
+    let mut checksum_error: Option<usize> = None;
     while let Some((line, step)) = source.next_step()? {
         if let Some(why) = read_back.step(spec, line, &step) {
             return Ok(Some(why));
@@ -183,6 +185,23 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
         };
         if resets {
             lowest = None;
+            checksum_error = None;
+        }
+        // Bit 13 of X:$000006, any checksum error, is cleared only by a reset: the checksum
+        // operations stop after the error (SRM p.289; UM p.217). One meaning under every
+        // reading (bit 12's two readings leave it alone).
+        if let Some(set) = checksum_error_shown(spec, &step) {
+            match checksum_error {
+                Some(at) if !set => {
+                    return Ok(Some(format!(
+                        "line {line}: bit 13 of X:$000006 (a checksum error, SRM p.289) is clear, where line {at} \
+                         showed it set, with no reset between: it stays set until the card is reset, the checksum \
+                         operations stopping at the error (SRM p.289, UM p.217), whatever I40 and the timing"
+                    )));
+                }
+                None if set => checksum_error = Some(line),
+                _ => {}
+            }
         }
         if let Some(v) = super::reads::min_read(&step) {
             if let Some((before, at)) = lowest.filter(|(before, _)| v > *before) {
@@ -212,6 +231,31 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
         }
     }
     Ok(None)
+}
+
+/// Whether the status word a step reads (`???`, or `RHX:$6`) shows bit 13 of X:$000006, the
+/// checksum error bit (SRM p.289); `None` if the step reads no such word.
+fn checksum_error_shown(spec: &Spec, step: &pmacwd_trace::Step) -> Option<bool> {
+    use pmacwd_specs::status::WordId;
+    use pmacwd_specs::vocab::command::Register;
+    use pmacwd_specs::vocab::reply_text::{self, StatusReply};
+    let (word, bit) = spec.status.bit("checksum_error")?;
+    let reply = step.expect.reply.as_deref()?;
+    let TraceEvent::Model(Event::Command(command)) = &step.event else { return None };
+    let w = match (command, word) {
+        (HostCommand::GlobalStatus, _) => match reply_text::decode(reply) {
+            Ok(StatusReply::Words { x, y }) => match word {
+                WordId::X => x,
+                WordId::Y => y,
+            },
+            _ => return None,
+        },
+        (HostCommand::ReadHex(Register::StatusX), WordId::X) | (HostCommand::ReadHex(Register::StatusY), WordId::Y) => {
+            super::reads::signed_word(reply)? as u32 & 0xFF_FFFF
+        }
+        _ => return None,
+    };
+    Some(w & (1 << bit) != 0)
 }
 
 /// An I-variable written with a constant and read back with another value, with nothing
