@@ -438,9 +438,18 @@ fn diagnose(lanes: &[Lane], rti_reentry_observed: bool) -> Option<Diagnosis> {
         }
         d.possible.push(s);
     } else {
-        d.ruled_out.push(format!(
-            "{STARVED}: ruled out, the card fell silent sooner than its counter could run out from the last \
-             value read plus the hardware delay"
+        // UM p.236: host commands are processed in the background, so a background that stops
+        // completing answers nothing from that moment, and the counter runs out only later: a
+        // card silent at the end may be starving whenever its silence began (issue 36). The
+        // model answers a command at once (MODEL, `Controller::host_command`), so the search
+        // finds a starvation trip only where the counter could run out before the first
+        // unanswered command; the diagnosis does not rule it out for that.
+        d.possible.push(format!(
+            "{STARVED}: not in the explanations the model gives, since the card fell silent sooner than its \
+             counter could run out from the last value read plus the hardware delay; but host commands are \
+             processed in the background (UM p.236), so a starved background answers nothing from the moment \
+             it stops completing and trips only when the counter has run out, after the first unanswered \
+             command"
         ));
     }
     if has(TripCause::Undervoltage) {

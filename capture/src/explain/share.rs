@@ -18,8 +18,9 @@
 //! means; a lane that is not shown so is searched, and only a search rules one out.
 //!
 //! What a shown lane does not have is every candidate at the end, only the explanation's. The
-//! diagnosis of a card silent at the end reads the candidates of every explaining lane, so when
-//! a searched lane explains with a card tripped at the end, every lane is searched (MODEL).
+//! diagnosis of a card silent at the end lists the causes the candidates of the explaining
+//! lanes have and rules none out (`report::diagnose`): a cause a shown lane's own search might
+//! have found is not lost to a "ruled out".
 
 use super::lanes::{LaneDef, READINGS};
 use super::search::{self, Cand, Lane};
@@ -54,8 +55,6 @@ pub fn judge(
     }
     let mut slots: Vec<Option<Lane>> = (0..defs.len()).map(|_| None).collect();
     let (searched, events) = search_in_two(spec, path, import, probes.iter().map(|i| defs[*i].clone()).collect())?;
-    // A card tripped at the end of a searched lane: the diagnosis needs every lane's candidates.
-    let tripped_end = searched.iter().any(|l| l.alive() && l.cands.iter().any(|c| c.card.tripped()));
     let explaining: Vec<(LaneDef, search::Tolerances)> =
         searched.iter().filter(|l| l.alive()).map(|l| (l.def.clone(), l.tolerances)).collect();
     for (i, lane) in probes.iter().zip(searched) {
@@ -63,7 +62,7 @@ pub fn judge(
     }
     let mut witnesses: Vec<(String, Witness)> = Vec::new();
     // Built one at a time, the default profile's lane's first.
-    let mut to_build: Vec<_> = if tripped_end { Vec::new() } else { explaining.into_iter().rev().collect() };
+    let mut to_build: Vec<_> = explaining.into_iter().rev().collect();
     let source = Source::open_with(spec, path, import)?;
     let card = source.card_as(&import);
     let name = source.configuration().to_string();
