@@ -475,3 +475,31 @@ fn a_card_whose_checksum_areas_take_passes_of_their_own_lengths_is_explained() {
         assert!(matches!(w.checked, Some(Ok(_))), "passes {firmware}/{user_program}: witness {:?}", w.checked);
     }
 }
+
+#[test]
+fn combinations_whose_hardware_delays_come_out_the_same_are_searched_as_one_lane() {
+    // strobe_hz_min and strobe_detector reach the model only through the hardware delay (UM
+    // p.215): 50 Hz with a full-period detector asks for the edges 25 Hz with a half-period
+    // one does, so of their four pairs three lanes are searched, not four.
+    let spec = spec();
+    let defs = lanes::lanes(&spec, "host-log", None, false).unwrap();
+    let index = |name: &str| lanes::READINGS.iter().position(|(r, _)| *r == name).unwrap();
+    let (hz, detector) = (index("strobe_hz_min"), index("strobe_detector"));
+    assert_eq!(defs.iter().map(|d| d.combinations.len()).sum::<usize>(), 1 << lanes::READINGS_COUNT);
+    // 2^5 for the readings host-log exercises besides the delay (encoder_loss_clear and
+    // out_of_range_assignment are not), times the three distinct delays.
+    assert_eq!(defs.len(), 32 * 3);
+    for d in &defs {
+        let pairs: std::collections::BTreeSet<(usize, usize)> =
+            d.combinations.iter().map(|c| (c[hz], c[detector])).collect();
+        assert!(pairs == [(0, 0), (1, 1)].into() || pairs.len() == 1, "{}: {pairs:?}", lanes::label(&d.choices));
+    }
+    // A configuration that fixes the delay in cycles searches one lane for all four pairs.
+    let fixed = lanes::lanes(&spec, "timing", None, false).unwrap();
+    assert_eq!(fixed.len(), 32);
+    for d in &fixed {
+        let pairs: std::collections::BTreeSet<(usize, usize)> =
+            d.combinations.iter().map(|c| (c[hz], c[detector])).collect();
+        assert_eq!(pairs.len(), 4, "{}", lanes::label(&d.choices));
+    }
+}
