@@ -633,7 +633,7 @@ fn a_card_untripped_70_cycles_after_its_strobe_stopped_is_explained_only_by_a_fu
     // 70 cycles without an edge lies between the bands: before the full-period reading, no
     // reading explained this card (issue 36: a false "no correct card").
     let spec = Spec::embedded().unwrap();
-    let r = explain(&spec, &capture("strobe-stopped-70-cycles-untripped.yaml"), None).unwrap();
+    let r = explain(&spec, &capture("detector/strobe-stopped-70-cycles-untripped.yaml"), None).unwrap();
     assert!(r.explained(), "{}", report_text(&r));
     assert!(supported(&r, "strobe_detector", "full_period"));
     assert!(!supported(&r, "strobe_detector", "half_period"));
@@ -654,7 +654,7 @@ fn a_card_tripped_40_cycles_after_its_strobe_stopped_is_explained_by_a_half_peri
     // A half-period detector at the top of the band (30 Hz: 37 cycles) has tripped 40 cycles
     // after the last edge; a full-period one at about 25 Hz waits 75 to 112 cycles.
     let spec = Spec::embedded().unwrap();
-    let r = explain(&spec, &capture("strobe-stopped-40-cycles-tripped.yaml"), None).unwrap();
+    let r = explain(&spec, &capture("detector/strobe-stopped-40-cycles-tripped.yaml"), None).unwrap();
     assert!(r.explained(), "{}", report_text(&r));
     let named = explaining(&r);
     assert!(named.contains(&"um-215".to_string()), "{named:?}");
@@ -666,7 +666,7 @@ fn a_card_tripped_40_cycles_after_its_strobe_stopped_is_explained_by_a_half_peri
         r.lanes.iter().filter(|l| l.label.contains(", 25, ") && l.label.ends_with(", full_period")).collect();
     assert!(!full_at_25.is_empty() && full_at_25.iter().all(|l| l.death.is_some()));
     // Under the two named 25 Hz profiles alone, the detector is decided.
-    let text = std::fs::read_to_string(capture("strobe-stopped-40-cycles-tripped.yaml")).unwrap();
+    let text = std::fs::read_to_string(capture("detector/strobe-stopped-40-cycles-tripped.yaml")).unwrap();
     let only = text.replace("profiles: all", "profiles: [um-215, um-215-full-period]");
     let r = explain(&spec, &temp_capture("strobe-40-two-profiles.yaml", &only), None).unwrap();
     assert!(supported(&r, "strobe_detector", "half_period"));
