@@ -200,8 +200,12 @@ proptest! {
         bits in 0usize..128,
         cpu in 0u8..4,
         gaps in proptest::collection::vec(gap_gen(), 1..8),
+        full_period in proptest::bool::ANY,
     ) {
         let spec = spec();
+        // Either detector (strobe_detector, bit 8; issue 36): a full-period card's hardware
+        // delay is 90 cycles at 2.25 kHz, not 45 (UM p.215).
+        let bits = bits | usize::from(full_period) << 8;
         let (def, cfg) = lane_for(&spec, bits);
         let text = generate(&spec, &cfg, cpu, &gaps);
         let path = temp_file(&format!("complete-{bits}-{cpu}.jsonl"), &text);
