@@ -218,8 +218,8 @@ pub struct Readings {
     /// from the profile ([`crate::config::ModelConfig::out_of_range`]).
     pub out_of_range_assignment: Reading<OutOfRangeAssignment>,
     /// Half a period of the strobe minimum in every profile but `um-215-full-period`; only
-    /// the hardware delay the configuration derives reads it
-    /// ([`crate::config::derived_delay_cycles`]).
+    /// the hardware delay the configuration derives reads it, through the strobe's edge rate
+    /// ([`crate::config::strobe_edge_hz`]).
     pub strobe_detector: Reading<StrobeDetector>,
 }
 
