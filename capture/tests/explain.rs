@@ -200,8 +200,12 @@ proptest! {
         bits in 0usize..128,
         cpu in 0u8..4,
         gaps in proptest::collection::vec(gap_gen(), 1..8),
+        full_period in proptest::bool::ANY,
     ) {
         let spec = spec();
+        // Either detector (strobe_detector, bit 8; issue 36): a full-period card's hardware
+        // delay is 90 cycles at 2.25 kHz, not 45 (UM p.215).
+        let bits = bits | usize::from(full_period) << 8;
         let (def, cfg) = lane_for(&spec, bits);
         let text = generate(&spec, &cfg, cpu, &gaps);
         let path = temp_file(&format!("complete-{bits}-{cpu}.jsonl"), &text);
@@ -473,5 +477,33 @@ fn a_card_whose_checksum_areas_take_passes_of_their_own_lengths_is_explained() {
         // The witness names the lengths in its `card:` header and reproduces the capture.
         let (_, w) = witness::witness_for(&spec, &path, Default::default(), def, lanes[0].tolerances).unwrap();
         assert!(matches!(w.checked, Some(Ok(_))), "passes {firmware}/{user_program}: witness {:?}", w.checked);
+    }
+}
+
+#[test]
+fn combinations_whose_hardware_delays_come_out_the_same_are_searched_as_one_lane() {
+    // strobe_hz_min and strobe_detector reach the model only through the hardware delay (UM
+    // p.215): 50 Hz with a full-period detector asks for the edges 25 Hz with a half-period
+    // one does, so of their four pairs three lanes are searched, not four.
+    let spec = spec();
+    let defs = lanes::lanes(&spec, "host-log", None, false).unwrap();
+    let index = |name: &str| lanes::READINGS.iter().position(|(r, _)| *r == name).unwrap();
+    let (hz, detector) = (index("strobe_hz_min"), index("strobe_detector"));
+    assert_eq!(defs.iter().map(|d| d.combinations.len()).sum::<usize>(), 1 << lanes::READINGS_COUNT);
+    // 2^5 for the readings host-log exercises besides the delay (encoder_loss_clear and
+    // out_of_range_assignment are not), times the three distinct delays.
+    assert_eq!(defs.len(), 32 * 3);
+    for d in &defs {
+        let pairs: std::collections::BTreeSet<(usize, usize)> =
+            d.combinations.iter().map(|c| (c[hz], c[detector])).collect();
+        assert!(pairs == [(0, 0), (1, 1)].into() || pairs.len() == 1, "{}: {pairs:?}", lanes::label(&d.choices));
+    }
+    // A configuration that fixes the delay in cycles searches one lane for all four pairs.
+    let fixed = lanes::lanes(&spec, "timing", None, false).unwrap();
+    assert_eq!(fixed.len(), 32);
+    for d in &fixed {
+        let pairs: std::collections::BTreeSet<(usize, usize)> =
+            d.combinations.iter().map(|c| (c[hz], c[detector])).collect();
+        assert_eq!(pairs.len(), 4, "{}", lanes::label(&d.choices));
     }
 }

@@ -43,7 +43,10 @@ fn a_reload_to_4096_is_explained_only_with_4096_and_rules_out_4095() {
     let r = explain(&spec, &capture("reload-to-4096.yaml"), None).unwrap();
     // um-243-modulo is um-215 with UM p.243's modulo, which a capture assigning nothing out of
     // range cannot tell from `error`.
-    assert_eq!(explaining(&r), ["um-215", "um-215-50hz", "um-215-literal-plc", "um-215-m83", "um-243-modulo"]);
+    assert_eq!(
+        explaining(&r),
+        ["um-215", "um-215-50hz", "um-215-full-period", "um-215-literal-plc", "um-215-m83", "um-243-modulo"]
+    );
     assert!(!supported(&r, "reset_value_when_i40_zero", "4095"));
 }
 
@@ -581,7 +584,9 @@ fn an_out_of_range_assignment_read_back_rolled_over_rules_out_error_and_one_refu
     let OptionVerdict::RuledOut(d) = option(&r, "out_of_range_assignment", "error") else { panic!("{}", text(&r)) };
     assert_eq!(d.line, 2, "the acknowledgement ERR003 was expected in place of: {}", text(&r));
     assert_eq!(explaining(&r), ["um-243-modulo"], "{}", text(&r));
-    assert_eq!(r.lanes.len(), 128, "both options searched: {}", text(&r));
+    // 32 combinations of the other exercised readings, 3 distinct hardware delays
+    // (strobe_hz_min and strobe_detector), 2 options of this one.
+    assert_eq!(r.lanes.len(), 192, "both options searched: {}", text(&r));
     let r = replay_log("error", "> I41=17\n< ERR003\n> I41\n< 0\n");
     assert!(supported(&r, "out_of_range_assignment", "error"), "{}", text(&r));
     assert!(!supported(&r, "out_of_range_assignment", "modulo"), "{}", text(&r));
@@ -593,8 +598,8 @@ fn an_out_of_range_assignment_read_back_rolled_over_rules_out_error_and_one_refu
     // searched under the default option only, with as many lanes as without the reading.
     let r = replay_log("in-range", "> I41=1\n<\n> I41\n< 1\n");
     assert!(reading(&r).not_exercised.is_some_and(|w| w.contains("UM p.243")), "{}", text(&r));
-    assert_eq!(r.lanes.len(), 64, "{}", text(&r));
-    assert!(r.lanes.iter().all(|l| l.label.ends_with(", error")), "{}", text(&r));
+    assert_eq!(r.lanes.len(), 96, "{}", text(&r));
+    assert!(r.lanes.iter().all(|l| l.label.contains(", error, ")), "{}", text(&r));
 }
 
 #[test]
@@ -705,4 +710,53 @@ fn x1080_moving_after_the_checksum_error_showed_is_no_card_at_that_line_whatever
         &reset.replace("< 003000000000\n> RHX:$1080\n< 2F6302", "< 001000000000\n> RHX:$1080\n< 2F6302"),
     );
     assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+}
+
+#[test]
+fn a_card_untripped_70_cycles_after_its_strobe_stopped_is_explained_only_by_a_full_period_detector_at_25_hz() {
+    // UM p.215: "a square wave ... of a frequency greater than approximately 25 Hz", which the
+    // card must "set and clear ... repeatedly at 25 Hz or greater". Half a period at 20 to
+    // 30 Hz is 37 to 56 cycles of 2.25 kHz; a whole period, one set and one clear, 75 to 112.
+    // 70 cycles without an edge lies between the bands: before the full-period reading, no
+    // reading explained this card (issue 36: a false "no correct card").
+    let spec = Spec::embedded().unwrap();
+    let r = explain(&spec, &capture("detector/strobe-stopped-70-cycles-untripped.yaml"), None).unwrap();
+    assert!(r.explained(), "{}", report_text(&r));
+    assert!(supported(&r, "strobe_detector", "full_period"));
+    assert!(!supported(&r, "strobe_detector", "half_period"));
+    // 50 Hz with a full period is 25 Hz's half period again (37 to 56): ruled out too.
+    assert!(supported(&r, "strobe_hz_min", "25") && !supported(&r, "strobe_hz_min", "50"));
+    assert_eq!(explaining(&r), ["um-215-full-period"]);
+    // The stated delay of the reading, 90 cycles, explains it: no tolerance is called on.
+    let (label, w) = r.witness.as_ref().unwrap();
+    assert!(label.ends_with("full_period"), "{label}");
+    assert!(w.tolerances.is_none() && matches!(w.checked, Some(Ok(_))), "{:?} {:?}", w.tolerances, w.checked);
+    let text = report_text(&r);
+    assert!(text.contains("  strobe_detector: decided\n"), "{text}");
+}
+
+#[test]
+fn a_card_tripped_40_cycles_after_its_strobe_stopped_is_explained_by_a_half_period_detector_and_not_a_full_period_one_at_25_hz(
+) {
+    // A half-period detector at the top of the band (30 Hz: 37 cycles) has tripped 40 cycles
+    // after the last edge; a full-period one at about 25 Hz waits 75 to 112 cycles.
+    let spec = Spec::embedded().unwrap();
+    let r = explain(&spec, &capture("detector/strobe-stopped-40-cycles-tripped.yaml"), None).unwrap();
+    assert!(r.explained(), "{}", report_text(&r));
+    let named = explaining(&r);
+    assert!(named.contains(&"um-215".to_string()), "{named:?}");
+    assert!(!named.contains(&"um-215-full-period".to_string()), "{named:?}");
+    // The full-period option is supported only at 50 Hz, where its delays are 25 Hz's half
+    // period: the two are one lane, searched once.
+    assert!(supported(&r, "strobe_detector", "half_period") && supported(&r, "strobe_detector", "full_period"));
+    let full_at_25: Vec<_> =
+        r.lanes.iter().filter(|l| l.label.contains(", 25, ") && l.label.ends_with(", full_period")).collect();
+    assert!(!full_at_25.is_empty() && full_at_25.iter().all(|l| l.death.is_some()));
+    // Under the two named 25 Hz profiles alone, the detector is decided.
+    let text = std::fs::read_to_string(capture("detector/strobe-stopped-40-cycles-tripped.yaml")).unwrap();
+    let only = text.replace("profiles: all", "profiles: [um-215, um-215-full-period]");
+    let r = explain(&spec, &temp_capture("strobe-40-two-profiles.yaml", &only), None).unwrap();
+    assert!(supported(&r, "strobe_detector", "half_period"));
+    assert!(!supported(&r, "strobe_detector", "full_period"));
+    assert_eq!(explaining(&r), ["um-215"]);
 }

@@ -20,6 +20,9 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     // UM p.243's modulo (um-243-modulo): the configurations assign nothing out of range, so
     // the counts are um-215's.
     ("timing", "um-243-modulo", 57_536),
+    // The full-period detector (issue 36): the configurations fix the delay in cycles, so the
+    // counts are um-215's; at i40-zero its delay is 90 cycles, and still um-215's count.
+    ("timing", "um-215-full-period", 57_536),
     // The wider bound that reaches every observation class (model/tests/leaps.rs).
     ("timing-wide", "um-215", 193_480),
     ("timing-wide", "srm-57", 385_736),
@@ -34,6 +37,7 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("status", "um-215-literal-plc", 52_056),
     ("status", "um-215-m83", 52_056),
     ("status", "um-243-modulo", 52_056),
+    ("status", "um-215-full-period", 52_056),
     ("lockout", "um-215", 5_112),
     ("lockout", "srm-57", 6_264),
     ("lockout", "srm-57-sticky-bit9", 6_264),
@@ -42,6 +46,7 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("lockout", "um-215-literal-plc", 5_112),
     ("lockout", "um-215-m83", 5_112),
     ("lockout", "um-243-modulo", 5_112),
+    ("lockout", "um-215-full-period", 5_112),
     // I41 bits 2 and 3 each alone (issue 35), apart from `lockout` (check.yaml says why).
     ("lockout-ic", "um-215", 1_224),
     ("lockout-ic", "srm-57", 1_512),
@@ -52,6 +57,7 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("i40-zero", "srm-57", 17_840),
     ("i40-zero", "um-215-4095", 3_668),
     ("i40-zero", "um-215-50hz", 3_578),
+    ("i40-zero", "um-215-full-period", 3_578),
     ("motion", "um-215", 52_402),
     ("motion", "srm-57", 64_166),
     ("encoder-loss", "um-215", 14_680),
@@ -63,6 +69,7 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("encoder-loss", "um-215-literal-plc", 11_064),
     ("encoder-loss", "um-215-m83", 14_680),
     ("encoder-loss", "um-243-modulo", 14_680),
+    ("encoder-loss", "um-215-full-period", 14_680),
     // Two motors in two coordinate systems: the PLC's CMD^K kills both (UM p.214-215).
     ("encoder-loss-2", "um-215", 74_688),
     ("encoder-loss-2", "um-215-literal-plc", 65_984),
@@ -75,6 +82,7 @@ const PINNED_STATES: &[(&str, &str, usize)] = &[
     ("amplifier-fault", "um-215-literal-plc", 16_800),
     ("amplifier-fault", "um-215-m83", 16_800),
     ("amplifier-fault", "um-243-modulo", 16_800),
+    ("amplifier-fault", "um-215-full-period", 16_800),
 ];
 
 #[test]

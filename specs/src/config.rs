@@ -212,8 +212,8 @@ impl ModelConfig {
         let (hardware_delay_cycles, hardware_delay_band) = match c.hardware_delay_cycles {
             Delay::Cycles(n) => (u32::from(n), (u32::from(n), u32::from(n))),
             Delay::Derived => (
-                derived_delay_cycles(c.servo_hz, profile.choices.strobe_hz_min.hz()),
-                derived_delay_band(spec, c.servo_hz, profile.choices.strobe_hz_min.hz()),
+                derived_delay_cycles(c.servo_hz, strobe_edge_hz(&profile.choices)),
+                derived_delay_band(spec, c.servo_hz, strobe_edge_hz(&profile.choices)),
             ),
         };
         let mut commands = Vec::new();
@@ -421,8 +421,8 @@ impl ModelConfig {
                 .get(&self.configuration)
                 .is_some_and(|c| matches!(c.hardware_delay_cycles, Delay::Derived));
             if derived {
-                self.hardware_delay_cycles = derived_delay_cycles(hz, self.profile.choices.strobe_hz_min.hz());
-                self.hardware_delay_band = derived_delay_band(spec, hz, self.profile.choices.strobe_hz_min.hz());
+                self.hardware_delay_cycles = derived_delay_cycles(hz, strobe_edge_hz(&self.profile.choices));
+                self.hardware_delay_band = derived_delay_band(spec, hz, strobe_edge_hz(&self.profile.choices));
             }
         }
         if let Some(n) = card.hardware_delay_cycles {
@@ -462,31 +462,44 @@ impl ModelConfig {
     }
 }
 
-/// The hardware delay of `watchdog.yaml`'s `hardware_delay_from_strobe_minimum` rule: a square
-/// wave at `strobe_hz_min` toggles every 1/(2 f) s, so more servo cycles than that without an
-/// edge is a strobe below the minimum frequency.
-pub fn derived_delay_cycles(servo_hz: u32, strobe_hz_min: u32) -> u32 {
-    (servo_hz / (2 * strobe_hz_min)).max(1)
+/// The rate, in Hz, at which the hardware timer's detector needs strobe edges under `choices`:
+/// a square wave at the strobe minimum f (`strobe_hz_min`) has 2 f edges a second; a detector
+/// that needs one edge per half period (`strobe_detector: half_period`) asks for all of them
+/// in time, one that needs a full set-and-clear per period (`full_period`) for a pair every
+/// 1/f s, so an edge rate of f (UM p.215; MODEL: the page does not describe the detector).
+/// Two readings with the same edge rate (25 Hz and a full period, 50 Hz and half a period)
+/// give the same delays, servo clock for servo clock: replay searches them once.
+pub fn strobe_edge_hz(choices: &crate::profiles::Choices) -> u32 {
+    2 * choices.strobe_hz_min.hz() / choices.strobe_detector.edges_per_period()
+}
+
+/// The hardware delay of `watchdog.yaml`'s `hardware_delay_from_strobe_minimum` rule: more
+/// servo cycles than 1/`edge_hz` s without a strobe edge is a strobe below the minimum
+/// frequency ([`strobe_edge_hz`]: a square wave at 25 Hz toggles every 1/50 s, so 45 cycles
+/// at 2,250 Hz for a half-period detector, 90 for a full-period one).
+pub fn derived_delay_cycles(servo_hz: u32, edge_hz: u32) -> u32 {
+    (servo_hz / edge_hz).max(1)
 }
 
 /// The delays of [`derived_delay_cycles`] over the strobe minimum's band: `watchdog.yaml`'s
 /// `strobe_hz_min.interval` around its stated value, scaled to the profile's reading
-/// (`strobe_hz_min`: 25 or 50 Hz), so 20 to 30 Hz, or 40 to 60 Hz. The highest frequency gives
-/// the shortest delay.
-pub fn derived_delay_band(spec: &Spec, servo_hz: u32, strobe_hz_min: u32) -> (u32, u32) {
+/// (`strobe_hz_min`: 25 or 50 Hz), so 20 to 30 Hz, or 40 to 60 Hz, and so the edge rate
+/// [`strobe_edge_hz`] within the same ratios. The highest frequency gives the shortest delay.
+pub fn derived_delay_band(spec: &Spec, servo_hz: u32, edge_hz: u32) -> (u32, u32) {
     let stated = &spec.watchdog.hardware.strobe_hz_min;
     let (lo_ratio, hi_ratio) =
         stated.interval.as_ref().map_or((1.0, 1.0), |b| (b.min / stated.value, b.max / stated.value));
-    let delay = |f: f64| ((f64::from(servo_hz) / (2.0 * f)).floor() as u32).max(1);
-    let f = f64::from(strobe_hz_min);
+    let delay = |f: f64| ((f64::from(servo_hz) / f).floor() as u32).max(1);
+    let f = f64::from(edge_hz);
     let (lo, hi) = (delay(f * hi_ratio), delay(f * lo_ratio));
-    let nominal = derived_delay_cycles(servo_hz, strobe_hz_min);
+    let nominal = derived_delay_cycles(servo_hz, edge_hz);
     (lo.min(nominal), hi.max(nominal))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::profiles::{StrobeDetector, StrobeHzMin};
 
     fn config(name: &str) -> (Spec, ModelConfig) {
         let spec = Spec::embedded().unwrap();
@@ -527,7 +540,7 @@ mod tests {
             match c.hardware_delay_cycles {
                 Delay::Derived => assert_eq!(
                     with.hardware_delay_cycles,
-                    derived_delay_cycles(9000, profile.choices.strobe_hz_min.hz()),
+                    derived_delay_cycles(9000, strobe_edge_hz(&profile.choices)),
                     "{name}"
                 ),
                 Delay::Cycles(n) => assert_eq!(with.hardware_delay_cycles, u32::from(n), "{name}"),
@@ -540,11 +553,33 @@ mod tests {
         // UM p.215 "approximately 25 Hz", read as 20 to 30 Hz (watchdog.yaml's interval): a
         // square wave at 30 Hz toggles every 37.5 cycles of 2,250 Hz, at 20 Hz every 56.25.
         let spec = Spec::embedded().unwrap();
-        assert_eq!(derived_delay_band(&spec, 2250, 25), (37, 56));
-        assert_eq!(derived_delay_band(&spec, 2250, 50), (18, 28));
+        let band = |hz, detector| {
+            let mut c = spec.profiles.default_profile().choices;
+            (c.strobe_hz_min, c.strobe_detector) = (hz, detector);
+            derived_delay_band(&spec, 2250, strobe_edge_hz(&c))
+        };
+        assert_eq!(band(StrobeHzMin::Hz25, StrobeDetector::HalfPeriod), (37, 56));
+        assert_eq!(band(StrobeHzMin::Hz50, StrobeDetector::HalfPeriod), (18, 28));
         // The stated figure lies inside its band.
-        let (lo, hi) = derived_delay_band(&spec, 2250, 25);
-        assert!((lo..=hi).contains(&derived_delay_cycles(2250, 25)));
+        let (lo, hi) = derived_delay_band(&spec, 2250, 50);
+        assert!((lo..=hi).contains(&derived_delay_cycles(2250, 50)));
+    }
+
+    #[test]
+    fn a_full_period_detector_admits_twice_the_cycles_75_to_112_at_2250_hz_and_25_hz() {
+        // UM p.215 "set and clear this bit repeatedly at 25 Hz or greater", read as one full
+        // set-and-clear per period: a period at 30 Hz is 75 cycles of 2,250 Hz, at 20 Hz 112.5.
+        let spec = Spec::embedded().unwrap();
+        let mut c = spec.profiles.default_profile().choices;
+        c.strobe_detector = StrobeDetector::FullPeriod;
+        assert_eq!(derived_delay_cycles(2250, strobe_edge_hz(&c)), 90);
+        assert_eq!(derived_delay_band(&spec, 2250, strobe_edge_hz(&c)), (75, 112));
+        // 50 Hz with a full period asks for the edges 25 Hz with half a period does, at every
+        // servo clock: replay searches the two as one lane.
+        let mut d = spec.profiles.default_profile().choices;
+        c.strobe_hz_min = StrobeHzMin::Hz50;
+        d.strobe_detector = StrobeDetector::HalfPeriod;
+        assert_eq!(strobe_edge_hz(&c), strobe_edge_hz(&d));
     }
 
     #[test]

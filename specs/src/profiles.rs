@@ -112,6 +112,35 @@ impl StrobeHzMin {
     }
 }
 
+/// How the hardware timer's frequency detector counts the strobe against its minimum frequency
+/// f (UM p.215: "a square wave ... of a frequency greater than approximately 25 Hz"; the card
+/// must "set and clear this bit repeatedly at 25 Hz or greater"). The manual does not describe
+/// the circuit: MODEL, both readings of the two sentences.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum StrobeDetector {
+    /// Every edge restarts the detector: a square wave at f toggles every 1/(2 f) s, so more
+    /// than floor(servo_hz / (2 f)) servo cycles without an edge trips (45 at 2.25 kHz and
+    /// 25 Hz).
+    HalfPeriod,
+    /// The detector needs one full set-and-clear per period of f: more than
+    /// floor(servo_hz / f) servo cycles without one trips (90 at 2.25 kHz and 25 Hz).
+    FullPeriod,
+}
+
+impl StrobeDetector {
+    pub const ALL: [Self; 2] = [Self::HalfPeriod, Self::FullPeriod];
+
+    /// Strobe edges per period of the minimum frequency that the detector waits for before
+    /// it trips: one (half a period) or two (a set and a clear, a whole period).
+    pub fn edges_per_period(self) -> u32 {
+        match self {
+            Self::HalfPeriod => 1,
+            Self::FullPeriod => 2,
+        }
+    }
+}
+
 /// Whether bit 9 (RTI warning) stays set once an RTI task overran.
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, PartialOrd, Ord, Hash)]
 #[serde(rename_all = "snake_case")]
@@ -188,6 +217,10 @@ pub struct Readings {
     /// `error` in every profile but `um-243-modulo` (UM p.243); the configuration reads it
     /// from the profile ([`crate::config::ModelConfig::out_of_range`]).
     pub out_of_range_assignment: Reading<OutOfRangeAssignment>,
+    /// Half a period of the strobe minimum in every profile but `um-215-full-period`; only
+    /// the hardware delay the configuration derives reads it, through the strobe's edge rate
+    /// ([`crate::config::strobe_edge_hz`]).
+    pub strobe_detector: Reading<StrobeDetector>,
 }
 
 /// The option a profile chose for every reading. Every field is required.
@@ -202,6 +235,7 @@ pub struct Choices {
     pub strobe_hz_min: StrobeHzMin,
     pub rti_warning_latch: RtiWarningLatch,
     pub out_of_range_assignment: OutOfRangeAssignment,
+    pub strobe_detector: StrobeDetector,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -258,6 +292,7 @@ impl Profiles {
         all_documented(map, "strobe_hz_min", &r.strobe_hz_min, &StrobeHzMin::ALL)?;
         all_documented(map, "rti_warning_latch", &r.rti_warning_latch, &RtiWarningLatch::ALL)?;
         all_documented(map, "out_of_range_assignment", &r.out_of_range_assignment, &OutOfRangeAssignment::ALL)?;
+        all_documented(map, "strobe_detector", &r.strobe_detector, &StrobeDetector::ALL)?;
         if self.profiles.is_empty() {
             return Err(map.error("profiles", "at least one profile is needed"));
         }

@@ -134,6 +134,15 @@ fn every_reading_of_section_6_is_covered_and_the_default_profile_gives_its_reaso
     assert!(all.iter().map(|p| p.choices.encoder_loss_clear).collect::<std::collections::BTreeSet<_>>().len() == 2);
     assert!(all.iter().map(|p| p.choices.strobe_hz_min).collect::<std::collections::BTreeSet<_>>().len() == 2);
     assert!(all.iter().map(|p| p.choices.rti_warning_latch).collect::<std::collections::BTreeSet<_>>().len() == 2);
+    assert!(all.iter().map(|p| p.choices.strobe_detector).collect::<std::collections::BTreeSet<_>>().len() == 2);
+    // Every profile but one keeps the half-period detector its delays had before the reading.
+    assert_eq!(
+        all.iter()
+            .filter(|p| p.choices.strobe_detector == pmacwd_specs::profiles::StrobeDetector::FullPeriod)
+            .map(|p| p.name.as_str())
+            .collect::<Vec<_>>(),
+        ["um-215-full-period"]
+    );
 }
 
 #[test]

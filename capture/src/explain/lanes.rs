@@ -2,14 +2,17 @@
 //! dimensions: every combination of their options is a lane, whether or not `profiles.yaml`
 //! names it. Options no rule of this capture's configuration reads share a lane, and so do
 //! the options of `out_of_range_assignment` for a capture that assigns no I-variable a value
-//! outside its range (searched under the default, `error`).
+//! outside its range (searched under the default, `error`). `strobe_hz_min` and
+//! `strobe_detector` reach the model only through the hardware delay the configuration
+//! derives from them (UM p.215; `config::strobe_edge_hz`): combinations whose delays come out
+//! the same (25 Hz with a full-period detector, 50 Hz with a half-period one) share a lane.
 
 use pmacwd_specs::config::ModelConfig;
 use pmacwd_specs::profiles::*;
 use pmacwd_specs::{Spec, SpecError};
 
 /// How many readings there are (the dimensions of a lane).
-pub const READINGS_COUNT: usize = 8;
+pub const READINGS_COUNT: usize = 9;
 
 /// Every option of every reading, in the words of `profiles.yaml`. The first option of
 /// `out_of_range_assignment` is the default profile's, `error`: a capture that cannot tell the
@@ -23,7 +26,12 @@ pub const READINGS: [(&str, [&str; 2]); READINGS_COUNT] = [
     ("strobe_hz_min", ["25", "50"]),
     ("rti_warning_latch", ["level", "sticky"]),
     ("out_of_range_assignment", ["error", "modulo"]),
+    ("strobe_detector", ["half_period", "full_period"]),
 ];
+
+/// The readings the model reads only through the configuration's hardware delay
+/// (`ModelConfig::hardware_delay_cycles` and `hardware_delay_band`, UM p.215).
+const DELAY_READINGS: [&str; 2] = ["strobe_hz_min", "strobe_detector"];
 
 /// The option index (0 or 1, as in [`READINGS`]) each reading of `c` chooses.
 pub fn options_of(c: &Choices) -> [usize; READINGS_COUNT] {
@@ -36,6 +44,7 @@ pub fn options_of(c: &Choices) -> [usize; READINGS_COUNT] {
         usize::from(c.strobe_hz_min == StrobeHzMin::Hz50),
         usize::from(c.rti_warning_latch == RtiWarningLatch::Sticky),
         usize::from(c.out_of_range_assignment == OutOfRangeAssignment::Modulo),
+        usize::from(c.strobe_detector == StrobeDetector::FullPeriod),
     ]
 }
 
@@ -49,6 +58,7 @@ fn choices_of(o: [usize; READINGS_COUNT]) -> Choices {
         strobe_hz_min: [StrobeHzMin::Hz25, StrobeHzMin::Hz50][o[5]],
         rti_warning_latch: [RtiWarningLatch::Level, RtiWarningLatch::Sticky][o[6]],
         out_of_range_assignment: [OutOfRangeAssignment::Error, OutOfRangeAssignment::Modulo][o[7]],
+        strobe_detector: [StrobeDetector::HalfPeriod, StrobeDetector::FullPeriod][o[8]],
     }
 }
 
@@ -71,18 +81,26 @@ pub fn not_exercised(
             "replay does not search encoder inputs or motor states yet (the model runs the encoder-loss PLC, but a \
              capture is judged under both readings together)",
         ),
-        "strobe_hz_min" => {
-            let delay = |hz: StrobeHzMin| {
-                let mut c = spec.profiles.default_profile().choices;
-                c.strobe_hz_min = hz;
-                let p = Profile { name: String::new(), choices: c };
-                ModelConfig::from_spec(spec, configuration, &p).map(|cfg| cfg.hardware_delay_cycles).ok()
-            };
-            (delay(StrobeHzMin::Hz25) == delay(StrobeHzMin::Hz50))
+        "strobe_hz_min" | "strobe_detector" => {
+            let delays: Vec<_> = (0..4).map(|o| delay_of(spec, configuration, [o & 1, o >> 1])).collect();
+            delays
+                .iter()
+                .all(|d| *d == delays[0])
                 .then_some("the configuration fixes the hardware delay in servo cycles")
         }
         _ => None,
     }
+}
+
+/// The hardware delay, `(cycles, band)`, of `configuration` under the default profile with
+/// the options `o` of `strobe_hz_min` and `strobe_detector` (indices as in [`READINGS`]);
+/// None for a configuration that does not resolve (the search reports that itself).
+fn delay_of(spec: &Spec, configuration: &str, o: [usize; 2]) -> Option<(u32, (u32, u32))> {
+    let mut c = spec.profiles.default_profile().choices;
+    c.strobe_hz_min = [StrobeHzMin::Hz25, StrobeHzMin::Hz50][o[0]];
+    c.strobe_detector = [StrobeDetector::HalfPeriod, StrobeDetector::FullPeriod][o[1]];
+    let p = Profile { name: String::new(), choices: c };
+    ModelConfig::from_spec(spec, configuration, &p).map(|cfg| (cfg.hardware_delay_cycles, cfg.hardware_delay_band)).ok()
 }
 
 /// One lane: a combination of the readings that matter, with every full combination it
@@ -104,6 +122,19 @@ pub fn lanes(
 ) -> Result<Vec<LaneDef>, SpecError> {
     let idle: Vec<bool> =
         (0..READINGS_COUNT).map(|r| not_exercised(spec, configuration, r, assigns_out_of_range).is_some()).collect();
+    let delay_readings = DELAY_READINGS.map(|name| READINGS.iter().position(|(r, _)| *r == name).expect("a reading"));
+    // The delay each pair of options of the two delay readings gives: a card's servo clock
+    // (`with_card`) derives it again from the same edge rate, so pairs that agree here agree
+    // for every card.
+    let delays: Vec<_> = (0..4).map(|o| delay_of(spec, configuration, [o & 1, o >> 1])).collect();
+    // What a lane's search reads: the options of every other reading and the delay.
+    let searched = |key: &[usize; READINGS_COUNT]| {
+        let mut rest = *key;
+        for r in delay_readings {
+            rest[r] = 0;
+        }
+        (rest, delays[key[delay_readings[0]] | key[delay_readings[1]] << 1])
+    };
     let mut out: Vec<LaneDef> = Vec::new();
     for bits in 0..1usize << READINGS_COUNT {
         let o: [usize; READINGS_COUNT] = std::array::from_fn(|r| (bits >> r) & 1);
@@ -119,7 +150,7 @@ pub fn lanes(
             }
         }
         let choices = choices_of(key);
-        match out.iter_mut().find(|l| options_of(&l.choices) == key) {
+        match out.iter_mut().find(|l| searched(&options_of(&l.choices)) == searched(&key)) {
             Some(l) => l.combinations.push(o),
             None => out.push(LaneDef { choices, combinations: vec![o] }),
         }

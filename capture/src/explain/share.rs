@@ -7,11 +7,15 @@
 //! time was searched 64 times over for two outcomes. So the lanes are judged in two rounds:
 //!
 //! 1. the default profile's lane, and on the second core the lane that differs from it only
-//!    in the meaning of bit 12 (the reading a status poll tells apart), are searched;
+//!    in the meaning of bit 12 (the reading a status poll tells apart), are searched with their
+//!    choices recorded, and each that explains the capture gives its explanation (the witness);
 //! 2. every other lane is first given the explanations found (`witness::run`: the behaviour,
 //!    run on the model from power-on under that lane's own readings and stated tolerances, as
-//!    `pmacwd run` would, every observation compared); the lanes none reproduces are searched
-//!    as before.
+//!    `pmacwd run` would, every observation compared). A lane none reproduces is searched: two
+//!    at a time, recorded, when its meaning of bit 12 explained the capture in round 1, so that
+//!    each that explains adds its explanation for the rest (a full-period detector's card trips
+//!    later than a half-period one's, so a starvation trip's explanation is not the other's);
+//!    together, as before, otherwise.
 //!
 //! Sound by construction: a lane counts as explained only by a behaviour of the model under its
 //! own readings that reproduces every observation of the capture, which is what "explains"
@@ -50,58 +54,104 @@ pub fn judge(
 ) -> Result<Judged, SpecError> {
     let probes = probes(&defs, default);
     if defs.len() <= probes.len() + 1 {
-        let (lanes, events) = search_in_two(spec, path, import, defs)?;
+        let (lanes, events) = search_in_two(spec, path, import, defs, false)?;
         return Ok(Judged { lanes, events, witnesses: Vec::new() });
     }
     let mut slots: Vec<Option<Lane>> = (0..defs.len()).map(|_| None).collect();
-    let (searched, events) = search_in_two(spec, path, import, probes.iter().map(|i| defs[*i].clone()).collect())?;
-    let explaining: Vec<(LaneDef, search::Tolerances)> =
-        searched.iter().filter(|l| l.alive()).map(|l| (l.def.clone(), l.tolerances)).collect();
-    for (i, lane) in probes.iter().zip(searched) {
-        slots[*i] = Some(lane);
-    }
     let mut witnesses: Vec<(String, Witness)> = Vec::new();
-    // Built one at a time, the default profile's lane's first.
-    let mut to_build: Vec<_> = explaining.into_iter().rev().collect();
+    let events = search_recorded(spec, path, import, &defs, &probes, &mut slots, &mut witnesses)?;
     let source = Source::open_with(spec, path, import)?;
     let card = source.card_as(&import);
     let name = source.configuration().to_string();
-    let mut rest = Vec::new();
+    let bit12 = READINGS.iter().position(|(name, _)| *name == "bit12_meaning").expect("a reading of lanes.rs");
+    let explaining_bit12: Vec<usize> = probes
+        .iter()
+        .filter_map(|i| slots[*i].as_ref())
+        .filter(|l| l.alive())
+        .map(|l| super::lanes::options_of(&l.def.choices)[bit12])
+        .collect();
+    // Each lane not judged yet: shown by an explanation found so far, else searched. Those
+    // whose meaning of bit 12 explained the capture in round 1 are searched two at a time with
+    // their choices recorded, so that each that explains adds its explanation for the rest (a
+    // full-period detector's card trips later than a half-period one's: a starvation trip's
+    // explanation is not the other's); the others, which rarely explain, together as before.
+    let mut likely: std::collections::VecDeque<usize> = std::collections::VecDeque::new();
+    let mut unlikely = Vec::new();
     for (i, def) in defs.iter().enumerate() {
-        if slots[i].is_some() {
-            continue;
+        if slots[i].is_none() {
+            if explaining_bit12.contains(&super::lanes::options_of(&def.choices)[bit12]) {
+                likely.push_back(i);
+            } else {
+                unlikely.push(i);
+            }
         }
-        let mut lane = Lane::new(spec, &name, card.as_ref(), def.clone(), false, None)
+    }
+    let show = |i: usize, witnesses: &[(String, Witness)]| -> Result<Option<Lane>, SpecError> {
+        let mut lane = Lane::new(spec, &name, card.as_ref(), defs[i].clone(), false, None)
             .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
-        let shown = loop {
-            if let Some(found) = witnesses.iter().find_map(|(label, w)| {
-                witness::run(spec, &lane.cfg, w).ok().map(|(_, end)| (label.clone(), end, w.cpu))
-            }) {
-                break Some(found);
+        let found = witnesses
+            .iter()
+            .find_map(|(label, w)| witness::run(spec, &lane.cfg, w).ok().map(|(_, end)| (label.clone(), end, w.cpu)));
+        Ok(found.map(|(label, end, cpu)| {
+            lane.cands = vec![Cand { counter_lo: end.counter, min_lo: end.counter_min, card: end, cpu, node: None }];
+            lane.peak = 1;
+            lane.shown_by = Some(label);
+            lane
+        }))
+    };
+    while !likely.is_empty() {
+        let mut batch = Vec::new();
+        while batch.len() < 2 {
+            let Some(i) = likely.pop_front() else { break };
+            match show(i, &witnesses)? {
+                Some(lane) => slots[i] = Some(lane),
+                None => batch.push(i),
             }
-            // The explanations are built one at a time, as a lane needs one more.
-            let Some((d, t)) = to_build.pop() else { break None };
-            let (label, w) = witness::witness_for(spec, path, import, d, t)?;
-            if matches!(w.checked, Some(Ok(_))) {
-                witnesses.push((label, w));
-            }
-        };
-        match shown {
-            Some((label, end, cpu)) => {
-                lane.cands =
-                    vec![Cand { counter_lo: end.counter, min_lo: end.counter_min, card: end, cpu, node: None }];
-                lane.peak = 1;
-                lane.shown_by = Some(label);
-                slots[i] = Some(lane);
-            }
+        }
+        if !batch.is_empty() {
+            search_recorded(spec, path, import, &defs, &batch, &mut slots, &mut witnesses)?;
+        }
+    }
+    let mut rest = Vec::new();
+    for i in unlikely {
+        match show(i, &witnesses)? {
+            Some(lane) => slots[i] = Some(lane),
             None => rest.push(i),
         }
     }
-    let (searched, _) = search_in_two(spec, path, import, rest.iter().map(|i| defs[*i].clone()).collect())?;
+    let (searched, _) = search_in_two(spec, path, import, rest.iter().map(|i| defs[*i].clone()).collect(), false)?;
     for (i, lane) in rest.iter().zip(searched) {
         slots[*i] = Some(lane);
     }
     Ok(Judged { lanes: slots.into_iter().map(|l| l.expect("every lane judged")).collect(), events, witnesses })
+}
+
+/// Searches the lanes `which` of `defs` (one per thread) with their choices recorded, puts them
+/// in `slots`, and adds the explanation of each that explains the capture to `witnesses`
+/// (dropping the recorded histories after). Returns the capture's event count.
+fn search_recorded(
+    spec: &Spec,
+    path: &Path,
+    import: ImportAs<'_>,
+    defs: &[LaneDef],
+    which: &[usize],
+    slots: &mut [Option<Lane>],
+    witnesses: &mut Vec<(String, Witness)>,
+) -> Result<u64, SpecError> {
+    let (searched, events) = search_in_two(spec, path, import, which.iter().map(|i| defs[*i].clone()).collect(), true)?;
+    for (i, mut lane) in which.iter().zip(searched) {
+        if lane.alive() {
+            let (label, w) = witness::of_lane(spec, path, import, &lane)?;
+            if matches!(w.checked, Some(Ok(_))) {
+                witnesses.push((label, w));
+            }
+        }
+        for c in &mut lane.cands {
+            c.node = None;
+        }
+        slots[*i] = Some(lane);
+    }
+    Ok(events)
 }
 
 /// Round 1's lanes, as indices into `defs`: the default profile's (else the first), and the one
@@ -118,12 +168,14 @@ fn probes(defs: &[LaneDef], default: [usize; super::lanes::READINGS_COUNT]) -> V
     }
 }
 
-/// Searches `defs` on two threads (one per core of the machines this runs on), in their order.
+/// Searches `defs` on two threads (one per core of the machines this runs on), in their order;
+/// `record` keeps each candidate's history (then one lane to a thread: two at most).
 pub fn search_in_two(
     spec: &Spec,
     path: &Path,
     import: ImportAs<'_>,
     defs: Vec<LaneDef>,
+    record: bool,
 ) -> Result<(Vec<Lane>, u64), SpecError> {
     if defs.is_empty() {
         return Ok((Vec::new(), 0));
@@ -135,7 +187,7 @@ pub fn search_in_two(
             .map(|chunk| {
                 let work = chunk.to_vec();
                 std::thread::Builder::new()
-                    .spawn_scoped(scope, move || search::search(spec, path, import, work, false))
+                    .spawn_scoped(scope, move || search::search(spec, path, import, work, record))
                     .map_err(|_| chunk.to_vec())
             })
             .collect();
@@ -144,7 +196,7 @@ pub fn search_in_two(
             .into_iter()
             .map(|s| match s {
                 Ok(h) => h.join().unwrap_or_else(|_| Err(SpecError::whole_file(path, "a search thread panicked"))),
-                Err(chunk) => search::search(spec, path, import, chunk, false),
+                Err(chunk) => search::search(spec, path, import, chunk, record),
             })
             .collect()
     });

@@ -571,7 +571,6 @@ pub fn witness_for(
     def: LaneDef,
     tolerances: Tolerances,
 ) -> Result<(String, Witness), SpecError> {
-    let label = lanes::label(&def.choices);
     let (lanes, _, _) = super::search::search_once(
         spec,
         path,
@@ -580,7 +579,18 @@ pub fn witness_for(
         true,
         true,
     )?;
-    let lane: &super::search::Lane = &lanes[0];
+    of_lane(spec, path, import_configuration, &lanes[0])
+}
+
+/// The explanation of a lane that explains the capture, searched with its choices recorded.
+pub fn of_lane(
+    spec: &Spec,
+    path: &Path,
+    import_configuration: ImportAs<'_>,
+    lane: &super::search::Lane,
+) -> Result<(String, Witness), SpecError> {
+    let label = lanes::label(&lane.def.choices);
+    let tolerances = lane.tolerances;
     // Prefer a running card at the end, then the shallowest X:$25; a merged candidate keeps
     // one history, so the first whose witness reproduces the capture is taken.
     let mut cands: Vec<&super::search::Cand> = lane.cands.iter().filter(|c| c.node.is_some()).collect();
