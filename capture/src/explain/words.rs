@@ -9,7 +9,6 @@
 //! past it. The pairs are found by building each engine state and asking the model's own
 //! status word, so a rule changed in the model changes them here.
 
-use super::search::Reader;
 use crate::replay::{ImportAs, Source};
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::ChecksumTarget;
@@ -60,11 +59,14 @@ pub fn first_impossible_reply(
     if possible.iter().all(|p| *p) {
         return Ok(None);
     }
-    let mut reader = Reader::new(Source::open_with(spec, path, import)?);
-    while let Some((_, step)) = reader.next_step()? {
+    // Events counted from 1, one per step, as `search::Reader` counts them.
+    let mut source = Source::open_with(spec, path, import)?;
+    let mut events = 0u64;
+    while let Some((_, step)) = source.next_step()? {
+        events += 1;
         if let Some(Ok(StatusReply::Words { x, y })) = step.expect.reply.as_deref().map(reply_text::decode) {
             if pair(cfg, (x, y)).is_some_and(|i| !possible[i]) {
-                return Ok(Some(reader.events));
+                return Ok(Some(events));
             }
         }
     }
