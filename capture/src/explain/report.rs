@@ -480,7 +480,8 @@ fn tolerances_text(t: &Tolerances, lane: Option<&LaneSummary>) -> String {
 fn option_text(o: &str, v: &OptionVerdict) -> String {
     match v {
         OptionVerdict::Supported(n) => {
-            format!("{o}: supported ({n} combination{} explain the capture)", if *n == 1 { "" } else { "s" })
+            // A lane stands for every combination its readings cannot tell apart (`lanes`).
+            format!("{o}: supported ({n} lane{} explain the capture)", if *n == 1 { "" } else { "s" })
         }
         OptionVerdict::RuledOut(d) => format!(
             "{o}: RULED OUT (no combination with it explains the capture; the last to fail failed at event {} \
@@ -530,9 +531,10 @@ pub fn to_text(r: &Report) -> String {
         let _ = writeln!(s, "  no card, whatever its timing: {why}");
     }
     let alive = r.lanes.iter().filter(|l| l.death.is_none()).count();
+    let combinations: usize = r.lanes.iter().map(|l| l.combinations).sum();
     let _ = writeln!(
         s,
-        "combinations of readings searched: {}; {} explain the capture",
+        "lanes of readings searched: {} (standing for {combinations} combinations); {} explain the capture",
         r.lanes.len(),
         if alive == 0 { "none".to_string() } else { alive.to_string() }
     );
