@@ -839,21 +839,28 @@ pub fn search(
     // the cards before them (below).
     // A lane that died at a status word no state of its checksum engine gives is past every
     // card of the bands (`words`): only the card already searched.
+    // The first such reply depends only on which pairs of bits 13 and 12 the lane's readings
+    // allow: the capture is read once per set of pairs, not once per lane.
+    let mut first_impossible: Vec<([bool; 4], Option<u64>)> = Vec::new();
     let mut beyond = Vec::with_capacity(lanes.len());
-    for l in &lanes {
-        let at = match &l.death {
-            Some(d) if d.whatever_the_card => Some(d.event),
-            Some(d) => {
-                super::words::first_impossible_reply(spec, path, configuration, &l.cfg)?.filter(|e| *e == d.event)
-            }
-            None => None,
+    for l in lanes.iter_mut() {
+        let Some(d) = l.death.as_mut() else {
+            beyond.push(false);
+            continue;
         };
-        beyond.push(at.is_some());
-    }
-    for (l, b) in lanes.iter_mut().zip(&beyond) {
-        if let (true, Some(d)) = (*b, l.death.as_mut()) {
-            d.whatever_the_card = true;
+        if !d.whatever_the_card {
+            let pairs = super::words::engine_pairs(&l.cfg);
+            let at = match first_impossible.iter().find(|(p, _)| *p == pairs) {
+                Some((_, at)) => *at,
+                None => {
+                    let at = super::words::first_impossible_reply(spec, path, configuration, &l.cfg)?;
+                    first_impossible.push((pairs, at));
+                    at
+                }
+            };
+            d.whatever_the_card = at == Some(d.event);
         }
+        beyond.push(d.whatever_the_card);
     }
     let variants: Vec<Vec<Tolerances>> = lanes
         .iter()

@@ -176,9 +176,7 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
                 HostCommand::Reset | HostCommand::Reinitialize => true,
                 // A command the model cannot follow may be a memory write (`WX:$25,...`, an
                 // M-variable pointed at X:$25): the rule stops there.
-                HostCommand::Card { text, .. } | HostCommand::Unrecognized(text) => {
-                    text.contains('=') || text.trim_start().starts_with(['W', 'w'])
-                }
+                HostCommand::Card { text, .. } | HostCommand::Unrecognized(text) => may_write_memory(text),
                 _ => false,
             },
             _ => false,
@@ -231,6 +229,12 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
         }
     }
     Ok(None)
+}
+
+/// Whether a command the model cannot follow may write memory: an assignment (an M-variable
+/// may point at any word, SRM p.57: I41 does not stop it) or a `W` memory write.
+fn may_write_memory(text: &str) -> bool {
+    text.contains('=') || text.trim_start().starts_with(['W', 'w'])
 }
 
 /// Whether the status word a step reads (`???`, or `RHX:$6`) shows bit 13 of X:$000006, the
@@ -422,9 +426,6 @@ impl Thawed {
 impl Freeze {
     /// Reads one step; the X:$1080 read no card answers here, if this is one.
     pub fn step(&mut self, spec: &Spec, line: usize, step: &pmacwd_trace::Step) -> Option<Thawed> {
-        use pmacwd_specs::status::WordId;
-        use pmacwd_specs::vocab::command::Register;
-        use pmacwd_specs::vocab::reply_text::{self, StatusReply};
         match &step.event {
             TraceEvent::Restart
             | TraceEvent::Model(Event::Reset(_))
@@ -433,36 +434,16 @@ impl Freeze {
                 return None;
             }
             TraceEvent::Model(Event::Command(HostCommand::Card { text, .. } | HostCommand::Unrecognized(text)))
-                if text.contains('=') || text.trim_start().starts_with(['W', 'w']) =>
+                if may_write_memory(text) =>
             {
                 self.frozen = None;
             }
             _ => {}
         }
-        let reply = step.expect.reply.as_deref();
-        let words = match (&step.event, reply) {
-            (TraceEvent::Model(Event::Command(HostCommand::GlobalStatus)), Some(r)) => match reply_text::decode(r) {
-                Ok(StatusReply::Words { x, y }) => Some((Some(x), Some(y))),
-                _ => None,
-            },
-            (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::StatusX))), Some(r)) => {
-                super::reads::signed_word(r).map(|x| (Some(x as u32 & 0xFF_FFFF), None))
-            }
-            (TraceEvent::Model(Event::Command(HostCommand::ReadHex(Register::StatusY))), Some(r)) => {
-                super::reads::signed_word(r).map(|y| (None, Some(y as u32 & 0xFF_FFFF)))
-            }
-            _ => None,
-        };
-        if let (Some((x, y)), Some((word, bit))) = (words, spec.status.bit("checksum_error")) {
-            let shown = match word {
-                WordId::X => x,
-                WordId::Y => y,
-            };
-            match shown.map(|w| w & (1 << bit) != 0) {
-                Some(true) if self.stopped.is_none() => self.stopped = Some(line),
-                Some(false) => *self = Freeze::default(),
-                _ => {}
-            }
+        match checksum_error_shown(spec, step) {
+            Some(true) if self.stopped.is_none() => self.stopped = Some(line),
+            Some(false) => *self = Freeze::default(),
+            _ => {}
         }
         let (Some(read), Some(stopped_at)) = (step.expect.running_checksum, self.stopped) else {
             return None;

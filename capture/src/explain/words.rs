@@ -27,16 +27,14 @@ pub fn engine_pairs(cfg: &ModelConfig) -> [bool; 4] {
         for area in [ChecksumTarget::Firmware, ChecksumTarget::UserProgram] {
             card.checksum.error = error;
             card.checksum.area = area;
-            if let Some(i) = pair(cfg, card.status_words(cfg)) {
-                seen[i] = true;
-            }
+            seen[pair(cfg, card.status_words(cfg))] = true;
         }
     }
     seen
 }
 
 /// The pair (bit 13, bit 12) of a status reply's words, as an index of [`engine_pairs`].
-fn pair(cfg: &ModelConfig, (x, y): (u32, u32)) -> Option<usize> {
+fn pair(cfg: &ModelConfig, (x, y): (u32, u32)) -> usize {
     let bit = |(word, n): (WordId, u8)| {
         let w = match word {
             WordId::X => x,
@@ -44,7 +42,7 @@ fn pair(cfg: &ModelConfig, (x, y): (u32, u32)) -> Option<usize> {
         };
         usize::from(w & (1 << n) != 0)
     };
-    Some(bit(cfg.layout.checksum_error) << 1 | bit(cfg.layout.prom_checksum_active))
+    bit(cfg.layout.checksum_error) << 1 | bit(cfg.layout.prom_checksum_active)
 }
 
 /// The event number (as the search counts them) of the first `???` reply of the capture whose
@@ -65,7 +63,7 @@ pub fn first_impossible_reply(
     while let Some((_, step)) = source.next_step()? {
         events += 1;
         if let Some(Ok(StatusReply::Words { x, y })) = step.expect.reply.as_deref().map(reply_text::decode) {
-            if pair(cfg, (x, y)).is_some_and(|i| !possible[i]) {
+            if !possible[pair(cfg, (x, y))] {
                 return Ok(Some(events));
             }
         }
