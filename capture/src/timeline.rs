@@ -201,6 +201,19 @@ pub fn walk(
                 }
                 r
             }
+            TraceEvent::Unanswered { command, wait_cycles } => {
+                // The command marked where it was sent; the wait runs without a background cycle.
+                let text = format!("`{command}` unanswered (no background cycle while the host waited)");
+                let mut r = out(&header, Item::Mark { cycle: run.cycle, line, text, reads: None });
+                for _ in 0..*wait_cycles {
+                    if r.is_err() {
+                        break;
+                    }
+                    run.servo(false);
+                    r = emit(&mut run, &mut out);
+                }
+                r
+            }
             TraceEvent::Model(Event::Background) if !run.card.background_possible() => {
                 let what =
                     if run.card.tripped() { "the card is tripped" } else { "the load has not given it the time" };
@@ -223,7 +236,9 @@ pub fn walk(
                 out(&header, Item::Mark { cycle: run.cycle, line, text: e.to_string(), reads })
                     .and_then(|()| emit(&mut run, &mut out))
             }
-            TraceEvent::Elapsed { .. } | TraceEvent::Restart => unreachable!("refused by `deterministic`"),
+            TraceEvent::Elapsed { .. } | TraceEvent::Restart | TraceEvent::RestartPossible => {
+                unreachable!("refused by `deterministic`")
+            }
         };
         if let Err(e) = written {
             return Ok(Err(e));

@@ -36,6 +36,10 @@ fn command(text: &str) -> TraceEvent {
     TraceEvent::Model(Event::Command(HostCommand::parse(text).unwrap()))
 }
 
+fn unanswered(text: &str, wait_cycles: u32) -> TraceEvent {
+    TraceEvent::Unanswered { command: HostCommand::parse(text).unwrap(), wait_cycles }
+}
+
 /// The events of the steps, without what the `I10` read of [`KHZ`] adds.
 fn events(steps: &[Step]) -> Vec<TraceEvent> {
     steps.iter().map(|s| s.event.clone()).filter(|e| *e != command("I10")).collect()
@@ -211,11 +215,11 @@ fn a_silent_card_is_placed_in_time_by_the_host_clock_alone() {
             TraceEvent::Elapsed { cycles_min: 0x10, cycles_max: None },
             command("RHX:$0"),
             range(494, 507),
-            command("???"),
+            unanswered("???", 0),
             range(989, 1012),
-            command("RHX:$0"),
+            unanswered("RHX:$0", 0),
             range(494, 507),
-            command("???"),
+            unanswered("???", 0),
         ]
     );
     assert_eq!(t.summary.silent_gaps, 3);
@@ -226,6 +230,41 @@ fn a_silent_card_is_placed_in_time_by_the_host_clock_alone() {
     let back = format!("{log}12:00:02.500 > RHX:$0\n< {:06X}\n", 0x10 + 2500);
     let e = events(&ok(&back).trace.steps);
     assert_eq!(e[e.len() - 2..], [range(2500 - 2026, 2500 - 1977), command("RHX:$0")]);
+}
+
+#[test]
+fn unstamped_timeouts_in_a_row_share_one_unknown_wait() {
+    // A wait of 0 changes no card, and two gaps of any length are one: a run of unanswered
+    // reads gets one unbounded `elapsed` (the search pays for each one it is given).
+    let t = ok("> RHX:$0\n< 000100\n> ???\n< (timeout)\n> ???\n< (timeout)\n> RHX:$25\n< (timeout)\n");
+    let unbounded =
+        t.trace.steps.iter().filter(|s| matches!(s.event, TraceEvent::Elapsed { cycles_max: None, .. })).count();
+    // The first X:$0 read's own (at least its value), and the silence's.
+    assert_eq!(unbounded, 2, "{:#?}", t.trace.steps);
+    assert_eq!(t.summary.waits_unknown, 1);
+    // An answer between starts a new run.
+    let t = ok("> RHX:$0\n< 000100\n> ???\n< (timeout)\n> I8\n< 2\n> ???\n< (timeout)\n");
+    assert_eq!(t.summary.waits_unknown, 2);
+}
+
+#[test]
+fn a_stamped_timeout_is_an_unanswered_wait_that_the_next_gap_does_not_give_again() {
+    // UM p.236: host commands are processed in the background, so the 0.3 s the host waited
+    // (12:00:00.501 to 12:00:00.800, at 1000 Hz less 1%: 296 cycles) passed with no background
+    // cycle, or with the card tripped. The command is placed at its own stamp (494 to 507
+    // cycles after the read); the next, 0.5 s after it, from the reply's end (at least 197
+    // more cycles) to the command's start less the wait (at most 508 - 296). The X:$0 read
+    // after it counts on: no restart.
+    let log = format!(
+        "12:00:00.000 {KHZ}12:00:00.000 > RHX:$0\n< 000010\n12:00:00.500 > ???\n12:00:00.800 < (timeout)\n\
+         12:00:01.000 > ???\n12:00:01.001 < 000000000000\n12:00:01.100 > RHX:$0\n< {:06X}\n",
+        0x10 + 1100
+    );
+    let t = ok(&log);
+    let e = events(&t.trace.steps);
+    assert_eq!(e[2..6], [range(494, 507), unanswered("???", 296), range(197, 212), command("???")], "{e:#?}");
+    assert_eq!(t.summary.waits_timed, 1);
+    assert_eq!(t.summary.restarts, 0);
 }
 
 #[test]
@@ -421,7 +460,13 @@ fn stream(path: &Path, format: Option<LogFormat>) -> Result<(Vec<(usize, Step)>,
 fn reply_of(steps: &[(usize, Step)], line: usize, text: &str) -> Option<String> {
     steps
         .iter()
-        .find(|(l, s)| *l == line && s.event == command(text))
+        .find(|(l, s)| {
+            *l == line
+                && match &s.event {
+                    TraceEvent::Unanswered { command: c, .. } => TraceEvent::Model(Event::Command(c.clone())),
+                    e => e.clone(),
+                } == command(text)
+        })
         .unwrap_or_else(|| panic!("no `{text}` at line {line}"))
         .1
         .expect
@@ -662,16 +707,20 @@ fn an_answer_after_a_silence_follows_a_restart_when_no_counter_read_comes_after_
     .replace("> I10", "12:00:00.000 > I10");
     let t = ok(&log);
     let s = &t.trace.steps;
-    let restart = position(s, &TraceEvent::Restart);
+    // With no read after it the reset is only possible: a starved card answers again once its
+    // background runs (UM p.236).
+    let restart = position(s, &TraceEvent::RestartPossible);
     let answered = s.iter().rposition(|s| s.expect.reply.as_deref() == Some("000000000000")).expect("the answer");
     assert!(restart < answered, "{s:#?}");
     assert!(s[restart + 1..answered].iter().all(|s| matches!(s.event, TraceEvent::Elapsed { cycles_min: 0, .. })));
     assert!(s[restart].note.as_deref().unwrap().contains("UM p.215"));
+    assert!(s[restart].note.as_deref().unwrap().contains("UM p.236"));
+    assert!(s.iter().all(|s| s.event != TraceEvent::Restart));
     assert_eq!(t.summary.restarts, 1);
     // Without stamps the time between the reset and the answer is unknown.
     let t = ok("> RHX:$0\n< 000100\n> ???\n< (timeout)\n> ???\n< 000000000000\n");
     let s = &t.trace.steps;
-    let restart = position(s, &TraceEvent::Restart);
+    let restart = position(s, &TraceEvent::RestartPossible);
     assert_eq!(s[restart + 1].event, TraceEvent::Elapsed { cycles_min: 0, cycles_max: None });
     assert_eq!(s[restart + 2].expect.reply.as_deref(), Some("000000000000"));
 }
@@ -710,7 +759,7 @@ fn the_steps_held_after_an_answer_that_follows_a_silence_are_bounded() {
     let t = ok(&log);
     assert_eq!(t.summary.restarts, 1);
     let s = &t.trace.steps;
-    let restart = position(s, &TraceEvent::Restart);
+    let restart = position(s, &TraceEvent::RestartPossible);
     let answers = s.iter().filter(|s| s.expect.reply.as_deref() == Some("000000000000")).count();
     assert_eq!(answers, n);
     assert!(

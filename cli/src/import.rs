@@ -153,7 +153,7 @@ fn summarize(stream: &ImportStream, configuration: &str) {
     }
     let Some(s) = stream.summary() else { return };
     eprintln!(
-        "pmacwd: {} on {}, {}, {}, {} timed by the host clock, {} of unknown length (a timeout in a log without stamps), {} answered from the card's own state \
+        "pmacwd: {} on {}, {}, {}, {} timed by the host clock, {} of unknown length (a timeout in a log without stamps), {} timed by stamped replies, {} answered from the card's own state \
          (not compared with the model's values), {} the grammar cannot read (kept without an expectation){}{}",
         plural(s.commands, "command", "commands"),
         plural(s.exchanges, "line", "lines"),
@@ -161,6 +161,7 @@ fn summarize(stream: &ImportStream, configuration: &str) {
         plural(s.restarts, "restart", "restarts"),
         plural(s.silent_gaps, "silent gap", "silent gaps"),
         plural(s.waits_unknown, "wait", "waits"),
+        plural(s.waits_timed, "unanswered wait", "unanswered waits"),
         s.card_own,
         s.not_modelled,
         if s.unseen > 0 {

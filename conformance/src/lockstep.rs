@@ -155,6 +155,13 @@ impl<S: Subject> Pair<S> {
                 }
             }
             TraceEvent::Model(e) => self.apply(e).map(Some),
+            // Neither side sees the command (no background cycle reached it): the wait's servo
+            // cycles, and silence (`Controller::unanswered`).
+            TraceEvent::Unanswered { wait_cycles, .. } => {
+                let mut obs = self.apply(&Event::Servo { cycles: *wait_cycles })?;
+                obs.reply = pmacwd_specs::vocab::event::Reply::Silence;
+                Ok(Some(obs))
+            }
             TraceEvent::Run { cycles } => {
                 let mut last = None;
                 for _ in 0..*cycles {
@@ -167,7 +174,7 @@ impl<S: Subject> Pair<S> {
             }
             // A deterministic run cannot choose what happened unseen; the runner refuses these
             // steps with a message before they get here (see `runner::deterministic`).
-            TraceEvent::Elapsed { .. } | TraceEvent::Restart => Ok(None),
+            TraceEvent::Elapsed { .. } | TraceEvent::Restart | TraceEvent::RestartPossible => Ok(None),
         }
     }
 }

@@ -109,7 +109,17 @@ impl ModelLane {
                 Reply::None
             }
             TraceEvent::Model(e) => self.card.apply(&self.cfg, e),
-            TraceEvent::Elapsed { .. } | TraceEvent::Restart => unreachable!("refused by `deterministic`"),
+            TraceEvent::Elapsed { .. } | TraceEvent::Restart | TraceEvent::RestartPossible => {
+                unreachable!("refused by `deterministic`")
+            }
+            // The wait's servo cycles with no background cycle: `Controller::unanswered`, with
+            // the cycles after a trip counted as every servo cycle here is.
+            TraceEvent::Unanswered { wait_cycles, .. } => {
+                for _ in 0..*wait_cycles {
+                    self.servo_cycle();
+                }
+                Reply::Silence
+            }
             TraceEvent::Run { cycles } => {
                 for _ in 0..*cycles {
                     self.servo_cycle();
@@ -269,8 +279,12 @@ pub fn run_on_subject_observed<S: crate::subject::Subject>(
         };
         let event = match &step.event {
             TraceEvent::Model(e) => e.clone(),
-            TraceEvent::Run { cycles } => Event::Servo { cycles: *cycles },
-            TraceEvent::Elapsed { .. } | TraceEvent::Restart => unreachable!("refused by `deterministic`"),
+            TraceEvent::Run { cycles } | TraceEvent::Unanswered { wait_cycles: cycles, .. } => {
+                Event::Servo { cycles: *cycles }
+            }
+            TraceEvent::Elapsed { .. } | TraceEvent::Restart | TraceEvent::RestartPossible => {
+                unreachable!("refused by `deterministic`")
+            }
         };
         observe(&cfg, &event, &pair.model);
         if step.expect.window_cycles.is_some() {

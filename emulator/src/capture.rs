@@ -114,7 +114,7 @@ pub struct CaptureWriter<W: Write> {
 /// How the commands of a line line up with the answers of its reply.
 enum Matched {
     /// The command ran and this is what to expect of it.
-    Step(Step),
+    Step(Box<Step>),
     /// Kept as a note only (not executed, or not expressible in a trace).
     Note(String),
 }
@@ -236,7 +236,7 @@ impl<W: Write> CaptureWriter<W> {
         for m in matched {
             match m {
                 Matched::Step(s) => {
-                    if let Some((previous, after)) = last.replace((s, Notes::default())) {
+                    if let Some((previous, after)) = last.replace((*s, Notes::default())) {
                         self.write_step(previous, after)?;
                     }
                 }
@@ -269,7 +269,7 @@ impl<W: Write> CaptureWriter<W> {
             self.memory_written = true;
         }
         let command_step = |c: HostCommand, expect: Expect, note: Option<String>| {
-            Matched::Step(Step { event: TraceEvent::Model(Event::Command(c)), expect, note })
+            Matched::Step(Box::new(Step { event: TraceEvent::Model(Event::Command(c)), expect, note }))
         };
         // Every command as a step expecting `expect`; those a trace cannot hold as notes. So is
         // a write of I3 or I6 outside 0..3: the emulator refuses it (MODEL,

@@ -24,6 +24,7 @@ pub const FAMILIES: &[&str] = &[
     "status-slow",
     "silence-unstamped",
     "config-unread",
+    "sluggish",
 ];
 
 pub const LONG_FAMILIES: &[&str] = &["healthy-week"];
@@ -186,6 +187,13 @@ fn rti_capacity(card: &Card) -> u64 {
     (u64::from(card.i8()) + 1) * (CYCLE_UNITS - u64::from(card.spec.servo_units))
 }
 
+/// A stall of the background `fraction` of the counter's run from a reload (UM p.215: the
+/// counter is decremented every servo cycle and reset each background cycle), which a card
+/// survives whatever its hardware delay.
+fn sluggish_stall_s(card: &Card, fraction: f64) -> f64 {
+    card.reload() as f64 * card.servo_period_s() * fraction
+}
+
 /// Run one family's scenario on a session.
 fn scenario(family: &str, s: &mut Session, r: &mut Rng, started_with_reset: bool, survival_s: f64) -> Facts {
     let mut facts = Facts { cause: None, trip_time_s: None, notes: Vec::new(), i40_written: false, poll: "" };
@@ -253,6 +261,35 @@ fn scenario(family: &str, s: &mut Session, r: &mut Rng, started_with_reset: bool
                 s.unseen_reset(r.float(0.2, 1.5), dpram, flash);
                 poll_for(s, 0.5, r.float(3.0, 10.0), &poll);
             }
+        }
+        "sluggish" => {
+            // A PLC 0 scan that takes the CPU for a while and then ends by itself, shorter
+            // than the counter's run from a reload: the background is starved, so host
+            // commands wait (UM p.236: "communications become sluggish") and the host, whose
+            // timeout is shorter than the stall, gives up on some; the card never trips.
+            opening(s, started_with_reset, r.chance(0.5));
+            let poll_s = r.pick(&[0.1, 0.2, 0.25]);
+            poll_for(s, poll_s, r.float(2.0, 6.0), &poll);
+            let stall_s = sluggish_stall_s(&s.card, r.float(0.3, 0.6));
+            s.send(vec![Cmd::EnablePlc0]);
+            // One scan as long as the stall (the CPU the servo tasks leave, UM p.236); the
+            // scans after it are short (the scan a PLC runs depends on its conditions).
+            let period = s.card.servo_period_s();
+            let units = (stall_s / period).ceil() as u64 * (CYCLE_UNITS - u64::from(s.card.spec.servo_units));
+            s.card.set_plc0_units(units);
+            let started = s.t + period * f64::from(s.card.i8() + 2);
+            s.wait_until(started);
+            s.card.set_plc0_units(0);
+            facts.notes.push(format!("one PLC 0 scan took the CPU for {stall_s:.3} s, less than the counter's run"));
+            let end = started + stall_s;
+            while s.t < end {
+                let next = s.t + poll_s;
+                s.poll(poll.clone());
+                s.wait_until(next.min(end));
+            }
+            s.wait_until(end);
+            s.send(vec![Cmd::DisablePlc0]);
+            poll_for(s, poll_s, r.float(2.0, 6.0), &poll);
         }
         "supply-dip" => {
             opening(s, started_with_reset, r.chance(0.5));
@@ -402,6 +439,9 @@ pub fn generate(family: &str, seed: u64) -> (Generated, Option<Generated>) {
     let timeout_s = if matches!(family, "starvation-trip" | "init-recovery" | "silence-unstamped" | "supply-dip") {
         // Long enough that one unanswered line proves a trip (UM p.215).
         f64::max(1.0, setup.survival_s + 0.5)
+    } else if family == "sluggish" {
+        // Shorter than the stall, so that the host gives up on some commands while it lasts.
+        sluggish_stall_s(&setup.card, 0.3) * rng.float(0.2, 0.6)
     } else {
         rng.pick(&[0.5, 1.0, 2.0])
     };
@@ -433,7 +473,7 @@ pub fn generate(family: &str, seed: u64) -> (Generated, Option<Generated>) {
         first_silent_line,
     );
     let correct = Generated { name: name.clone(), log: rendered.text, sidecar: base.clone() };
-    let impossible = mutate(&mut rng, family, &session.exchanges, &facts, setup.survival_s, spec.servo_hz).map(
+    let impossible = mutate(&mut rng, family, &session.exchanges, &facts, setup.survival_s, spec.servo_hz, stamps).map(
         |(kind, exchanges, index, why)| {
             let header = vec![
                 format!("pmacwd-logsim {family}, seed {seed}, IMPOSSIBLE: {kind} (docs/independent-logs.md)"),
@@ -490,6 +530,7 @@ fn mutate(
     facts: &Facts,
     survival_s: f64,
     servo_hz: f64,
+    stamps: Stamps,
 ) -> Option<Mutation> {
     // Where each kind applies: (exchange, command) positions.
     let mut x25_above_y25 = Vec::new();
@@ -626,7 +667,11 @@ fn mutate(
     if !locked_took.is_empty() {
         kinds.extend(["locked-write-took-effect", "locked-write-took-effect"]);
     }
-    if !answer_after_trip.is_empty() && last_x0.is_some() {
+    // An answer after a trip is impossible only where the log shows the host's wait: host
+    // commands are processed in the background (UM p.236), so a card silent for a wait the
+    // log does not time may have been slow, not tripped. The log stamps every line, the
+    // `(timeout)` line included, when it stamps at all.
+    if !answer_after_trip.is_empty() && last_x0.is_some() && stamps != Stamps::None {
         kinds.extend(["answer-after-trip", "answer-after-trip", "answer-after-trip"]);
     }
     if kinds.is_empty() {

@@ -532,9 +532,26 @@ impl Controller {
     // ---------------------------------------------------------------- host commands
 
     /// A host command. Commands are answered by the background's command processing (UM
-    /// p.236); MODEL: the model answers at once and does not model reply latency.
+    /// p.236); MODEL: a command the model applies is one a background cycle processed, and it
+    /// answers at once; a command no background cycle reached while the host waited is
+    /// [`Self::unanswered`].
     pub fn host_command(&mut self, cfg: &ModelConfig, cmd: &HostCommand) -> Reply {
         self.host_command_with_decel(cfg, cmd, cfg.motion.decel_cycles_max)
+    }
+
+    /// A command line the host sent and gave up on after `wait_cycles` servo cycles in which no
+    /// background cycle completed. UM p.236: host commands are processed in the background,
+    /// "in the time not taken by any of the higher-priority tasks", so a card whose background
+    /// is starved answers nothing ("communications become sluggish") and still runs its servo
+    /// and RTI tasks; a tripped card answers nothing at all (UM p.215). Either way the host
+    /// sees silence. MODEL: the command is not processed (the host flushes the line when it
+    /// gives up, as the EPICS driver's `pmacFlush` does); a replay that cannot tell also
+    /// tries it processed right after the wait (docs/replay.md, "Sluggish replies").
+    pub fn unanswered(&mut self, cfg: &ModelConfig, wait_cycles: u32) -> Reply {
+        for _ in 0..wait_cycles {
+            self.servo_cycle(cfg);
+        }
+        Reply::Silence
     }
 
     fn host_command_with_decel(&mut self, cfg: &ModelConfig, cmd: &HostCommand, decel: u8) -> Reply {

@@ -8,15 +8,15 @@ use pmacwd_specs::vocab::event::Reply;
 use pmacwd_specs::vocab::Observation;
 use pmacwd_specs::Spec;
 
-/// `Ok` for an event a deterministic run can apply; `elapsed` and `restart` say only what a host
+/// `Ok` for an event a deterministic run can apply; `elapsed` and the restarts say only what a host
 /// saw, and only `pmacwd replay`, which searches for what happened, can judge them.
 pub fn deterministic(event: &TraceEvent) -> Result<(), String> {
     match event {
-        TraceEvent::Elapsed { .. } | TraceEvent::Restart => Err(format!(
+        TraceEvent::Elapsed { .. } | TraceEvent::Restart | TraceEvent::RestartPossible => Err(format!(
             "`{event}` leaves open what happened; a deterministic run cannot choose it: judge this \
              trace with `pmacwd replay`"
         )),
-        TraceEvent::Model(_) | TraceEvent::Run { .. } => Ok(()),
+        TraceEvent::Model(_) | TraceEvent::Run { .. } | TraceEvent::Unanswered { .. } => Ok(()),
     }
 }
 

@@ -188,6 +188,10 @@ pub fn step_line(step: &Step) -> String {
         }
         TraceEvent::Elapsed { cycles_min, cycles_max: None } => serde_json::json!({ "elapsed": { "min": cycles_min } }),
         TraceEvent::Restart => serde_json::json!({ "restart": 1 }),
+        TraceEvent::RestartPossible => serde_json::json!({ "possible_restart": 1 }),
+        TraceEvent::Unanswered { command, wait_cycles } => {
+            serde_json::json!({ "unanswered": { "command": command.to_string(), "wait": wait_cycles } })
+        }
         TraceEvent::Model(e) => model_event_json(e),
     };
     let mut v = event;

@@ -70,6 +70,18 @@ pub enum TraceEvent {
     },
     /// The card restarted unseen (INIT/, power cycle, or `$$$` from another host).
     Restart,
+    /// The card may have restarted unseen here, or not: what the log shows allows both (an
+    /// answer after a silence with no X:$0 read to say which: a tripped card answers only after
+    /// a reset, UM p.215, a starved one once its background runs again, UM p.236).
+    RestartPossible,
+    /// The host sent `command` and gave up after waiting `wait_cycles` servo cycles with no
+    /// answer: the card was tripped (UM p.215), or no background cycle, which processes host
+    /// commands (UM p.236), completed while it waited. The model runs the wait with no
+    /// background cycle and answers silence (`Controller::unanswered`).
+    Unanswered {
+        command: HostCommand,
+        wait_cycles: u32,
+    },
 }
 
 impl fmt::Display for TraceEvent {
@@ -87,6 +99,13 @@ impl fmt::Display for TraceEvent {
                 write!(f, "at least {cycles_min} servo cycles pass unseen")
             }
             TraceEvent::Restart => f.write_str("the card restarts unseen (INIT/, power or `$$$`)"),
+            TraceEvent::RestartPossible => f.write_str("the card may have restarted unseen (INIT/, power or `$$$`)"),
+            TraceEvent::Unanswered { command, wait_cycles } => {
+                write!(
+                    f,
+                    "host command `{command}` unanswered after {wait_cycles} servo cycles without a background cycle"
+                )
+            }
         }
     }
 }
@@ -165,16 +184,18 @@ pub const STEP_CYCLES_MAX: u32 = 1 << 24;
 /// The keys a step may have besides its one event key.
 const STEP_EXTRAS: [&str; 2] = ["expect", "note"];
 /// The event keys.
-const EVENT_KEYS: [&str; 13] = [
+const EVENT_KEYS: [&str; 15] = [
     "servo",
     "run",
     "elapsed",
     "background",
     "load",
     "command",
+    "unanswered",
     "supply_mv",
     "reset",
     "restart",
+    "possible_restart",
     "checksum_fault",
     "clear_rti_reentry",
     "encoder",
@@ -195,6 +216,14 @@ struct ElapsedRange {
     min: u32,
     #[serde(default)]
     max: Option<u32>,
+}
+
+/// `unanswered: {command: TEXT, wait: N}`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct UnansweredForm {
+    command: String,
+    wait: u32,
 }
 
 fn elapsed_event<E: de::Error>(form: ElapsedForm) -> Result<TraceEvent, E> {
@@ -286,14 +315,18 @@ impl<'de> Deserialize<'de> for Step {
                             }
                         }
                         "elapsed" => elapsed_event(map.next_value::<ElapsedForm>()?)?,
-                        "restart" => {
+                        "restart" | "possible_restart" => {
                             let n: u32 = map.next_value()?;
                             if n != 1 {
-                                return Err(de::Error::custom(
-                                    "`restart` takes no count other than 1; write one step per occurrence",
-                                ));
+                                return Err(de::Error::custom(format!(
+                                    "`{key}` takes no count other than 1; write one step per occurrence"
+                                )));
                             }
-                            TraceEvent::Restart
+                            if key == "restart" {
+                                TraceEvent::Restart
+                            } else {
+                                TraceEvent::RestartPossible
+                            }
                         }
                         "background" | "clear_rti_reentry" => {
                             let n: u32 = map.next_value()?;
@@ -314,6 +347,19 @@ impl<'de> Deserialize<'de> for Step {
                             TraceEvent::Model(Event::Command(
                                 HostCommand::parse(&text).map_err(|e| de::Error::custom(e.0))?,
                             ))
+                        }
+                        "unanswered" => {
+                            let UnansweredForm { command, wait } = map.next_value()?;
+                            if wait > STEP_CYCLES_MAX {
+                                return Err(de::Error::custom(format!(
+                                    "`unanswered` waiting {wait} servo cycles is more than {STEP_CYCLES_MAX}, the most \
+                                     one step takes"
+                                )));
+                            }
+                            TraceEvent::Unanswered {
+                                command: HostCommand::parse(&command).map_err(|e| de::Error::custom(e.0))?,
+                                wait_cycles: wait,
+                            }
                         }
                         "supply_mv" => TraceEvent::Model(Event::Supply { millivolts: map.next_value()? }),
                         "encoder" => TraceEvent::Model(Event::EncoderInput(
@@ -519,6 +565,10 @@ pub fn yaml_step(step: &Step) -> String {
             }
             TraceEvent::Elapsed { cycles_min, cycles_max: None } => format!("elapsed: {{min: {cycles_min}}}"),
             TraceEvent::Restart => "restart: 1".into(),
+            TraceEvent::RestartPossible => "possible_restart: 1".into(),
+            TraceEvent::Unanswered { command, wait_cycles } => {
+                format!("unanswered: {{command: {}, wait: {wait_cycles}}}", quote(&command.to_string()))
+            }
             TraceEvent::Model(e) => match e {
                 Event::Servo { cycles } => format!("servo: {cycles}"),
                 Event::Background => "background: 1".into(),

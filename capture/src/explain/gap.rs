@@ -408,9 +408,6 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
         let r = cfg.reset_value(card.i40);
         let delay = i64::from(cfg.hardware_delay_cycles);
         let may_be_silent = hints.silent != Some(false);
-        // A card answers unless it has tripped (UM p.215: it "will not communicate"), so a
-        // silent command after the gap needs a plan that ends tripped.
-        let must_trip = hints.silent == Some(true);
         // No background cycle at all: the counter runs down from where it is.
         let starved_counter = super::run_down(cfg, card.counter, cycles);
         // Whether Y:$25 as read can follow from `v` at the end of this gap.
@@ -604,12 +601,8 @@ fn plans_for(cfg: &ModelConfig, memo: &mut Memo, card: &Controller, cycles: u32,
             };
             let tails_here = if heavy == 0 { &end_tails } else { &tails };
             for (&tail, &fault) in tails_here.iter().flat_map(|t| faults.iter().map(move |f| (t, f))) {
-                // Without an overrun first, a schedule trips only in its tail (a lead or a
-                // middle that would trip fails its next background cycle): a tail in which the
-                // counter, reloaded at its start, cannot reach zero leaves the card answering.
-                if must_trip && heavy == 0 && super::run_down(cfg, r, tail) > 0 {
-                    continue;
-                }
+                // (A silent command after the gap needs no trip: a starved background is
+                // silent too, UM p.236, and the command's own wait is its step's.)
                 // PLC 0 overrunning at the end of the gap: through the tail (a run-down), or
                 // for every phase of its pattern, with background cycles between its overruns
                 // (`end_overruns`).

@@ -25,6 +25,13 @@ pub enum NodeKind {
         end: super::End,
     },
     Restart(ResetEvent),
+    /// A command the host gave up on after `cycles` servo cycles with no background cycle;
+    /// `late`: the card processed it right after the wait (MODEL: it may not have seen the
+    /// host's flush, `Controller::unanswered`).
+    Wait {
+        cycles: u32,
+        late: bool,
+    },
     /// X:$25 read as this value, where the search had an interval.
     Pin(i32),
     /// Y:$25 read as this value, where the search had an interval.

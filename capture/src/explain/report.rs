@@ -390,7 +390,10 @@ fn scan(spec: &Spec, mut source: Source) -> Result<(bool, Option<String>, bool, 
     let mut seen = false;
     let mut out_of_range = false;
     while let Some((_, step)) = source.next_step()? {
-        if let pmacwd_trace::TraceEvent::Model(pmacwd_specs::vocab::event::Event::Command(c)) = &step.event {
+        // An unanswered assignment may still have been processed (`Controller::unanswered`).
+        if let pmacwd_trace::TraceEvent::Model(pmacwd_specs::vocab::event::Event::Command(c))
+        | pmacwd_trace::TraceEvent::Unanswered { command: c, .. } = &step.event
+        {
             out_of_range |= lanes::assigns_out_of_range(spec, c);
         }
         seen |= step.expect.status_set.iter().any(|n| n == "rti_reentry");
@@ -441,22 +444,24 @@ fn diagnose(lanes: &[Lane], rti_reentry_observed: bool) -> Option<Diagnosis> {
         // UM p.236: host commands are processed in the background, so a background that stops
         // completing answers nothing from that moment, and the counter runs out only later: a
         // card silent at the end may be starving whenever its silence began (issue 36). The
-        // model answers a command at once (MODEL, `Controller::host_command`), so the search
-        // finds a starvation trip only where the counter could run out before the first
-        // unanswered command; the diagnosis does not rule it out for that.
+        // search has that rule (`Controller::unanswered`), but a host log times a silence
+        // only as well as its stamps do: the diagnosis names what the explanations show and
+        // rules out nothing they do not.
         d.possible.push(format!(
-            "{STARVED}: not in the explanations the model gives, since the card fell silent sooner than its \
-             counter could run out from the last value read plus the hardware delay; but host commands are \
-             processed in the background (UM p.236), so a starved background answers nothing from the moment \
-             it stops completing and trips only when the counter has run out, after the first unanswered \
-             command"
+            "{STARVED}: not in the explanations the search found; host commands are processed in the \
+             background (UM p.236), so a starved background answers nothing from the moment it stops \
+             completing and trips only when the counter has run out"
         ));
     }
     if has(TripCause::Undervoltage) {
         d.possible.push(format!("{UNDERVOLTAGE}: a host log cannot rule it out"));
     }
     if alive.iter().flat_map(|l| l.cands.iter()).any(|c| !c.card.tripped()) {
-        d.possible.push("no trip at all: nothing after this point shows the card silent".into());
+        d.possible.push(
+            "no trip at all: the card may still run, silent only while its background is starved (UM p.236), \
+             or nothing after this point shows it silent"
+                .into(),
+        );
     }
     Some(d)
 }

@@ -233,6 +233,10 @@ fn read_only(step: &Step) -> bool {
     matches!(
         step.event,
         TraceEvent::Model(Event::Command(HostCommand::GlobalStatus | HostCommand::ReadI(_) | HostCommand::ReadHex(_)))
+            | TraceEvent::Unanswered {
+                command: HostCommand::GlobalStatus | HostCommand::ReadI(_) | HostCommand::ReadHex(_),
+                ..
+            }
     )
 }
 
@@ -277,6 +281,7 @@ impl Reader {
                 let resets = matches!(
                     step.event,
                     TraceEvent::Restart
+                        | TraceEvent::RestartPossible
                         | TraceEvent::Model(Event::Reset(_))
                         | TraceEvent::Model(Event::Command(HostCommand::Reset | HostCommand::Reinitialize))
                         | TraceEvent::Model(Event::ClearRtiReentry)
@@ -299,6 +304,19 @@ impl Reader {
                     }
                 }
                 in_window = false;
+                continue;
+            }
+            if let TraceEvent::Unanswered { wait_cycles, .. } = step.event {
+                // A read the host gave up on: the card was tripped, or its background starved
+                // for the wait (UM p.236); the wait runs the counter down as a short gap does.
+                if in_window && h.silent.is_none() {
+                    h.silent = Some(true);
+                }
+                later_cycles = later_cycles.saturating_add(wait_cycles);
+                match h.shift.checked_add(wait_cycles).filter(|s| *s <= SHIFT_MAX_CYCLES) {
+                    Some(s) if in_window => h.shift = s,
+                    _ => in_window = false,
+                }
                 continue;
             }
             let TraceEvent::Model(Event::Command(cmd)) = &step.event else { break };
@@ -674,7 +692,11 @@ impl Lane {
                         }
                     }
                 }
-                TraceEvent::Restart => {
+                TraceEvent::Restart | TraceEvent::RestartPossible => {
+                    if step.event == TraceEvent::RestartPossible {
+                        // The log allows the card to have gone on without a reset.
+                        results.push((cand.clone(), Reply::None));
+                    }
                     for reset in restart_variants() {
                         let mut card = cand.card.clone();
                         card.apply(cfg, &Event::Reset(reset));
@@ -695,6 +717,47 @@ impl Lane {
                         Reply::None
                     }) {
                         results.push(c);
+                    }
+                }
+                TraceEvent::Unanswered { command, wait_cycles } => {
+                    // UM p.236: no background cycle processed the command while the host
+                    // waited (a tripped card's wait changes nothing, UM p.215).
+                    let wait = |card: &mut Controller| card.unanswered(cfg, *wait_cycles);
+                    // The wait's node follows the pins `both_ends` may record (the counter as
+                    // the command found it).
+                    let after_pins = |(mut c, reply): (Cand, Reply), late: bool| {
+                        c.node = c.node.take().map(|p| {
+                            Arc::new(Node {
+                                parent: Some(p),
+                                event: event_no,
+                                kind: NodeKind::Wait { cycles: *wait_cycles, late },
+                            })
+                        });
+                        (c, reply)
+                    };
+                    results.extend(both_ends(&cand, event_no, true, wait).into_iter().map(|r| after_pins(r, false)));
+                    // MODEL: a card that did not see the host's flush processes the command
+                    // at its next background cycle; where that changes the card, it is tried
+                    // right after the wait as well.
+                    let command = Event::Command(command.clone());
+                    let mut late = cand.card.clone();
+                    late.unanswered(cfg, *wait_cycles);
+                    let waited = late.clone();
+                    late.apply(cfg, &command);
+                    normalize(&mut late);
+                    let mut unchanged = waited;
+                    normalize(&mut unchanged);
+                    if !late.tripped() && late != unchanged {
+                        let processed = |card: &mut Controller| {
+                            let reply = card.unanswered(cfg, *wait_cycles);
+                            if !card.tripped() {
+                                card.apply(cfg, &command);
+                            }
+                            reply
+                        };
+                        results.extend(
+                            both_ends(&cand, event_no, true, processed).into_iter().map(|r| after_pins(r, true)),
+                        );
                     }
                 }
                 TraceEvent::Model(Event::Background) if !cand.card.background_possible() => {
@@ -841,7 +904,7 @@ pub fn search(
     // card of the bands (`words`): only the card already searched.
     // The first such reply depends only on which pairs of bits 13 and 12 the lane's readings
     // allow: the capture is read once per set of pairs, not once per lane.
-    let mut first_impossible: Vec<([bool; 4], Option<u64>)> = Vec::new();
+    let mut first_impossible: Vec<(super::words::Rules, Option<u64>)> = Vec::new();
     let mut beyond = Vec::with_capacity(lanes.len());
     for l in lanes.iter_mut() {
         let Some(d) = l.death.as_mut() else {
@@ -849,7 +912,7 @@ pub fn search(
             continue;
         };
         if !d.whatever_the_card {
-            let pairs = super::words::engine_pairs(&l.cfg);
+            let pairs = super::words::rules(&l.cfg);
             let at = match first_impossible.iter().find(|(p, _)| *p == pairs) {
                 Some((_, at)) => *at,
                 None => {

@@ -54,11 +54,21 @@ pub struct Evidence {
     configured: u16,
 }
 
+/// The host command of a step: one the card answered, or one the host gave up on, which the
+/// card may still have processed after the wait (`Controller::unanswered`): the rules here,
+/// which hold whatever the timing, take both as the command.
+fn command_of(step: &pmacwd_trace::Step) -> Option<&HostCommand> {
+    match &step.event {
+        TraceEvent::Model(Event::Command(c)) | TraceEvent::Unanswered { command: c, .. } => Some(c),
+        _ => None,
+    }
+}
+
 /// Whether `step` changes I40 (a write, `I40=*`, `$$$***`, a memory write, or a command the
 /// model cannot follow that writes it): reads after it say nothing of the saved value.
 fn writes_i40(step: &pmacwd_trace::Step) -> bool {
-    match &step.event {
-        TraceEvent::Model(Event::Command(c)) => match c {
+    match command_of(step) {
+        Some(c) => match c {
             HostCommand::WriteI(40, _)
             | HostCommand::WriteIMemory(40, _)
             | HostCommand::DefaultI(40)
@@ -66,7 +76,7 @@ fn writes_i40(step: &pmacwd_trace::Step) -> bool {
             HostCommand::Card { forgets: Some(r), .. } => r.numbers().any(|n| n == 40),
             _ => false,
         },
-        _ => false,
+        None => false,
     }
 }
 
@@ -162,6 +172,7 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
     let mut freeze = Freeze::default();
     // The status read that showed bit 13 (a checksum error) since the last reset.
     let mut checksum_error: Option<usize> = None;
+    let mut outlived = Outlived::new(spec, &source, &import)?;
     while let Some((line, step)) = source.next_step()? {
         if let Some(why) = read_back.step(spec, line, &step) {
             return Ok(Some(why));
@@ -169,10 +180,12 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
         if let Some(thawed) = freeze.step(spec, line, &step) {
             return Ok(Some(thawed.why(line)));
         }
-        let resets = match &step.event {
-            TraceEvent::Restart => true,
-            TraceEvent::Model(Event::Reset(_)) => true,
-            TraceEvent::Model(Event::Command(c)) => match c {
+        if let Some(why) = outlived.step(spec, line, &step) {
+            return Ok(Some(why));
+        }
+        let resets = match (&step.event, command_of(&step)) {
+            (TraceEvent::Restart | TraceEvent::RestartPossible | TraceEvent::Model(Event::Reset(_)), _) => true,
+            (_, Some(c)) => match c {
                 HostCommand::Reset | HostCommand::Reinitialize => true,
                 // A command the model cannot follow may be a memory write (`WX:$25,...`, an
                 // M-variable pointed at X:$25): the rule stops there.
@@ -231,6 +244,79 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
     Ok(None)
 }
 
+/// A host that waited longer for an answer than any card survives with no background cycle:
+/// the counter runs out from its reload at the latest, and the strobe stops once it has
+/// (UM p.215, SRM p.57); past the hardware delay the card trips (UM p.215), and a tripped card
+/// does not communicate until it is reset. Host commands are processed in the background (UM
+/// p.236), so a wait that long without an answer means no background cycle in it: any answer
+/// after it with no reset between is no card's, whatever its timing and tolerances.
+struct Outlived {
+    /// The highest reload the card's I40 gives under either reading (UM p.215, SRM p.57), or
+    /// I40's highest value where the log does not say it or writes it.
+    reload_max: u64,
+    /// The longest hardware delay any reading admits: a full period of the slowest strobe
+    /// UM p.215's "approximately 25 Hz" allows (20 Hz), in servo cycles.
+    delay_max: u64,
+    /// The line of the wait the card cannot have outlived, since the last reset.
+    tripped_at: Option<(usize, u32)>,
+}
+
+impl Outlived {
+    fn new(spec: &Spec, source: &Source, import: &ImportAs<'_>) -> Result<Outlived, SpecError> {
+        let card = source.card_as(import);
+        let cfg = pmacwd_specs::config::ModelConfig::from_spec(
+            spec,
+            source.configuration(),
+            &spec.profiles.default_profile(),
+        )?;
+        let servo_hz = card.and_then(|c| c.servo_hz).unwrap_or(cfg.servo_hz);
+        let reload_max = match card.and_then(|c| c.i40) {
+            Some(0) => 4096,
+            Some(v) => v.max(0) as u64,
+            None => cfg.i40_range.1.max(0) as u64,
+        };
+        Ok(Outlived { reload_max, delay_max: u64::from(servo_hz).div_ceil(20), tripped_at: None })
+    }
+
+    fn step(&mut self, spec: &Spec, line: usize, step: &pmacwd_trace::Step) -> Option<String> {
+        let _ = spec;
+        if writes_i40(step) {
+            // The reload is the new value's from here: take the highest I40 can be.
+            self.reload_max = self.reload_max.max(65_535);
+        }
+        match (&step.event, command_of(step)) {
+            (TraceEvent::Restart | TraceEvent::RestartPossible | TraceEvent::Model(Event::Reset(_)), _)
+            | (_, Some(HostCommand::Reset | HostCommand::Reinitialize)) => {
+                self.tripped_at = None;
+                return None;
+            }
+            _ => {}
+        }
+        if let TraceEvent::Unanswered { wait_cycles, .. } = step.event {
+            // Counter, one cycle past it (below zero), the delay, and the cycle that trips.
+            if u64::from(wait_cycles) > self.reload_max + self.delay_max + 2 && self.tripped_at.is_none() {
+                self.tripped_at = Some((line, wait_cycles));
+            }
+            return None;
+        }
+        let answered =
+            matches!(step.expect.reply.as_deref(), Some(r) if r != "(silence)") || step.expect.tripped == Some(false);
+        match self.tripped_at {
+            Some((at, wait)) if answered && matches!(step.event, TraceEvent::Model(Event::Command(_))) => {
+                Some(format!(
+                    "line {line}: the card answered, where at line {at} the host waited {wait} servo cycles for an \
+                 answer that did not come: host commands are processed in the background (UM p.236), and no card \
+                 runs that long without a background cycle (its reload of at most {} plus a hardware delay of at \
+                 most {} cycles) without tripping; a tripped card does not communicate until it is reset (UM \
+                 p.215), and no reset comes between, whatever the timing",
+                    self.reload_max, self.delay_max
+                ))
+            }
+            _ => None,
+        }
+    }
+}
+
 /// Whether a command the model cannot follow may write memory: an assignment (an M-variable
 /// may point at any word, SRM p.57: I41 does not stop it) or a `W` memory write.
 fn may_write_memory(text: &str) -> bool {
@@ -287,11 +373,21 @@ struct ReadBack {
 impl ReadBack {
     fn step(&mut self, spec: &Spec, line: usize, step: &pmacwd_trace::Step) -> Option<String> {
         use pmacwd_specs::vocab::command::{VarRange, RULED_I_VARIABLES};
-        let TraceEvent::Model(event) = &step.event else {
-            if matches!(step.event, TraceEvent::Restart) {
-                *self = ReadBack::default();
+        // A command the host gave up on is read as a command not answered: the card may have
+        // processed it after the wait.
+        let unanswered;
+        let event = match &step.event {
+            TraceEvent::Model(event) => event,
+            TraceEvent::Unanswered { command, .. } => {
+                unanswered = Event::Command(command.clone());
+                &unanswered
             }
-            return None;
+            _ => {
+                if matches!(step.event, TraceEvent::Restart | TraceEvent::RestartPossible) {
+                    *self = ReadBack::default();
+                }
+                return None;
+            }
         };
         let answered = !matches!(step.expect.reply.as_deref(), Some("(silence)" | "(timeout)"));
         let number = || step.expect.reply.as_deref().and_then(|r| r.trim().parse::<i64>().ok());
@@ -426,16 +522,13 @@ impl Thawed {
 impl Freeze {
     /// Reads one step; the X:$1080 read no card answers here, if this is one.
     pub fn step(&mut self, spec: &Spec, line: usize, step: &pmacwd_trace::Step) -> Option<Thawed> {
-        match &step.event {
-            TraceEvent::Restart
-            | TraceEvent::Model(Event::Reset(_))
-            | TraceEvent::Model(Event::Command(HostCommand::Reset | HostCommand::Reinitialize)) => {
+        match (&step.event, command_of(step)) {
+            (TraceEvent::Restart | TraceEvent::RestartPossible | TraceEvent::Model(Event::Reset(_)), _)
+            | (_, Some(HostCommand::Reset | HostCommand::Reinitialize)) => {
                 *self = Freeze::default();
                 return None;
             }
-            TraceEvent::Model(Event::Command(HostCommand::Card { text, .. } | HostCommand::Unrecognized(text)))
-                if may_write_memory(text) =>
-            {
+            (_, Some(HostCommand::Card { text, .. } | HostCommand::Unrecognized(text))) if may_write_memory(text) => {
                 self.frozen = None;
             }
             _ => {}

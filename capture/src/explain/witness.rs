@@ -232,6 +232,9 @@ pub fn build(
                         break;
                     }
                     NodeKind::Restart(_) | NodeKind::Start { .. } => break,
+                    // The host's wait ran the counter down with no background cycle (a read
+                    // after it comes from a running card).
+                    NodeKind::Wait { cycles, .. } => v += i64::from(*cycles),
                     NodeKind::Pin(_) | NodeKind::CounterPin(_) => {}
                 }
             }
@@ -331,9 +334,11 @@ pub fn build(
                 }
                 push_events(&mut steps, sim.events.unwrap_or_default(), step.note.clone());
             }
-            TraceEvent::Restart => {
+            TraceEvent::Restart | TraceEvent::RestartPossible => {
                 let Some(NodeKind::Restart(reset)) = nodes.get(at).filter(|n| n.event == event).map(|n| &n.kind) else {
-                    story.push(format!("line {line}: (no choice recorded for this restart)"));
+                    if step.event == TraceEvent::Restart {
+                        story.push(format!("line {line}: (no choice recorded for this restart)"));
+                    }
                     continue;
                 };
                 let was = if card.tripped() { "the tripped card" } else { "the card" };
@@ -359,6 +364,37 @@ pub fn build(
                     expect: step.expect.clone(),
                     note: step.note.clone(),
                 }));
+            }
+            TraceEvent::Unanswered { command, wait_cycles } => {
+                let late = nodes[at.min(nodes.len())..]
+                    .iter()
+                    .take_while(|n| n.event == event)
+                    .any(|n| matches!(n.kind, NodeKind::Wait { late: true, .. }));
+                let running = !card.tripped();
+                card.unanswered(cfg, *wait_cycles);
+                now += u64::from(*wait_cycles);
+                // A wait of 0 (a timeout the log did not stamp) tells nothing worth a line.
+                if running && (*wait_cycles > 0 || card.tripped()) {
+                    story.push(format!(
+                        "line {line}: `{command}` was not answered: no background cycle, which processes host \
+                         commands (UM p.236), completed in the {wait_cycles} servo cycles the host waited{}",
+                        if card.tripped() { ", and the card tripped meanwhile (UM p.215)" } else { "" }
+                    ));
+                }
+                steps.push(WitnessStep::new(step.clone()));
+                if late && !card.tripped() {
+                    let e = Event::Command(command.clone());
+                    card.apply(cfg, &e);
+                    story.push(format!(
+                        "line {line}: the card processed `{command}` after the host gave up (its answer went \
+                         unread)"
+                    ));
+                    steps.push(WitnessStep::new(Step {
+                        event: TraceEvent::Model(e),
+                        expect: Expect::default(),
+                        note: Some("processed after the host gave up waiting; its answer is not in the log".into()),
+                    }));
+                }
             }
             TraceEvent::Run { cycles } => {
                 let mut s = Sim::new(cfg, card.clone(), false);
@@ -423,7 +459,11 @@ fn strobe_and_trip(cfg: &ModelConfig, card: &Controller, events: &[TraceEvent]) 
                 }
             }
             // Gap plans write only model events.
-            TraceEvent::Run { .. } | TraceEvent::Elapsed { .. } | TraceEvent::Restart => {}
+            TraceEvent::Run { .. }
+            | TraceEvent::Elapsed { .. }
+            | TraceEvent::Restart
+            | TraceEvent::RestartPossible
+            | TraceEvent::Unanswered { .. } => {}
         }
         if trip.is_some() {
             break;
@@ -452,13 +492,14 @@ pub fn run(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> Result<
                 return Err(format!("witness step {}: a background cycle the model cannot complete", i + 1))
             }
             TraceEvent::Model(e) => card.apply(cfg, e),
+            TraceEvent::Unanswered { wait_cycles, .. } => card.unanswered(cfg, *wait_cycles),
             TraceEvent::Run { cycles } => {
                 let mut s = Sim::new(cfg, card.clone(), false);
                 s.greedy(*cycles);
                 card = s.card;
                 pmacwd_specs::vocab::event::Reply::None
             }
-            TraceEvent::Elapsed { .. } | TraceEvent::Restart => {
+            TraceEvent::Elapsed { .. } | TraceEvent::Restart | TraceEvent::RestartPossible => {
                 return Err(format!("witness step {}: `{}` left unresolved", i + 1, step.event()))
             }
         };
@@ -591,12 +632,17 @@ pub fn of_lane(
 ) -> Result<(String, Witness), SpecError> {
     let label = lanes::label(&lane.def.choices);
     let tolerances = lane.tolerances;
-    // Prefer a running card at the end, then the shallowest X:$25; a merged candidate keeps
-    // one history, so the first whose witness reproduces the capture is taken.
+    // Prefer a card at the end that is as the log's last command found it (tripped if it went
+    // unanswered: a starved card that has not tripped is silent too, UM p.236, but a log that
+    // ends silent is told as a trip first), then the shallowest X:$25; a merged candidate
+    // keeps one history, so the first whose witness reproduces the capture is taken.
+    let ends_silent = ends_silent(spec, path, import_configuration)?;
     let mut cands: Vec<&super::search::Cand> = lane.cands.iter().filter(|c| c.node.is_some()).collect();
     // A starved background before a supply dip: both are possible where the card fell silent,
     // and the diagnosis lists both; the story tells the one the log's readings point at.
-    cands.sort_by_key(|c| (c.card.tripped(), c.card.trip == Some(TripCause::Undervoltage), -c.card.counter_min, c.cpu));
+    cands.sort_by_key(|c| {
+        (c.card.tripped() != ends_silent, c.card.trip == Some(TripCause::Undervoltage), -c.card.counter_min, c.cpu)
+    });
     let mut first: Option<Witness> = None;
     for c in cands.iter().take(WITNESS_TRIES) {
         let node = c.node.clone().expect("filtered");
@@ -612,6 +658,20 @@ pub fn of_lane(
     first
         .map(|w| (label, w))
         .ok_or_else(|| SpecError::whole_file(path, "the second search found no explanation the first one found"))
+}
+
+/// Whether the capture's last command went unanswered.
+fn ends_silent(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> Result<bool, SpecError> {
+    let mut source = Source::open_with(spec, path, import_configuration)?;
+    let mut silent = false;
+    while let Some((_, step)) = source.next_step()? {
+        match step.event {
+            TraceEvent::Unanswered { .. } => silent = true,
+            TraceEvent::Model(Event::Command(_)) => silent = step.expect.reply.as_deref() == Some("(silence)"),
+            _ => {}
+        }
+    }
+    Ok(silent)
 }
 
 /// How many end candidates are tried for a witness that reproduces the capture.

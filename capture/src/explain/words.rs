@@ -8,11 +8,15 @@
 //! is not searched again under the other cards of the bands (`search::search`): none can get
 //! past it. The pairs are found by building each engine state and asking the model's own
 //! status word, so a rule changed in the model changes them here.
+//!
+//! Likewise bit 22 without bit 9 under the sticky reading of bit 9 ([`bit22_implies_bit9`],
+//! checked on the model by this module's test).
 
 use crate::replay::{ImportAs, Source};
 use pmacwd_model::controller::Controller;
 use pmacwd_specs::check::ChecksumTarget;
 use pmacwd_specs::config::ModelConfig;
+use pmacwd_specs::profiles::RtiWarningLatch;
 use pmacwd_specs::status::WordId;
 use pmacwd_specs::vocab::reply_text::{self, StatusReply};
 use pmacwd_specs::{Spec, SpecError};
@@ -45,8 +49,28 @@ fn pair(cfg: &ModelConfig, (x, y): (u32, u32)) -> usize {
     bit(cfg.layout.checksum_error) << 1 | bit(cfg.layout.prom_checksum_active)
 }
 
+/// Whether, under `cfg`'s reading of bit 9, bit 22 set goes with bit 9 set in every word a card
+/// shows. Both are set by the same RTI overrun (SRM p.289-290); under the sticky reading of
+/// bit 9 (SRM p.290: "this bit is set ... and stays set until the card is reset") nothing but
+/// a reset clears bit 9, while bit 22 is cleared by a reset or a host's write (SRM p.289). So
+/// a word with bit 22 and without bit 9 is no sticky card's, whatever its timing or
+/// tolerances.
+pub fn bit22_implies_bit9(cfg: &ModelConfig) -> bool {
+    cfg.profile.choices.rti_warning_latch == RtiWarningLatch::Sticky
+}
+
+/// What [`first_impossible_reply`] depends on: the (bit 13, bit 12) pairs and whether bit 22
+/// implies bit 9.
+pub type Rules = ([bool; 4], bool);
+
+/// The [`Rules`] of `cfg`'s readings.
+pub fn rules(cfg: &ModelConfig) -> Rules {
+    (engine_pairs(cfg), bit22_implies_bit9(cfg))
+}
+
 /// The event number (as the search counts them) of the first `???` reply of the capture whose
-/// bits 13 and 12 no state of the checksum engine gives under `cfg`'s readings, if any.
+/// bits 13 and 12 no state of the checksum engine gives under `cfg`'s readings, or whose bit
+/// 22 comes without bit 9 where it implies it ([`bit22_implies_bit9`]), if any.
 pub fn first_impossible_reply(
     spec: &Spec,
     path: &Path,
@@ -54,16 +78,26 @@ pub fn first_impossible_reply(
     cfg: &ModelConfig,
 ) -> Result<Option<u64>, SpecError> {
     let possible = engine_pairs(cfg);
-    if possible.iter().all(|p| *p) {
+    let sticky = bit22_implies_bit9(cfg);
+    if possible.iter().all(|p| *p) && !sticky {
         return Ok(None);
     }
+    let bit = |(x, y): (u32, u32), (word, n): (WordId, u8)| {
+        (match word {
+            WordId::X => x,
+            WordId::Y => y,
+        }) & (1 << n)
+            != 0
+    };
     // Events counted from 1, one per step, as `search::Reader` counts them.
     let mut source = Source::open_with(spec, path, import)?;
     let mut events = 0u64;
     while let Some((_, step)) = source.next_step()? {
         events += 1;
         if let Some(Ok(StatusReply::Words { x, y })) = step.expect.reply.as_deref().map(reply_text::decode) {
-            if !possible[pair(cfg, (x, y))] {
+            let overrun_without_warning =
+                sticky && bit((x, y), cfg.layout.rti_reentry) && !bit((x, y), cfg.layout.rti_warning);
+            if !possible[pair(cfg, (x, y))] || overrun_without_warning {
                 return Ok(Some(events));
             }
         }
@@ -81,6 +115,32 @@ mod tests {
         let mut choices = spec.profiles.default_profile().choices;
         choices.bit12_meaning = meaning;
         ModelConfig::from_spec(&spec, "host-log", &Profile { name: String::new(), choices }).unwrap()
+    }
+
+    #[test]
+    fn under_the_sticky_reading_of_bit_9_the_model_never_shows_bit_22_without_it() {
+        // Checked on the model, not argued: an overrun, the host's clear of bit 22, more
+        // cycles under a light load.
+        use pmacwd_specs::vocab::event::Event;
+        let spec = Spec::embedded().unwrap();
+        for latch in [RtiWarningLatch::Level, RtiWarningLatch::Sticky] {
+            let mut choices = spec.profiles.default_profile().choices;
+            choices.rti_warning_latch = latch;
+            let cfg = ModelConfig::from_spec(&spec, "host-log", &Profile { name: String::new(), choices }).unwrap();
+            let mut card = Controller::power_on(&cfg);
+            card.apply(&cfg, &Event::Load(crate::explain::sim::overrun_load(&cfg, card.i8)));
+            let mut seen_without = false;
+            for step in 0..200 {
+                if step == 100 {
+                    card.apply(&cfg, &Event::Load(crate::explain::sim::light_load()));
+                }
+                card.servo_cycle(&cfg);
+                let (x, y) = card.status_words(&cfg);
+                let on = |(w, n): (WordId, u8)| (if w == WordId::X { x } else { y }) & (1 << n) != 0;
+                seen_without |= on(cfg.layout.rti_reentry) && !on(cfg.layout.rti_warning);
+            }
+            assert_eq!(seen_without, !bit22_implies_bit9(&cfg), "{latch:?}");
+        }
     }
 
     #[test]

@@ -239,6 +239,12 @@ pub struct Exchange {
     /// The host time of the exchange as an interval in ns, [command stamp, reply stamp (or the
     /// command's) + the stamps' resolution], when the log is stamped.
     pub at: Option<(i128, i128)>,
+    /// The shortest time (ns) the host can have waited for the reply: from the command's stamp
+    /// plus its resolution to the reply's stamp; `None` when the reply line is not stamped.
+    pub waited_ns_min: Option<i128>,
+    /// The command line's own stamp as an interval (its stamp to its stamp plus the
+    /// resolution), when the log is stamped: where a line the host gave up on was sent.
+    pub sent_at: Option<(i128, i128)>,
     pub commands: Vec<Exchanged>,
 }
 
@@ -400,12 +406,15 @@ impl LogParser {
                 let Some((cmd_line, cmd_column, cmd_text, mut at)) = self.pending.take() else {
                     return Err(self.err(line, column, "a reply line without a command before it".into()));
                 };
+                let mut waited_ns_min = None;
+                let sent_at = at;
                 if let (Some((lo, hi)), Some((t, res))) = (at, time) {
+                    waited_ns_min = Some((t - hi).max(0));
                     at = Some((lo, hi.max(t + res)));
                 }
                 self.commands += 1;
                 let commands = self.split(cmd_line, cmd_column, &cmd_text, line, column, &text, cut.as_ref())?;
-                Ok(Some(Exchange { line: cmd_line, reply_line: line, at, commands }))
+                Ok(Some(Exchange { line: cmd_line, reply_line: line, at, waited_ns_min, sent_at, commands }))
             }
         }
     }
@@ -847,6 +856,9 @@ pub struct Summary {
     /// Unbounded `elapsed` steps before a command that timed out in a log without stamps: the
     /// host waited, for how long the log does not say.
     pub waits_unknown: u64,
+    /// Unanswered commands whose wait the stamps time (the reply line stamped): no background
+    /// cycle completed in that many servo cycles unless the card was tripped (UM p.236).
+    pub waits_timed: u64,
     /// `elapsed` steps bounded by host time alone before answered commands
     /// ([`Placement::HostTime`]).
     pub placed_by_host_time: u64,
@@ -979,6 +991,14 @@ pub struct Importer {
     placement: Placement,
     /// Cycles already given to silent-gap steps since the last read or `$$$`: (min, max).
     gap: (u64, u64),
+    /// An unstamped timeout's unbounded wait was given, with nothing answered since.
+    unknown_wait_open: bool,
+    /// The next X:$0 read follows a `possible_restart` with no read to place it: its count
+    /// bounds nothing (the card may or may not have restarted since the read before).
+    count_from_zero: bool,
+    /// Servo cycles of the last unanswered command's wait (an `unanswered` step), which the
+    /// next gap placed by host time from that command does not give again.
+    waited: u64,
     /// The steps from the first answer after a silence on, until an X:$0 read (or the log's
     /// end) says whether the card restarted before that answer.
     held: Option<Held>,
@@ -1022,6 +1042,9 @@ impl Importer {
             silent: false,
             anchor: None,
             gap: (0, 0),
+            waited: 0,
+            count_from_zero: false,
+            unknown_wait_open: false,
             held: None,
             timeouts: 0,
             timeouts_when_held: 0,
@@ -1084,8 +1107,10 @@ impl Importer {
                 h.steps.extend(steps);
                 if h.steps.len() > HELD_STEPS_MAX {
                     let held = self.held.take().expect("checked");
-                    // The next read counts from an unknown time since the reset.
+                    // The next read counts from an unknown time since the reset, or, if there
+                    // was none, since the read before: any count from 0.
                     self.last_read = None;
+                    self.count_from_zero = true;
                     self.summary.restarts += 1;
                     return Ok(self.restarted(held, None, "no X:$0 read came within the steps held for one"));
                 }
@@ -1133,19 +1158,24 @@ impl Importer {
     /// their leading gap (host time since the last silent command) from 0, since the reset may
     /// have come anywhere in it, and at most `v` cycles when a read bounds it.
     /// (The restart is counted by the caller: a read that shows it has counted it already.)
+    /// Without a read (`v` is `None`) the reset is only possible: a card whose background was
+    /// starved answers again once it runs (UM p.236), with no reset (a `possible_restart`).
     fn restarted(&mut self, held: Held, v: Option<u64>, shown: &str) -> Vec<(usize, Step)> {
         let Held { line, steps } = held;
-        let mut out = vec![(
-            line,
-            Step {
-                event: TraceEvent::Restart,
-                expect: Expect::default(),
-                note: Some(format!(
-                    "the card answered after a silence: a tripped card does not communicate (UM p.215), so it was \
-                     reset (INIT/ or power, unseen) before this answer; {shown}"
-                )),
-            },
-        )];
+        let note = if v.is_some() {
+            format!(
+                "the card answered after a silence: a tripped card does not communicate (UM p.215), so it was \
+                 reset (INIT/ or power, unseen) before this answer; {shown}"
+            )
+        } else {
+            format!(
+                "the card answered after a silence: a tripped card does not communicate until it is reset (UM \
+                 p.215), a starved one once its background runs again (UM p.236), so it may have been reset \
+                 (INIT/ or power, unseen) before this answer; {shown}"
+            )
+        };
+        let event = if v.is_some() { TraceEvent::Restart } else { TraceEvent::RestartPossible };
+        let mut out = vec![(line, Step { event, expect: Expect::default(), note: Some(note) })];
         let leading = steps.iter().take_while(|(_, s)| matches!(s.event, TraceEvent::Elapsed { .. })).count();
         if leading == 0 {
             let gap = elapsed_steps(0, v, Some("between the unseen reset and the answer after it".into()));
@@ -1186,8 +1216,19 @@ impl Importer {
         self.summary.exchanges += 1;
         self.summary.stamped = self.parser.stamped();
         let mut steps = Vec::new();
-        if ex.commands.iter().any(|c| c.answer == Answer::Timeout) {
+        let timed_out = ex.commands.iter().any(|c| c.answer == Answer::Timeout);
+        // An unstamped timeout that follows another with nothing answered between, on a line
+        // of reads: its unknown wait adds nothing the first one's unbounded gap does not give
+        // (a wait of 0 changes no card, and two gaps of any length are one), so it gets none.
+        let read_only_line = ex
+            .commands
+            .iter()
+            .all(|c| matches!(c.command, HostCommand::GlobalStatus | HostCommand::ReadI(_) | HostCommand::ReadHex(_)));
+        let wait_given = self.silent && self.unknown_wait_open && read_only_line;
+        if timed_out {
             self.silent = true;
+        } else {
+            self.unknown_wait_open = false;
         }
         let reads_counter = ex.commands.iter().any(Self::is_counter_read);
         // How far host time places this exchange after the last X:$0 read: what placing it at
@@ -1210,14 +1251,20 @@ impl Importer {
             ));
         }
         let by_host_time = self.silent || self.placement == Placement::HostTime;
+        // A line the host gave up on was sent at its own stamp; its wait is its own step.
+        let placed_at = if timed_out { ex.sent_at } else { ex.at };
         if by_host_time && !reads_counter {
-            if let (Some(now), Some(anchor)) = (ex.at, self.anchor) {
+            if let (Some(now), Some(anchor)) = (placed_at, self.anchor) {
                 // The card is silent, or the log is placed by host time: no counter places
                 // this command, the host's clock does.
+                // The wait of an unanswered command before (its own step) is not given twice:
+                // the shortest time counts from the end of its reply line already, the longest
+                // from its command line.
+                let waited = std::mem::take(&mut self.waited);
                 let lo = cycles_in(now.0 - anchor.1, self.servo_hz, false);
-                let hi = cycles_in(now.1 - anchor.0, self.servo_hz, true);
+                let hi = cycles_in(now.1 - anchor.0, self.servo_hz, true).saturating_sub(waited).max(lo);
                 self.gap = (self.gap.0.saturating_add(lo), self.gap.1.saturating_add(hi));
-                self.anchor = Some(now);
+                self.anchor = ex.at;
                 if self.silent {
                     self.summary.silent_gaps += 1;
                 } else {
@@ -1235,7 +1282,7 @@ impl Importer {
                 ));
             }
         }
-        if ex.at.is_none() && !reads_counter && ex.commands.iter().any(|c| c.answer == Answer::Timeout) {
+        if ex.at.is_none() && !reads_counter && timed_out && !wait_given {
             // A timeout means the host waited; without stamps the wait is unknown, not zero
             // (issue 36): a card that answered and then fell silent may have starved meanwhile
             // (UM p.236) and tripped (UM p.215). The next X:$0 read's count then bounds only
@@ -1243,6 +1290,7 @@ impl Importer {
             // docs/replay.md).
             self.gap.1 = u64::MAX;
             self.summary.waits_unknown += 1;
+            self.unknown_wait_open = true;
             steps.extend(elapsed_steps(
                 0,
                 None,
@@ -1251,6 +1299,22 @@ impl Importer {
                         .into(),
                 ),
             ));
+        }
+        // UM p.236: the background processes host commands, so a line the host gave up on
+        // either found the card tripped (UM p.215) or waited with no background cycle: an
+        // `unanswered` step with the wait the stamps show (the shortest: the command's stamp
+        // plus its resolution to the reply's), 0 when the reply is not stamped (an unknown
+        // wait, of which no part is known).
+        let mut wait = ex
+            .waited_ns_min
+            .filter(|_| timed_out)
+            .map_or(0, |ns| cycles_in(ns, self.servo_hz, false))
+            .min(u64::from(STEP_CYCLES_MAX));
+        if timed_out && ex.at.is_some() {
+            // Given by this step; the next gap placed by host time from this command, or the
+            // next X:$0 read, counts it as given.
+            self.waited = wait;
+            self.gap = (self.gap.0.saturating_add(wait), self.gap.1.saturating_add(wait));
         }
         for c in &ex.commands {
             self.summary.commands += 1;
@@ -1320,6 +1384,7 @@ impl Importer {
                 self.silent = false;
                 self.anchor = ex.at;
                 self.gap = (0, 0);
+                self.waited = 0;
                 let shown = match &c.answer {
                     Answer::Value(r) => r.as_str(),
                     Answer::Ack => "",
@@ -1345,7 +1410,18 @@ impl Importer {
                     expect = Expect::default();
                 }
             }
-            steps.push(Step { event: TraceEvent::Model(Event::Command(c.command.clone())), expect, note });
+            let event = if c.answer == Answer::Timeout && !is_reset(&c.command) {
+                // The line's wait is the first command's; the card processes a line's commands
+                // in order (SRM p.37), so the others waited no longer for the same background.
+                let wait_cycles = u32::try_from(std::mem::take(&mut wait)).unwrap_or(STEP_CYCLES_MAX);
+                if wait_cycles > 0 {
+                    self.summary.waits_timed += 1;
+                }
+                TraceEvent::Unanswered { command: c.command.clone(), wait_cycles }
+            } else {
+                TraceEvent::Model(Event::Command(c.command.clone()))
+            };
+            steps.push(Step { event, expect, note });
         }
         Ok(steps)
     }
@@ -1362,6 +1438,14 @@ impl Importer {
             (v, Some(v))
         } else {
             match self.last_read {
+                None if std::mem::take(&mut self.count_from_zero) => {
+                    note = Some(
+                        "the first X:$0 read after a possible unseen restart: any number of servo cycles since \
+                         the steps before"
+                            .to_string(),
+                    );
+                    (0, None)
+                }
                 None => {
                     note = Some(format!(
                         "the first X:$0 read: the card has run an unknown time since its last restart, at least \
@@ -1443,6 +1527,7 @@ impl Importer {
         self.silent = false;
         self.anchor = ex.at;
         self.gap = (0, 0);
+        self.waited = 0;
         Ok(steps)
     }
 
