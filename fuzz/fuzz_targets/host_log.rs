@@ -23,7 +23,12 @@ fuzz_target!(|data: &[u8]| {
         Err(e) => return check_error(&e, file, newline_lines(data)),
     };
     let trace = imported.trace;
-    let commands = trace.steps.iter().filter(|s| matches!(s.event, TraceEvent::Model(Event::Command(_)))).count();
+    // A command the card answered, or one the host gave up on (`unanswered`, UM p.236).
+    let commands = trace
+        .steps
+        .iter()
+        .filter(|s| matches!(s.event, TraceEvent::Model(Event::Command(_)) | TraceEvent::Unanswered { .. }))
+        .count();
     let sent = text.lines().filter(|l| l.trim_end().starts_with("> ")).count();
     assert_eq!(commands as u64, imported.summary.commands, "not one command step per command");
     assert!(commands >= sent, "a `> ` line without a command step");
