@@ -740,21 +740,19 @@ impl Lane {
                     // at its next background cycle; where that changes the card, it is tried
                     // right after the wait as well.
                     let command = Event::Command(command.clone());
-                    let mut late = cand.card.clone();
-                    late.unanswered(cfg, *wait_cycles);
-                    let waited = late.clone();
-                    late.apply(cfg, &command);
+                    let processed = |card: &mut Controller| {
+                        let reply = card.unanswered(cfg, *wait_cycles);
+                        if !card.tripped() {
+                            card.apply(cfg, &command);
+                        }
+                        reply
+                    };
+                    let (mut waited, mut late) = (cand.card.clone(), cand.card.clone());
+                    wait(&mut waited);
+                    processed(&mut late);
+                    normalize(&mut waited);
                     normalize(&mut late);
-                    let mut unchanged = waited;
-                    normalize(&mut unchanged);
-                    if !late.tripped() && late != unchanged {
-                        let processed = |card: &mut Controller| {
-                            let reply = card.unanswered(cfg, *wait_cycles);
-                            if !card.tripped() {
-                                card.apply(cfg, &command);
-                            }
-                            reply
-                        };
+                    if late != waited {
                         results.extend(
                             both_ends(&cand, event_no, true, processed).into_iter().map(|r| after_pins(r, true)),
                         );

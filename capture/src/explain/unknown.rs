@@ -180,7 +180,7 @@ pub fn refutation(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Opti
         if let Some(thawed) = freeze.step(spec, line, &step) {
             return Ok(Some(thawed.why(line)));
         }
-        if let Some(why) = outlived.step(spec, line, &step) {
+        if let Some(why) = outlived.step(line, &step) {
             return Ok(Some(why));
         }
         let resets = match (&step.event, command_of(&step)) {
@@ -257,6 +257,8 @@ struct Outlived {
     /// The longest hardware delay any reading admits: a full period of the slowest strobe
     /// UM p.215's "approximately 25 Hz" allows (20 Hz), in servo cycles.
     delay_max: u64,
+    /// I40's highest value (`variables.yaml`, SRM p.57).
+    i40_max: u64,
     /// The line of the wait the card cannot have outlived, since the last reset.
     tripped_at: Option<(usize, u32)>,
 }
@@ -270,19 +272,20 @@ impl Outlived {
             &spec.profiles.default_profile(),
         )?;
         let servo_hz = card.and_then(|c| c.servo_hz).unwrap_or(cfg.servo_hz);
+        let i40_max = cfg.i40_range.1.max(0) as u64;
         let reload_max = match card.and_then(|c| c.i40) {
+            // UM p.215: I40 = 0 reloads 4096 (SRM p.57: 4095).
             Some(0) => 4096,
             Some(v) => v.max(0) as u64,
-            None => cfg.i40_range.1.max(0) as u64,
+            None => i40_max,
         };
-        Ok(Outlived { reload_max, delay_max: u64::from(servo_hz).div_ceil(20), tripped_at: None })
+        Ok(Outlived { reload_max, delay_max: u64::from(servo_hz).div_ceil(20), i40_max, tripped_at: None })
     }
 
-    fn step(&mut self, spec: &Spec, line: usize, step: &pmacwd_trace::Step) -> Option<String> {
-        let _ = spec;
+    fn step(&mut self, line: usize, step: &pmacwd_trace::Step) -> Option<String> {
         if writes_i40(step) {
             // The reload is the new value's from here: take the highest I40 can be.
-            self.reload_max = self.reload_max.max(65_535);
+            self.reload_max = self.reload_max.max(self.i40_max);
         }
         match (&step.event, command_of(step)) {
             (TraceEvent::Restart | TraceEvent::RestartPossible | TraceEvent::Model(Event::Reset(_)), _)
