@@ -55,6 +55,7 @@ pub fn core_config(cfg: &ModelConfig) -> core::Config {
         load: core_load(&cfg.loads[0]),
         motion: core_motion_config(&cfg.motion),
         processor: core_processor(cfg.processor),
+        other_i_writes_card_own: cfg.other_i_writes == pmacwd_specs::check::OtherIWrites::CardOwn,
     }
 }
 

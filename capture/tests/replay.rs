@@ -371,9 +371,42 @@ fn reads_of_variables_no_rule_fixes_are_the_card_s_own_and_never_compared_with_a
          > M1=5 M1\n< 5\n> WX:$2082,7\n<\n> ???\n< 000000000000\n",
     );
     assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
-    // A variable the log wrote is known from then on: a read of another value is no correct card.
-    let r = replay_log("written", "> $$$\n<\n> I130=5\n<\n> I130\n< 6\n");
+    // A variable the log wrote is known from then on, where I41 is known to leave it writable:
+    // a read of a larger value is no correct card (a value outside the range is refused or
+    // rolled over to a smaller one, UM p.243).
+    let r = replay_log("written", "> $$$\n<\n> I41\n< 0\n> I130=5\n<\n> I130\n< 6\n");
     assert!(!r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+    // Without I41 read after the reset, the card's saved I41 may lock I130 (SRM p.57): its own,
+    // not the configuration's 0, so the write may have been ignored.
+    let r = replay_log("written-i41-unread", "> $$$\n<\n> I130=5\n<\n> I130\n< 6\n");
+    assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+}
+
+#[test]
+fn a_write_outside_an_i_variable_s_range_is_refused_or_rolled_over_as_the_card_s_range_decides() {
+    // SRM p.42: each I-variable has a range; UM p.243: a value outside it is rolled over by
+    // modulo arithmetic (I3=5 gives 1), or (the reading `error`) refused with ERR003. The
+    // range of I6 is the card's own (not in variables.yaml): I6=5 refused, or rolled over to
+    // 1, then read 1, is a correct card. Both were "no correct card" (the model stored 5).
+    let text = |r: &Report| pmacwd_capture::explain::report::to_text(r);
+    let head = "> I41\n< 0\n> RHX:$0\n< 000100\n";
+    for (name, reply) in [("refused", "< ERR003\n"), ("rolled-over", "<\n")] {
+        let r = replay_log(name, &format!("{head}> I6=5\n{reply}> I6\n< 1\n> RHX:$0\n< 000110\n"));
+        assert!(r.explained(), "{name}: {}", text(&r));
+    }
+    // Rolled over, the value is smaller: a larger one is no card's, from the steps alone.
+    let r = replay_log("larger", &format!("{head}> I6=5\n<\n> I6\n< 7\n"));
+    let why = r.refuted.as_deref().unwrap_or_default();
+    assert!(why.starts_with("line 8: I6 read 7, where line 6 wrote 5, acknowledged"), "{}", text(&r));
+    // Within the values the log read of it, the value is in the range: stored exactly.
+    let log = format!("{head}> I6\n< 1\n> I6=3\n<\n> I6\n< 3\n> I6=2\n<\n> I6\n< 1\n");
+    let why = replay_log("in-range", &log).refuted.unwrap_or_default();
+    assert!(why.starts_with("line 14: I6 read 1, where line 12 wrote 2, within the values"), "{why}");
+    // Read twice with nothing between, a variable reads alike.
+    let why = replay_log("reread", &format!("{head}> I6\n< 1\n> ???\n< 000000000000\n> I6\n< 2\n"))
+        .refuted
+        .unwrap_or_default();
+    assert!(why.starts_with("line 10: I6 read 2, where line 6 read 1"), "{why}");
 }
 
 #[test]
@@ -505,6 +538,29 @@ fn a_card_answering_after_a_wait_longer_than_any_counter_s_run_is_no_card_at_the
     assert!(!r.explained());
     let why = r.refuted.as_deref().expect("a refutation whatever the timing");
     assert!(why.starts_with("line 12:") && why.contains("UM p.236"), "{why}");
+}
+
+#[test]
+fn what_the_steps_alone_refute_is_read_before_any_search_and_every_lane_dies_at_its_line() {
+    // Issue 29/36: these rules hold whatever the card, its timing and its I40, so no search
+    // can get past them; read after a failed search they cost minutes (an unstamped silence
+    // searched through on running cards: 86 s), read first nothing is searched.
+    let spec = Spec::embedded().unwrap();
+    for (log, line) in [("sluggish-past-the-counter-impossible.log", 12), ("x25-rising.log", 45)] {
+        let r = explain(&spec, &capture(log), None).unwrap();
+        let text = pmacwd_capture::explain::report::to_text(&r);
+        assert!(r.refuted_unsearched && !r.explained() && !r.undecided(), "{log}: {text}");
+        for lane in &r.lanes {
+            assert_eq!(lane.candidates_peak, 0, "{log}: {} was searched", lane.label);
+            let death = lane.death.as_ref().expect("every lane dies");
+            assert_eq!((death.line, death.whatever_the_card), (line, true), "{log}: {}", lane.label);
+        }
+        assert!(text.contains("none searched: the steps alone rule every one out"), "{text}");
+        assert!(text.contains("verdict: no correct card explains this capture"), "{text}");
+    }
+    // A log they do not refute is searched as before.
+    let r = explain(&spec, &capture("sluggish-reply.log"), None).unwrap();
+    assert!(!r.refuted_unsearched && r.lanes.iter().any(|l| l.candidates_peak > 0));
 }
 
 #[test]
@@ -699,7 +755,7 @@ fn a_correct_card_s_running_checksum_moving_between_polls_is_explained_and_its_v
     let t = pmacwd_capture::import::import(&path, &text, "host-log").unwrap();
     let kept: Vec<u32> = t.trace.steps.iter().filter_map(|s| s.expect.running_checksum).collect();
     assert_eq!(kept, [0x3A7F21, 0x3B0244, 0x0C19E7, 0x3A9E05, 0x0D4410]);
-    // MODEL (unknown::Freeze): while the engine runs, a value read twice is not refuted (a
+    // MODEL (refute::Freeze): while the engine runs, a value read twice is not refuted (a
     // running sum over zero words stays put; UM p.217 says only that the card "continually
     // computes" it).
     let r = replay_log("x1080-repeats-while-running", &text.replace("< 3B0244", "< 3A7F21"));

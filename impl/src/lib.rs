@@ -261,6 +261,10 @@ pub struct Config {
     pub motion: MotionConfig,
     /// The CPU option fitted (SRM p.289).
     pub processor: Processor,
+    /// A write of an I-variable other than I8, I40, I41 is the card's own (a real card's
+    /// range, SRM p.42, UM p.243): not stored, answered [`Reply::CardOwn`]. The emulator
+    /// stores every value.
+    pub other_i_writes_card_own: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -1126,6 +1130,10 @@ impl Core {
             40 if modulo => self.i40 = v.rem_euclid(I40_MAX + 1) as u16,
             41 if modulo => self.i41 = v.rem_euclid(I41_MAX + 1) as u8,
             8 | 40 | 41 => return Reply::Error(3),
+            _ if cfg.other_i_writes_card_own => {
+                store.forget(n);
+                return Reply::CardOwn;
+            }
             _ if store.write(n, v) => {}
             _ => return Reply::Error(3),
         }

@@ -239,6 +239,7 @@ mod kani_proofs {
             },
             motion: MotionConfig::all_in_cs1(2, kani::any::<u8>() % 4),
             processor: crate::Processor::Dsp56321,
+            other_i_writes_card_own: false,
         }
     }
 

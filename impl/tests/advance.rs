@@ -52,6 +52,7 @@ fn config() -> impl Strategy<Value = Config> {
                     load: Load { motors, plc0_units: plc0, background_units: bg },
                     motion: MotionConfig { motors: count, coordinate_systems: cs, decel_cycles: decel },
                     processor: Processor::Dsp56311,
+                    other_i_writes_card_own: false,
                 }
             },
         )

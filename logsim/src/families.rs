@@ -549,6 +549,12 @@ fn mutate(
     let mut bit22_seen: Option<u32> = None;
     let mut bit13_seen: Option<u32> = None;
     let mut last_x0: Option<(u32, f64)> = None;
+    // What the log shows of I41 and of each I-variable in the current epoch: an I-variable
+    // read back is judged only where the log shows the write took (I41 read or written since
+    // the last reset, SRM p.57: a lockout the log does not show is the card's own), and a
+    // locked write only where the log read the value it keeps.
+    let mut i41_shown: Option<(i64, u32)> = None;
+    let mut read_shown: std::collections::HashMap<u32, (i64, u32)> = std::collections::HashMap::new();
     let mut backwards = false;
     let mut certain_trip: Option<u32> = None;
     for (i, ex) in exchanges.iter().enumerate() {
@@ -615,13 +621,35 @@ fn mutate(
                         last_status = Some((x, y, ex.epoch));
                     }
                 }
+                Cmd::ReadI(41) => {
+                    if let Answer::Value(v) = answer {
+                        i41_shown = Some((v, ex.epoch));
+                    }
+                }
+                Cmd::WriteI(41, v) => i41_shown = Some((*v, ex.epoch)),
+                Cmd::WriteI(n, _) => {
+                    // A write that took changes the value; a locked one leaves it.
+                    if let Some((_, true)) = ex.written[ci] {
+                        read_shown.remove(n);
+                    }
+                }
                 Cmd::ReadI(n) => {
+                    let shown = i41_shown.filter(|(_, epoch)| *epoch == ex.epoch).is_some();
                     if let (Some((v, took)), Answer::Value(_)) = (ex.written[ci], &answer) {
-                        if took {
+                        let before = read_shown.get(n).filter(|(_, epoch)| *epoch == ex.epoch).map(|(v, _)| *v);
+                        // I8, I40 and I41: ranges the pages give, never locked (SRM p.57).
+                        // Any other: a larger value than written is no card's (stored, or
+                        // rolled over from above the range to a smaller one, UM p.243), where
+                        // the log shows I41 leaves it writable.
+                        let ruled = [8, 40, 41].contains(n);
+                        if took && (ruled || (shown && v >= 1)) {
                             readback.push((i, ci, v));
-                        } else if *n != 41 {
+                        } else if !took && shown && *n != 41 && before.is_some_and(|b| b != v) {
                             locked_took.push((i, ci, v));
                         }
+                    }
+                    if let Answer::Value(read) = answer {
+                        read_shown.insert(*n, (read, ex.epoch));
                     }
                 }
                 _ => {}

@@ -17,7 +17,7 @@ pub struct Exchange {
     /// The counter's reload value when answered (I40, or 4095/4096).
     pub reload: i64,
     /// For each command: after a write of that I-variable (since the last reset), the value
-    /// written and whether it took effect (SRM p.57, I41).
+    /// written and whether it took effect (SRM p.57, I41); for a write, its own.
     pub written: Vec<Option<(i64, bool)>>,
     /// The card was latched tripped when the host gave up on this line.
     pub tripped: bool,
@@ -137,7 +137,7 @@ impl Session {
                     // I41 itself is checked at the time of the write (SRM p.57).
                     let took = !crate::card::locked_by_i41(self.i41_before_write(), *n);
                     self.writes.insert(*n, (*v, took));
-                    written.push(None);
+                    written.push(Some((*v, took)));
                 }
                 _ => written.push(None),
             }

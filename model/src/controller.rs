@@ -734,6 +734,13 @@ impl Controller {
                 Some(v) => self.i41 = v as u8,
                 None => return Reply::Error(3),
             },
+            // A real card's range is its own (`OtherIWrites::CardOwn`, SRM p.42, UM p.243): it
+            // may refuse the value or roll it over, so the answer and the value left are the
+            // card's, until a read shows it.
+            _ if cfg.other_i_writes == pmacwd_specs::check::OtherIWrites::CardOwn => {
+                self.other_i_variables.remove(&n);
+                return Reply::CardOwn;
+            }
             _ => self.other_i_variables.insert(n, v),
         }
         Reply::Ack

@@ -791,3 +791,31 @@ fn e_closes_the_loop_of_each_killed_motor_of_its_coordinate_system_and_of_no_oth
     assert_eq!(card.axes.motors()[1].state, MotorState::Closed);
     assert!(!card.tripped());
 }
+
+#[test]
+fn a_command_no_background_cycle_reached_is_silence_from_a_running_card_and_the_card_answers_again() {
+    // UM p.236: host commands are processed in the background, so a card whose background is
+    // starved answers nothing ("communications become sluggish") while its servo cycles run
+    // on; it trips only once the counter has run out (UM p.215).
+    let cfg = config("host-log", "um-215");
+    let mut card = Controller::power_on(&cfg);
+    card.apply(&cfg, &Event::Background);
+    let counter = card.counter;
+    assert!(counter > 100, "the counter is reloaded: {counter}");
+    assert_eq!(card.unanswered(&cfg, 50), Reply::Silence);
+    assert_eq!(
+        card.counter,
+        counter - 50,
+        "the servo cycles ran through the wait, and no background cycle reloaded it"
+    );
+    assert!(!card.tripped(), "a wait shorter than the counter's run leaves the card running");
+    card.apply(&cfg, &Event::Background);
+    assert!(matches!(cmd(&mut card, &cfg, "???"), Reply::Status { .. }), "the next background cycle answers");
+    // A wait past the counter and the hardware delay: the card tripped in it, and answers
+    // nothing until reset (UM p.215).
+    let long = u32::try_from(card.counter).expect("reloaded") + cfg.hardware_delay_cycles + 3;
+    assert_eq!(card.unanswered(&cfg, long), Reply::Silence);
+    assert!(card.tripped());
+    card.apply(&cfg, &Event::Background);
+    assert_eq!(cmd(&mut card, &cfg, "???"), Reply::Silence);
+}

@@ -82,9 +82,28 @@ pub struct Configuration {
     pub checksum_pass_cycles: PassCycles,
     /// Whether the environment may clear bit 22 by a memory write.
     pub clear_rti_reentry: bool,
+    /// What a write of an I-variable other than I8, I40 and I41 leaves (absent: `stored`).
+    #[serde(default)]
+    pub other_i_variable_writes: OtherIWrites,
     /// The motors and what the environment may do to them; absent: the default below.
     #[serde(default)]
     pub motion: MotionSetup,
+}
+
+/// What a write of an I-variable other than I8, I40 and I41 does. Each I-variable has a range
+/// (SRM p.42, p.57), and a value outside it is refused with ERR003 or rolled over into it by
+/// modulo arithmetic (UM p.243, the reading `out_of_range_assignment`); `variables.yaml` holds
+/// the ranges of I8, I40 and I41 alone.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq, Hash)]
+#[serde(rename_all = "snake_case")]
+pub enum OtherIWrites {
+    /// MODEL: the project's card stores any value written (its ranges are not in the specs):
+    /// the checker, the core and the emulator.
+    #[default]
+    Stored,
+    /// A real card's: the range is the card's own, so the write's answer (acknowledged or
+    /// ERR003) and the value it leaves are too, until the log reads it. Replay's `host-log`.
+    CardOwn,
 }
 
 /// The motors of a configuration (the stop rules of UM p.217, the encoder-loss PLC of UM

@@ -149,6 +149,8 @@ pub struct ModelConfig {
     pub checksum_faults: Vec<ChecksumTarget>,
     pub pass_cycles: PassCycles,
     pub clear_rti_reentry: bool,
+    /// What a write of an I-variable other than I8, I40 and I41 leaves (`check.yaml`).
+    pub other_i_writes: crate::check::OtherIWrites,
     /// The motors (`check.yaml`'s `motion`).
     pub motion: crate::check::MotionSetup,
     /// UM p.217's stop-command table, top to bottom (`stop_commands.yaml`): the model's stop
@@ -271,6 +273,7 @@ impl ModelConfig {
             checksum_faults: c.checksum_faults.clone(),
             pass_cycles: c.checksum_pass_cycles,
             clear_rti_reentry: c.clear_rti_reentry,
+            other_i_writes: c.other_i_variable_writes,
             stop_table: spec
                 .stop_commands
                 .rows

@@ -137,7 +137,7 @@ pub struct Expect {
     /// X:$001080, the running checksum, as the card answered it (a 24-bit word): the card's own
     /// value, never compared with the model's, which sums no memory and holds a token
     /// (UM p.217, MODEL). `pmacwd replay` reads it for what UM p.217 says of it, that it
-    /// freezes once a checksum mismatch stops the engine (`capture::explain::unknown::Freeze`);
+    /// freezes once a checksum mismatch stops the engine (`capture::explain::refute::Freeze`);
     /// `pmacwd run` ignores it.
     #[serde(default, deserialize_with = "word24")]
     pub running_checksum: Option<u32>,

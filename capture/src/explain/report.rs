@@ -70,6 +70,9 @@ pub struct Report {
     pub witness_profiles: Vec<String>,
     pub card: Option<pmacwd_specs::config::CardConfig>,
     pub diagnosis: Option<Diagnosis>,
+    /// What a host log itself shows of each stretch the card did not answer, in its lines and
+    /// host clock ([`super::silences`]); empty for a trace.
+    pub silences: super::silences::Silences,
     /// The importer's warning when the log cannot be timed (no X:$0 reads to place its
     /// commands in time): then every command is at one instant, and a capture that no card
     /// explains so is undecided, not impossible (issue 36).
@@ -88,9 +91,11 @@ pub struct Report {
     /// ([`super::unknown`]).
     pub i40_open: Option<super::unknown::OpenI40>,
     /// What the steps alone show that no card shows, whatever its timing, tolerances, I40 or
-    /// placement ([`super::unknown::refutation`]), when no card explained the capture: the
+    /// placement ([`super::refute::refuted`]), when no card explained the capture: the
     /// verdict is then decided without searching those.
     pub refuted: Option<String>,
+    /// Whether [`Report::refuted`] was found before any search, so that no lane was searched.
+    pub refuted_unsearched: bool,
 }
 
 impl Report {
@@ -183,7 +188,7 @@ fn explain_open_i40(
         return Err(SpecError::whole_file(path, "no value of I40 in its range is admitted by what the log reads"));
     };
     if !complete {
-        let refuted = super::unknown::refutation(spec, path, import)?;
+        let refuted = super::refute::refutation(spec, path, import)?;
         if let Some(o) = &mut r.i40_open {
             o.complete = refuted.is_some();
             o.refuted = refuted;
@@ -205,12 +210,14 @@ fn explain_open_i40(
 /// then by host time.
 pub fn explain_timed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> Result<Report, SpecError> {
     use crate::import::Placement;
-    let mut first = explain_placed(spec, path, import_configuration)?;
+    // Decided by the steps alone: no card, no placement in time can change it, so nothing is
+    // searched; every lane dies at its line.
+    let refuted = super::refute::refuted(spec, path, import_configuration)?;
+    let mut first = explain_placed(spec, path, import_configuration, refuted.as_ref())?;
     if first.explained() {
         return Ok(first);
     }
-    // Decided by the steps alone: no placement in time can change it.
-    first.refuted = super::unknown::refutation(spec, path, import_configuration)?;
+    first.refuted = refuted.map(|r| r.why);
     if first.refuted.is_some() || import_configuration.placement == Placement::HostTime || !first.placed_apart {
         return Ok(first);
     }
@@ -223,7 +230,7 @@ pub fn explain_timed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_
         .unwrap_or_default();
     let deadline = import_configuration.host_time_limit.map(|l| std::time::Instant::now() + l);
     let second =
-        explain_placed(spec, path, ImportAs { placement: Placement::HostTime, deadline, ..import_configuration });
+        explain_placed(spec, path, ImportAs { placement: Placement::HostTime, deadline, ..import_configuration }, None);
     let mut second = match second {
         Err(e) if e.message.starts_with(search::OUT_OF_TIME) => {
             // No verdict either way: at the reads' instants it fails, by host time it did not
@@ -250,7 +257,46 @@ pub fn explain_timed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_
     Ok(second)
 }
 
-fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> Result<Report, SpecError> {
+/// Every lane of `defs` dead at the observation the steps alone refute ([`super::refute`]),
+/// none searched: no card of the bands, no placement in time gets past it.
+fn refuted_lanes(
+    spec: &Spec,
+    path: &Path,
+    card: Option<&pmacwd_specs::config::CardConfig>,
+    configuration: &str,
+    defs: Vec<lanes::LaneDef>,
+    r: &super::refute::Refuted,
+) -> Result<share::Judged, SpecError> {
+    let lanes = defs
+        .into_iter()
+        .map(|def| {
+            let mut lane = search::Lane::new(spec, configuration, card, def, false, None)
+                .map_err(|e| SpecError::whole_file(path, format!("configuration `{configuration}`: {}", e.message)))?;
+            lane.cands.clear();
+            lane.peak = 0;
+            lane.death = Some(search::Death {
+                event: r.event,
+                line: r.line,
+                what: r.what.clone(),
+                expected: r.expected.clone(),
+                observed: r.observed.clone(),
+                candidates: 0,
+                whatever_the_card: true,
+            });
+            Ok(lane)
+        })
+        .collect::<Result<Vec<_>, SpecError>>()?;
+    Ok(share::Judged { lanes, events: r.events, witnesses: Vec::new() })
+}
+
+/// Judges the capture as `import_configuration` places it: each lane of readings searched, or,
+/// where the steps alone are `refuted`, each dead at that line unsearched.
+fn explain_placed(
+    spec: &Spec,
+    path: &Path,
+    import_configuration: ImportAs<'_>,
+    refuted: Option<&super::refute::Refuted>,
+) -> Result<Report, SpecError> {
     let source = Source::open_with(spec, path, import_configuration)?;
     let configuration = source.configuration().to_string();
     let description = source.description().to_string();
@@ -271,8 +317,10 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
     let defs = lanes::lanes(spec, &configuration, if all { None } else { Some(&profiles) }, assigns_out_of_range)?;
     // Lanes another lane's explanation reproduces are not searched (`share`).
     let default = lanes::options_of(&spec.profiles.default_profile().choices);
-    let share::Judged { lanes: done, events, witnesses } =
-        share::judge(spec, path, import_configuration, defs, default)?;
+    let share::Judged { lanes: done, events, witnesses } = match refuted {
+        Some(r) => refuted_lanes(spec, path, card.as_ref(), &configuration, defs, r)?,
+        None => share::judge(spec, path, import_configuration, defs, default)?,
+    };
 
     let summaries: Vec<LaneSummary> = done
         .iter()
@@ -325,6 +373,10 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
         })
         .collect();
     let diagnosis = diagnose(&done, observed);
+    let silences = match import_configuration.format.map_or_else(|| crate::import::looks_like(path), |f| Ok(Some(f)))? {
+        Some(format) => super::silences::silences(path, format)?,
+        None => super::silences::Silences::default(),
+    };
 
     // The explanation: the default profile's lane if it explains, else the first that does,
     // searched again with its choices recorded (unless round 1 of `share` built it).
@@ -365,6 +417,7 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
         witness_profiles,
         card,
         diagnosis,
+        silences,
         untimed,
         placement: import_configuration.placement,
         at_reads_failed: None,
@@ -372,6 +425,7 @@ fn explain_placed(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) 
         host_time_unfinished: false,
         i40_open: None,
         refuted: None,
+        refuted_unsearched: refuted.is_some(),
     })
 }
 
@@ -537,12 +591,20 @@ pub fn to_text(r: &Report) -> String {
     }
     let alive = r.lanes.iter().filter(|l| l.death.is_none()).count();
     let combinations: usize = r.lanes.iter().map(|l| l.combinations).sum();
-    let _ = writeln!(
-        s,
-        "lanes of readings searched: {} (standing for {combinations} combinations); {} explain the capture",
-        r.lanes.len(),
-        if alive == 0 { "none".to_string() } else { alive.to_string() }
-    );
+    let _ = match &r.refuted_unsearched {
+        true => writeln!(
+            s,
+            "lanes of readings: {} (standing for {combinations} combinations); none searched: the steps alone rule \
+             every one out",
+            r.lanes.len()
+        ),
+        false => writeln!(
+            s,
+            "lanes of readings searched: {} (standing for {combinations} combinations); {} explain the capture",
+            r.lanes.len(),
+            if alive == 0 { "none".to_string() } else { alive.to_string() }
+        ),
+    };
     s.push_str("readings:\n");
     for rv in &r.readings {
         match rv.not_exercised {
@@ -606,6 +668,15 @@ pub fn to_text(r: &Report) -> String {
             None => {}
         }
     }
+    if !r.silences.shown.is_empty() {
+        s.push_str("what the log shows of the card's silences (its own lines and clock, not the search's choices):\n");
+        for x in &r.silences.shown {
+            let _ = writeln!(s, "  {}", x.text());
+        }
+        if r.silences.more > 0 {
+            let _ = writeln!(s, "  and {} more silences", r.silences.more);
+        }
+    }
     if let Some(d) = &r.diagnosis {
         s.push_str("diagnosis: the card is silent at the end; why it tripped (UM p.215, \"Diagnosing Cause of Watchdog Timer Trip\"):\n");
         for p in &d.possible {
@@ -619,7 +690,17 @@ pub fn to_text(r: &Report) -> String {
         s.push_str("why not:\n");
         let mut deaths: Vec<&LaneSummary> = r.lanes.iter().collect();
         deaths.sort_by_key(|l| std::cmp::Reverse(l.death.as_ref().map(|d| d.event)));
-        for l in deaths.iter().take(3) {
+        // Refuted before any search: every lane died at the one observation.
+        let shown = if r.refuted_unsearched { 0 } else { 3 };
+        if let Some(d) = deaths.first().and_then(|l| l.death.as_ref()).filter(|_| r.refuted_unsearched) {
+            let _ = writeln!(
+                s,
+                "  every lane: event {} (line {}): {}: expected {}, observed {} (not searched: no card gets past it, \
+                 whatever its timing, tolerances and I40; above)",
+                d.event, d.line, d.what, d.expected, d.observed
+            );
+        }
+        for l in deaths.iter().take(shown) {
             if let Some(d) = &l.death {
                 let cards = match l.tolerances_admitted {
                     _ if d.whatever_the_card => "; no card of the bands gets past it, whatever its timing: no state of \
@@ -669,6 +750,17 @@ pub fn to_text(r: &Report) -> String {
     s
 }
 
+fn silence_json(x: &super::silences::Silence) -> serde_json::Value {
+    use super::silences::At;
+    let at = |a: &At| serde_json::json!({"line": a.line, "host_time": a.ns.map(super::silences::clock)});
+    serde_json::json!({
+        "first_sent": at(&x.first_sent), "commands": x.first_commands, "gave_up": at(&x.gave_up), "lines": x.lines,
+        "last_answer": x.last_answer.as_ref().map(at),
+        "last_action": x.last_action.as_ref().map(|(c, a)| serde_json::json!({"command": c, "sent": at(a)})),
+        "answered_again": x.answered_again.as_ref().map(at), "text": x.text(),
+    })
+}
+
 fn death_json(d: &Death) -> serde_json::Value {
     serde_json::json!({"event": d.event, "line": d.line, "what": d.what, "expected": d.expected,
         "observed": d.observed, "candidates_before": d.candidates, "whatever_the_card": d.whatever_the_card})
@@ -715,7 +807,7 @@ pub fn to_json(r: &Report) -> String {
         "file": r.file.display().to_string(), "events": r.events, "configuration": r.configuration,
         "explained": r.explained(), "undecided": r.undecided(),
         "placement": match r.placement { crate::import::Placement::AtReads => "at_reads", crate::import::Placement::HostTime => "host_time" },
-        "at_reads_failed": r.at_reads_failed, "refuted": r.refuted,
+        "at_reads_failed": r.at_reads_failed, "refuted": r.refuted, "refuted_unsearched": r.refuted_unsearched,
         "i40_open": r.i40_open.as_ref().map(|o| serde_json::json!({"tried": o.tried, "explaining": o.explaining,
             "complete": o.complete, "highest_read": o.highest_read, "refuted": o.refuted})),
         "readings": readings, "lanes": lanes, "profiles": profiles,
@@ -731,6 +823,8 @@ pub fn to_json(r: &Report) -> String {
                     "user_program": t.checksum_pass_cycles.user_program}})),
         })),
         "diagnosis": r.diagnosis.as_ref().map(|d| serde_json::json!({"possible": d.possible, "ruled_out": d.ruled_out})),
+        "silences": r.silences.shown.iter().map(silence_json).collect::<Vec<_>>(),
+        "silences_not_shown": r.silences.more,
     })
     .to_string()
 }

@@ -105,7 +105,7 @@ pub struct Death {
     pub candidates: usize,
     /// No card of the bands gets past it, whatever its timing: a status word no state of the
     /// checksum engine gives under the lane's readings (`words`), or X:$1080 moving after the
-    /// checksum error showed (`unknown::Freeze`).
+    /// checksum error showed (`refute::Freeze`).
     pub whatever_the_card: bool,
 }
 
@@ -890,10 +890,6 @@ pub fn search(
     if lanes.iter().all(Lane::alive) {
         return Ok((lanes, events));
     }
-    // What the steps alone show no card does: no other card of the bands gets past it.
-    if super::unknown::refutation(spec, path, configuration)?.is_some() {
-        return Ok((lanes, events));
-    }
     // A lane in which no strobe stopped long enough for the delay to count is judged alike by
     // every card of the delay band: only its supply variants (if any) are searched. The pass
     // lengths come last in each list, searched only when no lane explains the capture under
@@ -1028,7 +1024,7 @@ pub fn search_once(
         .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
     let mut reader = Reader::new(source);
     let mut levels = std::collections::BTreeSet::new();
-    let mut freeze = super::unknown::Freeze::default();
+    let mut freeze = super::refute::Freeze::default();
     while let Some((line, step)) = reader.next_step()? {
         LINE_REACHED.store(line, std::sync::atomic::Ordering::Relaxed);
         if configuration.deadline.is_some_and(|d| std::time::Instant::now() > d) {

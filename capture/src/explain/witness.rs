@@ -186,6 +186,9 @@ pub fn build(
     let mut last_line = 0usize;
     let mut lowest_min = card.counter_min;
     let mut dip_line = 0usize;
+    // Whether the capture reads X:$25: the dip is told only where the log can see it (issue
+    // 29: the explanation's own choices in what the log does not read are not findings).
+    let mut x25_read = false;
     let push_events = |steps: &mut Vec<WitnessStep>, events: Vec<TraceEvent>, note: Option<String>| {
         let mut note = note;
         for e in events {
@@ -241,6 +244,7 @@ pub fn build(
         }
     }
     while let Some((line, step)) = source.next_step()? {
+        x25_read |= super::reads::min_read(&step).is_some();
         event += 1;
         while at < nodes.len() && nodes[at].event < event {
             at += 1;
@@ -422,7 +426,7 @@ pub fn build(
         }
         last_line = line;
     }
-    if lowest_min < cfg.reset_value(card.i40) - 1 && dip_line > 0 {
+    if lowest_min < cfg.reset_value(card.i40) - 1 && dip_line > 0 && x25_read {
         story.push(format!(
             "the longest run without a background cycle took X:$25 down to {lowest_min} (by line {dip_line})"
         ));

@@ -1332,7 +1332,7 @@ impl Importer {
             // X:$1080's value is kept as `running_checksum` (issue 36), which replay reads for
             // what UM p.217 says of it: "This leaves the calculated value frozen in the running
             // checksum register X:$001080" once a mismatch stops the engine
-            // (`explain::unknown::Freeze`).
+            // (`explain::refute::Freeze`).
             let checksum = matches!(
                 c.command,
                 HostCommand::Checksum

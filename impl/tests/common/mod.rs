@@ -22,6 +22,7 @@ pub fn realistic_config() -> Config {
         load: Load { motors: 8, plc0_units: 30, background_units: 250 },
         motion: MotionConfig::all_in_cs1(8, 20),
         processor: Processor::Dsp56303,
+        other_i_writes_card_own: false,
     }
 }
 
