@@ -530,6 +530,31 @@ fn a_card_silent_for_less_than_its_counter_s_run_was_merely_slow_and_is_explaine
 }
 
 #[test]
+fn a_card_whose_checksum_passes_are_longer_than_searched_is_explained_with_the_area_bit_12_shows() {
+    // Seed 37 of the independent generator: passes of 300 and 500 background cycles (UM p.217
+    // gives no length), Y:$25 and X:$25 one below the reload at every 0.5 s poll (a background
+    // cycle every servo cycle) and bit 12 flipping at every read. Under passes of 1 and 2 the
+    // pinned schedule fixes the area at each read: "no correct card", a false verdict.
+    let spec = Spec::embedded().unwrap();
+    let r = explain(&spec, &capture("independent/checksum-passes-longer-than-searched-judged-impossible.log"), None)
+        .unwrap();
+    let text = pmacwd_capture::explain::report::to_text(&r);
+    assert!(r.explained(), "{text}");
+    let (_, w) = r.witness.as_ref().unwrap();
+    assert!(w.tolerances.is_some_and(|t| t.free_area), "{text}");
+    assert!(!w.areas.is_empty() && matches!(w.checked, Some(Ok(_))), "{text}");
+    assert!(text.contains("checksum passes of a length of its own"), "{text}");
+    // The same card under the M83 reading of bit 12 (a firmware checksum error) is no card:
+    // bit 12 set with bit 13 clear (SRM p.289).
+    assert!(
+        r.readings.iter().any(|v| v.reading == "bit12_meaning"
+            && v.options.iter().any(|(o, v)| *o == "firmware_checksum_error"
+                && matches!(v, pmacwd_capture::explain::report::OptionVerdict::RuledOut(_)))),
+        "{text}"
+    );
+}
+
+#[test]
 fn a_card_answering_after_a_wait_longer_than_any_counter_s_run_is_no_card_at_the_answer() {
     // The same poll with a 2.5 s wait: no card survives it without a background cycle (UM
     // p.215, p.236), and X:$0 counts on (no reset): refuted from the steps, at the answer.
@@ -575,7 +600,14 @@ fn a_log_that_cannot_be_timed_and_that_no_explanation_at_one_instant_fits_is_und
         host_time_limit: Some(std::time::Duration::from_secs(2)),
         ..ImportAs::from(None)
     };
+    // Its bit 12 changing between polls is explained since a card's checksum passes may be of
+    // its own length (each poll answered in a background cycle of its own, UM p.236): the
+    // first 300 lines, with the `???` polls up to the first change, are explained; a log
+    // without timing that no card fits at one instant stays undecided (below).
     let r = pmacwd_capture::explain::report::explain_as(&spec, &capture("field/epics-asyn-trace.txt"), import).unwrap();
+    assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+    let untimed = "> ???\n< 000000000000\n> I40\n< 0\n> RHX:$25\n< 000F00\n> RHY:$25\n< 000FFF\n";
+    let r = replay_log("untimed-y25-above-x25-history", untimed);
     assert!(r.undecided(), "{}", pmacwd_capture::explain::report::to_text(&r));
     assert!(pmacwd_capture::explain::report::to_text(&r).contains("verdict: undecided"));
     // A log with its counter reads keeps its verdict: X:$25 rising without a reset is impossible.
@@ -598,13 +630,15 @@ fn a_status_poll_spread_between_x0_reads_is_explained_once_each_exchange_is_plac
     )
     .unwrap();
     assert!(by_host_time.explained(), "{}", pmacwd_capture::explain::report::to_text(&by_host_time));
-    // `replay` itself: the reads' instants first, host time after; the report says both.
+    // `replay` itself: the reads' instants first, host time after. At the reads' instants the
+    // stated passes of one background cycle fail at line 15; the card's passes of its own
+    // length (tried last, UM p.217 gives none) explain it there, each poll answered in a
+    // background cycle of its own (UM p.236).
     let r = explain(&spec, &log, None).unwrap();
     let text = pmacwd_capture::explain::report::to_text(&r);
     assert!(r.explained(), "{text}");
-    assert_eq!(r.placement, Placement::HostTime);
-    assert!(r.at_reads_failed.as_deref().is_some_and(|f| f.starts_with("line 15:")), "{text}");
-    assert!(text.contains("placed by host time"), "{text}");
+    assert_eq!(r.placement, Placement::AtReads);
+    assert!(text.contains("checksum passes of a length of its own"), "{text}");
     // Placed by host time, an impossible log stays impossible: X:$25 rising without a reset.
     let import = ImportAs { placement: Placement::HostTime, ..ImportAs::from(None) };
     let r = pmacwd_capture::explain::report::explain_as(&spec, &capture("x25-rising.log"), import).unwrap();

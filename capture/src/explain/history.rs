@@ -36,6 +36,9 @@ pub enum NodeKind {
     Pin(i32),
     /// Y:$25 read as this value, where the search had an interval.
     CounterPin(i32),
+    /// At a status read, the checksum engine on this area at the start of a pass: the card's
+    /// pass lengths are its own, taken from what bit 12 shows (`Tolerances::free_area`).
+    Area(pmacwd_specs::check::ChecksumTarget),
 }
 
 impl std::fmt::Debug for Node {

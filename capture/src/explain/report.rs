@@ -527,12 +527,22 @@ fn tolerances_text(t: &Tolerances, lane: Option<&LaneSummary>) -> String {
         format!(" ({} of the {} cards the bands admit searched)", l.tolerances_tried, l.tolerances_admitted)
     });
     let pass = t.checksum_pass_cycles;
+    let passes = if t.free_area {
+        "checksum passes of a length of its own (no length of 1 or 2 background cycles explains it: the area bit \
+         12 shows is taken from the log at each read, below)"
+            .to_string()
+    } else {
+        format!(
+            "checksum passes of {} background cycles (firmware) and {} (user program)",
+            pass.firmware, pass.user_program
+        )
+    };
     format!(
         "the card's own tolerances: a hardware delay of {} servo cycles, a supply threshold of {} mV and \
-         checksum passes of {} background cycles (firmware) and {} (user program); UM p.215 gives the strobe \
-         minimum and the supply minimum only approximately and UM p.217 no pass length, and the stated figures \
-         do not explain the capture, these do (within the bands of watchdog.yaml){tried}",
-        t.hardware_delay_cycles, t.supply_min_millivolts, pass.firmware, pass.user_program
+         {passes}; UM p.215 gives the strobe minimum and the supply minimum only approximately and UM p.217 no \
+         pass length, and the stated figures do not explain the capture, these do (within the bands of \
+         watchdog.yaml){tried}",
+        t.hardware_delay_cycles, t.supply_min_millivolts
     )
 }
 
@@ -798,6 +808,7 @@ pub fn to_json(r: &Report) -> String {
                     "supply_min_millivolts": l.tolerances.supply_min_millivolts,
                     "checksum_pass_cycles": {"firmware": l.tolerances.checksum_pass_cycles.firmware,
                         "user_program": l.tolerances.checksum_pass_cycles.user_program},
+                    "checksum_passes_own": l.tolerances.free_area,
                     "searched": l.tolerances_tried, "admitted": l.tolerances_admitted}})
         })
         .collect();
@@ -820,7 +831,8 @@ pub fn to_json(r: &Report) -> String {
             "card_tolerances": w.tolerances.map(|t| serde_json::json!({
                 "hardware_delay_cycles": t.hardware_delay_cycles, "supply_min_millivolts": t.supply_min_millivolts,
                 "checksum_pass_cycles": {"firmware": t.checksum_pass_cycles.firmware,
-                    "user_program": t.checksum_pass_cycles.user_program}})),
+                    "user_program": t.checksum_pass_cycles.user_program},
+                "checksum_passes_own": t.free_area})),
         })),
         "diagnosis": r.diagnosis.as_ref().map(|d| serde_json::json!({"possible": d.possible, "ruled_out": d.ruled_out})),
         "silences": r.silences.shown.iter().map(silence_json).collect::<Vec<_>>(),

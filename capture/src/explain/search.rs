@@ -119,11 +119,20 @@ pub struct Death {
 /// log sees it only through the area bit 12 shows (SRM p.289) and when a corruption is found,
 /// so the lengths up to [`PASS_CYCLES_MAX`], each area's its own, are searched where a lane
 /// compared either.
+///
+/// Where no pass length up to it explains the capture, the last card tried takes its passes as
+/// its own whatever their length (`free_area`): at each status read on a line of its own, the
+/// engine may be on either area (a read is answered in a background cycle of its own, UM
+/// p.236, and one of a card's passes, of a length UM p.217 does not give, may have ended in
+/// any of them). A pass length of 300 background cycles was "no correct card" under passes
+/// of 1 and 2 where X:$25 pinned the background to every servo cycle (seed 37).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tolerances {
     pub hardware_delay_cycles: u32,
     pub supply_min_millivolts: u32,
     pub checksum_pass_cycles: PassCycles,
+    /// The checksum area at each status read is the card's own (its pass lengths are).
+    pub free_area: bool,
 }
 
 /// The longest checksum pass, in background cycles, the search tries as the card's own, for
@@ -146,6 +155,7 @@ impl Tolerances {
             hardware_delay_cycles: cfg.hardware_delay_cycles,
             supply_min_millivolts: cfg.supply_min_millivolts,
             checksum_pass_cycles: cfg.pass_cycles,
+            free_area: false,
         }
     }
 
@@ -189,6 +199,7 @@ impl Tolerances {
                     .filter(|p| *p != stated.checksum_pass_cycles)
                     .map(|p| Tolerances { checksum_pass_cycles: p, ..stated }),
             );
+            out.push(Tolerances { free_area: true, ..stated });
         }
         out
     }
@@ -220,6 +231,9 @@ pub struct Lane {
     /// Not searched: the explanation of the lane named here, run on the model under this
     /// lane's readings, reproduces every observation (`share`).
     pub shown_by: Option<String>,
+    /// Under `tolerances.free_area`, the line of the last status read: the reads of one line
+    /// are answered in one background cycle, which shows one area.
+    pub free_line: Option<usize>,
 }
 
 /// The capture's steps with a window to look ahead.
@@ -588,7 +602,8 @@ impl Lane {
             .collect();
         Ok(Lane {
             def,
-            tolerances: Tolerances::of(&cfg),
+            tolerances: Tolerances { free_area: tolerances.is_some_and(|t| t.free_area), ..Tolerances::of(&cfg) },
+            free_line: None,
             tolerances_tried: 1,
             tolerances_admitted: 0,
             stated,
@@ -650,6 +665,18 @@ impl Lane {
             }
             Ok(())
         };
+        let free_area_read = self.tolerances.free_area
+            && cfg.profile.choices.bit12_meaning == Bit12Meaning::PromChecksumActive
+            && self.free_line != Some(line)
+            && matches!(
+                step.event,
+                TraceEvent::Model(Event::Command(
+                    HostCommand::GlobalStatus | HostCommand::ReadHex(pmacwd_specs::vocab::command::Register::StatusX)
+                ))
+            );
+        if free_area_read {
+            self.free_line = Some(line);
+        }
         if let TraceEvent::Elapsed { cycles_min, .. } = step.event {
             if hints.silent == Some(false) && cycles_min > cfg.hardware_delay_cycles {
                 self.cands = earliest_strobe_stops(std::mem::take(&mut self.cands));
@@ -767,6 +794,22 @@ impl Lane {
                 }
                 TraceEvent::Model(e) => {
                     let mut c = cand.clone();
+                    // The card's own pass lengths: the area at a status read on a line of its
+                    // own may be either, where the engine runs over uncorrupted areas (a
+                    // corruption is found at the end of a pass, UM p.217: no area is skipped).
+                    let engine = &c.card.checksum;
+                    let other_area = (free_area_read
+                        && engine.error.is_none()
+                        && engine.firmware == engine.firmware_reference
+                        && engine.program == engine.program_reference)
+                        .then_some(match engine.area {
+                            pmacwd_specs::check::ChecksumTarget::Firmware => {
+                                pmacwd_specs::check::ChecksumTarget::UserProgram
+                            }
+                            pmacwd_specs::check::ChecksumTarget::UserProgram => {
+                                pmacwd_specs::check::ChecksumTarget::Firmware
+                            }
+                        });
                     // Y:$25 read: its interval narrows to the value read, if it holds it.
                     if let Some(v) = counter_read(step) {
                         if (c.counter_lo..=c.card.counter).contains(&v) {
@@ -806,6 +849,15 @@ impl Lane {
                             // Y:$25 is never below X:$25.
                             c.counter_lo = c.counter_lo.max(v.min(c.card.counter));
                         }
+                    }
+                    if let Some(area) = other_area {
+                        let mut o = c.clone();
+                        o.card.checksum.area = area;
+                        o.card.checksum.position = 0;
+                        o.node = o.node.as_ref().map(|p| {
+                            Arc::new(Node { parent: Some(p.clone()), event: event_no, kind: NodeKind::Area(area) })
+                        });
+                        results.extend(both_ends(&o, event_no, step.expect.reply.is_some(), |card| card.apply(cfg, e)));
                     }
                     for r in both_ends(&c, event_no, step.expect.reply.is_some(), |card| card.apply(cfg, e)) {
                         results.push(r);
@@ -937,13 +989,16 @@ pub fn search(
     let bands: Vec<usize> = variants
         .iter()
         .zip(&lanes)
-        .map(|(v, l)| v.iter().filter(|t| t.checksum_pass_cycles == l.tolerances.checksum_pass_cycles).count())
+        .map(|(v, l)| {
+            v.iter().filter(|t| t.checksum_pass_cycles == l.tolerances.checksum_pass_cycles && !t.free_area).count()
+        })
         .collect();
     // The cards the bands admit, all judged: those searched, and those the search showed alike
     // (no strobe stopped long enough for their delays to differ).
     let admitted = |l: &Lane, with_passes: bool| {
         let all = Tolerances::variants(&l.cfg, &levels, false).len();
-        all + if with_passes && l.pass_mattered { pass_lengths().count() - 1 } else { 0 }
+        // The pass lengths but the stated one, and the passes of the card's own length.
+        all + if with_passes && l.pass_mattered { pass_lengths().count() } else { 0 }
     };
     for (l, b) in lanes.iter_mut().zip(&bands) {
         l.tolerances_admitted = admitted(l, false).max(*b);

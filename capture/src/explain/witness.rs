@@ -75,6 +75,10 @@ pub struct Witness {
     /// The card's own hardware delay and supply threshold, when they are not the stated ones
     /// (UM p.215 gives both only approximately); the written trace carries them in `card:`.
     pub tolerances: Option<super::search::Tolerances>,
+    /// Before the step of each index, the checksum engine is on this area at the start of a
+    /// pass: the card's pass lengths are its own (`Tolerances::free_area`). No model event
+    /// sets the area, so [`run`] sets it, and a written trace says where `pmacwd run` differs.
+    pub areas: Vec<(usize, ChecksumTarget)>,
 }
 
 fn area(a: ChecksumTarget) -> &'static str {
@@ -189,6 +193,8 @@ pub fn build(
     // Whether the capture reads X:$25: the dip is told only where the log can see it (issue
     // 29: the explanation's own choices in what the log does not read are not findings).
     let mut x25_read = false;
+    let mut areas: Vec<(usize, ChecksumTarget)> = Vec::new();
+    let mut area_lines: Vec<usize> = Vec::new();
     let push_events = |steps: &mut Vec<WitnessStep>, events: Vec<TraceEvent>, note: Option<String>| {
         let mut note = note;
         for e in events {
@@ -238,7 +244,7 @@ pub fn build(
                     // The host's wait ran the counter down with no background cycle (a read
                     // after it comes from a running card).
                     NodeKind::Wait { cycles, .. } => v += i64::from(*cycles),
-                    NodeKind::Pin(_) | NodeKind::CounterPin(_) => {}
+                    NodeKind::Pin(_) | NodeKind::CounterPin(_) | NodeKind::Area(_) => {}
                 }
             }
         }
@@ -411,6 +417,17 @@ pub fn build(
                 if let Event::Servo { cycles } = e {
                     now += u64::from(*cycles);
                 }
+                let chosen =
+                    nodes[at.min(nodes.len())..].iter().take_while(|n| n.event == event).find_map(|n| match n.kind {
+                        NodeKind::Area(a) => Some(a),
+                        _ => None,
+                    });
+                if let Some(a) = chosen {
+                    area_lines.push(line);
+                    card.checksum.area = a;
+                    card.checksum.position = 0;
+                    areas.push((steps.len(), a));
+                }
                 card.apply(cfg, e);
                 if matches!(
                     e,
@@ -426,12 +443,23 @@ pub fn build(
         }
         last_line = line;
     }
+    if !area_lines.is_empty() {
+        let shown: Vec<String> = area_lines.iter().take(AREA_LINES_TOLD).map(|l| l.to_string()).collect();
+        let more = area_lines.len().saturating_sub(AREA_LINES_TOLD);
+        story.push(format!(
+            "the card's checksum passes are of its own length (UM p.217 gives none): a pass ended before the \
+             status read of line{} {}{}, whose bit 12 shows the other area (SRM p.289)",
+            if area_lines.len() == 1 { "" } else { "s" },
+            shown.join(", "),
+            if more > 0 { format!(" and {more} more") } else { String::new() }
+        ));
+    }
     if lowest_min < cfg.reset_value(card.i40) - 1 && dip_line > 0 && x25_read {
         story.push(format!(
             "the longest run without a background cycle took X:$25 down to {lowest_min} (by line {dip_line})"
         ));
     }
-    Ok(Witness { steps, story, cpu, cpu_decided: false, lowest_min, checked: None, tolerances: None })
+    Ok(Witness { steps, story, cpu, cpu_decided: false, lowest_min, checked: None, tolerances: None, areas })
 }
 
 /// When, in servo cycles from the start of `events` run on `card`, the last strobe edge came
@@ -491,6 +519,10 @@ pub fn run(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> Result<
     let mut checked = 0;
     let nothing = Expect::default();
     for (i, step) in w.steps.iter().enumerate() {
+        if let Some((_, a)) = w.areas.iter().find(|(at, _)| *at == i) {
+            card.checksum.area = *a;
+            card.checksum.position = 0;
+        }
         let reply = match step.event() {
             TraceEvent::Model(Event::Background) if !card.background_possible() => {
                 return Err(format!("witness step {}: a background cycle the model cannot complete", i + 1))
@@ -572,8 +604,17 @@ pub fn write_trace(
         description: format!(
             "Witness found by pmacwd replay under the readings {readings}: the capture's steps with every \
              unseen gap replaced by events of the model. CPU type {} (bits 21 of ??? in the expected \
-             replies are the configuration's processor's).",
-            w.cpu
+             replies are the configuration's processor's).{}",
+            w.cpu,
+            if w.areas.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " The card's checksum passes are of its own length: at {} status reads the area bit 12 shows \
+                     is the log's, which no event of the model sets, so `pmacwd run` of this trace differs there.",
+                    w.areas.len()
+                )
+            }
         ),
         cite: None,
         configuration: configuration.to_string(),
@@ -677,6 +718,9 @@ fn ends_silent(spec: &Spec, path: &Path, import_configuration: ImportAs<'_>) -> 
     }
     Ok(silent)
 }
+
+/// How many lines the story names where the area bit 12 shows was taken from the log.
+const AREA_LINES_TOLD: usize = 5;
 
 /// How many end candidates are tried for a witness that reproduces the capture.
 const WITNESS_TRIES: usize = 16;
