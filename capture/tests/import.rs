@@ -133,6 +133,35 @@ fn a_counter_advancing_faster_than_the_host_clock_allows_is_an_error_naming_the_
 }
 
 #[test]
+fn a_stamped_log_that_does_not_read_i10_is_timed_at_the_clock_its_x0_reads_count() {
+    // Seed 37 of the independent generator: a card at 1.13 kHz whose log never reads I10
+    // (config-unread) was refused, "more servo cycles than the host clock allows ... at 2250
+    // Hz": the card's clock is its own, and its X:$0 reads over the host's stamps count it.
+    // I40-zero's configuration runs at 2250 Hz; these reads count 1128 to 1130 cycles a second
+    // (564 and 565 per half second): the median, 1128.
+    let mut log = String::new();
+    for i in 0..6u32 {
+        let t = format!("12:00:{:02}.{:03}", i / 2, (i % 2) * 500);
+        log.push_str(&format!("{t} > RHX:$0\n{t} < {:06X}\n", 0x10_0000 + i * 564 + i / 2));
+    }
+    let t = ok(&log);
+    assert_eq!(t.card.and_then(|c| c.servo_hz), Some(1128), "{:?}", t.from_log.sources);
+    assert!(t.from_log.sources.iter().any(|(f, var, ..)| *f == "servo_hz" && var.contains("X:$0")));
+    // A clock within 1% of the configuration's is the configuration's: the importer allows
+    // 1% either way, and the stamps' resolution makes an estimate no closer.
+    let mut log = String::new();
+    for i in 0..6u32 {
+        let t = format!("12:00:{:02}.{:03}", i / 2, (i % 2) * 500);
+        log.push_str(&format!("{t} > RHX:$0\n{t} < {:06X}\n", 0x10_0000 + i * 1130));
+    }
+    assert_eq!(ok(&log).card.and_then(|c| c.servo_hz), None);
+    // A reset between two reads breaks the count: no pair across it is taken.
+    let log = "12:00:00.000 > RHX:$0\n12:00:00.000 < 100000\n12:00:00.500 > $$$\n12:00:00.500 <\n\
+               12:00:01.000 > RHX:$0\n12:00:01.000 < 000800\n";
+    assert_eq!(ok(log).card.and_then(|c| c.servo_hz), None);
+}
+
+#[test]
 fn every_timestamp_form_is_read_and_its_resolution_widens_the_bounds() {
     // Whole seconds, milliseconds, microseconds, a date with a space or a `T`, brackets: one
     // second between the reads of a 1000 Hz card, widened by the stamps' resolution and ±1%.

@@ -733,20 +733,43 @@ pub struct CardFromLog {
 }
 
 /// The first pass: the replies to reads of I8, I40, I41 and I10 that come before any write of
-/// that variable (what the card was configured with when the log began). Bounded: four values.
+/// that variable (what the card was configured with when the log began), and, for a stamped
+/// log that does not read I10, the servo clock its X:$0 reads show over host time. Bounded:
+/// four values and at most [`CLOCK_PAIRS_MAX`] rates.
 pub struct CardScan {
     parser: LogParser,
     /// Per variable (I8, I10, I40, I41): the value read and its line, and whether it was written.
     read: [Option<(i64, usize)>; 4],
     written: [bool; 4],
+    /// The last X:$0 read usable for the clock: its value, host time (ns) and line.
+    last_x0: Option<(u32, i128, usize)>,
+    /// Servo cycles per second between X:$0 reads, and the line of the first read of the first.
+    rates: Vec<f64>,
+    rates_from: Option<usize>,
 }
+
+/// How many pairs of X:$0 reads [`CardScan`] takes the servo clock from.
+pub const CLOCK_PAIRS_MAX: usize = 1001;
+/// The shortest host time between two X:$0 reads whose count gives the clock, and the longest
+/// an exchange may take for its read to be placed by its stamps (a read happens between the
+/// command's stamp and the reply's: 5 ms over 0.4 s is 1.25%, and the median of the pairs is
+/// taken).
+const CLOCK_PAIR_NS_MIN: i128 = 400_000_000;
+const CLOCK_READ_NS_MAX: i128 = 5_000_000;
 
 const CARD_VARIABLES: [(u16, &str, &str); 4] =
     [(8, "I8", "i8"), (10, "I10", "servo_hz"), (40, "I40", "i40"), (41, "I41", "i41")];
 
 impl CardScan {
     pub fn new(file: &Path) -> CardScan {
-        CardScan { parser: LogParser::new(file), read: [None; 4], written: [false; 4] }
+        CardScan {
+            parser: LogParser::new(file),
+            read: [None; 4],
+            written: [false; 4],
+            last_x0: None,
+            rates: Vec::new(),
+            rates_from: None,
+        }
     }
 
     pub fn line(&mut self, line: usize, raw: &str) -> Result<(), SpecError> {
@@ -759,6 +782,7 @@ impl CardScan {
     /// Takes one record of the log (any format).
     pub fn record(&mut self, record: Record) -> Result<(), SpecError> {
         let Some(ex) = self.parser.record(record)? else { return Ok(()) };
+        self.clock(&ex);
         for c in &ex.commands {
             let (n, write) = match c.command {
                 HostCommand::ReadI(n) => (n, false),
@@ -777,10 +801,47 @@ impl CardScan {
         Ok(())
     }
 
+    /// Counts the servo clock from consecutive X:$0 reads (SRM p.295: X:$0 counts servo
+    /// cycles) over the host's stamps. A silence or a reset between two reads may have
+    /// restarted the count: the pair is not taken.
+    fn clock(&mut self, ex: &Exchange) {
+        let restarted = ex.commands.iter().any(|c| {
+            matches!(c.answer, Answer::Timeout) || matches!(c.command, HostCommand::Reset | HostCommand::Reinitialize)
+        });
+        if restarted {
+            self.last_x0 = None;
+            return;
+        }
+        let read = ex.commands.iter().find_map(|c| match (&c.command, &c.answer) {
+            (HostCommand::ReadHex(Register::ServoCycles), Answer::Value(r)) => hex_word(r),
+            _ => None,
+        });
+        let (Some(v), Some((lo, hi))) = (read, ex.at) else { return };
+        if hi - lo > CLOCK_READ_NS_MAX {
+            return;
+        }
+        let t = lo + (hi - lo) / 2;
+        match self.last_x0 {
+            Some((pv, pt, line)) if t - pt >= CLOCK_PAIR_NS_MIN => {
+                let cycles = u64::from(v.wrapping_sub(pv) & 0xFF_FFFF);
+                if self.rates.len() < CLOCK_PAIRS_MAX {
+                    self.rates.push(cycles as f64 / ((t - pt) as f64 / 1e9));
+                    self.rates_from.get_or_insert(line);
+                }
+                self.last_x0 = Some((v, t, ex.reply_line));
+            }
+            Some(_) => {}
+            None => self.last_x0 = Some((v, t, ex.reply_line)),
+        }
+    }
+
     /// What was found, each value checked: I10 must give a servo period within the servo clock
     /// range of `scheduling.yaml`, I8, I40 and I41 must be in their ranges of `variables.yaml`
-    /// (the error names the reply's line).
-    pub fn finish(self, spec: &Spec) -> Result<CardFromLog, SpecError> {
+    /// (the error names the reply's line). A log that does not read I10 and whose X:$0 reads
+    /// count a servo clock more than 1% from `configured_hz` (the configuration's) is taken at
+    /// the clock they count (the median over pairs of reads): the card's clock is its own
+    /// (MODEL: the count and the stamps are the log's own evidence of it).
+    pub fn finish(self, spec: &Spec, configured_hz: u32) -> Result<CardFromLog, SpecError> {
         self.parser.finish()?;
         let iv = &spec.variables.i_variables;
         let mut out = CardFromLog::default();
@@ -828,6 +889,17 @@ impl CardScan {
                 }
             }
             out.sources.push((field, var, v, line));
+        }
+        if out.card.servo_hz.is_none() && !self.rates.is_empty() {
+            let mut rates = self.rates;
+            rates.sort_by(f64::total_cmp);
+            let median = rates[rates.len() / 2];
+            let hz = median.round() as u32;
+            let off = (f64::from(hz) - f64::from(configured_hz)).abs() / f64::from(configured_hz);
+            if off > 0.01 && spec.scheduling.servo_clock_hz_range.contains(hz) {
+                out.card.servo_hz = Some(hz);
+                out.sources.push(("servo_hz", "X:$0 over host time", i64::from(hz), self.rates_from.unwrap_or(1)));
+            }
         }
         Ok(out)
     }
@@ -1576,11 +1648,9 @@ pub fn import(file: &Path, text: &str, configuration: &str) -> Result<Imported, 
     for (i, raw) in text.lines().enumerate() {
         scan.line(i + 1, raw)?;
     }
-    let from_log = scan.finish(&spec)?;
-    let hz = match from_log.card.servo_hz {
-        Some(hz) => hz,
-        None => configuration_servo_hz(&spec, configuration).map_err(|e| SpecError::whole_file(file, e))?,
-    };
+    let configured_hz = configuration_servo_hz(&spec, configuration).map_err(|e| SpecError::whole_file(file, e))?;
+    let from_log = scan.finish(&spec, configured_hz)?;
+    let hz = from_log.card.servo_hz.unwrap_or(configured_hz);
     let mut importer = Importer::new(file, hz);
     let mut trace = header(file, configuration);
     for (i, raw) in text.lines().enumerate() {
@@ -1744,7 +1814,7 @@ impl ImportStream {
         while let Some(r) = records.next_record().map_err(hint)? {
             scan.record(r).map_err(hint)?;
         }
-        let from_log = scan.finish(spec).map_err(hint)?;
+        let from_log = scan.finish(spec, config_hz).map_err(hint)?;
         let servo_hz = from_log.card.servo_hz.unwrap_or(config_hz);
         let mut header = header(path, configuration);
         let noun = match format {
