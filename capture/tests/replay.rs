@@ -755,6 +755,27 @@ fn an_i_variable_read_back_other_than_written_is_no_correct_card_whatever_the_ti
 }
 
 #[test]
+fn i40_read_back_other_than_written_within_its_range_or_the_counter_above_the_reload_is_refused_unsearched() {
+    // Seed 37's impossible i40-write and dollar-reset logs got no verdict in 60 s: I40 written
+    // 500 and read back 586, and Y:$25 read 4155 on a card with I40 = 0 (a reload of 4095 or
+    // 4096). Both hold whatever the timing (SRM p.57, UM p.215): read from the steps alone.
+    let head = "> RHX:$0\n< 000100\n> I40\n< 0\n";
+    let r = replay_log("i40-read-back", &format!("{head}> I40=500\n<\n> ???\n< 000000000000\n> I40\n< 586\n"));
+    let why = r.refuted.as_deref().unwrap_or_default();
+    assert!(why.starts_with("line 10: I40 read 586, where line 6 wrote 500, within I40's range"), "{why}");
+    assert!(r.refuted_unsearched);
+    let r = replay_log("y25-above", &format!("{head}> RHY:$25\n< 00103B\n"));
+    let why = r.refuted.as_deref().unwrap_or_default();
+    assert!(why.starts_with("line 6: Y:$25 read 00103B (4155), above 4096"), "{why}");
+    // Outside I40's range the reading `out_of_range_assignment` decides (UM p.243): left to
+    // the search, which explains the roll-over to 0 under `modulo`.
+    let r = replay_log("i40-rolled-over", &format!("{head}> I40=65536\n<\n> I40\n< 0\n"));
+    assert!(r.refuted.is_none() && r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+    // Y:$25 at the reload is a card's.
+    assert!(replay_log("y25-at", &format!("{head}> RHY:$25\n< 001000\n")).refuted.is_none());
+}
+
+#[test]
 fn bit_13_clearing_after_a_checksum_error_with_no_reset_is_no_correct_card_whatever_the_timing_and_i40() {
     // The independent generator's impossible `checksum-error` log (bit 13 clears with no
     // reset) was undecided: it never reads I40, and each value searched took seconds. Bit 13

@@ -58,7 +58,8 @@ pub(super) fn command_of(step: &pmacwd_trace::Step) -> Option<&HostCommand> {
 /// - an I-variable read back with a value other than the one just written ([`ReadBack`]);
 /// - X:$1080 read with two values after a status read showed the checksum error, with no
 ///   reset between ([`Freeze`], UM p.217);
-/// - an answer after a wait no card survives without tripping ([`Outlived`]).
+/// - an answer after a wait no card survives without tripping ([`Outlived`]);
+/// - Y:$25 or X:$25 read above the highest reload the card's I40 gives (UM p.215, SRM p.57).
 ///
 /// None of these depends on the card's timing, its tolerances or where the commands fall in
 /// time either, so a capture they refute needs no search (`report::explain_timed`).
@@ -129,6 +130,25 @@ impl Rules {
         }
         if let Some(f) = self.outlived.step(line, step) {
             return Some(f);
+        }
+        // The counter counts down from its reload (UM p.215, SRM p.57): Y:$25, and X:$25 (its
+        // lowest), never read above the highest reload the card's I40 gives.
+        let reload_max = i64::try_from(self.outlived.reload_max).unwrap_or(i64::MAX);
+        for (register, read) in [("Y:$25", super::reads::counter_read(step)), ("X:$25", super::reads::min_read(step))] {
+            if let Some(v) = read.filter(|v| i64::from(*v) > reload_max) {
+                return Some(Finding {
+                    what: register.into(),
+                    expected: format!(
+                        "at most {reload_max}, the highest reload the card's I40 gives (UM p.215, SRM p.57)"
+                    ),
+                    observed: format!("{v:06X} ({v})"),
+                    why: format!(
+                        "line {line}: {register} read {v:06X} ({v}), above {reload_max}, the highest value the counter \
+                         is reloaded to under the card's I40 as the log shows it (I40 = 0 reloads 4095 or 4096, \
+                         any other value itself; UM p.215, SRM p.57), whatever the timing"
+                    ),
+                });
+            }
         }
         let resets = match (&step.event, command_of(step)) {
             (TraceEvent::Restart | TraceEvent::RestartPossible | TraceEvent::Model(Event::Reset(_)), _) => true,
@@ -329,9 +349,11 @@ fn checksum_error_shown(spec: &Spec, step: &pmacwd_trace::Step) -> Option<bool> 
 /// the placement of the commands in time, so the search need not try them (issue 36: the
 /// impossible `ivar-reads` logs got no verdict in 30 s).
 ///
-/// What the log shows of I{n} (I8, I40 and I41 are left to the search: their ranges and the
-/// readings of an assignment outside them are the model's):
+/// What the log shows of I{n}:
 /// - a read answered with a number: the card's value then;
+/// - for I8, I40 and I41, an acknowledged write within the range the pages give (SRM p.57;
+///   no I41 bit locks them): stored; one outside is left to the search, whose readings of an
+///   assignment outside the range say what it leaves (UM p.243);
 /// - an acknowledged write. Each I-variable has a range (SRM p.42), an interval; a value
 ///   outside it is refused with ERR003 or rolled over into it by modulo arithmetic (UM p.243,
 ///   the reading `out_of_range_assignment`), and the ranges of other I-variables than I8, I40
@@ -380,6 +402,8 @@ enum ShownBy {
     Read,
     /// A write of a value known in range: stored.
     WriteInRange,
+    /// A write of I8, I40 or I41 within the range the pages give: stored.
+    WriteInPagesRange,
     /// A write of a value not known in range: stored, or rolled over to a smaller one.
     WriteAtMost,
 }
@@ -388,7 +412,7 @@ impl Shown {
     /// Whether a read of `read` is one a card answers.
     fn admits(&self, read: i64) -> bool {
         match self.how {
-            ShownBy::Read | ShownBy::WriteInRange => read == self.value,
+            ShownBy::Read | ShownBy::WriteInRange | ShownBy::WriteInPagesRange => read == self.value,
             ShownBy::WriteAtMost => read <= self.value,
         }
     }
@@ -423,13 +447,30 @@ impl ReadBack {
             Event::Reset(_) => self.reset(),
             Event::Command(c) => match c {
                 HostCommand::Reset | HostCommand::Reinitialize | HostCommand::Unrecognized(_) => self.reset(),
-                // A read the log shows sets what is known of I41; one it does not show changes nothing.
-                HostCommand::ReadI(41) if reply.is_some() => self.i41 = number(),
-                HostCommand::WriteI(41, v) => {
-                    let range = &spec.variables.i_variables.i41.range;
-                    self.i41 = (acknowledged && (range.min..=range.max).contains(v)).then_some(*v);
+                // I8, I40 and I41 have the ranges the pages give, and no I41 bit locks them (SRM
+                // p.57): an acknowledged write within the range is stored under either reading of
+                // an assignment outside it (UM p.243); one outside is left to the search.
+                HostCommand::WriteI(n @ (8 | 40 | 41), v) => {
+                    let iv = &spec.variables.i_variables;
+                    let range = match n {
+                        8 => &iv.i8.range,
+                        40 => &iv.i40.range,
+                        _ => &iv.i41.range,
+                    };
+                    let stored = acknowledged && (range.min..=range.max).contains(v);
+                    if *n == 41 {
+                        self.i41 = stored.then_some(*v);
+                    }
+                    if stored {
+                        self.known.insert(*n, Shown { value: *v, line, how: ShownBy::WriteInPagesRange });
+                    } else {
+                        self.known.remove(n);
+                    }
                 }
-                HostCommand::DefaultI(41) | HostCommand::WriteIMemory(41, _) => self.i41 = None,
+                HostCommand::DefaultI(41) | HostCommand::WriteIMemory(41, _) => {
+                    self.i41 = None;
+                    self.known.remove(&41);
+                }
                 HostCommand::WriteI(n, v) if !RULED_I_VARIABLES.contains(n) => {
                     let locked =
                         self.i41.map(|i41| spec.variables.lockout_bit(*n).is_some_and(|bit| i41 & (1 << bit) != 0));
@@ -455,7 +496,12 @@ impl ReadBack {
                         self.i41 = None;
                     }
                 }
-                HostCommand::ReadI(n) if !RULED_I_VARIABLES.contains(n) => {
+                HostCommand::ReadI(n) => {
+                    // A read the log shows sets what is known of I41; one it does not show
+                    // changes nothing.
+                    if *n == 41 && reply.is_some() {
+                        self.i41 = number();
+                    }
                     let read = number()?;
                     if let Some(shown) = self.known.get(n).filter(|s| !s.admits(read)) {
                         let (at, v) = (shown.line, shown.value);
@@ -466,6 +512,10 @@ impl ReadBack {
                                     "line {at} wrote {v}, within the values the log read of it before (so in its \
                                      range, SRM p.42)"
                                 ),
+                                format!("{v}, written at line {at} (SRM p.57)"),
+                            ),
+                            ShownBy::WriteInPagesRange => (
+                                format!("line {at} wrote {v}, within I{n}'s range (SRM p.57)"),
                                 format!("{v}, written at line {at} (SRM p.57)"),
                             ),
                             ShownBy::WriteAtMost => (
