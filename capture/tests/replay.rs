@@ -776,6 +776,27 @@ fn i40_read_back_other_than_written_within_its_range_or_the_counter_above_the_re
 }
 
 #[test]
+fn bit_22_clearing_with_no_reset_and_no_memory_write_is_no_correct_card_whatever_the_timing() {
+    // SRM p.289: bit 22 "stays at 1 until the card is reset, or until this bit is manually
+    // changed to 0". Seed 37's and 38's impossible `sluggish` logs (bit 22 cleared) got no
+    // verdict in 60 s; from the steps alone they are rejected at the line.
+    let head = "> RHX:$0\n< 000100\n> ???\n< 400000000000\n> RHX:$0\n< 000200\n";
+    let r = replay_log("bit22", &format!("{head}> ???\n< 000000000000\n"));
+    let why = r.refuted.as_deref().unwrap_or_default();
+    assert!(why.starts_with("line 8: bit 22 of X:$000006 (RTI re-entry, SRM p.289) is clear, where line 4"), "{why}");
+    // A memory write between may be the manual change (an M-variable at X:$6 bit 22): left to
+    // the search; so is a reset. (The rules alone: the searches of these take minutes.)
+    let spec = Spec::embedded().unwrap();
+    for (name, between) in [("mvar", "> M1=0\n<\n"), ("wx", "> WX:$6,0\n<\n"), ("reset", "> $$$\n<\n")] {
+        let path = std::env::temp_dir().join(format!("pmacwd-bit22-{}-{name}.log", std::process::id()));
+        std::fs::write(&path, format!("{head}{between}> ???\n< 000000000000\n")).unwrap();
+        let refuted = pmacwd_capture::explain::refute::refutation(&spec, &path, ImportAs::from(None)).unwrap();
+        std::fs::remove_file(&path).ok();
+        assert!(refuted.is_none(), "{name}: {refuted:?}");
+    }
+}
+
+#[test]
 fn bit_13_clearing_after_a_checksum_error_with_no_reset_is_no_correct_card_whatever_the_timing_and_i40() {
     // The independent generator's impossible `checksum-error` log (bit 13 clears with no
     // reset) was undecided: it never reads I40, and each value searched took seconds. Bit 13

@@ -59,7 +59,9 @@ pub(super) fn command_of(step: &pmacwd_trace::Step) -> Option<&HostCommand> {
 /// - X:$1080 read with two values after a status read showed the checksum error, with no
 ///   reset between ([`Freeze`], UM p.217);
 /// - an answer after a wait no card survives without tripping ([`Outlived`]);
-/// - Y:$25 or X:$25 read above the highest reload the card's I40 gives (UM p.215, SRM p.57).
+/// - Y:$25 or X:$25 read above the highest reload the card's I40 gives (UM p.215, SRM p.57);
+/// - bit 22 of X:$000006 shown clear after it showed set, with no reset and no memory write
+///   between (SRM p.289).
 ///
 /// None of these depends on the card's timing, its tolerances or where the commands fall in
 /// time either, so a capture they refute needs no search (`report::explain_timed`).
@@ -69,6 +71,7 @@ pub fn refuted(spec: &Spec, path: &Path, import: ImportAs<'_>) -> Result<Option<
         lowest: None,
         cpu: None,
         checksum_error: None,
+        rti_reentry: None,
         read_back: ReadBack::default(),
         freeze: Freeze::default(),
         outlived: Outlived::new(spec, &source, &import)?,
@@ -109,6 +112,8 @@ struct Rules {
     cpu: Option<((bool, bool), usize)>,
     /// The status read that showed bit 13 (a checksum error) since the last reset.
     checksum_error: Option<usize>,
+    /// The status read that showed bit 22 (RTI re-entry) since the last reset or clearing.
+    rti_reentry: Option<usize>,
     read_back: ReadBack,
     freeze: Freeze,
     outlived: Outlived,
@@ -164,6 +169,32 @@ impl Rules {
         if resets {
             self.lowest = None;
             self.checksum_error = None;
+            self.rti_reentry = None;
+        }
+        if step.event == TraceEvent::Model(Event::ClearRtiReentry) {
+            self.rti_reentry = None;
+        }
+        // Bit 22 of X:$000006, RTI re-entry, "stays at 1 until the card is reset, or until
+        // this bit is manually changed to 0" (SRM p.289): a memory write may change it (it
+        // ends the rule above), a reset clears it; nothing else does, under every reading.
+        if let Some(set) = status_bit_shown(spec, step, "rti_reentry") {
+            match self.rti_reentry {
+                Some(at) if !set => {
+                    return Some(Finding {
+                        what: "bit 22 of X:$000006 (RTI re-entry)".into(),
+                        expected: format!("set, as line {at} showed it, until a reset or a write of 0 (SRM p.289)"),
+                        observed: "clear".into(),
+                        why: format!(
+                            "line {line}: bit 22 of X:$000006 (RTI re-entry, SRM p.289) is clear, where line {at} \
+                             showed it set, with no reset and no memory write or M-variable assignment between: \
+                             \"it stays at 1 until the card is reset, or until this bit is manually changed to 0\" \
+                             (SRM p.289), whatever the timing"
+                        ),
+                    });
+                }
+                None if set => self.rti_reentry = Some(line),
+                _ => {}
+            }
         }
         // Bit 13 of X:$000006, any checksum error, is cleared only by a reset: the checksum
         // operations stop after the error (SRM p.289; UM p.217). One meaning under every
@@ -322,10 +353,16 @@ fn may_write_memory(text: &str) -> bool {
 /// Whether the status word a step reads (`???`, or `RHX:$6`) shows bit 13 of X:$000006, the
 /// checksum error bit (SRM p.289); `None` if the step reads no such word.
 fn checksum_error_shown(spec: &Spec, step: &pmacwd_trace::Step) -> Option<bool> {
+    status_bit_shown(spec, step, "checksum_error")
+}
+
+/// Whether the status word a step reads (`???`, or `RHX:$6`/`RHY:$6`) shows the bit of
+/// `status.yaml` named `name`; `None` if the step reads no word holding it.
+fn status_bit_shown(spec: &Spec, step: &pmacwd_trace::Step, name: &str) -> Option<bool> {
     use pmacwd_specs::status::WordId;
     use pmacwd_specs::vocab::command::Register;
     use pmacwd_specs::vocab::reply_text::{self, StatusReply};
-    let (word, bit) = spec.status.bit("checksum_error")?;
+    let (word, bit) = spec.status.bit(name)?;
     let reply = step.expect.reply.as_deref()?;
     let TraceEvent::Model(Event::Command(command)) = &step.event else { return None };
     let w = match (command, word) {
