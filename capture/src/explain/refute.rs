@@ -47,6 +47,22 @@ pub(super) fn command_of(step: &pmacwd_trace::Step) -> Option<&HostCommand> {
     }
 }
 
+/// Whether `step` changes I40 (a write, `I40=*`, `$$$***`, a memory write, or a command the
+/// model cannot follow that writes it): reads after it say nothing of the saved value.
+pub(super) fn writes_i40(step: &pmacwd_trace::Step) -> bool {
+    match command_of(step) {
+        Some(c) => match c {
+            HostCommand::WriteI(40, _)
+            | HostCommand::WriteIMemory(40, _)
+            | HostCommand::DefaultI(40)
+            | HostCommand::Reinitialize => true,
+            HostCommand::Card { forgets: Some(r), .. } => r.numbers().any(|n| n == 40),
+            _ => false,
+        },
+        None => false,
+    }
+}
+
 /// What the capture shows that no correct card shows whatever its I40, read from the steps
 /// alone (rules that do not read the counter's reload), with its line:
 /// - X:$25 "the lowest value of the watchdog counter since the last power-on/reset" (SRM
@@ -177,45 +193,32 @@ impl Rules {
         // Bit 22 of X:$000006, RTI re-entry, "stays at 1 until the card is reset, or until
         // this bit is manually changed to 0" (SRM p.289): a memory write may change it (it
         // ends the rule above), a reset clears it; nothing else does, under every reading.
-        if let Some(set) = status_bit_shown(spec, step, "rti_reentry") {
-            match self.rti_reentry {
-                Some(at) if !set => {
-                    return Some(Finding {
-                        what: "bit 22 of X:$000006 (RTI re-entry)".into(),
-                        expected: format!("set, as line {at} showed it, until a reset or a write of 0 (SRM p.289)"),
-                        observed: "clear".into(),
-                        why: format!(
-                            "line {line}: bit 22 of X:$000006 (RTI re-entry, SRM p.289) is clear, where line {at} \
-                             showed it set, with no reset and no memory write or M-variable assignment between: \
-                             \"it stays at 1 until the card is reset, or until this bit is manually changed to 0\" \
-                             (SRM p.289), whatever the timing"
-                        ),
-                    });
-                }
-                None if set => self.rti_reentry = Some(line),
-                _ => {}
-            }
+        if let Some(at) = cleared(&mut self.rti_reentry, status_bit_shown(spec, step, "rti_reentry"), line) {
+            return Some(Finding {
+                what: "bit 22 of X:$000006 (RTI re-entry)".into(),
+                expected: format!("set, as line {at} showed it, until a reset or a write of 0 (SRM p.289)"),
+                observed: "clear".into(),
+                why: format!(
+                    "line {line}: bit 22 of X:$000006 (RTI re-entry, SRM p.289) is clear, where line {at} showed it \
+                     set, with no reset and no memory write or M-variable assignment between: \"it stays at 1 until \
+                     the card is reset, or until this bit is manually changed to 0\" (SRM p.289), whatever the timing"
+                ),
+            });
         }
         // Bit 13 of X:$000006, any checksum error, is cleared only by a reset: the checksum
         // operations stop after the error (SRM p.289; UM p.217). One meaning under every
         // reading (bit 12's two readings leave it alone).
-        if let Some(set) = checksum_error_shown(spec, step) {
-            match self.checksum_error {
-                Some(at) if !set => {
-                    return Some(Finding {
-                        what: "bit 13 of X:$000006 (a checksum error)".into(),
-                        expected: format!("set, as line {at} showed it, until a reset (SRM p.289, UM p.217)"),
-                        observed: "clear".into(),
-                        why: format!(
-                            "line {line}: bit 13 of X:$000006 (a checksum error, SRM p.289) is clear, where line {at} \
-                             showed it set, with no reset between: it stays set until the card is reset, the checksum \
-                             operations stopping at the error (SRM p.289, UM p.217), whatever I40 and the timing"
-                        ),
-                    });
-                }
-                None if set => self.checksum_error = Some(line),
-                _ => {}
-            }
+        if let Some(at) = cleared(&mut self.checksum_error, checksum_error_shown(spec, step), line) {
+            return Some(Finding {
+                what: "bit 13 of X:$000006 (a checksum error)".into(),
+                expected: format!("set, as line {at} showed it, until a reset (SRM p.289, UM p.217)"),
+                observed: "clear".into(),
+                why: format!(
+                    "line {line}: bit 13 of X:$000006 (a checksum error, SRM p.289) is clear, where line {at} showed \
+                     it set, with no reset between: it stays set until the card is reset, the checksum operations \
+                     stopping at the error (SRM p.289, UM p.217), whatever I40 and the timing"
+                ),
+            });
         }
         if let Some(v) = super::reads::min_read(step) {
             if let Some((before, at)) = self.lowest.filter(|(before, _)| v > *before) {
@@ -260,6 +263,20 @@ impl Rules {
     }
 }
 
+/// A status bit that stays set once shown set (until what ends `shown`, which the caller
+/// clears): records the first line showing it set; the line it was set at if `set` shows it
+/// clear.
+fn cleared(shown: &mut Option<usize>, set: Option<bool>, line: usize) -> Option<usize> {
+    match (set?, *shown) {
+        (false, Some(at)) => Some(at),
+        (true, None) => {
+            *shown = Some(line);
+            None
+        }
+        _ => None,
+    }
+}
+
 /// A host that waited longer for an answer than any card survives with no background cycle:
 /// the counter runs out from its reload at the latest, and the strobe stops once it has
 /// (UM p.215, SRM p.57); past the hardware delay the card trips (UM p.215), and a tripped card
@@ -299,7 +316,7 @@ impl Outlived {
     }
 
     fn step(&mut self, line: usize, step: &pmacwd_trace::Step) -> Option<Finding> {
-        if super::unknown::writes_i40(step) {
+        if writes_i40(step) {
             // The reload is the new value's from here: take the highest I40 can be.
             self.reload_max = self.reload_max.max(self.i40_max);
         }

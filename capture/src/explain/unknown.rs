@@ -16,9 +16,8 @@
 //!   else reads it (a tripped card is silent, UM p.215, and the log has no silence). A run that
 //!   explains the log under one I40 explains it under 65,535, so trying 65,535 decides.
 
-use super::refute::command_of;
+use super::refute::writes_i40;
 use crate::replay::{ImportAs, Source};
-use pmacwd_specs::vocab::command::HostCommand;
 use pmacwd_specs::{Spec, SpecError};
 use std::path::Path;
 
@@ -51,22 +50,6 @@ pub struct Evidence {
     highest_read: Option<i32>,
     silent: bool,
     configured: u16,
-}
-
-/// Whether `step` changes I40 (a write, `I40=*`, `$$$***`, a memory write, or a command the
-/// model cannot follow that writes it): reads after it say nothing of the saved value.
-pub(super) fn writes_i40(step: &pmacwd_trace::Step) -> bool {
-    match command_of(step) {
-        Some(c) => match c {
-            HostCommand::WriteI(40, _)
-            | HostCommand::WriteIMemory(40, _)
-            | HostCommand::DefaultI(40)
-            | HostCommand::Reinitialize => true,
-            HostCommand::Card { forgets: Some(r), .. } => r.numbers().any(|n| n == 40),
-            _ => false,
-        },
-        None => false,
-    }
 }
 
 /// Reads the capture for what bears on I40, when the capture leaves it open: a capture under

@@ -518,8 +518,10 @@ pub fn run(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> Result<
     let mut card = Controller::power_on(cfg);
     let mut checked = 0;
     let nothing = Expect::default();
+    // In step order (`build` pushes them so): one cursor, not a search per step.
+    let mut areas = w.areas.iter().peekable();
     for (i, step) in w.steps.iter().enumerate() {
-        if let Some((_, a)) = w.areas.iter().find(|(at, _)| *at == i) {
+        if let Some((_, a)) = areas.next_if(|(at, _)| *at == i) {
             card.checksum.area = *a;
             card.checksum.position = 0;
         }
