@@ -428,8 +428,8 @@ fn for_debugging_one_capture_is_searched_on_one_lane_and_where_it_dies_is_printe
                 witness::witness_for(&spec, &path, Default::default(), lanes[0].def.clone(), lanes[0].tolerances)
                     .unwrap();
             println!("witness: {:?}\n{}", w.checked, w.story.join("\n"));
-            for (i, st) in w.steps.iter().enumerate() {
-                println!("    step {}: {} {:?}", i + 1, st.event(), st.expect().and_then(|e| e.reply.as_ref()));
+            for (i, (st, _)) in w.collect_steps(&spec).unwrap().iter().enumerate() {
+                println!("    step {}: {} {:?}", i + 1, st.event, st.expect.reply);
             }
             println!("---");
         }

@@ -334,6 +334,15 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    // glibc keeps what the search threads free in their own arenas and raises its trim
+    // threshold as large blocks are freed: a quarter-day host log's replay peaked at 230 MB of
+    // RSS over 33 MB of heap (heaptrack). Its default threshold, set explicitly, stays fixed
+    // and the memory goes back (42 MB, the same time).
+    // SAFETY: called before any other thread exists; M_TRIM_THRESHOLD takes a byte count.
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    unsafe {
+        libc::mallopt(libc::M_TRIM_THRESHOLD, 128 * 1024);
+    }
     let cli = Cli::parse();
     if let Err(e) = progress::configure() {
         return common::unusable(e);

@@ -64,7 +64,7 @@ pub fn replay_file(args: ReplayArgs) -> ExitCode {
                     eprintln!("pmacwd: {}: cannot write the witness: {e}", out.display());
                     return ExitCode::from(2);
                 }
-                eprintln!("pmacwd: the explanation written to {} ({} steps)", out.display(), w.steps.len());
+                eprintln!("pmacwd: the explanation written to {} ({} steps)", out.display(), w.steps);
             } else if let Some(out) = &witness {
                 eprintln!("pmacwd: no explanation to write to {}: the capture is not explained", out.display());
             }

@@ -669,7 +669,7 @@ pub fn to_text(r: &Report) -> String {
                     s,
                     "  checked: this behaviour, run on the model, reproduces all {n} observations ({} steps; \
                      --witness FILE writes it as a trace)",
-                    w.steps.len()
+                    w.steps
                 );
             }
             Some(Err(e)) => {
@@ -824,7 +824,7 @@ pub fn to_json(r: &Report) -> String {
         "readings": readings, "lanes": lanes, "profiles": profiles,
         "explanation": r.witness.as_ref().map(|(label, w)| serde_json::json!({
             "readings": label, "cpu_type": w.cpu, "cpu_type_decided": w.cpu_decided, "story": w.story,
-            "trace_steps": w.steps.len(),
+            "trace_steps": w.steps,
             "observations_checked": match &w.checked { Some(Ok(n)) => serde_json::json!(n), _ => serde_json::Value::Null },
             "reproduces": matches!(w.checked, Some(Ok(_))),
             "lowest_counter_min": w.lowest_min,

@@ -86,46 +86,65 @@ pub fn judge(
             }
         }
     }
-    let show = |i: usize, witnesses: &[(String, Witness)]| -> Result<Option<Lane>, SpecError> {
-        let mut lane = Lane::new(spec, &name, card.as_ref(), defs[i].clone(), false, None)
-            .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
-        let found = witnesses
-            .iter()
-            .find_map(|(label, w)| witness::run(spec, &lane.cfg, w).ok().map(|(_, end)| (label.clone(), end, w.cpu)));
-        Ok(found.map(|(label, end, cpu)| {
-            lane.cands = vec![Cand { counter_lo: end.counter, min_lo: end.counter_min, card: end, cpu, node: None }];
-            lane.peak = 1;
-            lane.shown_by = Some(label);
-            lane
-        }))
-    };
-    while !likely.is_empty() {
-        let mut batch = Vec::new();
-        while batch.len() < 2 {
-            let Some(i) = likely.pop_front() else { break };
-            match show(i, &witnesses)? {
-                Some(lane) => slots[i] = Some(lane),
-                None => batch.push(i),
+    // Each explanation is walked once for every lane not judged yet (the capture read once per
+    // explanation, not once per lane): a lane it reproduces is shown by it.
+    let show =
+        |which: &[usize], witnesses: &[(String, Witness)], slots: &mut [Option<Lane>]| -> Result<(), SpecError> {
+            let mut lanes = Vec::new();
+            for &i in which.iter().filter(|i| slots[**i].is_none()) {
+                let lane = Lane::new(spec, &name, card.as_ref(), defs[i].clone(), false, None)
+                    .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
+                lanes.push((i, lane));
             }
+            for (label, w) in witnesses {
+                if lanes.is_empty() {
+                    break;
+                }
+                let cfgs: Vec<&pmacwd_specs::config::ModelConfig> = lanes.iter().map(|(_, l)| &l.cfg).collect();
+                let results = witness::run_many(spec, &cfgs, w)?;
+                let mut left = Vec::new();
+                for ((i, mut lane), result) in lanes.into_iter().zip(results) {
+                    match result {
+                        Ok((_, end)) => {
+                            lane.cands = vec![Cand {
+                                counter_lo: end.counter,
+                                min_lo: end.counter_min,
+                                card: end,
+                                cpu: w.cpu,
+                                node: None,
+                            }];
+                            lane.peak = 1;
+                            lane.shown_by = Some(label.clone());
+                            slots[i] = Some(lane);
+                        }
+                        Err(_) => left.push((i, lane)),
+                    }
+                }
+                lanes = left;
+            }
+            Ok(())
+        };
+    let mut tried = 0;
+    loop {
+        let pending: Vec<usize> = likely.iter().chain(unlikely.iter()).copied().collect();
+        show(&pending, &witnesses[tried..], &mut slots)?;
+        tried = witnesses.len();
+        likely.retain(|i| slots[*i].is_none());
+        unlikely.retain(|i| slots[*i].is_none());
+        let batch: Vec<usize> = (0..2).map_while(|_| likely.pop_front()).collect();
+        if batch.is_empty() {
+            break;
         }
-        if !batch.is_empty() {
-            let before = witnesses.len();
-            search_recorded(spec, path, import, &defs, &batch, &mut slots, &mut witnesses)?;
-            // A pair that adds no explanation: the rest are searched together, below. Each
-            // search reads the whole capture again, which on a day-long log costs more than
-            // the pairs save (a day at 2 Hz: 23 s of CPU in pairs).
-            if witnesses.len() == before {
-                break;
-            }
+        let before = witnesses.len();
+        search_recorded(spec, path, import, &defs, &batch, &mut slots, &mut witnesses)?;
+        // A pair that adds no explanation: the rest are searched together, below. Each
+        // search reads the whole capture again, which on a day-long log costs more than
+        // the pairs save (a day at 2 Hz: 23 s of CPU in pairs).
+        if witnesses.len() == before {
+            break;
         }
     }
-    let mut rest = Vec::new();
-    for i in likely.into_iter().chain(unlikely) {
-        match show(i, &witnesses)? {
-            Some(lane) => slots[i] = Some(lane),
-            None => rest.push(i),
-        }
-    }
+    let rest: Vec<usize> = likely.into_iter().chain(unlikely).collect();
     let (searched, _) = search_in_two(spec, path, import, rest.iter().map(|i| defs[*i].clone()).collect(), false)?;
     for (i, lane) in rest.iter().zip(searched) {
         slots[*i] = Some(lane);

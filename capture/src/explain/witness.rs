@@ -18,51 +18,20 @@ use pmacwd_trace::{Expect, Step, TraceEvent};
 use std::path::Path;
 use std::sync::Arc;
 
-/// One step of an explanation, kept small: a day-long capture's explanation has over a
-/// million, most of them servo and background events with nothing expected (24 bytes instead
-/// of a whole step's 200).
-#[derive(Clone, Debug)]
-pub enum WitnessStep {
-    Bare(TraceEvent),
-    Full(Box<Step>),
-}
-
-impl WitnessStep {
-    pub fn new(step: Step) -> WitnessStep {
-        if step.note.is_none() && step.expect == Expect::default() {
-            WitnessStep::Bare(step.event)
-        } else {
-            WitnessStep::Full(Box::new(step))
-        }
-    }
-
-    pub fn event(&self) -> &TraceEvent {
-        match self {
-            WitnessStep::Bare(e) => e,
-            WitnessStep::Full(s) => &s.event,
-        }
-    }
-
-    pub fn expect(&self) -> Option<&Expect> {
-        match self {
-            WitnessStep::Bare(_) => None,
-            WitnessStep::Full(s) => Some(&s.expect),
-        }
-    }
-
-    /// The step in the trace format.
-    pub fn to_step(&self) -> Step {
-        match self {
-            WitnessStep::Bare(e) => Step { event: e.clone(), expect: Expect::default(), note: None },
-            WitnessStep::Full(s) => (**s).clone(),
-        }
-    }
-}
-
 /// The explanation of a capture under one lane.
+///
+/// Its steps are not kept: they are rebuilt from the search's choices and the capture each
+/// time they are walked ([`Witness::walk`]), so that its memory is the choices' (a few words a
+/// gap), not the steps' (a day-long host log's explanation held as steps took 700 MB).
 pub struct Witness {
-    /// The capture with every gap replaced by concrete events (the trace format's steps).
-    pub steps: Vec<WitnessStep>,
+    /// The search's choices, oldest first.
+    nodes: Vec<Arc<Node>>,
+    /// The capture, opened again for each walk.
+    capture: Capture,
+    /// The lane's configuration the choices are run under.
+    cfg: ModelConfig,
+    /// Steps in the explanation as a trace.
+    pub steps: usize,
     /// What happened that the host could not see, in words, with the capture's lines.
     pub story: Vec<String>,
     pub cpu: u8,
@@ -75,10 +44,82 @@ pub struct Witness {
     /// The card's own hardware delay and supply threshold, when they are not the stated ones
     /// (UM p.215 gives both only approximately); the written trace carries them in `card:`.
     pub tolerances: Option<super::search::Tolerances>,
-    /// Before the step of each index, the checksum engine is on this area at the start of a
-    /// pass: the card's pass lengths are its own (`Tolerances::free_area`). No model event
-    /// sets the area, so [`run`] sets it, and a written trace says where `pmacwd run` differs.
-    pub areas: Vec<(usize, ChecksumTarget)>,
+    /// At how many status reads the checksum engine is set on an area at the start of a pass:
+    /// the card's pass lengths are its own (`Tolerances::free_area`). No model event sets the
+    /// area, so a walk gives it with the step it comes before, and a written trace says where
+    /// `pmacwd run` differs.
+    pub areas: usize,
+}
+
+/// The capture an explanation was found for and how it was imported: what a walk opens again.
+#[derive(Clone, Debug)]
+struct Capture {
+    path: std::path::PathBuf,
+    configuration: Option<String>,
+    format: Option<crate::import::LogFormat>,
+    placement: crate::import::Placement,
+    card_i40: Option<i64>,
+}
+
+impl Capture {
+    fn of(path: &Path, import: ImportAs<'_>) -> Capture {
+        Capture {
+            path: path.to_path_buf(),
+            configuration: import.configuration.map(str::to_string),
+            format: import.format,
+            placement: import.placement,
+            card_i40: import.card_i40,
+        }
+    }
+
+    fn open(&self, spec: &Spec) -> Result<Source, SpecError> {
+        let import = ImportAs {
+            configuration: self.configuration.as_deref(),
+            format: self.format,
+            placement: self.placement,
+            host_time_limit: None,
+            deadline: None,
+            card_i40: self.card_i40,
+        };
+        Source::open_with(spec, &self.path, import)
+    }
+}
+
+/// Where a walk puts the steps: each with the checksum area the engine is set on before it,
+/// if any; `Break` ends the walk.
+pub type Sink<'s> = dyn FnMut(&Step, Option<ChecksumTarget>) -> std::ops::ControlFlow<()> + 's;
+
+/// The steps a walk gives out, and the area waiting for the next.
+struct Out<'e, 's> {
+    sink: &'e mut Sink<'s>,
+    area: Option<ChecksumTarget>,
+    count: usize,
+    areas: usize,
+    stopped: bool,
+}
+
+impl Out<'_, '_> {
+    fn step(&mut self, s: &Step) {
+        if self.stopped {
+            return;
+        }
+        self.count += 1;
+        if (self.sink)(s, self.area.take()).is_break() {
+            self.stopped = true;
+        }
+    }
+
+    fn bare(&mut self, event: TraceEvent, note: Option<String>) {
+        self.step(&Step { event, expect: Expect::default(), note });
+    }
+}
+
+/// What a walk tells besides its steps.
+struct Told {
+    story: Vec<String>,
+    lowest_min: i32,
+    steps: usize,
+    areas: usize,
 }
 
 fn area(a: ChecksumTarget) -> &'static str {
@@ -166,7 +207,8 @@ fn realize<'a>(
     fitting.or(fallback).or_else(|| gap::run(cfg, card, *plan_hi, true))
 }
 
-/// Replays the capture at `path` with the choices of `last`'s chain.
+/// Replays the capture at `path` with the choices of `last`'s chain: the explanation, its
+/// story, and whether it reproduces every observation on the model under `cfg` (one walk).
 pub fn build(
     spec: &pmacwd_specs::Spec,
     cfg: &ModelConfig,
@@ -179,9 +221,56 @@ pub fn build(
         Some(NodeKind::Start { cpu }) => *cpu,
         _ => 0,
     };
-    let mut source = Source::open_with(spec, path, import_configuration)?;
+    let capture = Capture::of(path, import_configuration);
+    let mut runner = Runner::new(cfg);
+    let told = walk_chain(spec, cfg, &capture, &nodes, &mut |step, area| {
+        runner.step(spec, cpu, step, area);
+        std::ops::ControlFlow::Continue(())
+    })?;
+    Ok(Witness {
+        nodes,
+        capture,
+        cfg: cfg.clone(),
+        steps: told.steps,
+        story: told.story,
+        cpu,
+        cpu_decided: false,
+        lowest_min: told.lowest_min,
+        checked: Some(runner.result().map(|(n, _)| n)),
+        tolerances: None,
+        areas: told.areas,
+    })
+}
+
+impl Witness {
+    /// Gives every step of the explanation to `sink`, in order (the capture read again).
+    pub fn walk(&self, spec: &Spec, sink: &mut Sink<'_>) -> Result<(), SpecError> {
+        walk_chain(spec, &self.cfg, &self.capture, &self.nodes, sink).map(|_| ())
+    }
+
+    /// Every step of the explanation, collected (for a short capture: a day-long one has
+    /// millions).
+    pub fn collect_steps(&self, spec: &Spec) -> Result<Vec<(Step, Option<ChecksumTarget>)>, SpecError> {
+        let mut v = Vec::new();
+        self.walk(spec, &mut |s, a| {
+            v.push((s.clone(), a));
+            std::ops::ControlFlow::Continue(())
+        })?;
+        Ok(v)
+    }
+}
+
+/// The capture read with the choices of `nodes` (oldest first), every step given to `sink`.
+fn walk_chain(
+    spec: &Spec,
+    cfg: &ModelConfig,
+    capture: &Capture,
+    nodes: &[Arc<Node>],
+    sink: &mut Sink<'_>,
+) -> Result<Told, SpecError> {
+    let mut source = capture.open(spec)?;
     let mut card = Controller::power_on(cfg);
-    let mut steps = Vec::new();
+    let mut out = Out { sink, area: None, count: 0, areas: 0, stopped: false };
     let mut story = Vec::new();
     let mut event = 0u64;
     let mut at = 1usize;
@@ -193,14 +282,7 @@ pub fn build(
     // Whether the capture reads X:$25: the dip is told only where the log can see it (issue
     // 29: the explanation's own choices in what the log does not read are not findings).
     let mut x25_read = false;
-    let mut areas: Vec<(usize, ChecksumTarget)> = Vec::new();
     let mut area_lines: Vec<usize> = Vec::new();
-    let push_events = |steps: &mut Vec<WitnessStep>, events: Vec<TraceEvent>, note: Option<String>| {
-        let mut note = note;
-        for e in events {
-            steps.push(WitnessStep::new(Step { event: e, expect: Expect::default(), note: note.take() }));
-        }
-    };
     // Each X:$25 read that narrowed an interval is met by the latest gap before it that can
     // run down that far; the other gaps keep X:$25 as high as they can.
     let mut targets: std::collections::HashMap<usize, i32> = std::collections::HashMap::new();
@@ -250,6 +332,9 @@ pub fn build(
         }
     }
     while let Some((line, step)) = source.next_step()? {
+        if out.stopped {
+            break;
+        }
         x25_read |= super::reads::min_read(&step).is_some();
         event += 1;
         while at < nodes.len() && nodes[at].event < event {
@@ -342,7 +427,10 @@ pub fn build(
                     lowest_min = card.counter_min;
                     dip_line = line;
                 }
-                push_events(&mut steps, sim.events.unwrap_or_default(), step.note.clone());
+                let mut note = step.note.clone();
+                for e in sim.events.unwrap_or_default() {
+                    out.bare(e, note.take());
+                }
             }
             TraceEvent::Restart | TraceEvent::RestartPossible => {
                 let Some(NodeKind::Restart(reset)) = nodes.get(at).filter(|n| n.event == event).map(|n| &n.kind) else {
@@ -369,11 +457,7 @@ pub fn build(
                 let e = Event::Reset(*reset);
                 card.apply(cfg, &e);
                 lowest_min = card.counter_min;
-                steps.push(WitnessStep::new(Step {
-                    event: TraceEvent::Model(e),
-                    expect: step.expect.clone(),
-                    note: step.note.clone(),
-                }));
+                out.step(&Step { event: TraceEvent::Model(e), expect: step.expect.clone(), note: step.note.clone() });
             }
             TraceEvent::Unanswered { command, wait_cycles } => {
                 let late = nodes[at.min(nodes.len())..]
@@ -391,7 +475,7 @@ pub fn build(
                         if card.tripped() { ", and the card tripped meanwhile (UM p.215)" } else { "" }
                     ));
                 }
-                steps.push(WitnessStep::new(step.clone()));
+                out.step(&step);
                 if late && !card.tripped() {
                     let e = Event::Command(command.clone());
                     card.apply(cfg, &e);
@@ -399,11 +483,10 @@ pub fn build(
                         "line {line}: the card processed `{command}` after the host gave up (its answer went \
                          unread)"
                     ));
-                    steps.push(WitnessStep::new(Step {
-                        event: TraceEvent::Model(e),
-                        expect: Expect::default(),
-                        note: Some("processed after the host gave up waiting; its answer is not in the log".into()),
-                    }));
+                    out.bare(
+                        TraceEvent::Model(e),
+                        Some("processed after the host gave up waiting; its answer is not in the log".into()),
+                    );
                 }
             }
             TraceEvent::Run { cycles } => {
@@ -411,7 +494,7 @@ pub fn build(
                 s.greedy(*cycles);
                 card = s.card;
                 now += u64::from(*cycles);
-                steps.push(WitnessStep::new(step.clone()));
+                out.step(&step);
             }
             TraceEvent::Model(e) => {
                 if let Event::Servo { cycles } = e {
@@ -426,7 +509,8 @@ pub fn build(
                     area_lines.push(line);
                     card.checksum.area = a;
                     card.checksum.position = 0;
-                    areas.push((steps.len(), a));
+                    out.area = Some(a);
+                    out.areas += 1;
                 }
                 card.apply(cfg, e);
                 if matches!(
@@ -438,7 +522,7 @@ pub fn build(
                 ) {
                     lowest_min = card.counter_min;
                 }
-                steps.push(WitnessStep::new(step.clone()));
+                out.step(&step);
             }
         }
         last_line = line;
@@ -459,7 +543,7 @@ pub fn build(
             "the longest run without a background cycle took X:$25 down to {lowest_min} (by line {dip_line})"
         ));
     }
-    Ok(Witness { steps, story, cpu, cpu_decided: false, lowest_min, checked: None, tolerances: None, areas })
+    Ok(Told { story, lowest_min, steps: out.count, areas: out.areas })
 }
 
 /// When, in servo cycles from the start of `events` run on `card`, the last strobe edge came
@@ -514,49 +598,99 @@ pub fn reproduces(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> 
 /// Runs the witness on the model under `cfg` from power-on, comparing every step's
 /// expectations: how many were checked, and the card at the end.
 pub fn run(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> Result<(usize, Controller), String> {
-    use super::observe::observation;
-    let mut card = Controller::power_on(cfg);
-    let mut checked = 0;
-    let nothing = Expect::default();
-    // In step order (`build` pushes them so): one cursor, not a search per step.
-    let mut areas = w.areas.iter().peekable();
-    for (i, step) in w.steps.iter().enumerate() {
-        if let Some((_, a)) = areas.next_if(|(at, _)| *at == i) {
-            card.checksum.area = *a;
+    run_many(spec, &[cfg], w).map_err(|e| e.to_string())?.pop().expect("one configuration, one result")
+}
+
+/// Runs the witness on the model under each of `cfgs` in one walk (the capture is read once
+/// for all): for each, as [`run`]. (Sharing the runs out over two threads fed the walk's steps
+/// in chunks was tried on a quarter-day log: no faster, the walk itself being half the work.)
+pub fn run_many(
+    spec: &pmacwd_specs::Spec,
+    cfgs: &[&ModelConfig],
+    w: &Witness,
+) -> Result<Vec<RunResult>, SpecError> {
+    let mut runners: Vec<Runner<'_>> = cfgs.iter().map(|c| Runner::new(c)).collect();
+    w.walk(spec, &mut |step, area| {
+        for r in runners.iter_mut() {
+            r.step(spec, w.cpu, step, area);
+        }
+        if runners.iter().any(|r| r.failed.is_none()) {
+            std::ops::ControlFlow::Continue(())
+        } else {
+            std::ops::ControlFlow::Break(())
+        }
+    })?;
+    Ok(runners.into_iter().map(Runner::result).collect())
+}
+
+/// A run's observations checked and its card at the end, or its first mismatch.
+pub type RunResult = Result<(usize, Controller), String>;
+
+/// A witness run on the model under one configuration from power-on, step by step, every
+/// step's expectations compared (as `pmacwd run` runs a trace).
+struct Runner<'c> {
+    cfg: &'c ModelConfig,
+    card: Controller,
+    checked: usize,
+    steps: usize,
+    failed: Option<String>,
+}
+
+impl<'c> Runner<'c> {
+    fn new(cfg: &'c ModelConfig) -> Runner<'c> {
+        Runner { cfg, card: Controller::power_on(cfg), checked: 0, steps: 0, failed: None }
+    }
+
+    fn step(&mut self, spec: &Spec, cpu: u8, step: &Step, area: Option<ChecksumTarget>) {
+        use super::observe::observation;
+        if self.failed.is_some() {
+            return;
+        }
+        self.steps += 1;
+        let (cfg, card, i) = (self.cfg, &mut self.card, self.steps);
+        if let Some(a) = area {
+            card.checksum.area = a;
             card.checksum.position = 0;
         }
-        let reply = match step.event() {
+        let reply = match &step.event {
             TraceEvent::Model(Event::Background) if !card.background_possible() => {
-                return Err(format!("witness step {}: a background cycle the model cannot complete", i + 1))
+                self.failed = Some(format!("witness step {i}: a background cycle the model cannot complete"));
+                return;
             }
             TraceEvent::Model(e) => card.apply(cfg, e),
             TraceEvent::Unanswered { wait_cycles, .. } => card.unanswered(cfg, *wait_cycles),
             TraceEvent::Run { cycles } => {
                 let mut s = Sim::new(cfg, card.clone(), false);
                 s.greedy(*cycles);
-                card = s.card;
+                *card = s.card;
                 pmacwd_specs::vocab::event::Reply::None
             }
             TraceEvent::Elapsed { .. } | TraceEvent::Restart | TraceEvent::RestartPossible => {
-                return Err(format!("witness step {}: `{}` left unresolved", i + 1, step.event()))
+                self.failed = Some(format!("witness step {i}: `{}` left unresolved", step.event));
+                return;
             }
         };
-        let obs = observation(cfg, &card, w.cpu, reply);
-        match super::search::compare_windowed(spec, cfg, step.expect().unwrap_or(&nothing), &card, &obs) {
-            Ok(n) => checked += n,
+        let obs = observation(cfg, card, cpu, reply);
+        match super::search::compare_windowed(spec, cfg, &step.expect, card, &obs) {
+            Ok(n) => self.checked += n,
             Err(pmacwd_trace::compare::Mismatch::Field(what, expected, observed)) => {
-                return Err(format!(
-                    "witness step {} (`{}`): {what}: expected {expected}, observed {observed}",
-                    i + 1,
-                    step.event()
+                self.failed = Some(format!(
+                    "witness step {i} (`{}`): {what}: expected {expected}, observed {observed}",
+                    step.event
                 ))
             }
             Err(pmacwd_trace::compare::Mismatch::UnknownBit(_, _, name)) => {
-                return Err(format!("unknown status bit `{name}`"))
+                self.failed = Some(format!("unknown status bit `{name}`"))
             }
         }
     }
-    Ok((checked, card))
+
+    fn result(self) -> Result<(usize, Controller), String> {
+        match self.failed {
+            Some(e) => Err(e),
+            None => Ok((self.checked, self.card)),
+        }
+    }
 }
 
 /// Writes a witness as a JSON Lines trace: the capture's configuration, the named profiles of
@@ -608,13 +742,13 @@ pub fn write_trace(
              unseen gap replaced by events of the model. CPU type {} (bits 21 of ??? in the expected \
              replies are the configuration's processor's).{}",
             w.cpu,
-            if w.areas.is_empty() {
+            if w.areas == 0 {
                 String::new()
             } else {
                 format!(
                     " The card's checksum passes are of its own length: at {} status reads the area bit 12 shows \
                      is the log's, which no event of the model sets, so `pmacwd run` of this trace differs there.",
-                    w.areas.len()
+                    w.areas
                 )
             }
         ),
@@ -632,8 +766,9 @@ pub fn write_trace(
     } else {
         writeln!(out, "{}", pmacwd_trace::jsonl::header_line_with_card(&trace, card))?;
     }
-    for step in &w.steps {
-        let mut step = step.to_step();
+    let mut failed: Option<std::io::Error> = None;
+    let walked = w.walk(spec, &mut |step, _| {
+        let mut step = step.clone();
         if let Some(r) = &step.expect.reply {
             if let Ok(StatusReply::Words { x, y }) = reply_text::decode(r) {
                 if r.len() == 12 {
@@ -642,13 +777,23 @@ pub fn write_trace(
                 }
             }
         }
-        if yaml {
-            write!(out, "{}", pmacwd_trace::yaml_step(&step))?;
+        let written = if yaml {
+            write!(out, "{}", pmacwd_trace::yaml_step(&step))
         } else {
-            writeln!(out, "{}", pmacwd_trace::jsonl::step_line(&step))?;
+            writeln!(out, "{}", pmacwd_trace::jsonl::step_line(&step))
+        };
+        match written {
+            Ok(()) => std::ops::ControlFlow::Continue(()),
+            Err(e) => {
+                failed = Some(e);
+                std::ops::ControlFlow::Break(())
+            }
         }
+    });
+    if let Some(e) = failed {
+        return Err(e);
     }
-    Ok(())
+    walked.map_err(|e| std::io::Error::other(e.to_string()))
 }
 
 /// Searches `path` again on one lane with its choices recorded, and builds the explanation.
@@ -696,7 +841,6 @@ pub fn of_lane(
         let mut w = build(spec, &lane.cfg, path, import_configuration, &node)?;
         w.tolerances = (tolerances != lane.stated).then_some(tolerances);
         w.cpu_decided = lane.cands.iter().all(|o| o.cpu == w.cpu);
-        w.checked = Some(reproduces(spec, &lane.cfg, &w));
         if matches!(w.checked, Some(Ok(_))) {
             return Ok((label, w));
         }

@@ -34,6 +34,7 @@ use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 pub mod asyn;
+mod first_pass;
 pub mod pcap;
 
 /// The configuration a log is imported under when none is named (`--configuration`).
@@ -1663,7 +1664,7 @@ pub fn import(file: &Path, text: &str, configuration: &str) -> Result<Imported, 
 }
 
 /// The formats a log can be imported from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum LogFormat {
     /// `> command` / `< reply` lines (`docs/capturing.md`).
     HostLog,
@@ -1809,12 +1810,21 @@ impl ImportStream {
             None => looks_like(path)?.unwrap_or(LogFormat::HostLog),
         };
         let hint = |e: SpecError| with_format_hint(e, path, format);
-        let mut scan = CardScan::new(path);
-        let mut records = open_records(path, format).map_err(hint)?;
-        while let Some(r) = records.next_record().map_err(hint)? {
-            scan.record(r).map_err(hint)?;
-        }
-        let from_log = scan.finish(spec, config_hz).map_err(hint)?;
+        let iv = &spec.variables.i_variables;
+        let ranges = format!("{:?} {:?} {:?}", iv.i8.range, iv.i40.range, iv.i41.range);
+        let from_log = match first_pass::remembered(path, format, config_hz, ranges) {
+            (Some(known), _) => known,
+            (None, remember) => {
+                let mut scan = CardScan::new(path);
+                let mut records = open_records(path, format).map_err(hint)?;
+                while let Some(r) = records.next_record().map_err(hint)? {
+                    scan.record(r).map_err(hint)?;
+                }
+                let from_log = scan.finish(spec, config_hz).map_err(hint)?;
+                remember.keep(&from_log);
+                from_log
+            }
+        };
         let servo_hz = from_log.card.servo_hz.unwrap_or(config_hz);
         let mut header = header(path, configuration);
         let noun = match format {
