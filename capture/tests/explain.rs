@@ -507,3 +507,71 @@ fn combinations_whose_hardware_delays_come_out_the_same_are_searched_as_one_lane
         assert_eq!(pairs.len(), 4, "{}", lanes::label(&d.choices));
     }
 }
+
+/// A healthy card polled `polls` times every 0.1 s (X:$0, `???`, Y:$25, X:$25), as the
+/// criterion bench writes a day: background cycles every 9 to 13 servo cycles, the checksum
+/// area flipping at each.
+fn healthy_polls(polls: u32) -> String {
+    let mut s = String::from(
+        r#"{"format":"pmacwd-trace","version":1,"description":"SYNTHETIC: a healthy card polled every 0.1 s","configuration":"host-log","profiles":["um-215"]}"#,
+    );
+    s.push_str("\n{\"command\":\"$$$\"}\n");
+    let (r, mut counter, mut lowest, mut area, mut since) = (4096i32, 4096i32, 4096i32, 0u32, 0u32);
+    let mut seed = 7u64;
+    for _ in 0..polls {
+        for _ in 0..225 {
+            counter -= 1;
+            lowest = lowest.min(counter);
+            since += 1;
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            if since >= 9 + ((seed >> 33) % 5) as u32 {
+                counter = r;
+                since = 0;
+                area ^= 1;
+            }
+        }
+        let x = if area == 0 { 0x20_1000 } else { 0x20_0000 };
+        s.push_str(&format!(
+            "{{\"elapsed\":225}}\n{{\"command\":\"RHX:$0\"}}\n{{\"command\":\"???\",\"expect\":{{\"reply\":\"{x:06X}200000\"}}}}\n\
+             {{\"command\":\"RHY:$25\",\"expect\":{{\"reply\":\"{:06X}\"}}}}\n{{\"command\":\"RHX:$25\",\"expect\":{{\"reply\":\"{:06X}\"}}}}\n",
+            counter & 0xFF_FFFF,
+            lowest & 0xFF_FFFF
+        ));
+    }
+    s
+}
+
+/// A capture longer than the search's checkpoints are apart: the recorded search lets its
+/// history go at them, and the explanation, walked segment by segment (each searched again from
+/// the checkpoint before it), still reproduces every observation; every use walks the same
+/// steps.
+#[test]
+fn a_capture_past_the_search_s_checkpoints_is_explained_segment_by_segment_and_reproduced() {
+    let spec = Spec::embedded().unwrap();
+    let polls = 16_000u32;
+    let path = temp_file("past-checkpoints.jsonl", &healthy_polls(polls));
+    let def = lanes::lanes(&spec, "host-log", None, false)
+        .unwrap()
+        .into_iter()
+        .find(|d| d.combinations.contains(&lanes::options_of(&spec.profiles.default_profile().choices)))
+        .unwrap();
+    let (found, events, _) =
+        search::search_once(&spec, &path, Default::default(), std::iter::once((def, None)), true, true).unwrap();
+    let lane = &found[0];
+    assert!(lane.alive(), "{:?}", lane.death);
+    assert!(events > 2 * search::CHECKPOINT_EVENTS, "{events} events");
+    assert!(lane.checkpoints.len() >= 2, "{} checkpoints over {events} events", lane.checkpoints.len());
+    let (_, w, _) = witness::of_lane(&spec, &path, Default::default(), lane, &[]).unwrap();
+    // Three replies compared a poll (`???`, Y:$25, X:$25), the card running at each X:$0.
+    let checked = w.checked.clone().unwrap().unwrap();
+    assert!(checked >= 3 * polls as usize, "{checked} observations checked");
+    let steps = w.collect_steps(&spec).unwrap();
+    assert_eq!(steps.len(), w.steps);
+    assert!(steps.iter().all(|(s, _)| !matches!(s.event, pmacwd_trace::TraceEvent::Elapsed { .. })));
+    // The same walk run again under the lane's own readings reproduces it again.
+    assert_eq!(witness::reproduces(&spec, &lane.cfg, &w), Ok(checked));
+    let r = report::explain(&spec, &path, None).unwrap();
+    assert!(r.explained());
+    let (_, shown) = r.witness.as_ref().unwrap();
+    assert_eq!((shown.steps, shown.checked.clone()), (w.steps, Some(Ok(checked))));
+}

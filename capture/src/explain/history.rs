@@ -18,6 +18,9 @@ pub enum NodeKind {
     Start {
         cpu: u8,
     },
+    /// A checkpoint of a long capture (`search::Checkpoint`): the search had one candidate here,
+    /// whose choices before are another segment's; the chain starts again.
+    Root,
     Gap {
         plan_hi: Plan,
         plan_lo: Plan,

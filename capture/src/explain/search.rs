@@ -234,7 +234,28 @@ pub struct Lane {
     /// Under `tolerances.free_area`, the line of the last status read: the reads of one line
     /// are answered in one background cycle, which shows one area.
     pub free_line: Option<usize>,
+    /// With choices recorded, on a long capture: where the search had one candidate, whose
+    /// history was then let go (see [`Checkpoint`]).
+    pub checkpoints: Vec<Checkpoint>,
 }
+
+/// A point of a long capture where a recorded search had a single candidate: the chain of
+/// choices starts again there (`NodeKind::Root`), and the choices of the segment before are
+/// found again, when an explanation is walked, by searching that segment once more from the
+/// checkpoint before it, which gives the same single candidate (the search is deterministic,
+/// and from one candidate it does the same work). So a recorded search holds one segment of
+/// choices, not the whole capture's (a week-long log's chain took over a gigabyte).
+#[derive(Clone, Debug)]
+pub struct Checkpoint {
+    /// The capture event after which the candidate was taken.
+    pub event: u64,
+    /// The candidate (its history let go).
+    pub cand: Cand,
+    pub free_line: Option<usize>,
+}
+
+/// Capture events between checkpoints at the least.
+pub const CHECKPOINT_EVENTS: u64 = 1 << 15;
 
 /// The capture's steps with a window to look ahead.
 pub struct Reader {
@@ -615,11 +636,43 @@ impl Lane {
             delay_mattered: false,
             pass_mattered: false,
             shown_by: None,
+            checkpoints: Vec::new(),
         })
     }
 
     pub fn alive(&self) -> bool {
         self.death.is_none()
+    }
+
+    /// After event `event_no`: on a recorded search, a checkpoint where there is one candidate,
+    /// its Y:$25 and X:$25 exact (so no later read pins a gap before it), at least
+    /// [`CHECKPOINT_EVENTS`] after the last.
+    pub fn checkpoint(&mut self, event_no: u64) {
+        let since = self.checkpoints.last().map_or(0, |c| c.event);
+        let [c] = &mut self.cands[..] else { return };
+        if self.death.is_some()
+            || c.node.is_none()
+            || event_no - since < CHECKPOINT_EVENTS
+            || c.counter_lo != c.card.counter
+            || c.min_lo != c.card.counter_min
+        {
+            return;
+        }
+        self.checkpoints.push(Checkpoint {
+            event: event_no,
+            cand: Cand { node: None, ..c.clone() },
+            free_line: self.free_line,
+        });
+        c.node = Some(Arc::new(Node { parent: None, event: event_no, kind: NodeKind::Root }));
+    }
+
+    /// Starts this (new, recorded) lane from `from`, as the search was there.
+    pub fn resume(&mut self, from: &Checkpoint) {
+        self.cands = vec![Cand {
+            node: Some(Arc::new(Node { parent: None, event: from.event, kind: NodeKind::Root })),
+            ..from.cand.clone()
+        }];
+        self.free_line = from.free_line;
     }
 
     /// Advances every candidate over one step; `Err` for a capture the search cannot judge.
@@ -682,6 +735,7 @@ impl Lane {
                 self.cands = earliest_strobe_stops(std::mem::take(&mut self.cands));
             }
         }
+        let nothing_expected = step.expect == Expect::default();
         for cand in std::mem::take(&mut self.cands) {
             let mut results: Vec<(Cand, Reply)> = Vec::new();
             match &step.event {
@@ -880,6 +934,11 @@ impl Lane {
                 {
                     self.pass_mattered = true;
                 }
+                // A step that expects nothing (a gap's) holds whatever the card shows.
+                if nothing_expected {
+                    insert(c, &mut next)?;
+                    continue;
+                }
                 let obs = observation(cfg, &c.card, c.cpu, reply);
                 match compare_windowed(spec, cfg, &step.expect, &c.card, &obs) {
                     Ok(_) => insert(c, &mut next)?,
@@ -1058,6 +1117,27 @@ fn retry_variants(
     Ok(())
 }
 
+/// Steps `lane` (new, recorded, started as the search was at the event `reader` is at) over
+/// the capture's events up to `until`: a segment between checkpoints searched again. Its
+/// steps go to `steps` as they are read (the explanation's walk reads them next).
+pub fn search_segment(
+    spec: &Spec,
+    path: &Path,
+    reader: &mut Reader,
+    lane: &mut Lane,
+    until: u64,
+    steps: &mut VecDeque<(usize, Step)>,
+) -> Result<(), SpecError> {
+    while reader.events < until {
+        let Some((line, step)) = reader.next_step()? else { break };
+        let hints =
+            if matches!(step.event, TraceEvent::Elapsed { .. }) { reader.hints(spec)? } else { Hints::default() };
+        lane.step(spec, path, reader.events, line, &step, &hints)?;
+        steps.push_back((line, step));
+    }
+    Ok(())
+}
+
 /// One pass over the capture with each lane under its tolerances (`None`: the stated ones).
 /// With `to_end` the whole capture is read even after every lane died, to count its events and
 /// find any unusable line; without, the pass stops there. Also returns the supply levels, in
@@ -1117,6 +1197,9 @@ pub fn search_once(
             if matches!(step.event, TraceEvent::Elapsed { .. }) { reader.hints(spec)? } else { Hints::default() };
         for lane in &mut lanes {
             lane.step(spec, path, event_no, line, &step, &hints)?;
+            if record {
+                lane.checkpoint(event_no);
+            }
         }
     }
     if reader.events == 0 && to_end {

@@ -59,10 +59,8 @@ pub fn judge(
     }
     let mut slots: Vec<Option<Lane>> = (0..defs.len()).map(|_| None).collect();
     let mut witnesses: Vec<(String, Witness)> = Vec::new();
-    let events = search_recorded(spec, path, import, &defs, &probes, &mut slots, &mut witnesses)?;
-    let source = Source::open_with(spec, path, import)?;
-    let card = source.card_as(&import);
-    let name = source.configuration().to_string();
+    let others: Vec<usize> = (0..defs.len()).filter(|i| !probes.contains(i)).collect();
+    let events = search_recorded(spec, path, import, &defs, &probes, &others, &mut slots, &mut witnesses)?;
     let bit12 = READINGS.iter().position(|(name, _)| *name == "bit12_meaning").expect("a reading of lanes.rs");
     let explaining_bit12: Vec<usize> = probes
         .iter()
@@ -70,11 +68,12 @@ pub fn judge(
         .filter(|l| l.alive())
         .map(|l| super::lanes::options_of(&l.def.choices)[bit12])
         .collect();
-    // Each lane not judged yet: shown by an explanation found so far, else searched. Those
-    // whose meaning of bit 12 explained the capture in round 1 are searched two at a time with
-    // their choices recorded, so that each that explains adds its explanation for the rest (a
-    // full-period detector's card trips later than a half-period one's: a starvation trip's
-    // explanation is not the other's); the others, which rarely explain, together as before.
+    // Each lane not judged yet, shown by none of the explanations found so far, is searched.
+    // Those whose meaning of bit 12 explained the capture in round 1 are searched two at a
+    // time with their choices recorded, so that each that explains adds its explanation for
+    // the rest (a full-period detector's card trips later than a half-period one's: a
+    // starvation trip's explanation is not the other's); the others, which rarely explain,
+    // together as before.
     let mut likely: std::collections::VecDeque<usize> = std::collections::VecDeque::new();
     let mut unlikely = Vec::new();
     for (i, def) in defs.iter().enumerate() {
@@ -86,57 +85,16 @@ pub fn judge(
             }
         }
     }
-    // Each explanation is walked once for every lane not judged yet (the capture read once per
-    // explanation, not once per lane): a lane it reproduces is shown by it.
-    let show =
-        |which: &[usize], witnesses: &[(String, Witness)], slots: &mut [Option<Lane>]| -> Result<(), SpecError> {
-            let mut lanes = Vec::new();
-            for &i in which.iter().filter(|i| slots[**i].is_none()) {
-                let lane = Lane::new(spec, &name, card.as_ref(), defs[i].clone(), false, None)
-                    .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
-                lanes.push((i, lane));
-            }
-            for (label, w) in witnesses {
-                if lanes.is_empty() {
-                    break;
-                }
-                let cfgs: Vec<&pmacwd_specs::config::ModelConfig> = lanes.iter().map(|(_, l)| &l.cfg).collect();
-                let results = witness::run_many(spec, &cfgs, w)?;
-                let mut left = Vec::new();
-                for ((i, mut lane), result) in lanes.into_iter().zip(results) {
-                    match result {
-                        Ok((_, end)) => {
-                            lane.cands = vec![Cand {
-                                counter_lo: end.counter,
-                                min_lo: end.counter_min,
-                                card: end,
-                                cpu: w.cpu,
-                                node: None,
-                            }];
-                            lane.peak = 1;
-                            lane.shown_by = Some(label.clone());
-                            slots[i] = Some(lane);
-                        }
-                        Err(_) => left.push((i, lane)),
-                    }
-                }
-                lanes = left;
-            }
-            Ok(())
-        };
-    let mut tried = 0;
     loop {
-        let pending: Vec<usize> = likely.iter().chain(unlikely.iter()).copied().collect();
-        show(&pending, &witnesses[tried..], &mut slots)?;
-        tried = witnesses.len();
-        likely.retain(|i| slots[*i].is_none());
-        unlikely.retain(|i| slots[*i].is_none());
         let batch: Vec<usize> = (0..2).map_while(|_| likely.pop_front()).collect();
         if batch.is_empty() {
             break;
         }
+        let pending: Vec<usize> = likely.iter().chain(unlikely.iter()).copied().collect();
         let before = witnesses.len();
-        search_recorded(spec, path, import, &defs, &batch, &mut slots, &mut witnesses)?;
+        search_recorded(spec, path, import, &defs, &batch, &pending, &mut slots, &mut witnesses)?;
+        likely.retain(|i| slots[*i].is_none());
+        unlikely.retain(|i| slots[*i].is_none());
         // A pair that adds no explanation: the rest are searched together, below. Each
         // search reads the whole capture again, which on a day-long log costs more than
         // the pairs save (a day at 2 Hz: 23 s of CPU in pairs).
@@ -154,26 +112,101 @@ pub fn judge(
 
 /// Searches the lanes `which` of `defs` (one per thread) with their choices recorded, puts them
 /// in `slots`, and adds the explanation of each that explains the capture to `witnesses`
-/// (dropping the recorded histories after). Returns the capture's event count.
+/// (dropping the recorded histories after). The walk that checks each explanation also runs it
+/// under the readings of every lane of `pending` not judged yet (the capture read once per
+/// explanation, not once per lane): a lane one reproduces is shown by it. Returns the
+/// capture's event count.
+#[allow(clippy::too_many_arguments)]
 fn search_recorded(
     spec: &Spec,
     path: &Path,
     import: ImportAs<'_>,
     defs: &[LaneDef],
     which: &[usize],
+    pending: &[usize],
     slots: &mut [Option<Lane>],
     witnesses: &mut Vec<(String, Witness)>,
 ) -> Result<u64, SpecError> {
-    let (searched, events) = search_in_two(spec, path, import, which.iter().map(|i| defs[*i].clone()).collect(), true)?;
-    for (i, mut lane) in which.iter().zip(searched) {
-        if lane.alive() {
-            let (label, w) = witness::of_lane(spec, path, import, &lane)?;
-            if matches!(w.checked, Some(Ok(_))) {
-                witnesses.push((label, w));
+    let source = Source::open_with(spec, path, import)?;
+    let card = source.card_as(&import);
+    let name = source.configuration().to_string();
+    drop(source);
+    let mut shown = Vec::new();
+    for &i in pending.iter().filter(|i| slots[**i].is_none()) {
+        let lane = Lane::new(spec, &name, card.as_ref(), defs[i].clone(), false, None)
+            .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
+        shown.push((i, lane));
+    }
+    let cfgs: Vec<&pmacwd_specs::config::ModelConfig> = shown.iter().map(|(_, l)| &l.cfg).collect();
+    // Each lane on a thread of its own, searched and then explained there: the two
+    // explanations of round 1 are built at once (on a day-long log each walk takes seconds).
+    type Found = Result<(Vec<(Lane, Option<(String, Witness)>, Vec<witness::RunResult>)>, u64), SpecError>;
+    let explained = |lanes: Vec<LaneDef>| -> Found {
+        let (searched, events) = search::search(spec, path, import, lanes, true)?;
+        let mut out = Vec::new();
+        for mut lane in searched {
+            let (mut found, mut runs) = (None, Vec::new());
+            if lane.alive() {
+                let (label, w, theirs) = witness::of_lane(spec, path, import, &lane, &cfgs)?;
+                if matches!(w.checked, Some(Ok(_))) {
+                    found = Some((label, w));
+                    runs = theirs;
+                }
             }
+            for c in &mut lane.cands {
+                c.node = None;
+            }
+            lane.checkpoints.clear();
+            out.push((lane, found, runs));
         }
-        for c in &mut lane.cands {
-            c.node = None;
+        Ok((out, events))
+    };
+    let defs_of: Vec<LaneDef> = which.iter().map(|i| defs[*i].clone()).collect();
+    let half = defs_of.len().div_ceil(2).max(1);
+    let results: Vec<Found> = std::thread::scope(|scope| {
+        let started: Vec<_> = defs_of
+            .chunks(half)
+            .map(|chunk| {
+                let work = chunk.to_vec();
+                std::thread::Builder::new().spawn_scoped(scope, move || explained(work)).map_err(|_| chunk.to_vec())
+            })
+            .collect();
+        // In order; a thread that could not start leaves its lanes to this one.
+        started
+            .into_iter()
+            .map(|s| match s {
+                Ok(h) => h.join().unwrap_or_else(|_| Err(SpecError::whole_file(path, "a search thread panicked"))),
+                Err(chunk) => explained(chunk),
+            })
+            .collect()
+    });
+    let mut events = 0;
+    let mut done = Vec::new();
+    for r in results {
+        let (lanes, n) = r?;
+        done.extend(lanes);
+        events = n;
+    }
+    drop(cfgs);
+    let mut shown: Vec<Option<(usize, Lane)>> = shown.into_iter().map(Some).collect();
+    for (i, (lane, found, runs)) in which.iter().zip(done) {
+        if let Some((label, w)) = found {
+            for (slot, run) in shown.iter_mut().zip(runs) {
+                if let (Some(_), Ok((_, end))) = (slot.as_ref(), run) {
+                    let (j, mut lane) = slot.take().expect("checked");
+                    lane.cands = vec![Cand {
+                        counter_lo: end.counter,
+                        min_lo: end.counter_min,
+                        card: end,
+                        cpu: w.cpu,
+                        node: None,
+                    }];
+                    lane.peak = 1;
+                    lane.shown_by = Some(label.clone());
+                    slots[j] = Some(lane);
+                }
+            }
+            witnesses.push((label, w));
         }
         slots[*i] = Some(lane);
     }

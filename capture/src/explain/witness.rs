@@ -5,7 +5,7 @@
 use super::gap::{self, Lead, Plan};
 use super::history::{chain, Node, NodeKind};
 use super::lanes::{self, LaneDef};
-use super::search::Tolerances;
+use super::search::{Cand, Checkpoint, Lane, Tolerances};
 use super::sim::Sim;
 use crate::replay::ImportAs;
 use crate::replay::Source;
@@ -24,8 +24,11 @@ use std::sync::Arc;
 /// time they are walked ([`Witness::walk`]), so that its memory is the choices' (a few words a
 /// gap), not the steps' (a day-long host log's explanation held as steps took 700 MB).
 pub struct Witness {
-    /// The search's choices, oldest first.
+    /// The search's choices since its last checkpoint, oldest first (all of them on a capture
+    /// too short for one).
     nodes: Vec<Arc<Node>>,
+    /// The checkpoints before them, and what searches each segment again.
+    segments: Segments,
     /// The capture, opened again for each walk.
     capture: Capture,
     /// The lane's configuration the choices are run under.
@@ -51,6 +54,86 @@ pub struct Witness {
     pub areas: usize,
 }
 
+/// A recorded search's checkpoints (`search::Checkpoint`) and the lane that searches the
+/// segments between them again.
+#[derive(Clone, Debug)]
+struct Segments {
+    checkpoints: Vec<Checkpoint>,
+    def: LaneDef,
+    tolerances: Tolerances,
+}
+
+/// The capture's steps and the choices of each segment in turn, as a walk reaches them.
+struct Chains<'w> {
+    segments: &'w Segments,
+    last: &'w [Arc<Node>],
+    capture: &'w Capture,
+    /// The capture, read once for the searches of the segments and the walk.
+    reader: super::search::Reader,
+    name: String,
+    card: Option<pmacwd_specs::config::CardConfig>,
+    next: usize,
+    /// The steps a segment's search read, which the walk takes before reading on.
+    steps: std::collections::VecDeque<(usize, Step)>,
+}
+
+impl<'w> Chains<'w> {
+    fn open(
+        spec: &Spec,
+        segments: &'w Segments,
+        last: &'w [Arc<Node>],
+        capture: &'w Capture,
+    ) -> Result<Self, SpecError> {
+        let source = capture.open(spec)?;
+        let (name, card) = (source.configuration().to_string(), source.card_as(&capture.import()));
+        let reader = super::search::Reader::new(source);
+        Ok(Chains { segments, last, capture, reader, name, card, next: 0, steps: Default::default() })
+    }
+
+    /// The capture's next step, from the segment's search or read on.
+    fn step(&mut self) -> Result<Option<(usize, Step)>, SpecError> {
+        match self.steps.pop_front() {
+            Some(s) => Ok(Some(s)),
+            None => self.reader.next_step(),
+        }
+    }
+
+    /// The next segment's choices, oldest first, and the event it ends at (its steps searched
+    /// again and kept for [`Chains::step`]).
+    fn next(&mut self, spec: &Spec) -> Result<(Vec<Arc<Node>>, u64), SpecError> {
+        let s = self.next;
+        let count = self.segments.checkpoints.len();
+        self.next += 1;
+        if s >= count {
+            return Ok((self.last.to_vec(), u64::MAX));
+        }
+        let path = &self.capture.path;
+        let Segments { checkpoints, def, tolerances } = self.segments;
+        let name = &self.name;
+        let mut lane = Lane::new(spec, name, self.card.as_ref(), def.clone(), true, Some(*tolerances))
+            .map_err(|e| SpecError::whole_file(path, format!("configuration `{name}`: {}", e.message)))?;
+        if s > 0 {
+            lane.resume(&checkpoints[s - 1]);
+        }
+        let end = &checkpoints[s];
+        super::search::search_segment(spec, path, &mut self.reader, &mut lane, end.event, &mut self.steps)?;
+        match &lane.cands[..] {
+            [c] if c.card == end.cand.card && c.cpu == end.cand.cpu => {
+                let node = c.node.as_ref().expect("a recorded lane");
+                Ok((chain(node), end.event))
+            }
+            _ => Err(SpecError::whole_file(
+                path,
+                format!(
+                    "the search of the capture's events to {} again did not come to its checkpoint (replay's own \
+                     fault: please report it with the capture)",
+                    end.event
+                ),
+            )),
+        }
+    }
+}
+
 /// The capture an explanation was found for and how it was imported: what a walk opens again.
 #[derive(Clone, Debug)]
 struct Capture {
@@ -72,16 +155,19 @@ impl Capture {
         }
     }
 
-    fn open(&self, spec: &Spec) -> Result<Source, SpecError> {
-        let import = ImportAs {
+    fn import(&self) -> ImportAs<'_> {
+        ImportAs {
             configuration: self.configuration.as_deref(),
             format: self.format,
             placement: self.placement,
             host_time_limit: None,
             deadline: None,
             card_i40: self.card_i40,
-        };
-        Source::open_with(spec, &self.path, import)
+        }
+    }
+
+    fn open(&self, spec: &Spec) -> Result<Source, SpecError> {
+        Source::open_with(spec, &self.path, self.import())
     }
 }
 
@@ -207,28 +293,30 @@ fn realize<'a>(
     fitting.or(fallback).or_else(|| gap::run(cfg, card, *plan_hi, true))
 }
 
-/// Replays the capture at `path` with the choices of `last`'s chain: the explanation, its
-/// story, and whether it reproduces every observation on the model under `cfg` (one walk).
+/// Replays the capture at `path` with the choices of `cand`'s chain (a candidate of `lane`,
+/// searched with its choices recorded): the explanation, its story, and whether it reproduces
+/// every observation on the model under the lane's configuration (one walk).
 pub fn build(
     spec: &pmacwd_specs::Spec,
-    cfg: &ModelConfig,
+    lane: &Lane,
     path: &Path,
     import_configuration: crate::replay::ImportAs<'_>,
-    last: &Arc<Node>,
-) -> Result<Witness, SpecError> {
-    let nodes = chain(last);
-    let cpu = match nodes.first().map(|n| &n.kind) {
-        Some(NodeKind::Start { cpu }) => *cpu,
-        _ => 0,
-    };
+    cand: &Cand,
+    others: &[&ModelConfig],
+) -> Result<(Witness, Vec<RunResult>), SpecError> {
+    let cfg = &lane.cfg;
+    let nodes = chain(cand.node.as_ref().expect("a recorded candidate"));
+    let cpu = cand.cpu;
     let capture = Capture::of(path, import_configuration);
-    let mut runner = Runner::new(cfg);
-    let told = walk_chain(spec, cfg, &capture, &nodes, &mut |step, area| {
-        runner.step(spec, cpu, step, area);
-        std::ops::ControlFlow::Continue(())
-    })?;
-    Ok(Witness {
+    let segments =
+        Segments { checkpoints: lane.checkpoints.clone(), def: lane.def.clone(), tolerances: lane.tolerances };
+    let cfgs: Vec<&ModelConfig> = std::iter::once(cfg).chain(others.iter().copied()).collect();
+    let chains = Chains::open(spec, &segments, &nodes, &capture)?;
+    let (told, mut runs) = with_runs(spec, cpu, &cfgs, false, |sink| walk_chain(spec, cfg, chains, sink))?;
+    let own = runs.remove(0);
+    let w = Witness {
         nodes,
+        segments,
         capture,
         cfg: cfg.clone(),
         steps: told.steps,
@@ -236,16 +324,18 @@ pub fn build(
         cpu,
         cpu_decided: false,
         lowest_min: told.lowest_min,
-        checked: Some(runner.result().map(|(n, _)| n)),
+        checked: Some(own.map(|(n, _)| n)),
         tolerances: None,
         areas: told.areas,
-    })
+    };
+    Ok((w, runs))
 }
 
 impl Witness {
     /// Gives every step of the explanation to `sink`, in order (the capture read again).
     pub fn walk(&self, spec: &Spec, sink: &mut Sink<'_>) -> Result<(), SpecError> {
-        walk_chain(spec, &self.cfg, &self.capture, &self.nodes, sink).map(|_| ())
+        let chains = Chains::open(spec, &self.segments, &self.nodes, &self.capture)?;
+        walk_chain(spec, &self.cfg, chains, sink).map(|_| ())
     }
 
     /// Every step of the explanation, collected (for a short capture: a day-long one has
@@ -260,15 +350,69 @@ impl Witness {
     }
 }
 
+/// Which gaps of a segment's choices meet which reads.
+struct Aims {
+    targets: super::sim::FastMap<usize, i32>,
+    counter_targets: super::sim::FastMap<usize, i32>,
+    starve: super::sim::FastSet<usize>,
+}
+
+impl Aims {
+    fn of(cfg: &ModelConfig, nodes: &[Arc<Node>]) -> Aims {
+        // Each X:$25 read that narrowed an interval is met by the latest gap before it that can
+        // run down that far; the other gaps keep X:$25 as high as they can.
+        let mut targets: super::sim::FastMap<usize, i32> = Default::default();
+        for (p, node) in nodes.iter().enumerate() {
+            if let NodeKind::Pin(v) = node.kind {
+                let gap = (0..p).rev().find(|&g| {
+                    matches!(&nodes[g].kind, NodeKind::Restart(_))
+                        || matches!(&nodes[g].kind, NodeKind::Gap { lo, .. } if *lo <= v)
+                });
+                if let Some(g) = gap.filter(|&g| matches!(nodes[g].kind, NodeKind::Gap { .. })) {
+                    targets.insert(g, v);
+                }
+            }
+        }
+        // Each Y:$25 read that narrowed an interval is met by the latest gap before it with a
+        // background cycle (through the starved gaps in between, which only shift the counter).
+        // A gap shorter than the run-down such a read needs had no background cycle at all: it is
+        // starved, and the read is met by the gap before it.
+        let mut counter_targets: super::sim::FastMap<usize, i32> = Default::default();
+        let mut starve: super::sim::FastSet<usize> = Default::default();
+        let reload = i64::from(cfg.reset_value(cfg.saved.i40));
+        for (p, node) in nodes.iter().enumerate() {
+            if let NodeKind::CounterPin(v) = node.kind {
+                let mut v = i64::from(v);
+                for g in (0..p).rev() {
+                    match &nodes[g].kind {
+                        NodeKind::Gap { plan_hi: Plan::Starved { cycles, .. }, .. } => v += i64::from(*cycles),
+                        NodeKind::Gap { plan_hi: Plan::Schedule { cycles, .. }, .. }
+                            if reload - v >= i64::from(*cycles) =>
+                        {
+                            starve.insert(g);
+                            v += i64::from(*cycles);
+                        }
+                        NodeKind::Gap { .. } => {
+                            if let Ok(v) = i32::try_from(v) {
+                                counter_targets.insert(g, v);
+                            }
+                            break;
+                        }
+                        NodeKind::Restart(_) | NodeKind::Start { .. } | NodeKind::Root => break,
+                        // The host's wait ran the counter down with no background cycle (a read
+                        // after it comes from a running card).
+                        NodeKind::Wait { cycles, .. } => v += i64::from(*cycles),
+                        NodeKind::Pin(_) | NodeKind::CounterPin(_) | NodeKind::Area(_) => {}
+                    }
+                }
+            }
+        }
+        Aims { targets, counter_targets, starve }
+    }
+}
+
 /// The capture read with the choices of `nodes` (oldest first), every step given to `sink`.
-fn walk_chain(
-    spec: &Spec,
-    cfg: &ModelConfig,
-    capture: &Capture,
-    nodes: &[Arc<Node>],
-    sink: &mut Sink<'_>,
-) -> Result<Told, SpecError> {
-    let mut source = capture.open(spec)?;
+fn walk_chain(spec: &Spec, cfg: &ModelConfig, mut chains: Chains<'_>, sink: &mut Sink<'_>) -> Result<Told, SpecError> {
     let mut card = Controller::power_on(cfg);
     let mut out = Out { sink, area: None, count: 0, areas: 0, stopped: false };
     let mut story = Vec::new();
@@ -283,55 +427,17 @@ fn walk_chain(
     // 29: the explanation's own choices in what the log does not read are not findings).
     let mut x25_read = false;
     let mut area_lines: Vec<usize> = Vec::new();
-    // Each X:$25 read that narrowed an interval is met by the latest gap before it that can
-    // run down that far; the other gaps keep X:$25 as high as they can.
-    let mut targets: std::collections::HashMap<usize, i32> = std::collections::HashMap::new();
-    for (p, node) in nodes.iter().enumerate() {
-        if let NodeKind::Pin(v) = node.kind {
-            let gap = (0..p).rev().find(|&g| {
-                matches!(&nodes[g].kind, NodeKind::Restart(_))
-                    || matches!(&nodes[g].kind, NodeKind::Gap { lo, .. } if *lo <= v)
-            });
-            if let Some(g) = gap.filter(|&g| matches!(nodes[g].kind, NodeKind::Gap { .. })) {
-                targets.insert(g, v);
-            }
+    let (mut nodes, mut ends) = (Vec::new(), 0u64);
+    let mut aims = Aims::of(cfg, &nodes);
+    loop {
+        while event >= ends {
+            // At a checkpoint (or the start): the next segment's choices, its first node the
+            // start or the root.
+            (nodes, ends) = chains.next(spec)?;
+            aims = Aims::of(cfg, &nodes);
+            at = 1;
         }
-    }
-    // Each Y:$25 read that narrowed an interval is met by the latest gap before it with a
-    // background cycle (through the starved gaps in between, which only shift the counter).
-    // A gap shorter than the run-down such a read needs had no background cycle at all: it is
-    // starved, and the read is met by the gap before it.
-    let mut counter_targets: std::collections::HashMap<usize, i32> = std::collections::HashMap::new();
-    let mut starve: std::collections::HashSet<usize> = std::collections::HashSet::new();
-    let reload = i64::from(cfg.reset_value(cfg.saved.i40));
-    for (p, node) in nodes.iter().enumerate() {
-        if let NodeKind::CounterPin(v) = node.kind {
-            let mut v = i64::from(v);
-            for g in (0..p).rev() {
-                match &nodes[g].kind {
-                    NodeKind::Gap { plan_hi: Plan::Starved { cycles, .. }, .. } => v += i64::from(*cycles),
-                    NodeKind::Gap { plan_hi: Plan::Schedule { cycles, .. }, .. }
-                        if reload - v >= i64::from(*cycles) =>
-                    {
-                        starve.insert(g);
-                        v += i64::from(*cycles);
-                    }
-                    NodeKind::Gap { .. } => {
-                        if let Ok(v) = i32::try_from(v) {
-                            counter_targets.insert(g, v);
-                        }
-                        break;
-                    }
-                    NodeKind::Restart(_) | NodeKind::Start { .. } => break,
-                    // The host's wait ran the counter down with no background cycle (a read
-                    // after it comes from a running card).
-                    NodeKind::Wait { cycles, .. } => v += i64::from(*cycles),
-                    NodeKind::Pin(_) | NodeKind::CounterPin(_) | NodeKind::Area(_) => {}
-                }
-            }
-        }
-    }
-    while let Some((line, step)) = source.next_step()? {
+        let Some((line, step)) = chains.step()? else { break };
         if out.stopped {
             break;
         }
@@ -356,17 +462,17 @@ fn walk_chain(
                     story.push(format!("line {line}: (no choice recorded for this gap)"));
                     continue;
                 };
-                let need = targets.get(&at).copied();
+                let need = aims.targets.get(&at).copied();
                 let starved = match plan_hi {
-                    Plan::Schedule { cycles, .. } if starve.contains(&at) => {
+                    Plan::Schedule { cycles, .. } if aims.starve.contains(&at) => {
                         gap::run(cfg, &card, Plan::Starved { cycles: *cycles, heavy: 0, overrun_last: 0 }, true)
                             .filter(|sim| end.same_but_counters(&sim.card))
                     }
                     _ => None,
                 };
-                let Some(sim) = starved
-                    .or_else(|| realize(cfg, &card, (plan_hi, plan_lo, end), need, counter_targets.get(&at).copied()))
-                else {
+                let Some(sim) = starved.or_else(|| {
+                    realize(cfg, &card, (plan_hi, plan_lo, end), need, aims.counter_targets.get(&at).copied())
+                }) else {
                     story.push(format!("line {line}: (the recorded plan could not be replayed)"));
                     continue;
                 };
@@ -602,26 +708,98 @@ pub fn run(spec: &pmacwd_specs::Spec, cfg: &ModelConfig, w: &Witness) -> Result<
 }
 
 /// Runs the witness on the model under each of `cfgs` in one walk (the capture is read once
-/// for all): for each, as [`run`]. (Sharing the runs out over two threads fed the walk's steps
-/// in chunks was tried on a quarter-day log: no faster, the walk itself being half the work.)
-pub fn run_many(
-    spec: &pmacwd_specs::Spec,
-    cfgs: &[&ModelConfig],
-    w: &Witness,
-) -> Result<Vec<RunResult>, SpecError> {
-    let mut runners: Vec<Runner<'_>> = cfgs.iter().map(|c| Runner::new(c)).collect();
-    w.walk(spec, &mut |step, area| {
-        for r in runners.iter_mut() {
-            r.step(spec, w.cpu, step, area);
-        }
-        if runners.iter().any(|r| r.failed.is_none()) {
-            std::ops::ControlFlow::Continue(())
-        } else {
-            std::ops::ControlFlow::Break(())
-        }
-    })?;
-    Ok(runners.into_iter().map(Runner::result).collect())
+/// for all): for each, as [`run`].
+pub fn run_many(spec: &pmacwd_specs::Spec, cfgs: &[&ModelConfig], w: &Witness) -> Result<Vec<RunResult>, SpecError> {
+    with_runs(spec, w.cpu, cfgs, true, |sink| w.walk(spec, sink)).map(|((), runs)| runs)
 }
+
+/// Runs the steps `walk` gives its sink on the model under each of `cfgs` (as [`run`]);
+/// `stop`: the walk ends once every run has failed. With more than a few runs, the walking
+/// thread runs the first half and a second thread the rest, fed the steps in chunks (a
+/// day-long log's explanation checked under 95 lanes' readings took 12 s on one core).
+fn with_runs<T>(
+    spec: &Spec,
+    cpu: u8,
+    cfgs: &[&ModelConfig],
+    stop: bool,
+    walk: impl FnOnce(&mut Sink<'_>) -> Result<T, SpecError>,
+) -> Result<(T, Vec<RunResult>), SpecError> {
+    use std::ops::ControlFlow;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let shared = cfgs.len() >= RUNS_SHARED_MIN;
+    let (here, there) = cfgs.split_at(if shared { cfgs.len().div_ceil(2) } else { cfgs.len() });
+    let mut runners: Vec<Runner<'_>> = here.iter().map(|c| Runner::new(c)).collect();
+    if there.is_empty() {
+        let walked = walk(&mut |step, area| {
+            for r in runners.iter_mut() {
+                r.step(spec, cpu, step, area);
+            }
+            if stop && runners.iter().all(|r| r.failed.is_some()) {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        })?;
+        return Ok((walked, runners.into_iter().map(Runner::result).collect()));
+    }
+    // The second thread's runs have all failed: its steps need not be sent.
+    let there_done = AtomicBool::new(false);
+    std::thread::scope(|scope| {
+        let (to_there, chunks) = std::sync::mpsc::sync_channel::<Vec<(Step, Option<ChecksumTarget>)>>(2);
+        let done = &there_done;
+        let helper = scope.spawn(move || {
+            let mut runners: Vec<Runner<'_>> = there.iter().map(|c| Runner::new(c)).collect();
+            for chunk in chunks {
+                for (step, area) in &chunk {
+                    for r in runners.iter_mut() {
+                        r.step(spec, cpu, step, *area);
+                    }
+                }
+                if runners.iter().all(|r| r.failed.is_some()) {
+                    done.store(true, Ordering::Relaxed);
+                }
+            }
+            runners.into_iter().map(Runner::result).collect::<Vec<_>>()
+        });
+        let mut chunk = Vec::with_capacity(RUN_CHUNK_STEPS);
+        let walked = walk(&mut |step, area| {
+            for r in runners.iter_mut() {
+                r.step(spec, cpu, step, area);
+            }
+            let there_running = !there_done.load(Ordering::Relaxed);
+            if there_running {
+                chunk.push((step.clone(), area));
+                // A helper that stopped (it panicked) is found at its join.
+                if chunk.len() == RUN_CHUNK_STEPS
+                    && to_there.send(std::mem::replace(&mut chunk, Vec::with_capacity(RUN_CHUNK_STEPS))).is_err()
+                {
+                    return ControlFlow::Break(());
+                }
+            }
+            if stop && !there_running && runners.iter().all(|r| r.failed.is_some()) {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        });
+        if !chunk.is_empty() {
+            let _ = to_there.send(chunk);
+        }
+        drop(to_there);
+        let theirs = helper.join();
+        let walked = walked?;
+        let theirs = theirs.map_err(|_| SpecError::whole_file(Path::new("replay"), "a witness run panicked"))?;
+        let mut results: Vec<RunResult> = runners.into_iter().map(Runner::result).collect();
+        results.extend(theirs);
+        Ok((walked, results))
+    })
+}
+
+/// From how many runs [`with_runs`] shares them out over two threads.
+const RUNS_SHARED_MIN: usize = 8;
+
+/// Steps handed to the second thread of [`with_runs`] at a time.
+const RUN_CHUNK_STEPS: usize = 2048;
 
 /// A run's observations checked and its card at the end, or its first mismatch.
 pub type RunResult = Result<(usize, Controller), String>;
@@ -670,6 +848,10 @@ impl<'c> Runner<'c> {
                 return;
             }
         };
+        // A step that expects nothing (a gap's) holds whatever the card shows.
+        if step.expect == Expect::default() {
+            return;
+        }
         let obs = observation(cfg, card, cpu, reply);
         match super::search::compare_windowed(spec, cfg, &step.expect, card, &obs) {
             Ok(n) => self.checked += n,
@@ -812,16 +994,18 @@ pub fn witness_for(
         true,
         true,
     )?;
-    of_lane(spec, path, import_configuration, &lanes[0])
+    of_lane(spec, path, import_configuration, &lanes[0], &[]).map(|(label, w, _)| (label, w))
 }
 
-/// The explanation of a lane that explains the capture, searched with its choices recorded.
+/// The explanation of a lane that explains the capture, searched with its choices recorded;
+/// the walk that checks it also runs it under each of `others` (as [`run_many`]).
 pub fn of_lane(
     spec: &Spec,
     path: &Path,
     import_configuration: ImportAs<'_>,
     lane: &super::search::Lane,
-) -> Result<(String, Witness), SpecError> {
+    others: &[&ModelConfig],
+) -> Result<(String, Witness, Vec<RunResult>), SpecError> {
     let label = lanes::label(&lane.def.choices);
     let tolerances = lane.tolerances;
     // Prefer a card at the end that is as the log's last command found it (tripped if it went
@@ -835,19 +1019,18 @@ pub fn of_lane(
     cands.sort_by_key(|c| {
         (c.card.tripped() != ends_silent, c.card.trip == Some(TripCause::Undervoltage), -c.card.counter_min, c.cpu)
     });
-    let mut first: Option<Witness> = None;
+    let mut first: Option<(Witness, Vec<RunResult>)> = None;
     for c in cands.iter().take(WITNESS_TRIES) {
-        let node = c.node.clone().expect("filtered");
-        let mut w = build(spec, &lane.cfg, path, import_configuration, &node)?;
+        let (mut w, theirs) = build(spec, lane, path, import_configuration, c, others)?;
         w.tolerances = (tolerances != lane.stated).then_some(tolerances);
         w.cpu_decided = lane.cands.iter().all(|o| o.cpu == w.cpu);
         if matches!(w.checked, Some(Ok(_))) {
-            return Ok((label, w));
+            return Ok((label, w, theirs));
         }
-        first.get_or_insert(w);
+        first.get_or_insert((w, theirs));
     }
     first
-        .map(|w| (label, w))
+        .map(|(w, theirs)| (label, w, theirs))
         .ok_or_else(|| SpecError::whole_file(path, "the second search found no explanation the first one found"))
 }
 

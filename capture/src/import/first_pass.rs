@@ -33,7 +33,7 @@ static REMEMBERED: Mutex<Option<HashMap<Key, CardFromLog>>> = Mutex::new(None);
 fn key(path: &Path, format: LogFormat, configured_hz: u32, ranges: String) -> Option<Key> {
     use std::io::Read;
     let mut file = std::fs::File::open(path).ok()?;
-    let mut h = std::collections::hash_map::DefaultHasher::new();
+    let mut h = std::hash::BuildHasher::build_hasher(&foldhash::fast::FixedState::default());
     let mut buf = vec![0u8; 1 << 16];
     let mut len = 0u64;
     loop {
