@@ -931,3 +931,55 @@ fn a_card_tripped_40_cycles_after_its_strobe_stopped_is_explained_by_a_half_peri
     assert!(!supported(&r, "strobe_detector", "full_period"));
     assert_eq!(explaining(&r), ["um-215"]);
 }
+
+/// A gap of unknown length within a range that ends before the search's "long" gap is tried at
+/// its longest too: seed 39's unstamped sluggish log, cut (PLC 0's stall overran the RTI, bit
+/// 22; `DISABLE PLC 0`; then 0 to 1,938 cycles, in which the counter reloads to 4094), was "no
+/// correct card" with the gap tried at 0 cycles only.
+#[test]
+fn a_gap_of_a_range_shorter_than_any_run_down_is_tried_at_its_longest_as_well() {
+    let spec = Spec::embedded().unwrap();
+    let path = temp_capture("range-ends-before-long.jsonl", RANGE_ENDS_BEFORE_LONG);
+    let r = explain(&spec, &path, None).unwrap();
+    assert!(r.explained(), "{}", pmacwd_capture::explain::report::to_text(&r));
+    let (_, w) = r.witness.as_ref().unwrap();
+    assert!(matches!(w.checked, Some(Ok(_))), "{:?}", w.checked);
+}
+
+const RANGE_ENDS_BEFORE_LONG: &str = r#"{"card":{"i40":0,"i41":0,"i8":0,"servo_hz":2259},"configuration":"host-log","description":"seed 39 sluggish log, cut: an unstamped stall of PLC 0 (bit 22), DISABLE PLC 0, a gap of 0 to 1938 cycles, the counter reloaded","format":"pmacwd-trace","profiles":["um-215-4095"],"version":1}
+{"command":"I8","expect":{"reply":"0"}}
+{"command":"I40","expect":{"reply":"0"}}
+{"command":"I41","expect":{"reply":"0"}}
+{"command":"I10","expect":{"reply":"3713707"}}
+{"elapsed":{"min":8961847}}
+{"command":"RHX:$0","expect":{"tripped":false}}
+{"command":"???","expect":{"reply":"000000200000"}}
+{"command":"RHY:$25","expect":{"reply":"000FFE"}}
+{"command":"RHX:$25","expect":{"reply":"000FFE"}}
+{"elapsed":451}
+{"command":"RHX:$0","expect":{"tripped":false}}
+{"command":"???","expect":{"reply":"000000200000"}}
+{"command":"RHY:$25","expect":{"reply":"000FFE"}}
+{"command":"RHX:$25","expect":{"reply":"000FFE"}}
+{"command":"RHX:$0","expect":{"tripped":false}}
+{"command":"???","expect":{"reply":"000000200000"}}
+{"command":"RHY:$25","expect":{"reply":"000FFE"}}
+{"command":"RHX:$25","expect":{"reply":"000FFE"}}
+{"elapsed":452}
+{"command":"RHX:$0","expect":{"tripped":false}}
+{"command":"???","expect":{"reply":"000000200000"}}
+{"command":"RHY:$25","expect":{"reply":"000FFE"}}
+{"command":"RHX:$25","expect":{"reply":"000FFE"}}
+{"command":"ENABLE PLC 0","expect":{"reply":"(ack)"}}
+{"elapsed":1474}
+{"expect":{"reply":"(silence)"},"unanswered":{"command":"RHX:$0","wait":0}}
+{"expect":{"reply":"(silence)"},"unanswered":{"command":"???","wait":0}}
+{"command":"RHY:$25","expect":{"reply":"000A3C"}}
+{"command":"RHX:$25","expect":{"reply":"000A3C"}}
+{"command":"DISABLE PLC 0","expect":{"reply":"(ack)"}}
+{"elapsed":{"max":1938,"min":0}}
+{"command":"RHX:$0","expect":{"tripped":false}}
+{"command":"???","expect":{"reply":"400000200000"}}
+{"command":"RHY:$25","expect":{"reply":"000FFE"}}
+{"command":"RHX:$25","expect":{"reply":"000A3C"}}
+"#;

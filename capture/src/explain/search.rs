@@ -431,6 +431,11 @@ fn cycle_set(min: u32, max: Option<u32>, card: &Controller, cfg: &ModelConfig) -
     let period = u64::from(card.i8) + 1;
     let long = u64::from(min)
         + 2 * (u64::from(cfg.reset_value(card.i40).unsigned_abs()) + u64::from(cfg.hardware_delay_cycles) + 2 * period);
+    // A range that ends before `long`: its longest gaps (the last RTI phases it holds) stand in
+    // for it, not lengths past its end, which left the range tried at its shortest only (seed
+    // 39's unstamped sluggish log: a gap of 0 to 1,938 cycles after a stall, in which the
+    // counter must reload, tried at 0 cycles: "no correct card").
+    let long = long.min((max + 1).saturating_sub(period).max(u64::from(min)));
     let mut out: Vec<u32> = Vec::new();
     // A gap at least `long - min` cycles long already has room for any run-down: its RTI
     // phases are all the longer gap's outcomes differ in (X:$0, which differs too, is not
