@@ -747,6 +747,12 @@ pub struct CardScan {
     /// Servo cycles per second between X:$0 reads, and the line of the first read of the first.
     rates: Vec<f64>,
     rates_from: Option<usize>,
+    /// The last X:$0 read of a slower exchange (up to [`CLOCK_SLOW_READ_NS_MAX`]): its value,
+    /// the exchange's first and last stamps (ns), and its line.
+    last_slow: Option<(u32, i128, i128, usize)>,
+    /// The servo clocks (Hz) every pair of slow reads allows, intersected: a read happens
+    /// between its exchange's stamps, so each pair bounds the clock both ways.
+    slow_bounds: Option<(f64, f64)>,
 }
 
 /// How many pairs of X:$0 reads [`CardScan`] takes the servo clock from.
@@ -757,6 +763,9 @@ pub const CLOCK_PAIRS_MAX: usize = 1001;
 /// taken).
 const CLOCK_PAIR_NS_MIN: i128 = 400_000_000;
 const CLOCK_READ_NS_MAX: i128 = 5_000_000;
+/// The longest an exchange may take for its X:$0 read to bound the clock when no faster one
+/// gives it (each pair then gives the clocks it allows, not a value).
+const CLOCK_SLOW_READ_NS_MAX: i128 = 50_000_000;
 
 const CARD_VARIABLES: [(u16, &str, &str); 4] =
     [(8, "I8", "i8"), (10, "I10", "servo_hz"), (40, "I40", "i40"), (41, "I41", "i41")];
@@ -770,6 +779,8 @@ impl CardScan {
             last_x0: None,
             rates: Vec::new(),
             rates_from: None,
+            last_slow: None,
+            slow_bounds: None,
         }
     }
 
@@ -811,6 +822,7 @@ impl CardScan {
         });
         if restarted {
             self.last_x0 = None;
+            self.last_slow = None;
             return;
         }
         let read = ex.commands.iter().find_map(|c| match (&c.command, &c.answer) {
@@ -818,6 +830,20 @@ impl CardScan {
             _ => None,
         });
         let (Some(v), Some((lo, hi))) = (read, ex.at) else { return };
+        if hi - lo <= CLOCK_SLOW_READ_NS_MAX {
+            if let Some((pv, plo, phi, line)) = self.last_slow {
+                if lo - phi >= CLOCK_PAIR_NS_MIN {
+                    let cycles = f64::from(v.wrapping_sub(pv) & 0xFF_FFFF);
+                    let (least, most) = (cycles / ((hi - plo) as f64 / 1e9), cycles / ((lo - phi) as f64 / 1e9));
+                    let (a, b) = self.slow_bounds.unwrap_or((least, most));
+                    self.slow_bounds = Some((a.max(least), b.min(most)));
+                    self.rates_from.get_or_insert(line);
+                    self.last_slow = Some((v, lo, hi, ex.reply_line));
+                }
+            } else {
+                self.last_slow = Some((v, lo, hi, ex.reply_line));
+            }
+        }
         if hi - lo > CLOCK_READ_NS_MAX {
             return;
         }
@@ -898,6 +924,17 @@ impl CardScan {
             let hz = median.round() as u32;
             let off = (f64::from(hz) - f64::from(configured_hz)).abs() / f64::from(configured_hz);
             if off > 0.01 && spec.scheduling.servo_clock_hz_range.contains(hz) {
+                out.card.servo_hz = Some(hz);
+                out.sources.push(("servo_hz", "X:$0 over host time", i64::from(hz), self.rates_from.unwrap_or(1)));
+            }
+        } else if let (None, Some((least, most))) = (out.card.servo_hz, self.slow_bounds) {
+            // Only slow exchanges (a terminal server, a loaded host): the clock is taken only
+            // where the configuration's lies outside what every pair allows (its host clock
+            // within 1%), and then as the middle of it.
+            let configured = f64::from(configured_hz);
+            let outside = configured < least * 0.99 || configured > most * 1.01;
+            let hz = ((least + most) / 2.0).round() as u32;
+            if least <= most && outside && spec.scheduling.servo_clock_hz_range.contains(hz) {
                 out.card.servo_hz = Some(hz);
                 out.sources.push(("servo_hz", "X:$0 over host time", i64::from(hz), self.rates_from.unwrap_or(1)));
             }
