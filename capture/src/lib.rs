@@ -13,4 +13,5 @@ pub mod explain;
 pub mod import;
 pub mod margin;
 pub mod replay;
+pub mod samples;
 pub mod timeline;

@@ -508,37 +508,19 @@ fn combinations_whose_hardware_delays_come_out_the_same_are_searched_as_one_lane
     }
 }
 
-/// A healthy card polled `polls` times every 0.1 s (X:$0, `???`, Y:$25, X:$25), as the
-/// criterion bench writes a day: background cycles every 9 to 13 servo cycles, the checksum
-/// area flipping at each.
-fn healthy_polls(polls: u32) -> String {
-    let mut s = String::from(
-        r#"{"format":"pmacwd-trace","version":1,"description":"SYNTHETIC: a healthy card polled every 0.1 s","configuration":"host-log","profiles":["um-215"]}"#,
-    );
-    s.push_str("\n{\"command\":\"$$$\"}\n");
-    let (r, mut counter, mut lowest, mut area, mut since) = (4096i32, 4096i32, 4096i32, 0u32, 0u32);
-    let mut seed = 7u64;
-    for _ in 0..polls {
-        for _ in 0..225 {
-            counter -= 1;
-            lowest = lowest.min(counter);
-            since += 1;
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            if since >= 9 + ((seed >> 33) % 5) as u32 {
-                counter = r;
-                since = 0;
-                area ^= 1;
-            }
-        }
-        let x = if area == 0 { 0x20_1000 } else { 0x20_0000 };
-        s.push_str(&format!(
-            "{{\"elapsed\":225}}\n{{\"command\":\"RHX:$0\"}}\n{{\"command\":\"???\",\"expect\":{{\"reply\":\"{x:06X}200000\"}}}}\n\
-             {{\"command\":\"RHY:$25\",\"expect\":{{\"reply\":\"{:06X}\"}}}}\n{{\"command\":\"RHX:$25\",\"expect\":{{\"reply\":\"{:06X}\"}}}}\n",
-            counter & 0xFF_FFFF,
-            lowest & 0xFF_FFFF
-        ));
+/// A healthy card polled `polls` times every 0.1 s (`pmacwd_capture::samples`).
+fn healthy_polls(polls: u64) -> String {
+    let mut out = Vec::new();
+    pmacwd_capture::samples::HealthyPolls {
+        polls,
+        gap_cycles: 225,
+        seed: 7,
+        profiles: r#"["um-215"]"#,
+        description: "SYNTHETIC: a healthy card polled every 0.1 s",
     }
-    s
+    .write(&mut out)
+    .unwrap();
+    String::from_utf8(out).unwrap()
 }
 
 /// A capture longer than the search's checkpoints are apart: the recorded search lets its
@@ -548,7 +530,7 @@ fn healthy_polls(polls: u32) -> String {
 #[test]
 fn a_capture_past_the_search_s_checkpoints_is_explained_segment_by_segment_and_reproduced() {
     let spec = Spec::embedded().unwrap();
-    let polls = 16_000u32;
+    let polls = 16_000u64;
     let path = temp_file("past-checkpoints.jsonl", &healthy_polls(polls));
     let def = lanes::lanes(&spec, "host-log", None, false)
         .unwrap()

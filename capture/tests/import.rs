@@ -168,32 +168,21 @@ fn a_log_whose_x0_exchanges_are_slow_is_timed_at_the_clock_every_pair_allows() {
     // clock, and the log was refused at 2250 Hz. Each pair of reads bounds the clock both ways
     // (a read happens between its command's stamp and its reply's): 1129 cycles a second, each
     // exchange 6 ms.
-    let mut log = String::new();
-    for i in 0..6u32 {
-        let (sent, back) = (i * 500, i * 500 + 6);
+    let log_at = |cycles_per_ms: f64| {
         let stamp = |ms: u32| format!("12:00:{:02}.{:03}", ms / 1000, ms % 1000);
-        log.push_str(&format!(
-            "{} > RHX:$0\n{} < {:06X}\n",
-            stamp(sent),
-            stamp(back),
-            0x10_0000 + (f64::from(sent + 3) * 1.129) as u32
-        ));
-    }
-    let t = ok(&log);
+        let mut log = String::new();
+        for i in 0..6u32 {
+            let (sent, back) = (i * 500, i * 500 + 6);
+            let count = 0x10_0000 + (f64::from(sent + 3) * cycles_per_ms) as u32;
+            log.push_str(&format!("{} > RHX:$0\n{} < {count:06X}\n", stamp(sent), stamp(back)));
+        }
+        log
+    };
+    let t = ok(&log_at(1.129));
     let hz = t.card.and_then(|c| c.servo_hz).expect("a clock taken from the reads");
     assert!((1110..=1150).contains(&hz), "{hz} Hz, {:?}", t.from_log.sources);
     // The configuration's clock within what the pairs allow: kept.
-    let mut log = String::new();
-    for i in 0..6u32 {
-        let (sent, back) = (i * 500, i * 500 + 6);
-        let stamp = |ms: u32| format!("12:00:{:02}.{:03}", ms / 1000, ms % 1000);
-        log.push_str(&format!(
-            "{} > RHX:$0\n{} < {:06X}\n",
-            stamp(sent),
-            stamp(back),
-            0x10_0000 + (f64::from(sent + 3) * 2.25) as u32
-        ));
-    }
+    let log = log_at(2.25);
     assert_eq!(ok(&log).card.and_then(|c| c.servo_hz), None);
 }
 
