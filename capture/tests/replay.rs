@@ -350,6 +350,11 @@ fn a_card_running_at_4_7_volts_is_explained_by_a_threshold_within_about_4_75_vol
 }
 
 /// Writes `text` as a host log in the temporary folder and replays it.
+/// What the steps alone refute in a report ("" where they refute nothing).
+fn refutation(r: &Report) -> &str {
+    r.refuted.as_deref().unwrap_or_default()
+}
+
 fn replay_log(name: &str, text: &str) -> Report {
     let path = std::env::temp_dir().join(format!("pmacwd-replay-{}-{name}.log", std::process::id()));
     std::fs::write(&path, text).unwrap();
@@ -396,7 +401,7 @@ fn a_write_outside_an_i_variable_s_range_is_refused_or_rolled_over_as_the_card_s
     }
     // Rolled over, the value is smaller: a larger one is no card's, from the steps alone.
     let r = replay_log("larger", &format!("{head}> I6=5\n<\n> I6\n< 7\n"));
-    let why = r.refuted.as_deref().unwrap_or_default();
+    let why = refutation(&r);
     assert!(why.starts_with("line 8: I6 read 7, where line 6 wrote 5, acknowledged"), "{}", text(&r));
     // Within the values the log read of it, the value is in the range: stored exactly.
     let log = format!("{head}> I6\n< 1\n> I6=3\n<\n> I6\n< 3\n> I6=2\n<\n> I6\n< 1\n");
@@ -739,7 +744,7 @@ fn an_i_variable_read_back_other_than_written_is_no_correct_card_whatever_the_ti
     // the log cannot be timed: still impossible, not undecided.
     let r = replay_log("read-back", "> I41\n< 0\n> I130=5\n<\n> ???\n< 000000000000\n> I130\n< 6\n");
     assert!(!r.explained() && !r.undecided(), "{}", pmacwd_capture::explain::report::to_text(&r));
-    let why = r.refuted.as_deref().unwrap_or_default();
+    let why = refutation(&r);
     assert!(why.starts_with("line 8: I130 read 6, where line 4 wrote 5"), "{why}");
     // What could change it leaves the verdict to the search: a reset between (the saved value
     // comes back), I41 not read (a lockout may have ignored the write), the write unanswered.
@@ -761,11 +766,11 @@ fn i40_read_back_other_than_written_within_its_range_or_the_counter_above_the_re
     // 4096). Both hold whatever the timing (SRM p.57, UM p.215): read from the steps alone.
     let head = "> RHX:$0\n< 000100\n> I40\n< 0\n";
     let r = replay_log("i40-read-back", &format!("{head}> I40=500\n<\n> ???\n< 000000000000\n> I40\n< 586\n"));
-    let why = r.refuted.as_deref().unwrap_or_default();
+    let why = refutation(&r);
     assert!(why.starts_with("line 10: I40 read 586, where line 6 wrote 500, within I40's range"), "{why}");
     assert!(r.refuted_unsearched);
     let r = replay_log("y25-above", &format!("{head}> RHY:$25\n< 00103B\n"));
-    let why = r.refuted.as_deref().unwrap_or_default();
+    let why = refutation(&r);
     assert!(why.starts_with("line 6: Y:$25 read 00103B (4155), above 4096"), "{why}");
     // Outside I40's range the reading `out_of_range_assignment` decides (UM p.243): left to
     // the search, which explains the roll-over to 0 under `modulo`.
@@ -782,7 +787,7 @@ fn bit_22_clearing_with_no_reset_and_no_memory_write_is_no_correct_card_whatever
     // verdict in 60 s; from the steps alone they are rejected at the line.
     let head = "> RHX:$0\n< 000100\n> ???\n< 400000000000\n> RHX:$0\n< 000200\n";
     let r = replay_log("bit22", &format!("{head}> ???\n< 000000000000\n"));
-    let why = r.refuted.as_deref().unwrap_or_default();
+    let why = refutation(&r);
     assert!(why.starts_with("line 8: bit 22 of X:$000006 (RTI re-entry, SRM p.289) is clear, where line 4"), "{why}");
     // A memory write between may be the manual change (an M-variable at X:$6 bit 22): left to
     // the search; so is a reset. (The rules alone: the searches of these take minutes.)
@@ -804,7 +809,7 @@ fn bit_13_clearing_after_a_checksum_error_with_no_reset_is_no_correct_card_whate
     let log = "> $$$\n<\n> RHX:$0\n< 000010\n> ???\n< 002000000000\n> RHX:$0\n< 000400\n> ???\n< 000000000000\n";
     let r = replay_log("bit13", log);
     assert!(!r.explained() && !r.undecided(), "{}", pmacwd_capture::explain::report::to_text(&r));
-    let why = r.refuted.as_deref().unwrap_or_default();
+    let why = refutation(&r);
     assert!(why.starts_with("line 10: bit 13 of X:$000006"), "{why}");
     assert!(why.contains("where line 6 showed it set"), "{why}");
     // A reset between, or a memory write that may have written X:$6, leaves it to the search.

@@ -675,10 +675,7 @@ fn mutate(
             next.counter = -1;
         }
         (Canary::ChecksumSwitchesAreaAfterError, Event::Background) if prev.checksum.error.is_some() => {
-            next.checksum.area = match prev.checksum.area {
-                pmacwd_specs::check::ChecksumTarget::Firmware => pmacwd_specs::check::ChecksumTarget::UserProgram,
-                pmacwd_specs::check::ChecksumTarget::UserProgram => pmacwd_specs::check::ChecksumTarget::Firmware,
-            };
+            next.checksum.area = prev.checksum.area.other();
         }
         (Canary::ChecksumCommandOffByOne, Event::Command(HostCommand::Checksum)) => {
             if let Reply::Hex(v) = *reply {

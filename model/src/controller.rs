@@ -512,10 +512,7 @@ impl Controller {
             engine.error = Some(engine.area);
         } else {
             engine.position = 0;
-            engine.area = match engine.area {
-                ChecksumTarget::Firmware => ChecksumTarget::UserProgram,
-                ChecksumTarget::UserProgram => ChecksumTarget::Firmware,
-            };
+            engine.area = engine.area.other();
         }
     }
 

@@ -990,10 +990,7 @@ mod tests {
         let (next, reply) = step(&cfg, &prev, &ev);
         assert!(check(&cfg, &prev, &ev, reply, &next), "the model's background cycle holds");
         let mut moved_on = next.clone();
-        moved_on.checksum.area = match next.checksum.area {
-            ChecksumTarget::Firmware => ChecksumTarget::UserProgram,
-            ChecksumTarget::UserProgram => ChecksumTarget::Firmware,
-        };
+        moved_on.checksum.area = next.checksum.area.other();
         assert_eq!(moved_on.checksum.error, prev.checksum.error);
         assert!(!check(&cfg, &prev, &ev, reply, &moved_on), "the other area checked after the error fires");
         let mut cleared = next.clone();

@@ -297,6 +297,17 @@ pub enum ChecksumTarget {
     UserProgram,
 }
 
+impl ChecksumTarget {
+    /// The area the background checksum turns to after this one (UM p.217: it alternates
+    /// between the firmware and the user program).
+    pub fn other(self) -> ChecksumTarget {
+        match self {
+            ChecksumTarget::Firmware => ChecksumTarget::UserProgram,
+            ChecksumTarget::UserProgram => ChecksumTarget::Firmware,
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq, Hash)]
 #[serde(deny_unknown_fields)]
 pub struct PassCycles {

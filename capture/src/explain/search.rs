@@ -861,14 +861,7 @@ impl Lane {
                         && engine.error.is_none()
                         && engine.firmware == engine.firmware_reference
                         && engine.program == engine.program_reference)
-                        .then_some(match engine.area {
-                            pmacwd_specs::check::ChecksumTarget::Firmware => {
-                                pmacwd_specs::check::ChecksumTarget::UserProgram
-                            }
-                            pmacwd_specs::check::ChecksumTarget::UserProgram => {
-                                pmacwd_specs::check::ChecksumTarget::Firmware
-                            }
-                        });
+                        .then_some(engine.area.other());
                     // Y:$25 read: its interval narrows to the value read, if it holds it.
                     if let Some(v) = counter_read(step) {
                         if (c.counter_lo..=c.card.counter).contains(&v) {

@@ -161,33 +161,7 @@ fn search_recorded(
         }
         Ok((out, events))
     };
-    let defs_of: Vec<LaneDef> = which.iter().map(|i| defs[*i].clone()).collect();
-    let half = defs_of.len().div_ceil(2).max(1);
-    let results: Vec<Found> = std::thread::scope(|scope| {
-        let started: Vec<_> = defs_of
-            .chunks(half)
-            .map(|chunk| {
-                let work = chunk.to_vec();
-                std::thread::Builder::new().spawn_scoped(scope, move || explained(work)).map_err(|_| chunk.to_vec())
-            })
-            .collect();
-        // In order; a thread that could not start leaves its lanes to this one.
-        started
-            .into_iter()
-            .map(|s| match s {
-                Ok(h) => h.join().unwrap_or_else(|_| Err(SpecError::whole_file(path, "a search thread panicked"))),
-                Err(chunk) => explained(chunk),
-            })
-            .collect()
-    });
-    let mut events = 0;
-    let mut done = Vec::new();
-    for r in results {
-        let (lanes, n) = r?;
-        done.extend(lanes);
-        events = n;
-    }
-    drop(cfgs);
+    let (done, events) = in_two(path, which.iter().map(|i| defs[*i].clone()).collect(), explained)?;
     let mut shown: Vec<Option<(usize, Lane)>> = shown.into_iter().map(Some).collect();
     for (i, (lane, found, runs)) in which.iter().zip(done) {
         if let Some((label, w)) = found {
@@ -236,18 +210,27 @@ pub fn search_in_two(
     defs: Vec<LaneDef>,
     record: bool,
 ) -> Result<(Vec<Lane>, u64), SpecError> {
+    in_two(path, defs, |work| search::search(spec, path, import, work, record))
+}
+
+/// `work` on each half of `defs`, on two threads, the results in their order with the
+/// capture's event count.
+fn in_two<T: Send>(
+    path: &Path,
+    defs: Vec<LaneDef>,
+    work: impl Fn(Vec<LaneDef>) -> Result<(Vec<T>, u64), SpecError> + Sync,
+) -> Result<(Vec<T>, u64), SpecError> {
     if defs.is_empty() {
         return Ok((Vec::new(), 0));
     }
     let half = defs.len().div_ceil(2);
-    let results: Vec<Result<(Vec<Lane>, u64), SpecError>> = std::thread::scope(|scope| {
+    let work = &work;
+    let results: Vec<Result<(Vec<T>, u64), SpecError>> = std::thread::scope(|scope| {
         let started: Vec<_> = defs
             .chunks(half.max(1))
             .map(|chunk| {
-                let work = chunk.to_vec();
-                std::thread::Builder::new()
-                    .spawn_scoped(scope, move || search::search(spec, path, import, work, record))
-                    .map_err(|_| chunk.to_vec())
+                let part = chunk.to_vec();
+                std::thread::Builder::new().spawn_scoped(scope, move || work(part)).map_err(|_| chunk.to_vec())
             })
             .collect();
         // In order; a thread that could not start leaves its lanes to this one.
@@ -255,15 +238,15 @@ pub fn search_in_two(
             .into_iter()
             .map(|s| match s {
                 Ok(h) => h.join().unwrap_or_else(|_| Err(SpecError::whole_file(path, "a search thread panicked"))),
-                Err(chunk) => search::search(spec, path, import, chunk, record),
+                Err(chunk) => work(chunk),
             })
             .collect()
     });
     let mut done = Vec::new();
     let mut events = 0;
     for r in results {
-        let (lanes, n) = r?;
-        done.extend(lanes);
+        let (items, n) = r?;
+        done.extend(items);
         events = n;
     }
     Ok((done, events))

@@ -411,7 +411,8 @@ impl Aims {
     }
 }
 
-/// The capture read with the choices of `nodes` (oldest first), every step given to `sink`.
+/// The capture read with the choices `chains` gives segment by segment, every step given to
+/// `sink`.
 fn walk_chain(spec: &Spec, cfg: &ModelConfig, mut chains: Chains<'_>, sink: &mut Sink<'_>) -> Result<Told, SpecError> {
     let mut card = Controller::power_on(cfg);
     let mut out = Out { sink, area: None, count: 0, areas: 0, stopped: false };
@@ -729,39 +730,28 @@ fn with_runs<T>(
     let shared = cfgs.len() >= RUNS_SHARED_MIN;
     let (here, there) = cfgs.split_at(if shared { cfgs.len().div_ceil(2) } else { cfgs.len() });
     let mut runners: Vec<Runner<'_>> = here.iter().map(|c| Runner::new(c)).collect();
-    if there.is_empty() {
-        let walked = walk(&mut |step, area| {
-            for r in runners.iter_mut() {
-                r.step(spec, cpu, step, area);
-            }
-            if stop && runners.iter().all(|r| r.failed.is_some()) {
-                ControlFlow::Break(())
-            } else {
-                ControlFlow::Continue(())
-            }
-        })?;
-        return Ok((walked, runners.into_iter().map(Runner::result).collect()));
-    }
-    // The second thread's runs have all failed: its steps need not be sent.
-    let there_done = AtomicBool::new(false);
+    // The second thread's runs have all failed (or there are none): its steps need not be sent.
+    let there_done = AtomicBool::new(there.is_empty());
     std::thread::scope(|scope| {
         let (to_there, chunks) = std::sync::mpsc::sync_channel::<Vec<(Step, Option<ChecksumTarget>)>>(2);
         let done = &there_done;
-        let helper = scope.spawn(move || {
-            let mut runners: Vec<Runner<'_>> = there.iter().map(|c| Runner::new(c)).collect();
-            for chunk in chunks {
-                for (step, area) in &chunk {
-                    for r in runners.iter_mut() {
-                        r.step(spec, cpu, step, *area);
+        let helper = (!there.is_empty()).then(|| {
+            scope.spawn(move || {
+                let mut runners: Vec<Runner<'_>> = there.iter().map(|c| Runner::new(c)).collect();
+                for chunk in chunks {
+                    for (step, area) in &chunk {
+                        for r in runners.iter_mut() {
+                            r.step(spec, cpu, step, *area);
+                        }
+                    }
+                    if runners.iter().all(|r| r.failed.is_some()) {
+                        done.store(true, Ordering::Relaxed);
                     }
                 }
-                if runners.iter().all(|r| r.failed.is_some()) {
-                    done.store(true, Ordering::Relaxed);
-                }
-            }
-            runners.into_iter().map(Runner::result).collect::<Vec<_>>()
+                runners.into_iter().map(Runner::result).collect::<Vec<_>>()
+            })
         });
-        let mut chunk = Vec::with_capacity(RUN_CHUNK_STEPS);
+        let mut chunk = Vec::new();
         let walked = walk(&mut |step, area| {
             for r in runners.iter_mut() {
                 r.step(spec, cpu, step, area);
@@ -786,11 +776,12 @@ fn with_runs<T>(
             let _ = to_there.send(chunk);
         }
         drop(to_there);
-        let theirs = helper.join();
+        let theirs = helper.map(|h| h.join());
         let walked = walked?;
-        let theirs = theirs.map_err(|_| SpecError::whole_file(Path::new("replay"), "a witness run panicked"))?;
         let mut results: Vec<RunResult> = runners.into_iter().map(Runner::result).collect();
-        results.extend(theirs);
+        if let Some(theirs) = theirs {
+            results.extend(theirs.map_err(|_| SpecError::whole_file(Path::new("replay"), "a witness run panicked"))?);
+        }
         Ok((walked, results))
     })
 }
