@@ -50,6 +50,31 @@ pub struct Hints {
     /// the reads above: a log placed by host time has a few cycles between the commands of
     /// one poll, and the reads still aim the plans, each value shifted by up to this many.
     pub shift: u32,
+    /// The next X:$25 read, however far, where nothing before it can raise X:$25 or lower it
+    /// faster than the servo clock: the search drops the cards that cannot read it then.
+    /// Not a hint of the plans (a gap's outcomes do not depend on it, so the memo leaves it out).
+    pub min_later: Option<MinLater>,
+}
+
+/// An X:$25 read after a gap, with the most servo cycles that can pass between the gap's end and
+/// the read, on a stretch of the capture where nothing resets the card or writes I40.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MinLater {
+    pub value: i32,
+    pub cycles_max: u64,
+}
+
+impl MinLater {
+    /// Whether a card at a gap's end, with Y:$25 at least `counter_lo`, X:$25 in
+    /// `min_lo..=min_hi` and a reload value `reload`, can read `value` from X:$25 then. X:$25 is
+    /// the lowest value the counter has held since the reset (SRM p.57; the model also takes
+    /// each reload into it), so without a reset it never rises; and the counter falls by at
+    /// most one a servo cycle (SRM p.57, UM p.215) or is reloaded to `reload` (UM p.215): in
+    /// `cycles_max` cycles it holds nothing below `counter_lo - cycles_max` or `reload`.
+    pub fn reachable(&self, counter_lo: i32, min_lo: i32, min_hi: i32, reload: i32) -> bool {
+        let lowest = i64::from(min_lo).min(i64::from(counter_lo) - self.cycles_max as i64).min(i64::from(reload));
+        (lowest..=i64::from(min_hi)).contains(&i64::from(self.value))
+    }
 }
 
 /// How a gap begins, before background cycles follow whenever the load allows.
@@ -356,7 +381,7 @@ pub fn successors(
     cycles: u32,
     hints: &Hints,
 ) -> Vec<Outcome> {
-    let key = (CardKey(card.clone()), counter_lo, cycles, hints.clone());
+    let key = (CardKey(card.clone()), counter_lo, cycles, Hints { min_later: None, ..hints.clone() });
     if let Some(out) = memo.gaps.map.get(&key) {
         return out.clone();
     }
@@ -814,4 +839,29 @@ fn merge_touching(outcomes: Vec<Outcome>) -> Vec<Outcome> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::MinLater;
+
+    #[test]
+    fn a_later_x25_read_keeps_every_card_that_can_reach_it_and_only_those() {
+        // 300 cycles before a read of 473, on a card reloading to 1,000.
+        let later = MinLater { value: 473, cycles_max: 300 };
+        // X:$25 already holds it.
+        assert!(later.reachable(900, 400, 600, 1000));
+        // The counter can run down to it in time: 773 - 300 = 473.
+        assert!(later.reachable(773, 700, 800, 1000));
+        // One cycle short: the counter cannot get below 474 by the read, X:$25 is above it.
+        assert!(!later.reachable(774, 700, 800, 1000));
+        // X:$25 never rises without a reset: below the value already, nothing brings it back.
+        assert!(!later.reachable(900, 100, 472, 1000));
+        // A reload to a lowered I40 takes X:$25 with it.
+        assert!(later.reachable(900, 700, 800, 400));
+        // At the read itself (no cycles between), only an interval holding the value.
+        let now = MinLater { value: 473, cycles_max: 0 };
+        assert!(now.reachable(473, 473, 473, 1000));
+        assert!(!now.reachable(474, 474, 480, 1000));
+    }
 }

@@ -30,6 +30,9 @@ use std::sync::Arc;
 const LOOKAHEAD_STEPS: usize = 32;
 /// How far it looks for the next status read, whose sticky bits an earlier gap may have set.
 const LOOKAHEAD_STICKY_STEPS: usize = 512;
+/// How far it looks for the next X:$25 read, which bounds the cards worth keeping after a gap
+/// (`gap::MinLater`): a few polls.
+const MIN_LATER_STEPS: usize = 64;
 /// The most servo cycles of short gaps the reads after a gap may be behind it and still aim its
 /// plans (the commands of one poll, placed by host time a few milliseconds apart).
 const SHIFT_MAX_CYCLES: u32 = 24;
@@ -293,6 +296,40 @@ impl Reader {
 
     /// What the read-only steps after the current one observe.
     pub fn hints(&mut self, spec: &Spec) -> Result<Hints, SpecError> {
+        let mut h = self.hints_near(spec)?;
+        h.min_later = self.min_later()?;
+        Ok(h)
+    }
+
+    /// The next X:$25 read within [`MIN_LATER_STEPS`] steps, if only reads, waits for replies
+    /// and gaps of bounded length come before it (nothing that resets the card, writes I40 or
+    /// leaves time unbounded), with the servo cycles they may take at most.
+    fn min_later(&mut self) -> Result<Option<gap::MinLater>, SpecError> {
+        let mut cycles_max = 0u64;
+        for i in 0..MIN_LATER_STEPS {
+            if i == self.ahead.len() {
+                match self.source.next_step()? {
+                    Some(s) => self.ahead.push_back(s),
+                    None => return Ok(None),
+                }
+            }
+            let step = &self.ahead[i].1;
+            match step.event {
+                TraceEvent::Elapsed { cycles_max: Some(m), .. } => cycles_max += u64::from(m),
+                TraceEvent::Unanswered { wait_cycles, .. } if read_only(step) => cycles_max += u64::from(wait_cycles),
+                _ if read_only(step) => {
+                    if let Some(value) = min_read(step) {
+                        return Ok(Some(gap::MinLater { value, cycles_max }));
+                    }
+                }
+                _ => return Ok(None),
+            }
+        }
+        Ok(None)
+    }
+
+    /// [`Reader::hints`] but the later X:$25 read.
+    fn hints_near(&mut self, spec: &Spec) -> Result<Hints, SpecError> {
         let mut h = Hints::default();
         // In the window (the read-only steps right after the gap) everything counts; past it,
         // only the sticky bits 22 and 13 of the next status read, which an earlier gap may
@@ -954,6 +991,17 @@ impl Lane {
             }
         }
         self.cands = next.into_values().flatten().collect();
+        // After a gap, the cards that cannot read the next X:$25 the capture shows (`MinLater`)
+        // go: on a stretch of silent waits, each gap's range of cycles multiplied the cards
+        // that the read then ruled out (seed 38's sluggish log: 2,662 cards into a gap whose
+        // plans took 70 s). Where none could, all stay, to die at the read itself, named.
+        if let (TraceEvent::Elapsed { .. }, Some(later)) = (&step.event, hints.min_later) {
+            let reaches =
+                |c: &Cand| later.reachable(c.counter_lo, c.min_lo, c.card.counter_min, cfg.reset_value(c.card.i40));
+            if self.cands.iter().any(reaches) {
+                self.cands.retain(reaches);
+            }
+        }
         // In a fixed order, so that reports (which failure is named) are the same every run.
         self.cands
             .sort_by(|a, b| (&a.card, a.counter_lo, a.min_lo, a.cpu).cmp(&(&b.card, b.counter_lo, b.min_lo, b.cpu)));

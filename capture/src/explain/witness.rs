@@ -359,17 +359,30 @@ struct Aims {
 
 impl Aims {
     fn of(cfg: &ModelConfig, nodes: &[Arc<Node>]) -> Aims {
+        let mut aims =
+            Aims { targets: Default::default(), counter_targets: Default::default(), starve: Default::default() };
+        let reload = i64::from(cfg.reset_value(cfg.saved.i40));
         // Each X:$25 read that narrowed an interval is met by the latest gap before it that can
-        // run down that far; the other gaps keep X:$25 as high as they can.
-        let mut targets: super::sim::FastMap<usize, i32> = Default::default();
+        // run down that far; the other gaps keep X:$25 as high as they can. Where that gap ran
+        // no background cycle (a starved gap's X:$25 is where its start leaves it), the read is
+        // the bottom of a run-down through it: met as a Y:$25 read of the same value would be
+        // (below), by the gap where the run-down began (seed 38's sluggish log: a run-down
+        // through four unanswered commands and the gaps between them, aimed at the last gap
+        // of two cycles, missed the read by 109 cycles).
         for (p, node) in nodes.iter().enumerate() {
             if let NodeKind::Pin(v) = node.kind {
                 let gap = (0..p).rev().find(|&g| {
                     matches!(&nodes[g].kind, NodeKind::Restart(_))
                         || matches!(&nodes[g].kind, NodeKind::Gap { lo, .. } if *lo <= v)
                 });
-                if let Some(g) = gap.filter(|&g| matches!(nodes[g].kind, NodeKind::Gap { .. })) {
-                    targets.insert(g, v);
+                match gap.map(|g| (g, &nodes[g].kind)) {
+                    Some((_, NodeKind::Gap { plan_hi: Plan::Starved { .. }, plan_lo: Plan::Starved { .. }, .. })) => {
+                        aims.back_to_reload(nodes, p, v, reload, false);
+                    }
+                    Some((g, NodeKind::Gap { .. })) => {
+                        aims.targets.insert(g, v);
+                    }
+                    _ => {}
                 }
             }
         }
@@ -377,37 +390,46 @@ impl Aims {
         // background cycle (through the starved gaps in between, which only shift the counter).
         // A gap shorter than the run-down such a read needs had no background cycle at all: it is
         // starved, and the read is met by the gap before it.
-        let mut counter_targets: super::sim::FastMap<usize, i32> = Default::default();
-        let mut starve: super::sim::FastSet<usize> = Default::default();
-        let reload = i64::from(cfg.reset_value(cfg.saved.i40));
         for (p, node) in nodes.iter().enumerate() {
             if let NodeKind::CounterPin(v) = node.kind {
-                let mut v = i64::from(v);
-                for g in (0..p).rev() {
-                    match &nodes[g].kind {
-                        NodeKind::Gap { plan_hi: Plan::Starved { cycles, .. }, .. } => v += i64::from(*cycles),
-                        NodeKind::Gap { plan_hi: Plan::Schedule { cycles, .. }, .. }
-                            if reload - v >= i64::from(*cycles) =>
-                        {
-                            starve.insert(g);
-                            v += i64::from(*cycles);
-                        }
-                        NodeKind::Gap { .. } => {
-                            if let Ok(v) = i32::try_from(v) {
-                                counter_targets.insert(g, v);
-                            }
-                            break;
-                        }
-                        NodeKind::Restart(_) | NodeKind::Start { .. } | NodeKind::Root => break,
-                        // The host's wait ran the counter down with no background cycle (a read
-                        // after it comes from a running card).
-                        NodeKind::Wait { cycles, .. } => v += i64::from(*cycles),
-                        NodeKind::Pin(_) | NodeKind::CounterPin(_) | NodeKind::Area(_) => {}
-                    }
-                }
+                aims.back_to_reload(nodes, p, v, reload, true);
             }
         }
-        Aims { targets, counter_targets, starve }
+        aims
+    }
+
+    /// Aims the gaps before node `p` so that the counter reads `v` there: the latest gap with
+    /// a background cycle ends with the counter at `v` plus the cycles of the starved gaps and
+    /// waits after it (which only run it down), and a gap too short for that run-down is
+    /// starved whole. `over`: this read's target replaces one an earlier read gave the same gap
+    /// (a Y:$25 read does; an X:$25 read repeating the value of an earlier one, which the
+    /// run-down already met, does not).
+    fn back_to_reload(&mut self, nodes: &[Arc<Node>], p: usize, v: i32, reload: i64, over: bool) {
+        let mut v = i64::from(v);
+        for g in (0..p).rev() {
+            match &nodes[g].kind {
+                NodeKind::Gap { plan_hi: Plan::Starved { cycles, .. }, .. } => v += i64::from(*cycles),
+                NodeKind::Gap { plan_hi: Plan::Schedule { cycles, .. }, .. } if reload - v >= i64::from(*cycles) => {
+                    self.starve.insert(g);
+                    v += i64::from(*cycles);
+                }
+                NodeKind::Gap { .. } => {
+                    if let Ok(v) = i32::try_from(v) {
+                        if over {
+                            self.counter_targets.insert(g, v);
+                        } else {
+                            self.counter_targets.entry(g).or_insert(v);
+                        }
+                    }
+                    break;
+                }
+                NodeKind::Restart(_) | NodeKind::Start { .. } | NodeKind::Root => break,
+                // The host's wait ran the counter down with no background cycle (a read
+                // after it comes from a running card).
+                NodeKind::Wait { cycles, .. } => v += i64::from(*cycles),
+                NodeKind::Pin(_) | NodeKind::CounterPin(_) | NodeKind::Area(_) => {}
+            }
+        }
     }
 }
 
