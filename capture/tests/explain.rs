@@ -94,8 +94,11 @@ fn lane_for(spec: &Spec, bits: usize) -> (LaneDef, ModelConfig) {
     (def, cfg)
 }
 
+/// Written under the target directory's scratch space (Cargo's `CARGO_TARGET_TMPDIR`), each name
+/// overwritten by the next run: a directory per process under /tmp was never removed (37 of
+/// them on this machine).
 fn temp_file(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pmacwd-explain-{}", std::process::id()));
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("explain");
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();

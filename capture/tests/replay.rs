@@ -154,7 +154,7 @@ fn a_capture_naming_an_unknown_profile_is_unusable_input_not_a_verdict() {
     // every profile and could exit 0. The names are checked, and the capture is judged only
     // under the profiles it names.
     let spec = Spec::embedded().unwrap();
-    let dir = std::env::temp_dir().join(format!("pmacwd-replay-profiles-{}", std::process::id()));
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pmacwd-replay-profiles");
     std::fs::create_dir_all(&dir).unwrap();
     let header = |profiles: &str| {
         format!(
@@ -275,7 +275,7 @@ fn x25_going_up_without_a_reset_is_explained_under_no_combination_of_readings() 
 
 /// A YAML capture in a temporary file.
 fn temp_capture(name: &str, text: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pmacwd-replay-{}", std::process::id()));
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pmacwd-replay");
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
@@ -356,7 +356,7 @@ fn refutation(r: &Report) -> &str {
 }
 
 fn replay_log(name: &str, text: &str) -> Report {
-    let path = std::env::temp_dir().join(format!("pmacwd-replay-{}-{name}.log", std::process::id()));
+    let path = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("pmacwd-replay-{name}.log"));
     std::fs::write(&path, text).unwrap();
     let r = explain(&Spec::embedded().unwrap(), &path, None).unwrap();
     std::fs::remove_file(&path).ok();

@@ -165,7 +165,7 @@ const KNOWN_FAILURES: &[Known] = &[
 const SLOW_LIMIT: Duration = Duration::from_secs(5);
 
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pmacwd-independent-{name}-{}", std::process::id()));
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("pmacwd-independent-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("a temporary directory");
     dir

@@ -75,7 +75,7 @@ fn a_capture_with_unseen_time_is_refused_with_its_line_and_told_to_take_a_witnes
     let (code, _, err) = pmacwd(&["timeline", "specs/captures/healthy-dsp56321.log"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--witness"), "{err}");
-    let elapsed = std::env::temp_dir().join(format!("pmacwd-timeline-{}.jsonl", std::process::id()));
+    let elapsed = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pmacwd-timeline.jsonl");
     std::fs::write(
         &elapsed,
         "{\"format\":\"pmacwd-trace\",\"version\":1,\"description\":\"t\",\"configuration\":\"host-log\",\"profiles\":\"all\"}\n{\"elapsed\":100}\n",
