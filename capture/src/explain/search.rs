@@ -311,11 +311,8 @@ impl Reader {
     fn min_later(&mut self) -> Result<Option<gap::MinLater>, SpecError> {
         let mut cycles_max = 0u64;
         for i in 0..MIN_LATER_STEPS {
-            if i == self.ahead.len() {
-                match self.source.next_step()? {
-                    Some(s) => self.ahead.push_back(s),
-                    None => return Ok(None),
-                }
+            if !self.has_ahead(i)? {
+                return Ok(None);
             }
             let step = &self.ahead[i].1;
             match step.event {
@@ -332,6 +329,18 @@ impl Reader {
         Ok(None)
     }
 
+    /// Whether the capture has an `i`-th step after the current one, read into `ahead` if it
+    /// was not yet.
+    fn has_ahead(&mut self, i: usize) -> Result<bool, SpecError> {
+        while self.ahead.len() <= i {
+            match self.source.next_step()? {
+                Some(s) => self.ahead.push_back(s),
+                None => return Ok(false),
+            }
+        }
+        Ok(true)
+    }
+
     /// [`Reader::hints`] but the later X:$25 read.
     fn hints_near(&mut self, spec: &Spec) -> Result<Hints, SpecError> {
         let mut h = Hints::default();
@@ -342,14 +351,10 @@ impl Reader {
         let mut later_cycles = 0u32;
         let mut i = 0;
         loop {
-            if i == self.ahead.len() {
-                if i >= if in_window { LOOKAHEAD_STEPS } else { LOOKAHEAD_STICKY_STEPS } {
-                    break;
-                }
-                match self.source.next_step()? {
-                    Some(s) => self.ahead.push_back(s),
-                    None => break,
-                }
+            // Past the limit, only the steps already read (another look read them) are looked at.
+            let limit = if in_window { LOOKAHEAD_STEPS } else { LOOKAHEAD_STICKY_STEPS };
+            if i == self.ahead.len() && (i >= limit || !self.has_ahead(i)?) {
+                break;
             }
             let step = &self.ahead[i].1;
             i += 1;

@@ -401,9 +401,10 @@ impl Aims {
     /// Aims the gaps before node `p` so that the counter reads `v` there: the latest gap with
     /// a background cycle ends with the counter at `v` plus the cycles of the starved gaps and
     /// waits after it (which only run it down), and a gap too short for that run-down is
-    /// starved whole. `over`: this read's target replaces one an earlier read gave the same gap
-    /// (a Y:$25 read does; an X:$25 read repeating the value of an earlier one, which the
-    /// run-down already met, does not).
+    /// starved whole. `over`: this read's target replaces one an earlier read gave the same gap.
+    /// A Y:$25 read's does (the X:$25 reads are aimed first). An X:$25 read's does not: a later
+    /// read of the same run-down's bottom (the value read again after it) is met by the first
+    /// one's aim, and adding the cycles between the two reads would aim the run-down deeper.
     fn back_to_reload(&mut self, nodes: &[Arc<Node>], p: usize, v: i32, reload: i64, over: bool) {
         let mut v = i64::from(v);
         for g in (0..p).rev() {
